@@ -1,0 +1,49 @@
+"""Exception types of the project.
+
+Every error a researcher can trigger with bad input is one of these, with a
+message that says where (file, line, field) and what is wrong.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+
+class MocompError(Exception):
+    """Base class of every error raised on purpose by :mod:`mocomp`."""
+
+
+class MotionFormatError(MocompError, ValueError):
+    """A motion/skeleton/marker file (or an in-memory array) is malformed.
+
+    Parameters
+    ----------
+    message:
+        What is wrong, in words a researcher can act on.
+    path:
+        The file, if any.
+    line:
+        1-based line number in that file, if known.
+    """
+
+    def __init__(self, message: str, path: str | Path | None = None, line: int | None = None):
+        self.path = None if path is None else str(path)
+        self.line = line
+        self.reason = message
+        where = ""
+        if self.path is not None:
+            where = self.path + (f":{line}" if line is not None else "") + ": "
+        elif line is not None:
+            where = f"line {line}: "
+        super().__init__(where + message)
+
+
+class DataNotFoundError(MocompError, FileNotFoundError):
+    """A named clip or data directory could not be found."""
+
+
+class NoFlightPhaseError(MocompError):
+    """A motion has no ballistic (flight) phase where the method needs one."""
+
+
+class PhysicsError(MocompError, ValueError):
+    """A requested edit is physically impossible (e.g. negative radicand in k*)."""

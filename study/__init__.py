@@ -1,0 +1,1 @@
+"""The perception study: stimuli, rendering, trial design, harness, analysis."""
