@@ -1,0 +1,45 @@
+"""Packaging facts that no conda client can check here: environment.yml mirrors pyproject."""
+from __future__ import annotations
+
+import re
+import tomllib
+from pathlib import Path
+
+import yaml
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _name(req: str) -> str:
+    return re.split(r"[<>=!~\[; ]", req.strip(), maxsplit=1)[0].lower().replace("_", "-")
+
+
+def _env_names() -> set[str]:
+    env = yaml.safe_load((ROOT / "environment.yml").read_text())
+    names = set()
+    for dep in env["dependencies"]:
+        if isinstance(dep, dict):
+            names |= {_name(d) for d in dep.get("pip", []) if not d.startswith("-")}
+        else:
+            names.add(_name(dep))
+    return names
+
+
+def test_environment_yml_lists_every_runtime_and_test_dependency():
+    proj = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    wanted = {_name(r) for r in proj["dependencies"]}
+    for extra in proj.get("optional-dependencies", {}).values():
+        wanted |= {_name(r) for r in extra}
+    missing = sorted(wanted - _env_names())
+    assert not missing, f"environment.yml lacks {missing}"
+
+
+def test_environment_yml_uses_conda_forge():
+    env = yaml.safe_load((ROOT / "environment.yml").read_text())
+    assert env["channels"][0] == "conda-forge"
+
+
+def test_name_parser_strips_versions_and_extras():
+    assert _name("dtw-python>=1.5") == "dtw-python"
+    assert _name("jupyterlab_widgets>=3") == "jupyterlab-widgets"
+    assert _name("foo[bar]==1; python_version<'4'") == "foo"
