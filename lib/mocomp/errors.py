@@ -47,3 +47,28 @@ class NoFlightPhaseError(MocompError):
 
 class PhysicsError(MocompError, ValueError):
     """A requested edit is physically impossible (e.g. negative radicand in k*)."""
+
+
+class StudyDataError(MocompError, ValueError):
+    """Perception-study data (manifest, plan, session or response CSV) is malformed.
+
+    The message names the file, the 1-based line (where known) and the column.
+    """
+
+    def __init__(self, message: str, path: str | Path | None = None, line: int | None = None,
+                 column: str | None = None):
+        self.path = None if path is None else str(path)
+        self.line = line
+        self.column = column
+        self.reason = message
+        where = ""
+        if self.path is not None:
+            where = self.path + (f":{line}" if line is not None else "")
+            where += (f" [{column}]" if column else "") + ": "
+        elif column:
+            where = f"[{column}]: "
+        super().__init__(where + message)
+
+
+class SessionLockedError(MocompError):
+    """A study session is already open (another window/process holds its lock)."""
