@@ -101,7 +101,11 @@ class Motion:
             raise MotionFormatError(f"rotations must have shape ({T}, {J}, 4), got {rot.shape}")
         if T == 0:
             raise MotionFormatError("a motion needs at least one frame")
-        if not (np.isfinite(self.fps) and self.fps > 0):
+        try:
+            fps = float(self.fps)
+        except (TypeError, ValueError):
+            fps = float("nan")
+        if not (np.isfinite(fps) and fps > 0):
             raise MotionFormatError(f"fps must be a positive finite number, got {self.fps!r}")
         for name, arr in (("root_positions", rp), ("rotations", rot)):
             if not np.all(np.isfinite(arr)):
@@ -113,11 +117,15 @@ class Motion:
             raise MotionFormatError(
                 f"rotation of joint {self.skeleton.names[j]!r} at frame {t} is a zero quaternion"
             )
-        rot /= norm[..., None]
+        # Normalise only quaternions that are not already unit (to rounding), so that
+        # slicing, concatenating or replacing fields keeps rotations bit for bit.
+        off_unit = np.abs(norm - 1.0) > 1e-14
+        if off_unit.any():
+            rot[off_unit] /= norm[off_unit][:, None]
         rot.setflags(write=False)
         object.__setattr__(self, "root_positions", rp)
         object.__setattr__(self, "rotations", rot)
-        object.__setattr__(self, "fps", float(self.fps))
+        object.__setattr__(self, "fps", fps)
 
     # ------------------------------------------------------------ basic facts
     @property
@@ -207,17 +215,26 @@ class Motion:
         t = np.asarray(times, dtype=float).reshape(-1)
         if t.size == 0:
             raise ValueError("sample() needs at least one time")
+        if not np.all(np.isfinite(t)):
+            raise ValueError(f"sample times must be finite; time {int(np.argmax(~np.isfinite(t)))} is {t[~np.isfinite(t)][0]}")
         tol = 1e-9 * max(1.0, self.duration)
-        if np.any(~np.isfinite(t)) or t.min() < -tol or t.max() > self.duration + tol:
+        if t.min() < -tol or t.max() > self.duration + tol:
             raise ValueError(
-                f"sample times must lie in [0, {self.duration:.6g}] s; got [{np.nanmin(t):.6g}, {np.nanmax(t):.6g}]"
+                f"sample times must lie in [0, {self.duration:.6g}] s; got [{t.min():.6g}, {t.max():.6g}]"
             )
         f = np.clip(t * self.fps, 0.0, self.n_frames - 1)
+        # Times that are frame times up to rounding (i / fps * fps != i in floating
+        # point) snap to the frame, so sampling at frame times reproduces the frames
+        # exactly (bit for bit, including the quaternion sign).
+        r = np.rint(f)
+        f = np.where(np.abs(f - r) <= 1e-9, r, f)
         i0 = np.minimum(np.floor(f).astype(int), self.n_frames - 1)
         i1 = np.minimum(i0 + 1, self.n_frames - 1)
         a = f - i0
         rp = (1 - a)[:, None] * self.root_positions[i0] + a[:, None] * self.root_positions[i1]
         rot = slerp(self.rotations[i0], self.rotations[i1], np.broadcast_to(a[:, None], (t.size, self.skeleton.n_joints)))
+        on_frame = a == 0.0
+        rot[on_frame] = self.rotations[i0[on_frame]]
         return self.replace(root_positions=rp, rotations=rot, fps=self.fps if fps is None else fps)
 
     def resample(self, fps: float) -> "Motion":
@@ -278,9 +295,26 @@ class Motion:
         S = np.ones(3)
         S[axis] = -1.0
         offsets = sk.offsets[m] * S
-        ends = tuple(EndSite(int(m[e.parent]), e.offset * S, e.name) for e in sk.end_sites)
-        # Each end site follows its parent's counterpart; keep the originals' order.
-        new_sk = Skeleton(sk.names, sk.parents, offsets, sk.channels, ends) if not np.allclose(offsets, sk.offsets) or ends != sk.end_sites else sk
+        # End sites swap labels like joints: end site k keeps its parent and takes the
+        # reflected offset of its counterpart (the end site of the same rank on the
+        # parent's mirror joint), so it lands on the reflection of that counterpart.
+        # Without a counterpart it keeps its own reflected point, hanging from the
+        # mirror joint. Either way positions are exact and mirroring twice is identity.
+        by_parent: dict[int, list[int]] = {}
+        for k, e in enumerate(sk.end_sites):
+            by_parent.setdefault(e.parent, []).append(k)
+        ends = []
+        for k, e in enumerate(sk.end_sites):
+            rank = by_parent[e.parent].index(k)
+            partners = by_parent.get(int(m[e.parent]), [])
+            if rank < len(partners):
+                ends.append(EndSite(e.parent, sk.end_sites[partners[rank]].offset * S, e.name))
+            else:
+                ends.append(EndSite(int(m[e.parent]), e.offset * S, e.name))
+        same = np.allclose(offsets, sk.offsets, rtol=0, atol=1e-12) and all(
+            a.parent == b.parent and np.allclose(a.offset, b.offset, rtol=0, atol=1e-12) for a, b in zip(ends, sk.end_sites)
+        )
+        new_sk = sk if same else Skeleton(sk.names, sk.parents, offsets, sk.channels, tuple(ends))
         q = self.rotations[:, m]
         # Reflection R -> S R S: for reflection across axis a, the quaternion vector
         # part keeps its a-component sign and negates the other two.
