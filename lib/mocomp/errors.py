@@ -72,3 +72,9 @@ class StudyDataError(MocompError, ValueError):
 
 class SessionLockedError(MocompError):
     """A study session is already open (another window/process holds its lock)."""
+
+
+class AlignmentError(MocompError, ValueError):
+    """A time-alignment (DTW) problem is ill-posed: a band that admits no
+    monotone path, matching points out of order or outside the matrix,
+    sequences too short for the band or the derivative windows, non-finite costs."""
