@@ -78,3 +78,7 @@ class AlignmentError(MocompError, ValueError):
     """A time-alignment (DTW) problem is ill-posed: a band that admits no
     monotone path, matching points out of order or outside the matrix,
     sequences too short for the band or the derivative windows, non-finite costs."""
+
+
+class ChecksumError(MocompError):
+    """A downloaded or cached data file does not match its known size or SHA-256."""
