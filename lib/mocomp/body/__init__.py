@@ -1,4 +1,28 @@
-"""Body segment parameters: masses, COMs and inertias per skeleton segment."""
-from .model import BodyModel
+"""Body segment parameters: masses, COMs and inertias per skeleton segment.
 
-__all__ = ["BodyModel"]
+``BodyModel.from_skeleton(skeleton, total_mass, table, shape, mapping)`` builds
+one from the de Leva (1996) or Dempster (via Winter) tables
+(:mod:`~mocomp.body.tables`) through a bone -> segment mapping
+(:mod:`~mocomp.body.mapping`); :mod:`~mocomp.body.inertia` has the solids,
+:mod:`~mocomp.body.mjcf` the MuJoCo export, :mod:`~mocomp.body.deepmimic` the
+DeepMimic character's own bodies.
+"""
+from .inertia import inertia_for_masses
+from .mapping import CONVENTIONS, SegmentMap, detect_convention
+from .model import BodyModel
+from .symmetry import expand_symmetric, reduce_symmetric, symmetric_groups
+from .tables import TABLES, get_table, mass_fractions
+
+__all__ = [
+    "BodyModel",
+    "inertia_for_masses",
+    "symmetric_groups",
+    "expand_symmetric",
+    "reduce_symmetric",
+    "TABLES",
+    "get_table",
+    "mass_fractions",
+    "CONVENTIONS",
+    "SegmentMap",
+    "detect_convention",
+]

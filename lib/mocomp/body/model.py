@@ -38,6 +38,12 @@ class BodyModel:
     massless_joints: names of joints that carry no segment (listed, never dropped silently).
     table: name/citation of the parameter table the model came from.
     shape: ``"ellipsoid"``, ``"cuboid"``, ``"given"`` (e.g. DeepMimic), ...
+    geometry: the solids behind the inertias (:class:`~mocomp.body.inertia.SegmentGeometry`),
+        so that :meth:`with_masses` can recompute inertias; ``None`` for given inertias.
+    notes: how the model was built (mapping convention, approximations, normalisation).
+
+    Build one with :meth:`from_skeleton` (table + shape) or
+    :func:`mocomp.body.deepmimic.body_from_deepmimic` (a character file's own bodies).
     """
 
     skeleton: Skeleton
@@ -49,6 +55,8 @@ class BodyModel:
     massless_joints: tuple[str, ...] = ()
     table: str = ""
     shape: str = "given"
+    geometry: object = None
+    notes: tuple[str, ...] = ()
 
     def __post_init__(self):
         S = len(self.segment_names)
@@ -73,6 +81,9 @@ class BodyModel:
         object.__setattr__(self, "local_coms", c)
         object.__setattr__(self, "inertias", I)
         object.__setattr__(self, "massless_joints", tuple(self.massless_joints))
+        object.__setattr__(self, "notes", tuple(self.notes))
+        if self.geometry is not None and len(self.geometry.kinds) != S:
+            raise MotionFormatError(f"BodyModel.geometry describes {len(self.geometry.kinds)} segments, model has {S}")
 
     @property
     def n_segments(self) -> int:
@@ -89,10 +100,73 @@ class BodyModel:
             raise KeyError(f"no segment {name!r}; segments: {self.segment_names}") from None
 
     def with_masses(self, masses, inertias=None) -> "BodyModel":
-        """A new model with other masses (and optionally inertias); the input is not changed."""
+        """A new model with other masses; the input is not changed.
+
+        Without ``inertias`` they are recomputed for the new masses with the same
+        shapes (:func:`~mocomp.body.inertia.inertia_for_masses`: ellipsoids and
+        cuboids keep density, length and width/depth ratio; given inertias scale
+        with mass).
+        """
         import dataclasses
 
-        return dataclasses.replace(self, masses=masses, inertias=self.inertias if inertias is None else inertias)
+        from .inertia import inertia_for_masses
+
+        masses = np.asarray(masses, dtype=float)
+        if masses.shape != (self.n_segments,):
+            raise ValueError(f"masses must have shape ({self.n_segments},), got {masses.shape}")
+        if inertias is None:
+            inertias = inertia_for_masses(self, masses)
+        return dataclasses.replace(self, masses=masses, inertias=inertias)
+
+    # ------------------------------------------------------------ constructors
+    @classmethod
+    def from_skeleton(cls, skeleton: Skeleton, total_mass: float = 70.0, table: str = "de_leva_male",
+                      shape: str = "ellipsoid", mapping=None) -> "BodyModel":
+        """Segment masses, COMs and inertias for ``skeleton`` from a parameter table.
+
+        Parameters
+        ----------
+        skeleton: the skeleton (its rest pose gives segment lengths; any rest pose works,
+            the landmarks are fixed in their carrier joints' frames).
+        total_mass: body mass, kg (the table's fractions are normalised to sum to 1).
+        table: ``"de_leva_male"``, ``"de_leva_female"`` or ``"dempster"`` (:mod:`~mocomp.body.tables`).
+        shape: ``"ellipsoid"`` (constant density, flips paper section 4.2), ``"cuboid"``
+            (solid box, dissertation eq. 5.3 with Table C.1 densities and width/depth
+            ratios) or ``"gyration"`` (the table's radii of gyration; de Leva only).
+        mapping: ``None`` (detect the naming convention), a convention name, a
+            :class:`~mocomp.body.mapping.SegmentMap`, or a dict override
+            ``{"landmarks": {...}, "carriers": {...}}`` (see :mod:`~mocomp.body.mapping`).
+
+        Each anatomical segment is one rigid body carried by one joint; its COM lies
+        at the table's fraction along the proximal -> distal landmark line. Joints
+        carrying nothing are listed in ``massless_joints``.
+        """
+        from .builder import build_from_table
+
+        return build_from_table(cls, skeleton, total_mass, table, shape, mapping)
+
+    # ---------------------------------------------------------------- helpers
+    def symmetric_groups(self) -> list[list[int]]:
+        """Segment-index groups sharing one mass under left/right symmetry (see :func:`mocomp.body.symmetric_groups`)."""
+        from .symmetry import symmetric_groups
+
+        return symmetric_groups(self)
+
+    def to_mjcf(self, **kwargs) -> str:
+        """MJCF XML of skeleton + body (see :func:`mocomp.body.mjcf.to_mjcf`)."""
+        from .mjcf import to_mjcf
+
+        return to_mjcf(self, **kwargs)
+
+    def scaled_to(self, total_mass: float) -> "BodyModel":
+        """All masses scaled to a new total (shapes kept, inertias recomputed)."""
+        if not (np.isfinite(total_mass) and total_mass > 0):
+            raise ValueError(f"total_mass must be positive, got {total_mass!r}")
+        return self.with_masses(self.masses * (total_mass / self.total_mass))
+
+    def __repr__(self) -> str:
+        return (f"BodyModel({self.n_segments} segments, {self.total_mass:.2f} kg, table={self.table.split(' (')[0]!r}, "
+                f"shape={self.shape!r}, {len(self.massless_joints)} massless joints)")
 
     def table_frame(self):
         """A pandas DataFrame: segment, joint, mass, COM and principal moments."""

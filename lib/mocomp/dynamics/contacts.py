@@ -1,0 +1,197 @@
+"""Ground contacts of end effectors and airborne (flight) intervals.
+
+Per effector (feet, toes, hands), a frame is in contact when the effector is
+near its own lowest level in the clip *and* slow (the constraint method the
+flips paper adopts from Liu & Popovic 2002, section 4.1): heights and speeds are
+relative to the clip's own ground, so multi-level scenes and unknown floor
+offsets work. Effectors that never come within ``max_clearance`` of the ground
+(hands in a walk) are never in contact. The flips method refines flight
+detection with the momentum pattern; :func:`airborne_intervals` is the plain
+geometric answer it starts from.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..core.rotations import quat_apply
+from ..errors import MotionFormatError
+from .derivatives import central_difference, gaussian_smooth
+
+__all__ = ["ContactResult", "detect_contacts", "airborne_intervals", "default_effectors", "effector_positions",
+           "label_intervals"]
+
+
+@dataclass(frozen=True, eq=False)
+class ContactResult:
+    """Contact labels per end effector.
+
+    Attributes
+    ----------
+    effectors: ``(E,)`` names (``"foot_l"``, ``"toe_l"``, ``"hand_l"``, ... or the joints given).
+    labels: ``(T, E)`` bool, effector on the ground.
+    ground_y: m, the clip's ground level (low percentile of the lowest effector height).
+    intervals: effector name -> list of half-open ``(start, stop)`` contact frame ranges.
+    positions: ``(T, E, 3)`` m, effector world positions.
+    heights: ``(T, E)`` m above ``ground_y``.
+    speeds: ``(T, E)`` m/s.
+    levels: ``(E,)`` m above ``ground_y``: each effector's own resting level (1st percentile of its height).
+    height_tol, speed_tol: thresholds used (m, m/s).
+    effector_joints: ``(E,)`` joint index each effector point rides on.
+    effector_offsets: ``(E, 3)`` m, the point in that joint's frame.
+    fps: frames per second of the motion.
+    """
+
+    effectors: tuple[str, ...]
+    labels: np.ndarray
+    ground_y: float
+    intervals: dict
+    positions: np.ndarray
+    heights: np.ndarray
+    speeds: np.ndarray
+    levels: np.ndarray
+    height_tol: float
+    speed_tol: float
+    effector_joints: np.ndarray
+    effector_offsets: np.ndarray
+    fps: float = 0.0
+    notes: tuple[str, ...] = field(default=())
+
+    @property
+    def any_contact(self) -> np.ndarray:
+        """``(T,)`` bool, at least one effector on the ground."""
+        return self.labels.any(axis=1)
+
+    def contact_points(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(positions (T, E, 3), labels (T, E))`` projected on the ground plane, for
+        :func:`~mocomp.dynamics.zmp.support_polygon_distance`."""
+        p = np.array(self.positions)
+        p[..., 1] = self.ground_y
+        return p, self.labels
+
+
+def label_intervals(labels: np.ndarray) -> list[tuple[int, int]]:
+    """Half-open ``(start, stop)`` runs of True in a 1-D bool array."""
+    x = np.concatenate([[False], np.asarray(labels, dtype=bool), [False]])
+    d = np.diff(x.astype(np.int8))
+    starts = np.nonzero(d == 1)[0]
+    stops = np.nonzero(d == -1)[0]
+    return [(int(a), int(b)) for a, b in zip(starts, stops)]
+
+
+def _drop_short(labels: np.ndarray, value: bool, min_frames: int) -> np.ndarray:
+    """Flip runs of ``value`` shorter than ``min_frames`` (bounded on both sides) to ``not value``."""
+    out = labels.copy()
+    if min_frames <= 1:
+        return out
+    runs = label_intervals(out == value)
+    for a, b in runs:
+        if b - a < min_frames and a > 0 and b < len(out):
+            out[a:b] = not value
+    return out
+
+
+def default_effectors(skeleton) -> dict[str, tuple[int, np.ndarray]]:
+    """Feet (ankle joints), toe tips and hands (hand ends) from the skeleton's body-segment
+    mapping: name -> (joint index, local offset in metres)."""
+    from ..body.mapping import resolve_landmark, resolve_mapping
+
+    rm = resolve_mapping(skeleton)
+    rest = skeleton.rest_positions()
+    lm = rm.convention.landmarks
+    out = {}
+    for kind, seg_kind, landmark in (("foot", "foot", "AJC"), ("toe", "foot", "TTIP"), ("hand", "hand", "MET3")):
+        for side in ("l", "r"):
+            k = rm.segments.index(f"{seg_kind}_{side}")
+            j = int(rm.carriers[k])
+            p = resolve_landmark(skeleton, lm[f"{landmark}_{side}"], lm, rest)
+            out[f"{kind}_{side}"] = (j, p - rest[j])
+    return out
+
+
+def _parse_effectors(skeleton, effectors) -> dict[str, tuple[int, np.ndarray]]:
+    if effectors is None:
+        return default_effectors(skeleton)
+    if isinstance(effectors, dict):
+        out = {}
+        for name, spec in effectors.items():
+            if isinstance(spec, str):
+                spec = (spec, (0.0, 0.0, 0.0))
+            jn, off = spec
+            j = skeleton.index(jn) if isinstance(jn, str) else int(jn)
+            out[name] = (j, np.asarray(off, dtype=float).reshape(3))
+        return out
+    out = {}
+    for name in effectors:
+        j = skeleton.find(name)
+        if j is not None:
+            out[name] = (j, np.zeros(3))
+            continue
+        es = [e for e in skeleton.end_sites if e.name == name]
+        if not es:
+            raise MotionFormatError(f"effector {name!r} is neither a joint nor an end site of the skeleton")
+        out[name] = (es[0].parent, np.array(es[0].offset))
+    return out
+
+
+def effector_positions(motion, joints, offsets) -> np.ndarray:
+    """``(T, E, 3)`` world positions of points fixed in joint frames."""
+    P, G = motion.fk()
+    joints = np.asarray(joints, dtype=int)
+    return P[:, joints] + quat_apply(G[:, joints], np.asarray(offsets, dtype=float)[None])
+
+
+def detect_contacts(motion, effectors=None, height_tol: float = 0.05, speed_tol: float = 0.4,
+                    ground_y: float | None = None, max_clearance: float = 0.2, min_frames: int = 2,
+                    smooth_sigma: float | None = 1.0) -> ContactResult:
+    """Contact labels per end effector from height and speed.
+
+    Parameters
+    ----------
+    motion: the motion.
+    effectors: ``None`` (feet, toe tips and hands via the body-segment mapping), a list of
+        joint / end-site names, or a dict name -> joint name or (joint, local offset m).
+    height_tol: m above the effector's own resting level (1st percentile of its height).
+    speed_tol: m/s.
+    ground_y: floor height; default: 2nd percentile of the lowest effector's height per frame.
+    max_clearance: effectors whose resting level is more than this above the ground never touch it.
+    min_frames: contact runs and gaps shorter than this many frames (inside the clip) are
+        removed (gaps first, then contacts), against single-frame flicker.
+    smooth_sigma: Gaussian sigma (frames) on positions before taking speeds.
+    """
+    for name, v in (("height_tol", height_tol), ("speed_tol", speed_tol), ("max_clearance", max_clearance)):
+        if not (np.isfinite(v) and v > 0):
+            raise ValueError(f"{name} must be positive, got {v!r}")
+    eff = _parse_effectors(motion.skeleton, effectors)
+    names = tuple(eff)
+    joints = np.array([eff[n][0] for n in names], dtype=int)
+    offsets = np.array([eff[n][1] for n in names], dtype=float).reshape(-1, 3)
+    pos = effector_positions(motion, joints, offsets)
+    h_abs = pos[..., 1]
+    notes = []
+    if ground_y is None:
+        ground_y = float(np.percentile(h_abs.min(axis=1), 2))
+        notes.append("ground_y: 2nd percentile of the lowest effector height per frame")
+    heights = h_abs - ground_y
+    levels = np.percentile(heights, 1, axis=0)
+    if motion.n_frames >= 2:
+        ps = gaussian_smooth(pos, smooth_sigma, axis=0) if smooth_sigma else pos
+        speeds = np.linalg.norm(central_difference(ps, motion.times), axis=-1)
+    else:
+        speeds = np.zeros(heights.shape)
+    eligible = levels <= max_clearance
+    labels = (heights <= levels + height_tol) & (speeds <= speed_tol) & eligible[None]
+    for e in range(labels.shape[1]):
+        col = _drop_short(labels[:, e], False, min_frames)
+        labels[:, e] = _drop_short(col, True, min_frames)
+    intervals = {n: label_intervals(labels[:, e]) for e, n in enumerate(names)}
+    return ContactResult(names, labels, float(ground_y), intervals, pos, heights, speeds, levels,
+                         float(height_tol), float(speed_tol), joints, offsets, motion.fps, tuple(notes))
+
+
+def airborne_intervals(contacts: ContactResult, min_frames: int = 1) -> list[tuple[int, int]]:
+    """Half-open ``(start, stop)`` frame ranges in which no effector touches the ground,
+    at least ``min_frames`` long. Runs touching the clip's ends are included."""
+    runs = label_intervals(~contacts.any_contact)
+    return [(a, b) for a, b in runs if b - a >= min_frames]
