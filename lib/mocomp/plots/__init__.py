@@ -1,0 +1,1 @@
+"""Plotting helpers (matplotlib figures, offscreen 3-D renders); the core never imports these."""

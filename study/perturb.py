@@ -1,0 +1,307 @@
+"""Perturbed ballistic motions: the stimuli of the flips paper's perception study.
+
+Flips paper section 7 (dissertation section 5.7): "Errors in angular momentum
+were created by the motion retiming during the flight phase. We tested both
+abrupt changes - sudden introduction of retiming in the middle of the flight
+phase, and smooth changes in angular momentum - retiming factor growing
+linearly and achieving maximum value just before landing. [...] The errors
+didn't change the direction of the angular momentum vector. Errors in take-off
+angle were introduced by modifying the linear velocity in the flight phase
+along the direction of the jump."
+
+How the flight is rebuilt (the paper leaves this open; our choices)
+--------------------------------------------------------------------
+Let the base flight run from the first airborne frame ``a`` (time ``t_a``) to the
+last airborne frame ``b - 1`` (time ``t_b``), ``T = t_b - t_a``, and let ``c(s)`` be
+the base motion's centre of mass (COM) at original time ``s``.
+
+1. **Retiming** (angular-momentum errors). The new clock ``u`` runs from take-off;
+   the flight's poses are taken at original time ``t_a + sigma(u)`` with rate
+   ``r(u) = dsigma/du``. Retiming scales every velocity by ``r`` (flips paper
+   eq. 5.8: ``v_new = n v``), hence the angular momentum about the COM by ``r``
+   with its direction unchanged; the relative error is ``r - 1``:
+
+   * abrupt, error ``e`` (``+level`` increase, ``-level`` decrease): ``r = 1`` until
+     the original time reaches ``t_a + phi T`` (``phi`` = ``switch_fraction``,
+     0.5 = "the middle of the flight"), then ``r = 1 + e``;
+   * smooth: ``r(u) = 1 + e u / T'``, reaching ``1 + e`` at landing;
+
+   the new flight lasts ``T'`` with ``sigma(T') = T``: all the flight's poses are
+   shown, in order, and the character lands in the original landing pose
+   (on its feet). Abrupt: ``T' = phi T + (1 - phi) T / (1 + e)``; smooth:
+   ``T' = T / (1 + e/2)``. Take-off and landing phases keep their timing
+   (the landing phase starts ``T' - T`` later).
+
+2. **COM parabola re-fitted** (every stimulus, including the unperturbed
+   control, so that all share one processing path). The flight COM is
+   replaced by the ballistic parabola ``P(u) = c(t_a) + v u - g u^2/2 y``. For
+   the control, ``v = v0 = (c(t_b) - c(t_a)) / T + g T / 2 y``: the exact
+   ballistic flight (gravity ``g``, default 9.81 m/s^2) through the captured
+   take-off and landing COM. For a retimed flight ``v = kappa v0`` with
+   ``kappa`` chosen so the COM comes back to the landing height exactly at
+   ``T'``: ``kappa = (dy + g T'^2/2) / (v0_y T')`` (``dy`` = landing minus take-off
+   COM height). Scaling the whole take-off velocity keeps the **take-off angle**
+   unchanged (only its speed changes, ``kappa ~ T'/T``), so angular-momentum
+   stimuli are not confounded with the take-off-angle stimuli; this is the
+   repositioning of flips paper section 5.4 (``COM_y = a_y t^2 + k b_y t + c_y``,
+   horizontal velocity scaled by ``k``). The root is moved by ``P - c`` in each
+   flight frame; the translation does not change the angular momentum about
+   the COM (section 5.1, "Repositioning of the center of mass").
+
+3. **Take-off-angle errors**: the flight keeps its timing (``T' = T``) and the
+   horizontal velocity component along the jump direction ``h`` (the horizontal
+   direction of ``v0``) is scaled: ``v = v0 + e (v0 . h) h``; the vertical
+   component, the flight time and the angular momentum are unchanged, so the
+   take-off angle ``atan(v_y / v_h)`` changes and the body lands
+   ``e (v0 . h) T`` further along ``h``.
+
+4. **Landing**: after the flight the landing phase is translated by the
+   horizontal offset ``P(T') - c(t_b)`` (its vertical offset is zero by
+   construction): the character lands on its feet at the original landing
+   height, further or nearer along the jump direction. The take-off phase is
+   untouched: every stimulus of a base starts at the same take-off position.
+
+What is *not* preserved (and is reported as evidence): the COM velocity jumps
+at take-off and landing when ``v != v0`` (the linear-momentum discontinuity that
+any retimed flight or changed take-off angle carries; the paper's
+:math:`k^*` retiming of take-off/landing, App. B, would hide it but also alter
+the ground phases, which the study holds fixed).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from mocomp.core.motion import Motion
+from mocomp.errors import NoFlightPhaseError, PhysicsError
+
+__all__ = ["KINDS", "TimeWarp", "time_warp", "ballistic_velocity", "FlightRebuild", "rebuild_flight",
+           "signed_level"]
+
+#: Perturbation kinds understood by :func:`rebuild_flight`.
+KINDS = ("none", "am_abrupt", "am_smooth", "takeoff")
+_Y = np.array([0.0, 1.0, 0.0])
+
+
+def signed_level(direction: str, level: float) -> float:
+    """The signed relative error ``e``: ``+level`` for ``"increase"``, ``-level`` for ``"decrease"``."""
+    if direction == "increase":
+        return float(level)
+    if direction == "decrease":
+        return -float(level)
+    if direction == "none":
+        if level != 0:
+            raise ValueError(f"direction 'none' needs level 0, got {level}")
+        return 0.0
+    raise ValueError(f"direction must be increase, decrease or none, got {direction!r}")
+
+
+@dataclass(frozen=True)
+class TimeWarp:
+    """Retiming of the flight: original elapsed flight time ``sigma(u)`` at new elapsed time ``u``.
+
+    Attributes
+    ----------
+    kind: ``"none"``, ``"am_abrupt"`` or ``"am_smooth"`` (``"takeoff"`` uses ``"none"``).
+    error: signed relative angular-momentum error ``e`` at its peak.
+    T: original flight duration (s); ``new_T``: retimed duration ``T'`` (s).
+    switch_u: new elapsed time at which an abrupt retiming switches on (``None`` otherwise).
+    """
+
+    kind: str
+    error: float
+    T: float
+    new_T: float
+    switch_u: float | None
+
+    def sigma(self, u: np.ndarray) -> np.ndarray:
+        u = np.asarray(u, dtype=float)
+        e = self.error
+        if self.kind == "am_smooth":
+            return u + e * u * u / (2.0 * self.new_T)
+        if self.kind == "am_abrupt":
+            us = self.switch_u
+            return np.where(u <= us, u, us + (1.0 + e) * (u - us))
+        return u.copy()
+
+    def rate(self, u: np.ndarray) -> np.ndarray:
+        """``r(u) = dsigma/du``: the factor applied to velocities and momenta."""
+        u = np.asarray(u, dtype=float)
+        e = self.error
+        if self.kind == "am_smooth":
+            return 1.0 + e * u / self.new_T
+        if self.kind == "am_abrupt":
+            return np.where(u < self.switch_u, 1.0, 1.0 + e)
+        return np.ones_like(u)
+
+
+def time_warp(kind: str, error: float, T: float, switch_fraction: float = 0.5) -> TimeWarp:
+    """The flight retiming for a perturbation (see the module docstring, step 1)."""
+    if not (np.isfinite(T) and T > 0):
+        raise NoFlightPhaseError(f"flight duration must be > 0, got {T}")
+    if kind in ("none", "takeoff"):
+        return TimeWarp("none", 0.0, T, T, None)
+    if not (-1.0 < error < 10.0):
+        raise PhysicsError(f"angular-momentum error {error:+.0%} is impossible by retiming (needs > -100%)")
+    if kind == "am_smooth":
+        return TimeWarp(kind, float(error), T, T / (1.0 + error / 2.0), None)
+    if kind == "am_abrupt":
+        if not (0.0 < switch_fraction < 1.0):
+            raise ValueError(f"switch_fraction must be in (0, 1), got {switch_fraction}")
+        us = switch_fraction * T
+        return TimeWarp(kind, float(error), T, us + (1.0 - switch_fraction) * T / (1.0 + error), us)
+    raise ValueError(f"unknown perturbation kind {kind!r}; expected one of {KINDS}")
+
+
+def ballistic_velocity(p0: np.ndarray, p1: np.ndarray, T: float, gravity: float) -> np.ndarray:
+    """Initial velocity of the parabola under gravity ``-g y`` from ``p0`` to ``p1`` in time ``T``."""
+    return (np.asarray(p1, float) - np.asarray(p0, float)) / T + 0.5 * gravity * T * _Y
+
+
+@dataclass(frozen=True, eq=False)
+class FlightRebuild:
+    """A perturbed (or re-fitted control) motion and the evidence of how it was made.
+
+    Attributes
+    ----------
+    motion: the stimulus motion, at the base motion's frame rate.
+    kind: perturbation kind (:data:`KINDS`); ``error``: signed nominal relative error.
+    warp: the flight's :class:`TimeWarp`.
+    flight: ``(start, stop)`` half-open airborne frames of ``motion``.
+    base_flight: the same for the base motion.
+    takeoff_time: ``t_a`` (s, same in both motions).
+    velocity: ``(3,)`` m/s, initial velocity of the rebuilt COM parabola.
+    base_velocity: ``(3,)`` m/s, ``v0`` of the re-fitted control flight.
+    jump_direction: ``(3,)`` unit horizontal direction of ``v0`` (zeros if ``v0`` is vertical).
+    landing_shift: ``(3,)`` m, translation applied to the landing phase.
+    gravity: m/s^2 used for the parabola.
+    original_time: ``(T_new,)`` s, the base motion's time shown at each new frame.
+    rate: ``(T_new,)`` retiming rate at each new frame (1 outside the flight).
+    root_offset: ``(T_new,)`` m, magnitude of the root translation applied per frame
+        (the COM correction; in the control it measures how far the capture
+        was from a ballistic flight).
+    """
+
+    motion: Motion
+    kind: str
+    error: float
+    warp: TimeWarp
+    flight: tuple[int, int]
+    base_flight: tuple[int, int]
+    takeoff_time: float
+    velocity: np.ndarray
+    base_velocity: np.ndarray
+    jump_direction: np.ndarray
+    landing_shift: np.ndarray
+    gravity: float
+    original_time: np.ndarray
+    rate: np.ndarray
+    root_offset: np.ndarray
+
+    @property
+    def flight_duration(self) -> float:
+        return self.warp.new_T
+
+    @property
+    def takeoff_angle_deg(self) -> float:
+        """Elevation of the take-off velocity above the horizontal, degrees."""
+        v = self.velocity
+        return float(np.degrees(np.arctan2(v[1], np.hypot(v[0], v[2]))))
+
+
+def rebuild_flight(base: Motion, flight: tuple[int, int], com: Callable[[Motion], np.ndarray], *,
+                   kind: str = "none", error: float = 0.0, gravity: float = 9.81,
+                   switch_fraction: float = 0.5, min_horizontal_speed: float = 0.05) -> FlightRebuild:
+    """Make one stimulus from ``base`` (see the module docstring for the method).
+
+    Parameters
+    ----------
+    base: the base motion (one single flight inside it).
+    flight: ``(a, b)`` half-open airborne frame range of ``base`` (``a >= 1``, ``b < n_frames``:
+        there must be ground frames on both sides).
+    com: ``com(motion) -> (T, 3)`` centre of mass of every frame (e.g.
+        ``lambda m: mocomp.dynamics.center_of_mass(body, m)``).
+    kind: ``"none"`` (re-fitted control), ``"am_abrupt"``, ``"am_smooth"``, ``"takeoff"``.
+    error: signed relative error (``+0.25`` = 25 % increase); see :func:`signed_level`.
+    gravity: m/s^2 of the rebuilt parabola.
+    switch_fraction: where in the original flight an abrupt retiming switches on.
+    min_horizontal_speed: m/s; a take-off-angle error needs a jump direction.
+
+    Raises
+    ------
+    NoFlightPhaseError: the flight range is empty or touches the clip's ends.
+    PhysicsError: the requested change is impossible (e.g. no horizontal travel for a
+        take-off-angle error, or a retimed flight that cannot return to the landing height).
+    """
+    if kind not in KINDS:
+        raise ValueError(f"unknown perturbation kind {kind!r}; expected one of {KINDS}")
+    if kind == "none" and error != 0:
+        raise ValueError("the unperturbed control ('none') takes error 0")
+    a, b = int(flight[0]), int(flight[1])
+    n = base.n_frames
+    if not (1 <= a and b - a >= 3 and b < n):
+        raise NoFlightPhaseError(
+            f"flight frames [{a}, {b}) of a {n}-frame motion: need >= 3 airborne frames and ground frames "
+            "before and after (trim the clip less tightly)")
+    fps = base.fps
+    ta, tb = a / fps, (b - 1) / fps
+    T = tb - ta
+    c_base = np.asarray(com(base), dtype=float)
+    if c_base.shape != (n, 3):
+        raise ValueError(f"com(base) must return ({n}, 3), got {c_base.shape}")
+    p0, p1 = c_base[a], c_base[b - 1]
+    v0 = ballistic_velocity(p0, p1, T, gravity)
+    vh = v0 * np.array([1.0, 0.0, 1.0])
+    sh = float(np.linalg.norm(vh))
+    h = vh / sh if sh > 1e-12 else np.zeros(3)
+
+    warp = time_warp(kind, error, T, switch_fraction)
+    Tn = warp.new_T
+    if kind in ("am_abrupt", "am_smooth"):
+        dy = p1[1] - p0[1]
+        if v0[1] <= 0:
+            raise PhysicsError(f"base flight has a non-rising take-off velocity (v_y = {v0[1]:.3f} m/s)")
+        kappa = (dy + 0.5 * gravity * Tn * Tn) / (v0[1] * Tn)
+        if kappa <= 0:
+            raise PhysicsError(f"retimed flight of {Tn:.3f} s cannot return to the landing height")
+        v = kappa * v0
+    elif kind == "takeoff":
+        if sh < min_horizontal_speed:
+            raise PhysicsError(
+                f"the base flight travels only {sh:.3f} m/s horizontally; a take-off-angle error along the "
+                f"jump direction needs >= {min_horizontal_speed} m/s")
+        v = v0 + error * (v0 @ h) * h
+    else:
+        v = v0.copy()
+
+    # New clock: take-off phase unchanged, flight warped, landing phase shifted by T' - T.
+    new_dur = base.duration + (Tn - T)
+    m_frames = int(np.floor(new_dur * fps + 1e-9)) + 1
+    t = np.arange(m_frames) / fps
+    u = t - ta
+    in_flight = (u >= -1e-12) & (u <= Tn + 1e-12)
+    s = np.where(u < 0, t, np.where(in_flight, ta + warp.sigma(np.clip(u, 0.0, Tn)), t - (Tn - T)))
+    s = np.clip(s, 0.0, base.duration)
+    rate = np.where(in_flight, warp.rate(np.clip(u, 0.0, Tn)), 1.0)
+    m = base.sample(s)
+    c_new = np.asarray(com(m), dtype=float)
+
+    P = p0 + np.outer(np.clip(u, 0.0, Tn), v) - 0.5 * gravity * np.clip(u, 0.0, Tn)[:, None] ** 2 * _Y
+    land = p0 + v * Tn - 0.5 * gravity * Tn * Tn * _Y
+    delta = np.zeros((m_frames, 3))
+    delta[in_flight] = P[in_flight] - c_new[in_flight]
+    after = u > Tn + 1e-12
+    shift = land - p1
+    if abs(shift[1]) > 1e-6:
+        raise PhysicsError(f"internal: rebuilt flight lands {shift[1]:+.2e} m off the landing height")
+    shift[1] = 0.0
+    delta[after] = shift
+    out = m.replace(root_positions=m.root_positions + delta)
+    fa = int(np.flatnonzero(in_flight)[0])
+    fb = int(np.flatnonzero(in_flight)[-1]) + 1
+    return FlightRebuild(
+        motion=out, kind=kind, error=float(error), warp=warp, flight=(fa, fb), base_flight=(a, b),
+        takeoff_time=ta, velocity=v, base_velocity=v0, jump_direction=h, landing_shift=shift,
+        gravity=float(gravity), original_time=s, rate=rate, root_offset=np.linalg.norm(delta, axis=1))

@@ -1,0 +1,310 @@
+"""Render a stimulus set: videos, posters, filmstrips and the manifest CSV.
+
+``render_stimulus_set(spec, out_dir)`` builds every stimulus of a
+specification (:mod:`study.stimuli`), renders each one headless in the same
+style (:mod:`mocomp.plots.render3d`: same character, ground, lights and one
+fixed camera for the whole set, all stimuli starting from the same take-off
+position) and writes ``out_dir/manifest.csv``.
+
+Layout of ``out_dir``::
+
+    manifest.csv          one row per stimulus (columns: MANIFEST_COLUMNS + EXTRA_COLUMNS)
+    render_info.json      spec, camera, style, encoder, library versions, timings
+    spec.toml|json        a copy of the specification
+    videos/<id>.mp4       H.264 (yuv420p, +faststart) at the spec's frame rate
+    posters/<id>.png      the poster frame (frame 0 by default: the take-off stance,
+                          which gives nothing away)
+    filmstrips/<id>.png   optional
+
+Re-rendering is incremental: each stimulus has a *content hash* (its motion's
+bytes, the style, camera, frame rate, encoder settings and the VTK/ffmpeg
+versions). A stimulus whose hash matches the previous manifest's row and whose
+video still has the recorded SHA-256 is not rendered again. Files are written
+to a temporary name and renamed, and the manifest is replaced atomically, so an
+interrupted run never leaves a half-written video behind a valid row.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import os
+import platform
+import shutil
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from mocomp.errors import StudyDataError
+
+from .spec import StudySpec, load_spec
+
+__all__ = ["MANIFEST_COLUMNS", "EXTRA_COLUMNS", "RenderReport", "render_stimulus_set", "content_hash",
+           "study_camera", "study_style", "RENDERER_VERSION"]
+
+#: Bump when the drawing code changes pixels for the same inputs (forces re-rendering).
+RENDERER_VERSION = "1"
+
+try:  # the trial-design side owns the manifest reader; keep one column list
+    from .stimulus_set import MANIFEST_COLUMNS, sha256_file
+except ImportError:  # pragma: no cover - only while that module does not exist
+    MANIFEST_COLUMNS = ("stimulus_id", "base_clip", "perturbation", "direction", "nominal_level",
+                        "achieved_error", "duration_s", "file", "poster", "sha256")
+
+    def sha256_file(path, chunk=1 << 20):
+        h = hashlib.sha256()
+        with open(path, "rb") as f:
+            for block in iter(lambda: f.read(chunk), b""):
+                h.update(block)
+        return h.hexdigest()
+
+#: Further manifest columns written by the renderer (documented in ``stimuli/README.md``).
+EXTRA_COLUMNS = (
+    "achieved_signed_pct", "L_error_pct", "velocity_error_pct", "takeoff_angle_deg", "takeoff_angle_change_deg",
+    "takeoff_speed_ms", "speed_ratio", "flight_s", "base_flight_s", "apex_m", "landing_shift_m",
+    "takeoff_dv_ms", "landing_dv_ms", "L_direction_change_deg", "fps", "n_frames", "width", "height",
+    "filmstrip", "content_hash", "base_source", "render_s",
+)
+
+
+@dataclass
+class RenderReport:
+    """What :func:`render_stimulus_set` did.
+
+    Attributes
+    ----------
+    manifest_path: the written ``manifest.csv``.
+    manifest: its table.
+    rendered: ids rendered in this run; ``skipped``: ids whose content hash was unchanged.
+    frames: video frames rendered in this run; ``seconds``: wall time of the whole run;
+    render_seconds: time spent rendering + encoding videos; ``frames_per_second``: frames / render_seconds.
+    notes: remarks (bases skipped for missing data, flight detection, ...).
+    """
+
+    manifest_path: Path
+    manifest: pd.DataFrame
+    rendered: list[str] = field(default_factory=list)
+    skipped: list[str] = field(default_factory=list)
+    frames: int = 0
+    seconds: float = 0.0
+    render_seconds: float = 0.0
+    frames_per_second: float = float("nan")
+    notes: list[str] = field(default_factory=list)
+
+
+def _versions() -> dict:
+    import imageio_ffmpeg
+    import pyvista
+    import vtk
+
+    return {"vtk": vtk.vtkVersion.GetVTKVersion(), "pyvista": pyvista.__version__,
+            "ffmpeg": imageio_ffmpeg.get_ffmpeg_version(), "imageio_ffmpeg": imageio_ffmpeg.__version__}
+
+
+def study_style(spec: StudySpec):
+    """The :class:`~mocomp.plots.render3d.RenderStyle` of a study (defaults + the spec's size)."""
+    from mocomp.plots.render3d import RenderStyle
+
+    return RenderStyle(width=spec.render.width, height=spec.render.height)
+
+
+def study_camera(spec: StudySpec, motions) -> "Camera":  # noqa: F821
+    """The one camera of a study: the spec's, or fitted to every joint of every stimulus
+    (side view along -z: the somersault axis, see :mod:`study.stimuli`)."""
+    from mocomp.plots.render3d import Camera, fit_camera
+
+    cam = spec.render.camera
+    if cam != "auto":
+        return Camera(tuple(cam["position"]), tuple(cam["focal_point"]), tuple(cam.get("view_up", (0, 1, 0))),
+                      float(cam.get("view_angle", spec.render.view_angle)))
+    pts = np.concatenate([m.positions.reshape(-1, 3) for m in motions])
+    return fit_camera(pts, view_angle=spec.render.view_angle, elevation=spec.render.elevation, aspect=spec.render.width / spec.render.height,
+                      margin=spec.render.margin)
+
+
+def _encoder(spec: StudySpec) -> dict:
+    from mocomp.plots.render3d import ENCODER
+
+    return dict(ENCODER, crf=spec.render.crf, preset=spec.render.preset)
+
+
+def content_hash(motion, *, fps: float, style, camera, encoder: dict, poster_frame: int,
+                 filmstrip: bool, filmstrip_poses: int, versions: dict) -> str:
+    """SHA-256 (hex) of everything that determines a stimulus' rendered files."""
+    h = hashlib.sha256()
+    sk = motion.skeleton
+    for arr in (sk.parents, sk.offsets, motion.root_positions, motion.rotations):
+        a = np.ascontiguousarray(arr)
+        h.update(str(a.dtype).encode() + str(a.shape).encode())
+        h.update(a.tobytes())
+    for e in sk.end_sites:
+        h.update(f"{e.parent}:".encode() + np.ascontiguousarray(e.offset, dtype=float).tobytes())
+    meta = {"motion_fps": motion.fps, "video_fps": fps, "style": style.as_dict(), "camera": camera.as_dict(),
+            "encoder": encoder, "poster_frame": poster_frame, "filmstrip": filmstrip,
+            "filmstrip_poses": filmstrip_poses, "renderer": RENDERER_VERSION, "versions": versions,
+            "names": list(sk.names)}
+    h.update(json.dumps(meta, sort_keys=True).encode())
+    return h.hexdigest()
+
+
+def _read_old_manifest(path: Path) -> dict[str, dict]:
+    if not path.is_file():
+        return {}
+    try:
+        df = pd.read_csv(path, dtype=str, keep_default_na=False)
+    except Exception:  # an unreadable old manifest only disables skipping
+        return {}
+    if "stimulus_id" not in df.columns or "content_hash" not in df.columns:
+        return {}
+    return {r["stimulus_id"]: r for r in df.to_dict("records")}
+
+
+def _fmt(v):
+    if isinstance(v, (float, np.floating)):
+        return float(v) if math.isfinite(v) else float("nan")
+    return v
+
+
+def render_stimulus_set(spec: StudySpec | str | Path, out_dir: str | Path, *, force: bool = False,
+                        skip_missing_data: bool = False, only: list[str] | None = None,
+                        progress: bool = True) -> RenderReport:
+    """Render every stimulus of ``spec`` into ``out_dir`` and write ``manifest.csv``.
+
+    Parameters
+    ----------
+    spec: a :class:`~study.spec.StudySpec` or the path of a specification file.
+    out_dir: output folder (created).
+    force: re-render even stimuli whose content hash is unchanged.
+    skip_missing_data: drop bases whose real data are missing (``MOCOMP_DATA_DIR``
+        unset) instead of failing; the report's notes say which.
+    only: render only these stimulus ids (the manifest still lists only them: use
+        for previews, not for a study).
+    progress: show a tqdm bar over stimuli.
+    """
+    from tqdm.auto import tqdm
+
+    from mocomp.plots.render3d import MotionRenderer, render_filmstrip, write_video
+
+    from .stimuli import build_stimuli
+
+    t_start = time.perf_counter()
+    src_path = None
+    if not isinstance(spec, StudySpec):
+        src_path = Path(spec)
+        spec = load_spec(src_path)
+    elif spec.path is not None:
+        src_path = spec.path
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    for sub in ("videos", "posters") + (("filmstrips",) if spec.render.filmstrip else ()):
+        (out / sub).mkdir(exist_ok=True)
+
+    built = build_stimuli(spec, skip_missing_data=skip_missing_data, progress=progress)
+    stimuli, notes = built.stimuli, list(built.notes)
+    if only is not None:
+        known = {s.stimulus_id for s in stimuli}
+        unknown = sorted(set(only) - known)
+        if unknown:
+            raise StudyDataError(f"--only names unknown stimulus id(s) {', '.join(unknown)}", src_path)
+        stimuli = [s for s in stimuli if s.stimulus_id in set(only)]
+    if not stimuli:
+        raise StudyDataError("no stimuli to render (all bases skipped?)", src_path)
+
+    style = study_style(spec)
+    camera = study_camera(spec, [s.motion for s in built.stimuli])
+    enc = _encoder(spec)
+    versions = _versions()
+    fps = spec.render.fps
+    manifest_path = out / "manifest.csv"
+    old = {} if force else _read_old_manifest(manifest_path)
+
+    report = RenderReport(manifest_path=manifest_path, manifest=pd.DataFrame(), notes=notes)
+    rows = []
+    renderers: dict[str, MotionRenderer] = {}
+    try:
+        bar = tqdm(stimuli, desc=f"render {spec.name}", unit="stim", disable=not progress)
+        for st in bar:
+            sid = st.stimulus_id
+            ch = content_hash(st.motion, fps=fps, style=style, camera=camera, encoder=enc,
+                              poster_frame=spec.render.poster_frame, filmstrip=spec.render.filmstrip,
+                              filmstrip_poses=spec.render.filmstrip_poses, versions=versions)
+            vid_rel = f"videos/{sid}.mp4"
+            pos_rel = f"posters/{sid}.png"
+            fs_rel = f"filmstrips/{sid}.png" if spec.render.filmstrip else ""
+            prev = old.get(sid)
+            reuse = (prev is not None and prev.get("content_hash") == ch and (out / vid_rel).is_file()
+                     and (out / pos_rel).is_file() and (not fs_rel or (out / fs_rel).is_file())
+                     and sha256_file(out / vid_rel) == prev.get("sha256"))
+            if reuse:
+                report.skipped.append(sid)
+                sha, n_frames, dur, rsec = prev["sha256"], int(prev["n_frames"]), float(prev["duration_s"]), \
+                    float(prev.get("render_s") or "nan")
+            else:
+                key = st.base_clip
+                if key not in renderers:
+                    renderers[key] = MotionRenderer(st.motion.skeleton, style, camera)
+                res = write_video(st.motion, out / vid_rel, fps=fps, style=style, camera=camera,
+                                  poster=out / pos_rel, poster_frame=spec.render.poster_frame, encoder=enc,
+                                  renderer=renderers[key])
+                if fs_rel:
+                    from mocomp.plots.render3d import RenderStyle
+
+                    tile = RenderStyle(width=max(16, (style.width // 2) // 2 * 2),
+                                       height=max(16, (style.height // 2) // 2 * 2))
+                    render_filmstrip(st.motion, n_poses=spec.render.filmstrip_poses, layout="tiles", style=tile,
+                                     camera=camera, path=out / fs_rel)
+                sha, n_frames, dur, rsec = sha256_file(out / vid_rel), res.n_frames, res.duration_s, res.seconds
+                report.rendered.append(sid)
+                report.frames += n_frames
+                report.render_seconds += res.seconds
+            row = {
+                "stimulus_id": sid, "base_clip": st.base_clip, "perturbation": st.perturbation,
+                "direction": st.direction, "nominal_level": st.nominal_level,
+                "achieved_error": st.measures["achieved_error"], "duration_s": dur, "file": vid_rel,
+                "poster": pos_rel, "sha256": sha,
+            }
+            for c in EXTRA_COLUMNS:
+                if c in st.measures:
+                    row[c] = st.measures[c]
+            row.update({"fps": fps, "n_frames": n_frames, "width": style.width, "height": style.height,
+                        "filmstrip": fs_rel, "content_hash": ch, "base_source": st.base_source, "render_s": rsec})
+            rows.append({k: _fmt(v) for k, v in row.items()})
+    finally:
+        for r in renderers.values():
+            r.close()
+
+    df = pd.DataFrame(rows, columns=list(MANIFEST_COLUMNS) + list(EXTRA_COLUMNS))
+    tmp = manifest_path.with_name(".manifest.csv.partial")
+    df.to_csv(tmp, index=False, float_format="%.6g")
+    os.replace(tmp, manifest_path)
+    if src_path is not None and src_path.is_file():
+        shutil.copyfile(src_path, out / ("spec" + src_path.suffix))
+    report.manifest = df
+    report.seconds = time.perf_counter() - t_start
+    report.frames_per_second = report.frames / report.render_seconds if report.render_seconds > 0 else float("nan")
+    info = {
+        "study": spec.name, "title": spec.title, "reference": spec.reference,
+        "spec": str(src_path) if src_path else None, "n_stimuli": len(df),
+        "rendered": len(report.rendered), "skipped": len(report.skipped),
+        "frames_rendered": report.frames, "render_seconds": round(report.render_seconds, 3),
+        "frames_per_second": None if math.isnan(report.frames_per_second) else round(report.frames_per_second, 2),
+        "total_seconds": round(report.seconds, 3), "camera": camera.as_dict(), "style": style.as_dict(),
+        "encoder": enc, "video_fps": fps, "renderer_version": RENDERER_VERSION, "versions": versions,
+        "opengl_window": os.environ.get("VTK_DEFAULT_OPENGL_WINDOW"), "platform": platform.platform(),
+        "notes": notes, "bases": built.base_info,
+    }
+    (out / "render_info.json").write_text(json.dumps(info, indent=2, default=_json_default) + "\n")
+    return report
+
+
+def _json_default(o):
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, (np.floating, np.integer)):
+        return o.item()
+    if isinstance(o, Path):
+        return str(o)
+    raise TypeError(f"not JSON-serializable: {type(o).__name__}")

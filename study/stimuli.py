@@ -1,0 +1,403 @@
+"""The stimuli of a study: base motions, their perturbations and the measured errors.
+
+Pipeline per base motion (``[[base]]`` of a specification, :mod:`study.spec`):
+
+1. **Load** it: ``example:NAME`` (the project's synthetic, physically exact flips:
+   motion, body model and flight come with it), ``clip:NAME`` (a real clip by
+   name through ``mocomp.datasets.load``, which applies the known frame-rate and
+   T-pose corrections), ``data:REL/PATH`` (a BVH under ``$MOCOMP_DATA_DIR``, with
+   ``fps``/``first_frame`` from the spec) or ``file:PATH``.
+2. **Find the flight**: the longest airborne interval (``mocomp.dynamics``
+   contact detection) unless the example states it.
+3. **Normalise** (the paper: "the same camera configuration and the same
+   take-off position"): keep ``pre_s`` seconds before take-off and ``post_s``
+   after landing; rotate about the vertical so the flight's mean angular
+   momentum points along +z (the camera looks along -z, so every somersault
+   is seen side-on and turns counter-clockwise on screen: back flips face +x,
+   front flips face -x, both travel towards -x); move the take-off COM to x = z = 0;
+   shift vertically so the lowest joint of the standing phase sits one toe-capsule
+   radius above the ground (feet on the floor in the rendering).
+4. **Perturb** (:func:`study.perturb.rebuild_flight`; the unperturbed control goes
+   through the same flight re-fit).
+5. **Measure** each stimulus with the project's dynamics (:func:`measure_stimulus`):
+   the achieved relative angular-momentum error, the change of the take-off
+   velocity along the jump direction and of the take-off angle, the velocity
+   jumps at take-off and landing, the flight time and apex height.
+
+The achieved error (manifest column ``achieved_error``, percent, positive in the
+nominal direction) is, for angular-momentum stimuli, the ratio
+``|L(t)| / |L_control(s(t))|`` (``s(t)``: the original time shown at ``t``, so the
+capture's own variation of ``|L|`` cancels), taken at its peak: the median over
+the flight after the switch (abrupt) or the value at landing of a straight-line
+fit over the flight (smooth). For take-off stimuli it is the relative change of
+the flight COM velocity along the jump direction, from a parabola fitted to the
+stimulus' COM. For controls it is the angular-momentum measure (about 0).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from mocomp.core.motion import Motion
+from mocomp.core.rotations import quat_multiply
+from mocomp.errors import DataNotFoundError, NoFlightPhaseError, PhysicsError, StudyDataError
+
+from .perturb import FlightRebuild, rebuild_flight, signed_level
+from .spec import BaseSpec, StudySpec
+
+__all__ = ["BaseMotion", "Stimulus", "BuiltStimuli", "load_base", "normalize_base", "make_stimulus",
+           "measure_stimulus", "build_stimuli", "stimulus_id"]
+
+
+# ------------------------------------------------------------ dynamics adapter
+def _center_of_mass(body, motion: Motion) -> np.ndarray:
+    """``(T, 3)`` whole-body COM (``mocomp.dynamics.center_of_mass``)."""
+    from mocomp import dynamics
+
+    c = dynamics.center_of_mass(body, motion)
+    c = getattr(c, "com", c)
+    return np.asarray(c, dtype=float)
+
+
+def _angular_momentum(body, motion: Motion) -> np.ndarray:
+    """``(T, 3)`` angular momentum about the COM (``mocomp.dynamics.momentum(...).angular``)."""
+    from mocomp import dynamics
+
+    return np.asarray(dynamics.momentum(body, motion).angular, dtype=float)
+
+
+def _airborne_intervals(motion: Motion, body, contact_height: float) -> list[tuple[int, int]]:
+    """Half-open airborne frame ranges (``mocomp.dynamics.contacts``)."""
+    from mocomp.dynamics import contacts
+
+    iv = contacts.airborne_intervals(motion, height=contact_height)
+    return [(int(a), int(b)) for a, b in iv]
+
+
+# ------------------------------------------------------------------ the bases
+@dataclass(frozen=True, eq=False)
+class BaseMotion:
+    """A normalised base motion (see the module docstring, steps 1-3).
+
+    Attributes
+    ----------
+    id: base id from the spec; ``source``: where it came from.
+    motion: trimmed, rotated, translated motion.
+    body: the :class:`~mocomp.body.BodyModel` used for its dynamics.
+    flight: ``(a, b)`` half-open airborne frames of ``motion``.
+    info: evidence of the loading/normalisation (JSON-able): frame rate, source
+        frames kept, rotation applied, floor shift, flight length, ...
+    """
+
+    id: str
+    source: str
+    motion: Motion
+    body: object
+    flight: tuple[int, int]
+    info: dict = field(default_factory=dict)
+
+
+def _load_source(b: BaseSpec, spec: StudySpec):
+    """``(motion, body or None, flight or None, notes)`` for a base's ``source``."""
+    kind, _, name = b.source.partition(":")
+    notes: list[str] = []
+    if kind == "example":
+        from mocomp import datasets
+
+        loader = getattr(datasets, "load_example", None) or getattr(datasets, "load")
+        res = loader(name)
+        motion = res.motion
+        body = getattr(res, "body", None)
+        flight = getattr(res, "flight", None)
+        if b.fps is not None:
+            motion = motion.with_fps(b.fps)
+        return motion, body, (None if flight is None else (int(flight[0]), int(flight[1]))), notes
+    if kind == "clip":
+        from mocomp import datasets
+
+        kw = {}
+        if b.fps is not None:
+            kw["fps"] = b.fps
+        if b.scale is not None:
+            kw["scale"] = b.scale
+        res = datasets.load(name, **kw)
+        motion = getattr(res, "motion", res)
+        return motion, getattr(res, "body", None), None, notes
+    if kind == "data":
+        from mocomp.datasets import data_dir
+
+        root = data_dir(required=True)
+        path = root / name
+    else:  # file
+        path = Path(name)
+        if not path.is_absolute() and spec.path is not None:
+            path = spec.path.parent / path
+    if not path.is_file():
+        raise DataNotFoundError(f"base {b.id!r}: file {path} does not exist")
+    if path.suffix.lower() != ".bvh":
+        raise StudyDataError(f"base {b.id!r}: cannot read {path.suffix!r} files here; use a BVH file or "
+                             "a 'clip:NAME' source", spec.path, column="base.source")
+    from mocomp.io import read_bvh
+
+    motion = read_bvh(path, scale="auto" if b.scale is None else b.scale, fps=b.fps)
+    return motion, None, None, notes
+
+
+def _rotation_about_y(angle: float) -> np.ndarray:
+    return np.array([0.0, np.sin(angle / 2.0), 0.0, np.cos(angle / 2.0)])
+
+
+def normalize_base(motion: Motion, body, flight: tuple[int, int], *, pre_s: float, post_s: float,
+                   floor_clearance: float) -> tuple[Motion, tuple[int, int], dict]:
+    """Trim, rotate and translate a base motion (module docstring, step 3).
+
+    Returns ``(motion, flight, info)``; ``floor_clearance`` is the height (m) at
+    which the lowest joint of the standing phase is put (the toe capsule radius).
+    """
+    a, b = flight
+    fps = motion.fps
+    s0 = max(0, a - int(round(pre_s * fps)))
+    s1 = min(motion.n_frames, b + int(round(post_s * fps)))
+    m = motion[s0:s1]
+    a, b = a - s0, b - s0
+    if a < 2 or b > m.n_frames - 2:
+        raise NoFlightPhaseError(f"the flight [{a + s0}, {b + s0}) needs ground frames on both sides "
+                                 f"(clip has {motion.n_frames} frames)")
+    L = _angular_momentum(body, m)[a + 1:b - 1]
+    Lm = L.mean(axis=0)
+    Lh = np.hypot(Lm[0], Lm[2])
+    if Lh < 0.5 * np.linalg.norm(Lm) or np.linalg.norm(Lm) < 1e-6:
+        raise PhysicsError(f"the flight's angular momentum {Lm.round(3).tolist()} is not a somersault about a "
+                           "horizontal axis (the study's side view needs one)")
+    # rotate about y so that (Lx, Lz) -> (0, +|Lh|): angle phi with R_y(phi) applied to the vector
+    phi = np.arctan2(Lm[0], Lm[2])  # R_y(phi) maps (sin phi, 0, cos phi) -> (0, 0, 1)
+    q = _rotation_about_y(-phi)
+    m = m.rotated(q)
+    com = _center_of_mass(body, m)
+    low = np.minimum(m.positions[..., 1].min(axis=1),
+                     m.end_site_positions()[..., 1].min(axis=1) if m.skeleton.end_sites else np.inf)
+    stand = low[:a]
+    floor = float(np.percentile(stand, 10))
+    shift = np.array([-com[a, 0], floor_clearance - floor, -com[a, 2]])
+    m = m.translated(shift)
+    info = {"frames_kept": [int(s0), int(s1)], "fps": float(fps), "flight": [int(a), int(b)],
+            "flight_s": (b - 1 - a) / fps, "rotation_about_y_deg": float(np.degrees(-phi)),
+            "translation_m": shift.round(6).tolist(), "L_mean_before": Lm.round(4).tolist()}
+    return m, (int(a), int(b)), info
+
+
+def load_base(b: BaseSpec, spec: StudySpec) -> BaseMotion:
+    """Load and normalise one base motion (module docstring, steps 1-3)."""
+    from mocomp.body import BodyModel
+    from mocomp.plots.render3d import RADIUS_FRACTION
+
+    motion, body, flight, notes = _load_source(b, spec)
+    first = b.first_frame
+    last = motion.n_frames - 1 if b.last_frame == -1 else b.last_frame
+    if not (0 <= first < last < motion.n_frames):
+        raise StudyDataError(f"base {b.id!r}: frames [{first}, {last}] are outside the clip's "
+                             f"{motion.n_frames} frames", spec.path, column="base.first_frame")
+    motion = motion[first:last + 1]
+    if body is None:
+        body = BodyModel.from_skeleton(motion.skeleton)
+    if flight is not None:
+        flight = (flight[0] - first, flight[1] - first)
+        how = "given by the example"
+    else:
+        iv = _airborne_intervals(motion, body, spec.contact_height)
+        if not iv:
+            raise NoFlightPhaseError(f"base {b.id!r} ({b.source}): no airborne frames found "
+                                     f"(contact height {spec.contact_height} m)")
+        flight = max(iv, key=lambda ab: ab[1] - ab[0])
+        how = f"longest of {len(iv)} airborne interval(s)"
+    clearance = RADIUS_FRACTION["toe"] * motion.skeleton.height()
+    m, fl, info = normalize_base(motion, body, flight, pre_s=spec.pre_s, post_s=spec.post_s,
+                                 floor_clearance=clearance)
+    info.update({"source": b.source, "first_frame": first, "flight_detection": how,
+                 "loaded_frames": motion.n_frames, "unit_scale": motion.source.unit_scale,
+                 "notes": list(motion.source.notes) + notes, "body_table": getattr(body, "table", ""),
+                 "body_mass_kg": float(getattr(body, "total_mass", float("nan")))})
+    return BaseMotion(b.id, b.source, m, body, fl, info)
+
+
+# --------------------------------------------------------------- the stimuli
+def stimulus_id(base_id: str, perturbation: str, direction: str, level_pct: float) -> str:
+    """``<base>__none`` or ``<base>__<perturbation>_<direction>_<level>`` (level in percent, ``%g``)."""
+    if perturbation == "none":
+        return f"{base_id}__none"
+    return f"{base_id}__{perturbation}_{direction}_{level_pct:g}"
+
+
+@dataclass(frozen=True, eq=False)
+class Stimulus:
+    """One stimulus: the perturbed motion, what was asked and what was achieved.
+
+    ``nominal_level`` is in percent (0 for the control); ``measures`` holds the
+    manifest's measured columns (:func:`measure_stimulus`).
+    """
+
+    stimulus_id: str
+    base_clip: str
+    base_source: str
+    perturbation: str
+    direction: str
+    nominal_level: float
+    rebuild: FlightRebuild
+    measures: dict
+
+    @property
+    def motion(self) -> Motion:
+        return self.rebuild.motion
+
+
+def _fit_flight_velocity(com: np.ndarray, fps: float, a: int, b: int, gravity: float) -> np.ndarray:
+    """Take-off velocity (at frame ``a``) of the COM parabola fitted over frames ``a..b-1``.
+
+    Quadratic least squares per axis (vertical acceleration free, so a non-ballistic
+    COM shows up in the residual rather than biasing the velocity).
+    """
+    t = (np.arange(a, b) - a) / fps
+    A = np.stack([np.ones_like(t), t, t * t], axis=1)
+    coef, *_ = np.linalg.lstsq(A, com[a:b], rcond=None)
+    return coef[1]
+
+
+def measure_stimulus(rb: FlightRebuild, control: FlightRebuild, body, *, L_control: np.ndarray | None = None,
+                     com: np.ndarray | None = None, com_control: np.ndarray | None = None) -> dict:
+    """The achieved errors and the evidence of one stimulus (module docstring).
+
+    Returns a dict with ``achieved_error`` (percent, in the nominal direction),
+    ``achieved_signed_pct``, ``L_error_pct`` (signed peak relative change of
+    ``|L|``), ``velocity_error_pct`` (signed relative change of the take-off
+    velocity along the jump direction), ``takeoff_angle_deg``,
+    ``takeoff_angle_change_deg``, ``takeoff_speed_ms``, ``speed_ratio``,
+    ``flight_s``, ``base_flight_s``, ``apex_m`` (COM rise above take-off),
+    ``landing_shift_m``, ``takeoff_dv_ms`` / ``landing_dv_ms`` (COM velocity jump
+    between the ground phase and the flight parabola) and
+    ``L_direction_change_deg`` (largest angle between ``L`` and the control's
+    ``L`` at the same original time).
+    """
+    m = rb.motion
+    fps = m.fps
+    fa, fb = rb.flight
+    if L_control is None:
+        L_control = _angular_momentum(body, control.motion)
+    L = _angular_momentum(body, m)
+    # inner flight frames: central differences do not straddle take-off or landing
+    idx = np.arange(fa + 1, fb - 1)
+    if idx.size < 3:
+        raise NoFlightPhaseError(f"flight of {fb - fa} frames is too short to measure")
+    s = rb.original_time[idx]
+    tc = control.original_time  # control frames <-> original time (identity in the flight)
+    Lc_at = np.stack([np.interp(s, tc, L_control[:, k]) for k in range(3)], axis=1)
+    ratio = np.linalg.norm(L[idx], axis=1) / np.linalg.norm(Lc_at, axis=1)
+    u = (idx - fa) / fps
+    Tn = rb.warp.new_T
+    if rb.kind == "am_abrupt":
+        keep = np.abs(u - rb.warp.switch_u) > 1.5 / fps
+        post = keep & (u > rb.warp.switch_u)
+        if post.sum() < 2:
+            raise NoFlightPhaseError("too few flight frames after the abrupt switch to measure the error")
+        L_err = float(np.median(ratio[post]) - 1.0)
+    else:
+        A = np.stack([np.ones_like(u), u / Tn], axis=1)
+        (c0, c1), *_ = np.linalg.lstsq(A, ratio, rcond=None)
+        L_err = float(c0 + c1 - 1.0)
+    cosang = np.sum(L[idx] * Lc_at, axis=1) / (np.linalg.norm(L[idx], axis=1) * np.linalg.norm(Lc_at, axis=1))
+    L_dir = float(np.degrees(np.arccos(np.clip(cosang, -1.0, 1.0))).max())
+
+    C = _center_of_mass(body, m) if com is None else com
+    Cc = _center_of_mass(body, control.motion) if com_control is None else com_control
+    g = rb.gravity
+    v = _fit_flight_velocity(C, fps, fa, fb, g)
+    vc = _fit_flight_velocity(Cc, fps, *control.flight, g)
+    h = control.jump_direction
+    vh, vch = float(v @ h), float(vc @ h)
+    v_err = (vh / vch - 1.0) if abs(vch) > 1e-6 else float("nan")
+    ang = lambda w: float(np.degrees(np.arctan2(w[1], np.hypot(w[0], w[2]))))  # noqa: E731
+    v_before = (C[fa - 1] - C[fa - 2]) * fps
+    v_after = (C[fb + 1] - C[fb]) * fps if fb + 1 < m.n_frames else C[fb] * np.nan
+    v_land = v - g * Tn * np.array([0.0, 1.0, 0.0])
+    y0 = C[fa, 1]
+    if rb.kind == "takeoff":
+        signed = v_err
+    else:
+        signed = L_err
+    sign = -1.0 if rb.error < 0 else 1.0
+    return {
+        "achieved_error": 100.0 * sign * signed,
+        "achieved_signed_pct": 100.0 * signed,
+        "L_error_pct": 100.0 * L_err,
+        "velocity_error_pct": 100.0 * v_err,
+        "takeoff_angle_deg": ang(v),
+        "takeoff_angle_change_deg": ang(v) - ang(vc),
+        "takeoff_speed_ms": float(np.linalg.norm(v)),
+        "speed_ratio": float(np.linalg.norm(v) / np.linalg.norm(vc)),
+        "flight_s": float(Tn),
+        "base_flight_s": float(rb.warp.T),
+        "apex_m": float(C[fa:fb, 1].max() - y0),
+        "landing_shift_m": float(np.linalg.norm(rb.landing_shift)),
+        "takeoff_dv_ms": float(np.linalg.norm(v - v_before)),
+        "landing_dv_ms": float(np.linalg.norm(v_after - v_land)),
+        "L_direction_change_deg": L_dir,
+    }
+
+
+def make_stimulus(base: BaseMotion, perturbation: str, direction: str, level_pct: float, *,
+                  gravity: float = 9.81, switch_fraction: float = 0.5,
+                  control: FlightRebuild | None = None, L_control: np.ndarray | None = None) -> Stimulus:
+    """Build and measure one stimulus of ``base`` (``level_pct`` in percent)."""
+    com = lambda mm: _center_of_mass(base.body, mm)  # noqa: E731
+    e = signed_level(direction, level_pct / 100.0)
+    if control is None:
+        control = rebuild_flight(base.motion, base.flight, com, kind="none", gravity=gravity)
+    rb = control if perturbation == "none" else rebuild_flight(
+        base.motion, base.flight, com, kind=perturbation, error=e, gravity=gravity, switch_fraction=switch_fraction)
+    meas = measure_stimulus(rb, control, base.body, L_control=L_control)
+    return Stimulus(stimulus_id(base.id, perturbation, direction, level_pct), base.id, base.source, perturbation,
+                    direction, float(level_pct), rb, meas)
+
+
+@dataclass
+class BuiltStimuli:
+    """Every stimulus of a spec, plus notes (skipped bases) and per-base evidence."""
+
+    stimuli: list[Stimulus]
+    bases: list[BaseMotion]
+    notes: list[str]
+    base_info: dict
+
+
+def build_stimuli(spec: StudySpec, *, skip_missing_data: bool = False, progress: bool = False) -> BuiltStimuli:
+    """Load every base of ``spec`` and make all its stimuli (controls first)."""
+    from tqdm.auto import tqdm
+
+    notes: list[str] = []
+    bases: list[BaseMotion] = []
+    for b in spec.bases:
+        try:
+            bases.append(load_base(b, spec))
+        except DataNotFoundError as e:
+            if b.required and not skip_missing_data:
+                raise
+            notes.append(f"base {b.id!r} skipped: {e}")
+    out: list[Stimulus] = []
+    design = [d for d in spec.design() if d[0] in {bm.id for bm in bases}]
+    by_id = {bm.id: bm for bm in bases}
+    controls: dict[str, tuple[FlightRebuild, np.ndarray]] = {}
+    for bid, p, d, lv in tqdm(design, desc="stimuli", unit="stim", disable=not progress, leave=False):
+        base = by_id[bid]
+        if bid not in controls:
+            com = lambda mm, body=base.body: _center_of_mass(body, mm)  # noqa: E731
+            ctl = rebuild_flight(base.motion, base.flight, com, kind="none", gravity=spec.gravity)
+            controls[bid] = (ctl, _angular_momentum(base.body, ctl.motion))
+        ctl, Lc = controls[bid]
+        try:
+            out.append(make_stimulus(base, p, d, lv, gravity=spec.gravity, switch_fraction=spec.switch_fraction,
+                                     control=ctl, L_control=Lc))
+        except PhysicsError as e:
+            raise PhysicsError(f"stimulus {stimulus_id(bid, p, d, lv)}: {e}") from None
+    info = {bm.id: bm.info for bm in bases}
+    return BuiltStimuli(out, bases, notes, info)
