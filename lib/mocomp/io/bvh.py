@@ -434,7 +434,10 @@ def format_bvh(motion: Motion, scale: float = 1.0, precision: int = 8, channels=
         ends[e.parent].append(e)
     num = f"%.{precision + 3}f"
 
+    order: list[int] = []  # joints in the order the hierarchy lists them = frame column order
+
     def emit(j: int, depth: int):
+        order.append(j)
         ind = "\t" * depth
         out.append(f"{ind}{'ROOT' if j == 0 else 'JOINT'} {sk.names[j]}")
         out.append(f"{ind}{{")
@@ -453,7 +456,7 @@ def format_bvh(motion: Motion, scale: float = 1.0, precision: int = 8, channels=
     emit(0, 0)
     T = motion.n_frames
     cols = []
-    for j in range(sk.n_joints):
+    for j in order:
         ch = chans[j]
         rot_ch = [c for c in ch if c in _ROT]
         eul = None
