@@ -22,6 +22,7 @@ class Markers:
     mask: ``(T, M)`` bool, True where the marker was seen (not a gap).
     source: file path, if any.
     unit_scale: metres per file unit applied by the loader.
+    notes: loader remarks (axis mapping to y-up, gaps, first frame number, ...).
     """
 
     names: tuple[str, ...]
@@ -30,6 +31,7 @@ class Markers:
     mask: np.ndarray = None  # type: ignore[assignment]
     source: str | None = None
     unit_scale: float = 1.0
+    notes: tuple[str, ...] = ()
 
     def __post_init__(self):
         P = np.array(self.positions, dtype=float, copy=True)
@@ -46,6 +48,7 @@ class Markers:
         object.__setattr__(self, "names", tuple(self.names))
         object.__setattr__(self, "positions", P)
         object.__setattr__(self, "mask", mask)
+        object.__setattr__(self, "notes", tuple(self.notes))
 
     @property
     def n_frames(self) -> int:
@@ -63,4 +66,5 @@ class Markers:
         if missing:
             raise KeyError(f"markers {missing} not in {self.source or 'marker set'}; available: {self.names}")
         idx = [self.names.index(n) for n in names]
-        return Markers(tuple(names), self.positions[:, idx], self.fps, self.mask[:, idx], self.source, self.unit_scale)
+        return Markers(tuple(names), self.positions[:, idx], self.fps, self.mask[:, idx], self.source, self.unit_scale,
+                       self.notes)
