@@ -34,7 +34,7 @@ except ``[[base]]`` and ``[[condition]]`` entries are optional; defaults below):
 
     [[base]]                            # one per base motion
     id = "synthetic_backflip"
-    source = "example:backflip"         # example:NAME | data:RELATIVE/PATH | file:/abs/or/relative/path
+    source = "example:backflip"         # example:NAME | clip:NAME | data:RELATIVE/PATH.bvh | file:PATH.bvh
     fps = 60                            # only for files with a wrong frame-rate header
     first_frame = 1                     # drop leading frames (e.g. a T-pose)
     last_frame = -1                     # inclusive; -1 = end
@@ -61,6 +61,8 @@ __all__ = ["StudySpec", "BaseSpec", "ConditionSpec", "RenderSettings", "load_spe
 
 #: Perturbation types a condition may name (``none`` is implicit: one control per base).
 PERTURBATION_TYPES = ("am_abrupt", "am_smooth", "takeoff")
+#: Kinds of base sources (see :mod:`study.stimuli`).
+SOURCE_KINDS = ("example", "clip", "data", "file")
 DIRECTIONS = ("increase", "decrease")
 
 
@@ -230,8 +232,9 @@ def parse_spec(data: dict, path: str | Path | None = None) -> StudySpec:
         if bid in seen:
             raise _err(path, f"{w}.id", f"duplicate base id {bid!r}")
         seen.add(bid)
-        src = _get(b, "source", str, None, path, w, lambda v: None if v.split(":", 1)[0] in ("example", "data", "file")
-                   and ":" in v else 'must start with "example:", "data:" or "file:"')
+        src = _get(b, "source", str, None, path, w, lambda v: None if v.split(":", 1)[0] in SOURCE_KINDS
+                   and v.split(":", 1)[1:] not in ([], [""]) else
+                   f'must be KIND:NAME with KIND one of {", ".join(SOURCE_KINDS)}')
         scale = b.get("scale")
         if scale is not None and not isinstance(scale, (str, int, float)):
             raise _err(path, f"{w}.scale", f"must be a unit name or a number, got {scale!r}")
