@@ -4,8 +4,8 @@
 one from the de Leva (1996) or Dempster (via Winter) tables
 (:mod:`~mocomp.body.tables`) through a bone -> segment mapping
 (:mod:`~mocomp.body.mapping`); :mod:`~mocomp.body.inertia` has the solids,
-:mod:`~mocomp.body.mjcf` the MuJoCo export, :mod:`~mocomp.body.deepmimic` the
-DeepMimic character's own bodies.
+:mod:`~mocomp.body.mjcf` the MuJoCo export. A DeepMimic character file's own
+bodies load with :func:`mocomp.io.deepmimic.read_deepmimic_body`.
 """
 from .inertia import inertia_for_masses
 from .mapping import CONVENTIONS, SegmentMap, detect_convention

@@ -34,9 +34,6 @@ __all__ = [
     "geometry_inertias",
     "inertia_for_masses",
     "segment_axes",
-    "box_inertia",
-    "sphere_inertia",
-    "capsule_inertia",
 ]
 
 
@@ -188,36 +185,3 @@ def inertia_for_masses(body, masses) -> np.ndarray:
                                np.broadcast_to(np.eye(3), (body.n_segments, 3, 3)).copy(),
                                np.full((body.n_segments, 3), np.nan))
     return geometry_inertias(geom, masses, given=(body.inertias, body.masses))
-
-
-# ---------------------------------------------------------------- primitives
-def box_inertia(mass: float, size) -> np.ndarray:
-    """``(3, 3)`` inertia of a solid box with full edge lengths ``size`` (x, y, z) about its centre."""
-    sx, sy, sz = np.asarray(size, dtype=float)
-    return np.diag(mass / 12.0 * np.array([sy**2 + sz**2, sx**2 + sz**2, sx**2 + sy**2]))
-
-
-def sphere_inertia(mass: float, radius: float) -> np.ndarray:
-    """``(3, 3)`` inertia of a solid sphere about its centre: ``2/5 m r^2``."""
-    return np.eye(3) * 0.4 * mass * radius**2
-
-
-def capsule_inertia(mass: float, radius: float, cyl_length: float, axis: int = 1) -> np.ndarray:
-    """``(3, 3)`` inertia of a solid capsule (cylinder of ``cyl_length`` capped by two hemispheres
-    of ``radius``, uniform density) about its centre, long axis ``axis``.
-
-    Cylinder ``m_c``: axial ``m_c r^2/2``, transverse ``m_c (3 r^2 + h^2)/12``. Two
-    hemispheres (together a sphere of mass ``m_s``): axial ``2/5 m_s r^2``;
-    transverse ``2/5 m_s r^2 + m_s (h^2/4 + 3 h r/8)`` (each hemisphere's COM sits
-    ``3r/8`` beyond the cylinder end).
-    """
-    r, h = float(radius), float(cyl_length)
-    v_c = np.pi * r * r * h
-    v_s = 4.0 / 3.0 * np.pi * r**3
-    m_c = mass * v_c / (v_c + v_s)
-    m_s = mass - m_c
-    axial = 0.5 * m_c * r * r + 0.4 * m_s * r * r
-    trans = m_c * (3 * r * r + h * h) / 12.0 + 0.4 * m_s * r * r + m_s * (h * h / 4.0 + 3.0 * h * r / 8.0)
-    d = np.full(3, trans)
-    d[axis] = axial
-    return np.diag(d)

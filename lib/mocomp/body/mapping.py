@@ -177,7 +177,7 @@ CONVENTIONS["cmu_asf"] = _convention(
      "MET3": ("first", "{s}fingers/end", "{s}hand/end", ("extend", "{s}radius", "{s}wrist", 0.32)),
      "HJC": "{s}femur", "KJC": "{s}tibia", "AJC": "{s}foot",
      "TTIP": ("first", "{s}toes/end", ("extend", "{s}foot", "{s}toes", 0.45))},
-    "head", ("upperback", "lowerback", "root"),
+    "head", ("thorax", "lowerback", "root"),
     ("{s}humerus", "{s}radius", "{s}wrist", "{s}femur", "{s}tibia", "{s}foot"),
     ("joints named after ASF bones sit at the bone's proximal end",),
 )

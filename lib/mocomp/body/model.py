@@ -43,7 +43,7 @@ class BodyModel:
     notes: how the model was built (mapping convention, approximations, normalisation).
 
     Build one with :meth:`from_skeleton` (table + shape) or
-    :func:`mocomp.body.deepmimic.body_from_deepmimic` (a character file's own bodies).
+    :func:`mocomp.io.deepmimic.read_deepmimic_body` (a DeepMimic character file's own bodies).
     """
 
     skeleton: Skeleton

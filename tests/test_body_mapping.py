@@ -1,0 +1,88 @@
+"""The bone -> segment mapping covers every real clip (all formats with a reader)."""
+import warnings
+
+import numpy as np
+import pytest
+
+from conftest import real_files
+from mocomp.body import BodyModel, detect_convention
+
+EXPECTED = {  # file-name prefix -> naming convention
+    "cmu_": "cmu_bvh", "01_01.bvh": "cmu_bvh", "131_": "cmu_3dsmax", "sfu_": "sfu", "bandai": "bandai",
+    "mass_": "mass", "deepmimic_": "deepmimic", ".amc": "cmu_asf",
+}
+
+
+def _expected(name):
+    for k, v in EXPECTED.items():
+        if name.startswith(k) or name.endswith(k):
+            return v
+    raise AssertionError(f"no expected convention for {name}")
+
+
+def _load(path):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        if path.suffix == ".bvh":
+            from mocomp.io import read_bvh
+
+            return read_bvh(path)
+        if path.suffix == ".amc":
+            from mocomp.io.asf_amc import read_amc
+
+            return read_amc(path)
+        from mocomp.io.deepmimic import read_deepmimic
+
+        return read_deepmimic(path)
+
+
+MOTION_FILES = [p for p in real_files("**/*") if p.suffix in (".bvh", ".amc")
+                or (p.suffix == ".txt" and p.name.startswith("deepmimic_") and p.parent.name != "skeletons")]
+
+
+@pytest.mark.realdata
+@pytest.mark.parametrize("path", MOTION_FILES, ids=lambda p: p.name)
+def test_mapping_covers_clip(path, real_data_dir):
+    motion = _load(path)
+    sk = motion.skeleton
+    conv = detect_convention(sk)
+    assert conv.name == _expected(path.name)
+    body = BodyModel.from_skeleton(sk, total_mass=70.0)
+    assert body.total_mass == pytest.approx(70.0)
+    assert body.n_segments == 16
+    carriers = {sk.names[j] for j in body.segment_joint}
+    # every bone is either a carrier or listed as massless, never dropped
+    assert carriers | set(body.massless_joints) == set(sk.names)
+    assert not carriers & set(body.massless_joints)
+    # limb segments of the two sides ride on mirror-image joints
+    mirror = sk.mirror_map()
+    for kind in ("upper_arm", "forearm", "hand", "thigh", "shank", "foot"):
+        jl, jr = body.segment_joint[body.segment(kind + "_l")], body.segment_joint[body.segment(kind + "_r")]
+        assert mirror[jl] == jr, (kind, sk.names[jl], sk.names[jr])
+    # in a standing frame-0 pose, the COM lies between the feet and the head
+    P = motion.positions[0]
+    com = (body.masses[:, None] * (P[body.segment_joint] + np.einsum(
+        "sij,sj->si", _rotm(motion.global_rotations[0, body.segment_joint]), body.local_coms))).sum(0) / 70.0
+    lo, hi = P[:, 1].min(), P[:, 1].max()
+    assert lo < com[1] < hi
+
+
+def _rotm(q):
+    from scipy.spatial.transform import Rotation
+
+    return Rotation.from_quat(q).as_matrix()
+
+
+@pytest.mark.realdata
+def test_deepmimic_character_masses_load_into_body_model(real_data_dir):
+    from mocomp.io.deepmimic import read_deepmimic, read_deepmimic_body
+
+    char = real_data_dir / "skeletons" / "deepmimic_humanoid3d_character.txt"
+    motion = read_deepmimic(real_data_dir / "flips" / "deepmimic_backflip.txt", character=char)
+    given = read_deepmimic_body(char, motion.skeleton)
+    assert given.total_mass == pytest.approx(45.0)
+    table = BodyModel.from_skeleton(motion.skeleton, total_mass=45.0)
+    # the character's own trunk (root + chest + neck bodies: 22 kg) vs de Leva trunk + head (50.4 %)
+    own_trunk = sum(m for n, m in zip(given.segment_names, given.masses) if n in ("root", "chest", "neck"))
+    assert own_trunk == pytest.approx(22.0)
+    assert table.masses[:4].sum() == pytest.approx(0.504 * 45.0, rel=1e-3)
