@@ -198,7 +198,7 @@ class Skeleton:
                     cands.append(n.replace(a, b))
                 if b in n:
                     cands.append(n.replace(b, a))
-            if n[:1] in ("l", "r", "L", "R") and len(n) > 1 and not n[1].islower():
+            if n[:1] in ("l", "r", "L", "R") and len(n) > 1:  # existence is checked below (ASF: lfemur/rfemur)
                 swap = {"l": "r", "r": "l", "L": "R", "R": "L"}[n[0]]
                 cands.append(swap + n[1:])
             for suf_a, suf_b in (("_l", "_r"), ("_L", "_R")):
