@@ -221,6 +221,11 @@ def test_load_applies_corrections_with_notes(fake_data_dir):
     assert p.fps == 60 and p.n_frames == 11
 
 
+def test_unreadable_clip_raises_format_error(fake_data_dir):
+    with pytest.raises(MotionFormatError, match="01_01.amc"):  # a stub AMC without its ASF
+        datasets.load("01_01.amc")
+
+
 def test_tpose_detection():
     assert clips.is_tpose_frame(small_motion(tpose=True))
     assert not clips.is_tpose_frame(small_motion(tpose=False))

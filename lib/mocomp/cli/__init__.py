@@ -16,6 +16,7 @@ import warnings
 from ..errors import MocompError
 
 COMMAND_MODULES: list[str] = [
+    "info", "convert", "plot",
 ]
 
 

@@ -199,7 +199,8 @@ def _apply_facts(path: Path, fps, scale, raw: bool, **kw):
                          f"frame rate {facts.fps:g} Hz: {facts.fps_reason}")
     elif fps is None and hdr and round(hdr) != hdr and abs(hdr - round(hdr)) <= 1e-4 * hdr:
         # "Frame Time: .0083333" means 120 Hz: snap rates that are whole numbers up to the rounding
-        notes.append(f"frame rate {round(hdr)} Hz (the header's {hdr:.7g} Hz is a rounded frame time)")
+        if abs(hdr - round(hdr)) > 1e-7 * hdr:
+            notes.append(f"frame rate {round(hdr)} Hz (the header's {hdr:.7g} Hz is a rounded frame time)")
         m = m.replace(fps=float(round(hdr)))
     if facts.tpose_first_frame and is_tpose_frame(m):
         m = m[1:]
@@ -245,6 +246,9 @@ def load(name_or_path, *, fps: float | None = None, scale=None, raw: bool = Fals
         tid = name_or_path.strip()
         if download and re.fullmatch(r"\d{1,3}_\d{1,3}", tid) and normalize_trial(tid) in CMU_REGISTRY:
             path = fetch_cmu(tid)
+        elif "/" in tid or os.sep in tid or tid.startswith("~"):
+            root = data_dir()
+            raise DataNotFoundError(f"no such file: {p}" + (f" (nor a clip of that name in {root})" if root else ""))
         else:
             raise
     return _apply_facts(path, fps, scale, raw, **kw)

@@ -1,0 +1,51 @@
+"""Argument helpers shared by the ``mocomp`` commands that load one motion."""
+from __future__ import annotations
+
+import argparse
+import math
+
+from ..io.units import UNITS
+
+
+def scale_arg(text: str):
+    """``--scale`` value: metres per file unit (a number) or a unit name."""
+    if text in UNITS or text == "auto":
+        return text
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"{text!r} is neither a number (metres per file unit) nor a unit ({', '.join(sorted(UNITS))})") from None
+    if not (v > 0 and math.isfinite(v)):
+        raise argparse.ArgumentTypeError(f"scale must be a positive number, got {text}")
+    return v
+
+
+def fps_arg(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a frame rate (Hz)") from None
+    if not (v > 0 and math.isfinite(v)):
+        raise argparse.ArgumentTypeError(f"frame rate must be positive, got {text}")
+    return v
+
+
+def add_load_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("motion", metavar="FILE_OR_NAME",
+                   help="a motion file (BVH, ASF/AMC, DeepMimic), an embedded example name or a real clip name "
+                        "(file stem or CMU trial id, looked up in $MOCOMP_DATA_DIR); see mocomp.datasets.list()")
+    p.add_argument("--scale", type=scale_arg, metavar="S|UNIT",
+                   help="metres per file length unit, or a unit (" + ", ".join(sorted(UNITS)) +
+                        "); default: the source's known unit, else guessed from body height")
+    p.add_argument("--fps", type=fps_arg, metavar="F",
+                   help="frame rate to use instead of the file header's (some clips have wrong headers)")
+    p.add_argument("--raw", action="store_true",
+                   help="do not apply the known per-clip corrections (true frame rate, unit, T-pose frame)")
+
+
+def load_from_args(args):
+    """The motion named by ``args.motion`` with the ``--scale/--fps/--raw`` options."""
+    from .. import datasets
+
+    return datasets.load(args.motion, fps=args.fps, scale=args.scale, raw=args.raw)

@@ -1,0 +1,134 @@
+"""A one-screen summary of a loaded motion: size, timing, units, body height, root travel.
+
+Used by ``mocomp info``; every number is computed from the :class:`Motion` and
+its :class:`SourceInfo` (what the loader did), so a wrong frame-rate header or
+length unit shows up as an implausible height, travel or joint speed.
+"""
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from .units import standing_height
+
+__all__ = ["MotionSummary", "summarize", "joint_speeds"]
+
+
+def joint_speeds(motion) -> np.ndarray:
+    """``(T, J)`` linear speed of every joint, m/s, by central differences on the
+    frame times (one-sided at the ends; zeros for a one-frame motion)."""
+    P = motion.positions
+    if motion.n_frames < 2:
+        return np.zeros(P.shape[:2])
+    return np.linalg.norm(np.gradient(P, motion.dt, axis=0), axis=-1)
+
+
+@dataclass(frozen=True)
+class MotionSummary:
+    """Facts about a motion, SI units.
+
+    Attributes
+    ----------
+    source: file path (or the example/format name for generated motions).
+    format: file format (``SourceInfo.format``).
+    n_joints, joint_names, root: skeleton size, names, root joint name.
+    n_frames: frames.
+    fps: frame rate used (Hz); header_fps: the file's own rate (``None`` if none).
+    duration: seconds from first to last frame.
+    unit_scale: metres per file length unit the loader applied; unit_reason: why.
+    standing_height: 95th percentile over frames of the vertical extent of joints
+        and end sites, m; rest_height: the same for the rest pose, m.
+    root_path_length: length of the root's path on the ground (x-z) plane, m.
+    root_displacement: straight-line ground-plane distance first -> last frame, m.
+    root_height_range: ``(min, max)`` root height (y), m.
+    peak_joint_speed: fastest joint speed over the clip, m/s; peak_joint, peak_time (s).
+    notes: the loader's remarks (corrections applied, dropped frames, ...).
+    """
+
+    source: str
+    format: str
+    n_joints: int
+    root: str
+    joint_names: tuple[str, ...]
+    n_frames: int
+    fps: float
+    header_fps: float | None
+    duration: float
+    unit_scale: float
+    unit_reason: str
+    standing_height: float
+    rest_height: float
+    root_path_length: float
+    root_displacement: float
+    root_height_range: tuple[float, float]
+    peak_joint_speed: float
+    peak_joint: str
+    peak_time: float
+    notes: tuple[str, ...]
+
+    def to_dict(self) -> dict:
+        d = asdict(self)
+        d["joint_names"] = list(self.joint_names)
+        d["root_height_range"] = list(self.root_height_range)
+        d["notes"] = list(self.notes)
+        return d
+
+    def to_text(self) -> str:
+        """Aligned human-readable lines."""
+        hdr = ""
+        if self.header_fps is not None:
+            same = abs(self.header_fps - self.fps) <= 1e-6 * self.fps
+            hdr = " (as the header)" if same else f" (header says {self.header_fps:.6g})"
+        lo, hi = self.root_height_range
+        lines = [
+            ("source", f"{self.source} [{self.format}]"),
+            ("joints", f"{self.n_joints} (root {self.root})"),
+            ("frames", f"{self.n_frames}"),
+            ("fps", f"{self.fps:.6g}{hdr}"),
+            ("duration", f"{self.duration:.3f} s"),
+            ("unit scale", f"{self.unit_scale:.6g} m per file unit: {self.unit_reason}"),
+            ("height", f"{self.standing_height:.3f} m standing (rest pose {self.rest_height:.3f} m)"),
+            ("root travel", f"{self.root_path_length:.3f} m along the ground, {self.root_displacement:.3f} m "
+                            f"start to end; root height {lo:.3f}-{hi:.3f} m"),
+            ("peak speed", f"{self.peak_joint_speed:.2f} m/s ({self.peak_joint} at {self.peak_time:.3f} s)"),
+        ]
+        w = max(len(k) for k, _ in lines)
+        out = [f"{k.ljust(w)}  {v}" for k, v in lines]
+        for i, n in enumerate(self.notes):
+            out.append(f"{('notes' if i == 0 else '').ljust(w)}  - {n}")
+        return "\n".join(out)
+
+
+def summarize(motion, name: str | None = None) -> MotionSummary:
+    """The :class:`MotionSummary` of ``motion`` (``name`` labels generated motions)."""
+    src = motion.source
+    sk = motion.skeleton
+    rp = motion.root_positions
+    ground = rp[:, [0, 2]]
+    path = float(np.linalg.norm(np.diff(ground, axis=0), axis=1).sum()) if motion.n_frames > 1 else 0.0
+    speeds = joint_speeds(motion)
+    t, j = np.unravel_index(int(np.argmax(speeds)), speeds.shape)
+    rest = sk.rest_positions(include_end_sites=True)
+    return MotionSummary(
+        source=str(src.path) if src.path else (name or src.format),
+        format=src.format,
+        n_joints=sk.n_joints,
+        root=sk.names[0],
+        joint_names=sk.names,
+        n_frames=motion.n_frames,
+        fps=float(motion.fps),
+        header_fps=None if src.header_fps is None else float(src.header_fps),
+        duration=float(motion.duration),
+        unit_scale=float(src.unit_scale),
+        unit_reason=src.unit_reason,
+        standing_height=standing_height(motion),
+        rest_height=float(rest[:, 1].max() - rest[:, 1].min()),
+        root_path_length=path,
+        root_displacement=float(np.linalg.norm(ground[-1] - ground[0])),
+        root_height_range=(float(rp[:, 1].min()), float(rp[:, 1].max())),
+        peak_joint_speed=float(speeds[t, j]),
+        peak_joint=sk.names[j],
+        peak_time=float(t / motion.fps),
+        notes=tuple(src.notes),
+    )

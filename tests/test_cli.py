@@ -1,0 +1,223 @@
+"""The ``mocomp`` command line: info, convert, plot (in-process via main() and as a subprocess)."""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import types
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mocomp import datasets
+from mocomp.cli import main
+from mocomp.core import EndSite, Motion, Skeleton
+from mocomp.datasets.examples import EXAMPLES, Example
+from mocomp.io import UnitWarning, read_bvh, write_bvh
+from mocomp.io.summary import joint_speeds, summarize
+from mocomp.plots.motion import main_direction, motion_overview
+
+COMMANDS = ("info", "convert", "plot")
+
+
+def walker(T: int = 121, fps: float = 120.0) -> Motion:
+    """A rigid 1.7 m figure (identity rotations) gliding 2 m along +x in 1 s at hip height 1.0 m."""
+    names = ("Hips", "Spine", "Head", "LeftUpLeg", "LeftFoot", "RightUpLeg", "RightFoot")
+    off = [[0, 0, 0], [0, 0.3, 0], [0, 0.3, 0], [0.1, -0.05, 0], [0, -0.85, 0], [-0.1, -0.05, 0], [0, -0.85, 0]]
+    sk = Skeleton(names, [-1, 0, 1, 0, 3, 0, 5], off, end_sites=(EndSite(2, [0, 0.2, 0], "Head_end"),))
+    t = np.arange(T) / fps
+    root = np.column_stack([2.0 * t, np.full(T, 1.0), np.zeros(T)])
+    rot = np.tile([0.0, 0.0, 0.0, 1.0], (T, len(names), 1))
+    return Motion(sk, fps, root, rot)
+
+
+@pytest.fixture
+def walker_bvh(tmp_path) -> Path:
+    return write_bvh(walker(), tmp_path / "walker.bvh")
+
+
+def run_cli(*argv, env_data=None):
+    """Run ``python -m mocomp`` in a subprocess; returns (code, stdout, stderr)."""
+    env = dict(os.environ)
+    env.pop("MOCOMP_DATA_DIR", None)
+    if env_data:
+        env["MOCOMP_DATA_DIR"] = str(env_data)
+    p = subprocess.run([sys.executable, "-m", "mocomp", *map(str, argv)], capture_output=True, text=True, env=env,
+                       timeout=120)
+    return p.returncode, p.stdout, p.stderr
+
+
+# ------------------------------------------------------------------ help
+@pytest.mark.parametrize("cmd", COMMANDS)
+def test_help_in_process(cmd, capsys):
+    with pytest.raises(SystemExit) as e:
+        main([cmd, "--help"])
+    assert e.value.code == 0
+    out = capsys.readouterr().out
+    assert f"usage: mocomp {cmd}" in out and "FILE_OR_NAME" in out and "--scale" in out and "--fps" in out
+
+
+def test_help_subprocess():
+    code, out, _ = run_cli("--help")
+    assert code == 0 and all(c in out for c in COMMANDS)
+    code, out, _ = run_cli("plot", "--help")
+    assert code == 0 and "--output" in out and "heat map" in out
+
+
+# ------------------------------------------------------------------ info
+def test_info_known_answers(walker_bvh, capsys):
+    assert main(["info", str(walker_bvh), "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["n_joints"] == 7 and d["root"] == "Hips" and d["n_frames"] == 121
+    assert d["fps"] == 120.0 and d["header_fps"] == pytest.approx(120.0)
+    assert d["duration"] == pytest.approx(1.0)
+    assert d["unit_scale"] == 1.0 and "m" in d["unit_reason"]
+    assert d["standing_height"] == pytest.approx(1.7, abs=1e-6)  # feet at 0.1 m, head end at 1.8 m
+    assert d["rest_height"] == pytest.approx(1.7, abs=1e-6)
+    assert d["root_path_length"] == pytest.approx(2.0, abs=1e-6)
+    assert d["root_displacement"] == pytest.approx(2.0, abs=1e-6)
+    assert d["root_height_range"] == pytest.approx([1.0, 1.0], abs=1e-6)
+    assert d["peak_joint_speed"] == pytest.approx(2.0, abs=1e-5)  # every joint glides at 2 m/s
+    assert main(["info", str(walker_bvh)]) == 0
+    text = capsys.readouterr().out
+    for key in ("joints", "frames", "fps", "duration", "unit scale", "height", "root travel"):
+        assert key in text
+    assert "2.000 m along the ground" in text and "1.700 m standing" in text and "(as the header)" in text
+
+
+def test_info_overrides(walker_bvh, capsys):
+    with pytest.warns(UnitWarning, match="standing height 0.017 m"):  # the implausible unit is flagged
+        assert main(["info", str(walker_bvh), "--json", "--fps", "60", "--scale", "cm"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["fps"] == 60.0 and d["header_fps"] == pytest.approx(120.0) and d["duration"] == pytest.approx(2.0)
+    assert d["unit_scale"] == 0.01 and d["standing_height"] == pytest.approx(0.017, abs=1e-8)
+    assert d["peak_joint_speed"] == pytest.approx(0.01, abs=1e-7)  # 2 cm in 2 s
+    assert main(["info", str(walker_bvh), "--fps", "60"]) == 0
+    assert "(header says 120)" in capsys.readouterr().out
+
+
+def test_info_on_example_name(monkeypatch, capsys):
+    monkeypatch.setitem(EXAMPLES, "cli_test_walker", Example(
+        "cli_test_walker", "glides", lambda: types.SimpleNamespace(motion=walker(), truth=None)))
+    datasets._make_example.cache_clear()
+    try:
+        assert main(["info", "cli_test_walker", "--json"]) == 0
+        d = json.loads(capsys.readouterr().out)
+        assert d["n_frames"] == 121 and d["source"] == "cli_test_walker"
+        assert main(["info", "cli_test_walker", "--fps", "30"]) == 2
+        assert "generated example" in capsys.readouterr().err
+    finally:
+        datasets._make_example.cache_clear()
+
+
+def test_summary_matches_library(walker_bvh):
+    m = read_bvh(walker_bvh)
+    s = summarize(m)
+    np.testing.assert_allclose(joint_speeds(m), 2.0, atol=1e-6)
+    assert s.to_dict()["joint_names"][0] == "Hips"
+    one = summarize(m[:1])
+    assert one.peak_joint_speed == 0.0 and one.root_path_length == 0.0
+
+
+# ------------------------------------------------------------------ convert
+def test_convert_scale_fps_and_round_trip(walker_bvh, tmp_path, capsys):
+    out = tmp_path / "out_cm.bvh"
+    assert main(["convert", str(walker_bvh), str(out), "--out-scale", "cm", "--fps", "60"]) == 0
+    assert "wrote" in capsys.readouterr().out
+    text = out.read_text()
+    assert "Frame Time: 0.0166666667" in text
+    assert "OFFSET 0.00000000000 30.00000000000 0.00000000000" in text  # Spine 0.3 m written in cm
+    back = read_bvh(out, scale="cm")
+    assert back.fps == pytest.approx(60.0)
+    np.testing.assert_allclose(back.positions, walker().positions, atol=1e-6)
+    out2 = tmp_path / "out_num.bvh"
+    assert main(["convert", str(walker_bvh), str(out2), "--out-scale", "0.0254", "--precision", "10"]) == 0
+    np.testing.assert_allclose(read_bvh(out2, scale="inch").positions, walker().positions, atol=1e-8)
+
+
+def test_convert_input_scale(walker_bvh, tmp_path):
+    """--scale reinterprets the input's unit: a metres file read as cm shrinks 100 times."""
+    out = tmp_path / "small.bvh"
+    with pytest.warns(UnitWarning):
+        assert main(["convert", str(walker_bvh), str(out), "--scale", "cm"]) == 0
+    back = read_bvh(out, scale="m", height_check=False)
+    np.testing.assert_allclose(back.positions, walker().positions * 0.01, atol=1e-8)
+
+
+def test_convert_errors(walker_bvh, tmp_path, capsys):
+    assert main(["convert", str(walker_bvh), str(tmp_path / "x.txt")]) == 2
+    assert "must be a .bvh file" in capsys.readouterr().err
+    assert main(["convert", str(walker_bvh), str(tmp_path / "no" / "dir" / "x.bvh")]) == 2
+    assert "does not exist" in capsys.readouterr().err
+    assert main(["convert", str(walker_bvh), str(tmp_path / "x.bvh"), "--out-scale", "auto"]) == 2
+    with pytest.raises(SystemExit) as e:
+        main(["convert", str(walker_bvh), str(tmp_path / "x.bvh"), "--out-scale", "-3"])
+    assert e.value.code == 2
+
+
+def test_convert_real_clip_applies_corrections(real_data_dir, tmp_path, capsys):
+    out = tmp_path / "bf.bvh"
+    assert main(["convert", "88_01", str(out)]) == 0
+    back = read_bvh(out, scale="m")
+    ref = datasets.load("88_01")
+    assert back.fps == pytest.approx(60.0) and back.n_frames == 202
+    np.testing.assert_allclose(back.positions, ref.positions, atol=1e-6)
+
+
+# ------------------------------------------------------------------ plot
+def test_plot_writes_png(walker_bvh, tmp_path, capsys):
+    out = tmp_path / "p.png"
+    assert main(["plot", str(walker_bvh), "-o", str(out), "--dpi", "50"]) == 0
+    data = out.read_bytes()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 5000
+    assert main(["plot", str(walker_bvh), "-o", str(tmp_path / "p.xyz")]) == 2
+    assert "unknown image type" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as e:
+        main(["plot", str(walker_bvh)])  # -o is required
+    assert e.value.code == 2
+
+
+def test_plot_functions():
+    m = walker()
+    fig = motion_overview(m, title="w")
+    titles = [a.get_title() for a in fig.axes]
+    assert "root, top view" in titles and "root, side view" in titles
+    assert any(t.startswith("joint speed (peak 2.00 m/s") for t in titles)
+    # the side view runs along the travel direction: +x here
+    np.testing.assert_allclose(main_direction(m.root_positions[:, [0, 2]]), [1.0, 0.0], atol=1e-12)
+    back = m.root_positions[::-1, [0, 2]]
+    np.testing.assert_allclose(main_direction(back), [-1.0, 0.0], atol=1e-12)
+    np.testing.assert_allclose(main_direction(np.zeros((5, 2))), [1.0, 0.0])
+    motion_overview(m[:1])  # one frame: no crash, zero speeds
+
+
+# ------------------------------------------------------------------ bad input
+def test_bad_input_one_line_exit_2_subprocess(tmp_path):
+    bad = tmp_path / "bad.bvh"
+    bad.write_text("HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHANNELS 3 Xposition Yposition Zposition\n}\n"
+                   "MOTION\nFrames: 2\nFrame Time: 0.01\n0 0 0\n0 zero 0\n")
+    code, out, err = run_cli("info", bad)
+    assert code == 2 and out == ""
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("mocomp info: error:") and "bad.bvh" in lines[0]
+    code, out, err = run_cli("info", tmp_path / "missing.bvh")
+    assert code == 2 and len(err.strip().splitlines()) == 1 and "no such file" in err
+    code, _, err = run_cli("plot", "no_such_clip_name", "-o", tmp_path / "x.png")
+    assert code == 2 and len(err.strip().splitlines()) == 1 and "MOCOMP_DATA_DIR" in err
+
+
+def test_bad_input_exit_2_in_process(tmp_path, capsys, monkeypatch):
+    monkeypatch.delenv("MOCOMP_DATA_DIR", raising=False)
+    empty = tmp_path / "empty.bvh"
+    empty.write_text("")
+    for argv in (["info", str(empty)], ["info", "nonexistent_clip"], ["convert", str(empty), str(tmp_path / "o.bvh")],
+                 ["plot", str(tmp_path / "nope.bvh"), "-o", str(tmp_path / "o.png")]):
+        assert main(argv) == 2, argv
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and err[0].startswith(f"mocomp {argv[0]}: error:"), err
+    for argv in (["info"], ["info", "x", "--fps", "-1"], ["info", "x", "--scale", "furlong"], ["nosuchcommand"]):
+        with pytest.raises(SystemExit) as e:
+            main(argv)
+        assert e.value.code == 2
