@@ -17,6 +17,7 @@ from ..errors import MocompError
 
 COMMAND_MODULES: list[str] = [
     "info", "convert", "plot",
+    "study",
 ]
 
 

@@ -1,0 +1,463 @@
+"""The participant-facing app: ipywidgets, in Jupyter or served by Voila.
+
+Screens: welcome -> consent -> participant information (ID, age, gender,
+experience with computer animation and with gymnastics, as the flips paper
+reported) -> instructions -> examples of correct motions -> trials (the video
+plays; "Correct" / "Incorrect" by button or key) with progress and breaks ->
+end. A session that already has data opens on a "welcome back" screen and
+continues at the first unanswered trial.
+
+Every answer goes through :class:`study.controller.TrialController` (the same
+code path the simulated observers use), which appends and ``fsync``-s it
+before the next screen is built. Buttons are disabled as soon as a click
+arrives and the controller ignores a second answer to the same trial, so
+double clicks and key repeats cannot duplicate a row.
+
+Keys and browser timing come from a small script (installed once per page):
+``C``/``I`` (configurable) press the visible response button, Space/Enter
+the visible "Next"/"Continue" button; a capture-phase listener writes the
+time from the video's ``playing`` event to the click (``client_rt_s``) and
+the input device into a hidden text widget just before the click reaches the
+kernel. Without the script (e.g. a front end that does not run it) buttons
+still work and ``client_rt_s`` stays empty.
+
+``mocomp study run`` serves ``study/app.ipynb`` with Voila; the notebook calls
+:func:`app_from_environment`, which reads the settings from the environment
+variable ``MOCOMP_STUDY_CONFIG`` (JSON; see :func:`config_from_environment`).
+"""
+from __future__ import annotations
+
+import base64
+import html
+import json
+import os
+import traceback
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import ipywidgets as W
+
+from mocomp.errors import MocompError, SessionLockedError
+
+from .controller import TrialController, TrialView
+from .design import DesignConfig
+from .session import Session, utc_now
+from .stimulus_set import StimulusSet, load_manifest
+
+ENV_CONFIG = "MOCOMP_STUDY_CONFIG"
+
+_JS = r"""
+(function () {
+  if (window.__mocompHarness) { return; }
+  window.__mocompHarness = true;
+  var KC = "%KC%", KI = "%KI%";
+  var onset = null;
+  function visible(el) { return el && el.offsetParent !== null && !el.disabled; }
+  function first(sel) {
+    var els = document.querySelectorAll(sel);
+    for (var i = 0; i < els.length; i++) { if (visible(els[i])) { return els[i]; } }
+    return null;
+  }
+  document.addEventListener("keydown", function (e) {
+    if (e.repeat || e.altKey || e.ctrlKey || e.metaKey) { return; }
+    var t = e.target;
+    if (t && (t.tagName === "INPUT" || t.tagName === "TEXTAREA" || t.tagName === "SELECT")) { return; }
+    var k = (e.key || "").toLowerCase(), sel = null;
+    if (k === KC) { sel = ".mocomp-btn-correct"; }
+    else if (k === KI) { sel = ".mocomp-btn-incorrect"; }
+    else if (k === " " || k === "enter") { sel = ".mocomp-btn-next"; }
+    if (!sel) { return; }
+    var b = first(sel);
+    if (b) { e.preventDefault(); b.setAttribute("data-mocomp-input", "key"); b.click(); }
+  }, true);
+  document.addEventListener("playing", function (e) {
+    if (e.target && e.target.tagName === "VIDEO") { onset = performance.now(); }
+  }, true);
+  document.addEventListener("loadedmetadata", function (e) {
+    var v = e.target;
+    if (v && v.tagName === "VIDEO") { v.muted = true; onset = null; var p = v.play(); if (p && p.catch) { p.catch(function () {}); } }
+  }, true);
+  document.addEventListener("click", function (e) {
+    var b = e.target && e.target.closest ? e.target.closest(".mocomp-btn-correct, .mocomp-btn-incorrect") : null;
+    if (!b) { return; }
+    var box = document.querySelector(".mocomp-timing input");
+    if (!box) { return; }
+    var via = b.getAttribute("data-mocomp-input") || "button";
+    b.removeAttribute("data-mocomp-input");
+    var trial = null, els = document.querySelectorAll("[class*='mocomp-trial-']");
+    for (var i = 0; i < els.length; i++) {
+      var m = /mocomp-trial-(\d+)/.exec(els[i].className);
+      if (m && els[i].offsetParent !== null) { trial = parseInt(m[1], 10); break; }
+    }
+    box.value = JSON.stringify({trial: trial, rt: onset === null ? null : (performance.now() - onset) / 1000,
+                                input: via, t: Date.now()});
+    box.dispatchEvent(new Event("input", {bubbles: true}));
+  }, true);
+})();
+"""
+
+
+@dataclass(frozen=True)
+class HarnessTexts:
+    """Everything the participant reads (HTML allowed). Defaults follow the paper's procedure."""
+
+    title: str = "Motion perception study"
+    welcome: str = ("<p>Thank you for taking part.</p><p>You will watch short animations of a person "
+                    "performing a somersault and judge each one. The study takes about 15 minutes.</p>")
+    consent: str = ("<p>Your answers and the information you give are stored under a participant code, "
+                    "without your name. You may stop at any time without giving a reason. "
+                    "Please confirm that you have read this and agree to take part.</p>")
+    instructions: str = ("<p>You are about to see a sequence of motions. <b>Some of them are physically correct "
+                         "and some are not.</b></p><p>First you will see a few <b>examples of correct "
+                         "motions</b> as a reference. Then, for each motion, answer whether it looks "
+                         "physically <b>correct</b> or <b>incorrect</b>. Each motion may appear more than "
+                         "once. There are no time limits, but please answer after the motion has played.</p>")
+    example: str = "<p><b>Example {n} of {total}</b>: a physically correct motion.</p>"
+    question: str = "<p>Is this motion physically correct?</p>"
+    attention: str = ("<p style='color:#b00'><b>Attention check:</b> whatever you see, please press "
+                      "<b>{expected}</b> for this one.</p>")
+    break_text: str = "<p><b>Time for a short break.</b> Continue whenever you are ready.</p>"
+    welcome_back: str = "<p><b>Welcome back.</b> The study continues at trial {next} of {total}.</p>"
+    end: str = "<p><b>Thank you!</b> All your answers are saved. You may close this window now.</p>"
+    declined: str = "<p>You chose not to take part. Nothing but this decision was recorded. Thank you.</p>"
+
+
+@dataclass(frozen=True)
+class HarnessConfig:
+    """Presentation settings of the app."""
+
+    texts: HarnessTexts = field(default_factory=HarnessTexts)
+    key_correct: str = "c"
+    key_incorrect: str = "i"
+    video_width: int = 640
+    loop_video: bool = False
+    show_progress: bool = True
+    experience_levels: tuple = ("none", "a little", "some", "significant")
+    lock_timeout_s: float = 15.0
+
+
+def _video_bytes(path: Path) -> bytes:
+    with open(path, "rb") as f:
+        return f.read()
+
+
+class StudyApp:
+    """The ipywidgets app for one participant session (display ``app.widget``)."""
+
+    def __init__(self, stimuli: StimulusSet | str | Path, data_dir: str | Path, participant_id: str, session_id: str,
+                 *, design: DesignConfig | None = None, study_seed: int = 0, seed: int | None = None,
+                 counterbalance_index: int | None = None, config: HarnessConfig | None = None):
+        self.cfg = config or HarnessConfig()
+        self.texts = self.cfg.texts
+        self.participant_id, self.session_id = str(participant_id), str(session_id)
+        self.controller: TrialController | None = None
+        self.error: str | None = None
+        self.screen_name = ""
+        self._title = W.HTML(f"<h2 style='margin:4px 0'>{html.escape(self.texts.title)}</h2>")
+        self._progress = W.IntProgress(value=0, min=0, max=1, layout=W.Layout(width="300px"))
+        self._progress_label = W.Label("")
+        self._header = W.HBox([self._progress, self._progress_label], layout=W.Layout(display="none"))
+        self._body = W.VBox([], layout=W.Layout(min_height="360px"))
+        self._timing = W.Text(value="", continuous_update=True, layout=W.Layout(display="none"))
+        self._timing.add_class("mocomp-timing")
+        js = _JS.replace("%KC%", self.cfg.key_correct.lower()).replace("%KI%", self.cfg.key_incorrect.lower())
+        b64 = base64.b64encode(js.encode()).decode()
+        self._script = W.HTML(f'<img src="data:," alt="" style="display:none" onerror="eval(atob(\'{b64}\'))">')
+        self.widget = W.VBox([self._title, self._header, self._body, self._timing, self._script])
+        self.widget.add_class("mocomp-app")
+        self._buttons: list[W.Button] = []
+        self._video: W.Video | None = None
+        self._token = 0
+        self._screen_cls = ""
+        try:
+            st = stimuli if isinstance(stimuli, StimulusSet) else load_manifest(stimuli)
+            sess = Session.open(data_dir, self.participant_id, self.session_id, st, config=design,
+                                study_seed=study_seed, seed=seed, counterbalance_index=counterbalance_index,
+                                lock_timeout=self.cfg.lock_timeout_s)
+        except SessionLockedError as e:
+            self._show_error("This session is already open in another window or program. "
+                             "Please close the other window and reload this page.", str(e))
+            return
+        except (MocompError, ValueError, FileNotFoundError) as e:
+            self._show_error("The study could not start. Please call the experimenter.", str(e))
+            return
+        self.controller = TrialController(sess)
+        self._examples = self.controller.examples_to_show()
+        if sess.state.resumed and (sess.n_answered > 0 or sess.participant_info() is not None):
+            if sess.finished:
+                self._show_end()
+            else:
+                self._show_welcome_back()
+        else:
+            self._show_welcome()
+
+    # ----------------------------------------------------------- plumbing
+    @property
+    def session(self) -> Session | None:
+        return None if self.controller is None else self.controller.session
+
+    def _set(self, name: str, children: list) -> None:
+        """Show a new screen; buttons of older screens stop working (stale or double clicks)."""
+        old_video = self._video
+        self._token += 1
+        stack = list(children)
+        while stack:
+            w = stack.pop()
+            if isinstance(w, W.Button):
+                w._mocomp_token = self._token
+            stack.extend(getattr(w, "children", ()))
+        self.screen_name = name
+        self._body.children = children
+        if self._screen_cls:
+            self._body.remove_class(self._screen_cls)
+        self._screen_cls = f"mocomp-screen-{name}"
+        self._body.add_class(self._screen_cls)
+        if old_video is not None and old_video is not self._video:
+            old_video.close()
+
+    def _button(self, text: str, cls: str, style: str = "", handler=None, disabled: bool = False) -> W.Button:
+        b = W.Button(description=text, button_style=style, disabled=disabled, layout=W.Layout(width="180px",
+                                                                                              height="44px"))
+        b.add_class(cls)
+        if handler is not None:
+            b.on_click(lambda btn: self._guard(handler, btn))
+        return b
+
+    def _guard(self, fn, button: W.Button | None = None) -> None:
+        if button is not None and getattr(button, "_mocomp_token", None) != self._token:
+            return  # a click on a screen that is no longer shown
+        try:
+            fn()
+        except Exception as e:  # never show a traceback to a participant; keep it in the log
+            tb = traceback.format_exc()
+            if self.session is not None and not self.session.closed:
+                try:
+                    self.session.log_event("app_error", error=str(e), traceback=tb)
+                except Exception:
+                    pass
+            self._show_error("Something went wrong. Please call the experimenter.", f"{type(e).__name__}: {e}")
+
+    def _update_progress(self) -> None:
+        if self.controller is None or not self.cfg.show_progress:
+            return
+        c = self.controller
+        self._progress.max = max(c.total, 1)
+        self._progress.value = c.n_answered
+        self._progress_label.value = f"  {c.n_answered} of {c.total} answered"
+        self._header.layout.display = "flex"
+
+    # ------------------------------------------------------------ screens
+    def _show_error(self, message: str, detail: str) -> None:
+        self.error = detail
+        self._set("error", [W.HTML(f"<p style='color:#b00'><b>{html.escape(message)}</b></p>"
+                                   f"<pre style='font-size:80%;white-space:pre-wrap'>{html.escape(detail)}</pre>")])
+
+    def _show_welcome(self) -> None:
+        self._set("welcome", [W.HTML(self.texts.welcome),
+                              self._button("Continue", "mocomp-btn-next", "primary", self._show_consent)])
+
+    def _show_consent(self) -> None:
+        agree = W.Checkbox(value=False, description="I have read the above and agree to take part", indent=False,
+                           layout=W.Layout(width="auto"))
+        agree.add_class("mocomp-consent-check")
+        go = self._button("Continue", "mocomp-btn-consent", "primary", self._consent_given, disabled=True)
+        agree.observe(lambda ch: setattr(go, "disabled", not ch["new"]), names="value")
+        no = self._button("I do not agree", "mocomp-btn-decline", "", self._consent_declined)
+        self._set("consent", [W.HTML(self.texts.consent), agree, W.HBox([go, no])])
+
+    def _consent_given(self) -> None:
+        self.session.log_event("consent_given")
+        self._show_info()
+
+    def _consent_declined(self) -> None:
+        self.session.log_event("consent_declined")
+        self.controller.finish()
+        self._set("declined", [W.HTML(self.texts.declined)])
+
+    def _show_info(self) -> None:
+        lv = list(self.cfg.experience_levels)
+        pid = W.Text(value=self.participant_id, description="Participant", disabled=True)
+        age = W.Text(value="", description="Age", placeholder="years (optional)")
+        age.add_class("mocomp-info-age")
+        gender = W.Dropdown(options=["prefer not to say", "woman", "man", "another gender"],
+                            value="prefer not to say", description="Gender")
+        anim = W.Dropdown(options=lv, value=lv[0], description="Animation",
+                          style={"description_width": "initial"})
+        gym = W.Dropdown(options=lv, value=lv[0], description="Gymnastics",
+                         style={"description_width": "initial"})
+        msg = W.HTML("")
+
+        def submit():
+            a = age.value.strip()
+            if a and (not a.isdigit() or not 10 <= int(a) <= 110):
+                msg.value = "<span style='color:#b00'>Please enter your age in whole years (or leave it empty).</span>"
+                return
+            self.session.save_participant_info({
+                "participant_id": self.participant_id, "age": int(a) if a else None, "gender": gender.value,
+                "experience_animation": anim.value, "experience_gymnastics": gym.value})
+            self._show_instructions()
+
+        self._set("info", [W.HTML("<p>About you (experience: with computer animation, and with gymnastics or "
+                                  "acrobatics):</p>"), pid, age, gender, anim, gym, msg,
+                           self._button("Continue", "mocomp-btn-info", "primary", submit)])
+
+    def _show_instructions(self) -> None:
+        keys = (f"<p>Keys: <b>{self.cfg.key_correct.upper()}</b> = correct, "
+                f"<b>{self.cfg.key_incorrect.upper()}</b> = incorrect; Space = continue.</p>")
+        self._set("instructions", [W.HTML(self.texts.instructions + keys),
+                                   self._button("Start", "mocomp-btn-next", "primary", self._start)])
+
+    def _start(self) -> None:
+        self._example_i = 0
+        self._next_example() if self._examples else self._next_trial()
+
+    def _video_widget(self, view: TrialView) -> W.Widget:
+        v = W.Video(value=_video_bytes(view.video), format="mp4", autoplay=True, loop=self.cfg.loop_video,
+                    controls=False, width=self.cfg.video_width)
+        self._video = v
+        box = W.Box([v])
+        box.add_class(f"mocomp-trial-{view.trial_index}")
+        box.add_class("mocomp-stimulus")
+        return box
+
+    def _next_example(self) -> None:
+        if self._example_i >= len(self._examples):
+            self._next_trial()
+            return
+        view = self._examples[self._example_i]
+        text = self.texts.example.format(n=self._example_i + 1, total=len(self._examples))
+
+        def done():
+            self.controller.example_viewed(view)
+            self._example_i += 1
+            self._next_example()
+
+        self._set("example", [W.HTML(text), self._video_widget(view),
+                              self._button("Next", "mocomp-btn-next", "primary", done)])
+
+    def _show_welcome_back(self) -> None:
+        c = self.controller
+        cur = c.current()
+        text = self.texts.welcome_back.format(next=cur.number, total=c.total)
+        self._update_progress()
+        nxt = self._start if c.n_answered == 0 else self._next_trial
+        self._set("welcome_back", [W.HTML(text), self._button("Continue", "mocomp-btn-next", "primary", nxt)])
+
+    def _show_break(self) -> None:
+        self.controller.start_break()
+
+        def resume():
+            self.controller.end_break()
+            self._next_trial()
+
+        self._set("break", [W.HTML(self.texts.break_text),
+                            self._button("Continue", "mocomp-btn-next", "primary", resume)])
+
+    def _next_trial(self) -> None:
+        c = self.controller
+        if c.current() is None:
+            self._show_end()
+            return
+        if c.break_due():
+            self._show_break()
+            return
+        view = c.current()
+        prompt = self.texts.question
+        if view.kind == "attention":
+            prompt = self.texts.attention.format(expected=html.escape(view.expected_response.upper())) + prompt
+        bc = self._button("Correct", "mocomp-btn-correct", "success")
+        bi = self._button("Incorrect", "mocomp-btn-incorrect", "danger")
+        self._buttons = [bc, bi]
+        bc.on_click(lambda _b, i=view.trial_index: self._guard(lambda: self._answer("correct", i)))
+        bi.on_click(lambda _b, i=view.trial_index: self._guard(lambda: self._answer("incorrect", i)))
+        # (no token check here: a stale answer must reach the controller, which logs and ignores it)
+        hint = W.HTML(f"<span style='color:#777'>keys: {self.cfg.key_correct.upper()} = correct, "
+                      f"{self.cfg.key_incorrect.upper()} = incorrect</span>")
+        self._update_progress()
+        self._timing.value = ""
+        self._set("trial", [W.HTML(prompt), self._video_widget(view), W.HBox([bc, bi]), hint])
+        c.show()
+
+    def _answer(self, response: str, trial_index: int) -> None:
+        c = self.controller
+        if c is None or c.showing != trial_index:
+            if c is not None:
+                c.respond(response, input="button", trial_index=trial_index)  # logged as ignored
+            return
+        for b in self._buttons:
+            b.disabled = True
+        client_rt, via = None, "button"
+        try:
+            t = json.loads(self._timing.value) if self._timing.value else None
+        except ValueError:
+            t = None
+        if t and t.get("trial") == trial_index:
+            via = "key" if t.get("input") == "key" else "button"
+            client_rt = t.get("rt")
+        self._timing.value = ""
+        row = c.respond(response, input=via, client_rt_s=client_rt, trial_index=trial_index)
+        if row is None:
+            return
+        self._next_trial()
+
+    def _show_end(self) -> None:
+        c = self.controller
+        self._update_progress()
+        c.finish()
+        self._set("end", [W.HTML(self.texts.end)])
+
+    # ---------------------------------------------------------- notebook
+    def _ipython_display_(self):
+        from IPython.display import display
+
+        display(self.widget)
+
+    def close(self) -> None:
+        """Release the session (the lock) without finishing; the session can be resumed later."""
+        if self.controller is not None and not self.controller.session.closed:
+            self.controller.finish()
+
+
+def config_from_environment(env: dict | None = None) -> dict:
+    """Settings from ``$MOCOMP_STUDY_CONFIG`` (a JSON object, or a path to a JSON file).
+
+    Keys: ``manifest``, ``data_dir``, ``participant_id``, ``session_id``
+    (required); ``design`` (a :class:`~study.design.DesignConfig` dict),
+    ``study_seed``, ``seed``, ``counterbalance_index``, ``texts`` (a
+    :class:`HarnessTexts` dict), ``key_correct``, ``key_incorrect``,
+    ``video_width``.
+    """
+    env = os.environ if env is None else env
+    raw = env.get(ENV_CONFIG)
+    if not raw:
+        raise ValueError(f"${ENV_CONFIG} is not set; start the app with `mocomp study run ...`")
+    raw = raw.strip()
+    cfg = json.loads(raw if raw.startswith("{") else Path(raw).read_text())
+    missing = [k for k in ("manifest", "data_dir", "participant_id", "session_id") if not cfg.get(k)]
+    if missing:
+        raise ValueError(f"${ENV_CONFIG} lacks {', '.join(missing)}")
+    return cfg
+
+
+def app_from_config(cfg: dict) -> StudyApp:
+    texts = HarnessTexts(**cfg.get("texts", {}))
+    hc = HarnessConfig(texts=texts)
+    extra = {k: cfg[k] for k in ("key_correct", "key_incorrect", "video_width", "loop_video", "lock_timeout_s")
+             if k in cfg}
+    hc = replace(hc, **extra)
+    design = DesignConfig.from_dict(cfg["design"]) if cfg.get("design") else None
+    return StudyApp(cfg["manifest"], cfg["data_dir"], cfg["participant_id"], cfg["session_id"], design=design,
+                    study_seed=int(cfg.get("study_seed", 0)), seed=cfg.get("seed"),
+                    counterbalance_index=cfg.get("counterbalance_index"), config=hc)
+
+
+def app_from_environment() -> StudyApp | W.Widget:
+    """The app configured by ``$MOCOMP_STUDY_CONFIG``; a message widget if that is missing or wrong."""
+    try:
+        return app_from_config(config_from_environment())
+    except (ValueError, OSError, TypeError) as e:
+        return W.HTML(f"<p style='color:#b00'><b>The study is not configured:</b> {html.escape(str(e))}</p>")
+
+
+__all__ = ["StudyApp", "HarnessConfig", "HarnessTexts", "app_from_environment", "app_from_config",
+           "config_from_environment", "utc_now"]

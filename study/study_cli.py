@@ -1,0 +1,145 @@
+"""``mocomp study run`` (serve the participant app with Voila) and ``mocomp study analyze``.
+
+:func:`register_run` and :func:`register_analyze` add the sub-commands to the
+``study`` command's sub-parsers (``lib/mocomp/cli/study.py`` lists them).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+__all__ = ["register_run", "register_analyze", "voila_command", "app_notebook"]
+
+
+def app_notebook() -> Path:
+    """The packaged participant app notebook (``study/app.ipynb``)."""
+    return Path(__file__).with_name("app.ipynb")
+
+
+def voila_command(port: int, notebook: str | Path | None = None, *, python: str | None = None) -> list[str]:
+    """The Voila command line serving the app on 127.0.0.1:``port`` (no browser, no tracebacks shown)."""
+    nb = Path(notebook) if notebook is not None else app_notebook()
+    return [python or sys.executable, "-m", "voila", "--no-browser", f"--port={int(port)}", "--Voila.ip=127.0.0.1",
+            "--show_tracebacks=False", "--theme=light", str(nb)]
+
+
+def register_run(subparsers) -> argparse.ArgumentParser:
+    p = subparsers.add_parser(
+        "run", help="serve the participant app (Voila on 127.0.0.1) for one participant session",
+        description="Serve the perception-study app for one participant and session with Voila on "
+                    "127.0.0.1 (open the printed address in a browser). The plan is written to "
+                    "DATA/<participant>/<session>/ before the first trial; re-running the same command "
+                    "resumes the session where it stopped. Stop with Ctrl-C.")
+    p.add_argument("--participant", required=True, help="participant id (letters, digits, _ . -)")
+    p.add_argument("--session", required=True, help="session id, e.g. S1")
+    p.add_argument("--manifest", required=True, help="stimulus manifest CSV (from `mocomp study render`)")
+    p.add_argument("--data", required=True, metavar="DIR", help="folder for session data")
+    p.add_argument("--port", type=int, default=8866, help="port on 127.0.0.1 (default 8866)")
+    p.add_argument("--design", metavar="JSON", help="trial-design settings (JSON file, fields of study.design.DesignConfig)")
+    p.add_argument("--study-seed", type=int, default=0, help="study seed; the participant seed derives from it and the id")
+    p.add_argument("--seed", type=int, default=None, help="explicit participant seed (overrides --study-seed)")
+    p.add_argument("--counterbalance-index", type=int, default=None,
+                   help="participant number for counterbalance='latin'")
+    p.add_argument("--break-every", type=int, default=None, help="break screen every N test trials")
+    p.add_argument("--practice", type=int, default=None, help="number of practice trials")
+    p.add_argument("--attention-checks", type=int, default=None, help="number of attention-check trials")
+    p.add_argument("--texts", metavar="JSON", help="participant-facing texts (JSON file, fields of HarnessTexts)")
+    p.add_argument("--print-config", action="store_true", help="print the app configuration and exit")
+    p.set_defaults(func=run_run)
+    return p
+
+
+def _design_dict(args) -> dict | None:
+    d = {}
+    if args.design:
+        d = json.loads(Path(args.design).read_text())
+    for key, val in (("break_every", args.break_every), ("n_practice", args.practice),
+                     ("n_attention", args.attention_checks)):
+        if val is not None:
+            d[key] = val
+    if not d:
+        return None
+    from .design import DesignConfig
+
+    DesignConfig.from_dict(d)  # validate now, not in the participant's browser
+    return d
+
+
+def run_run(args) -> int:
+    from .session import check_id
+    from .stimulus_set import load_manifest
+
+    check_id(args.participant, "participant id")
+    check_id(args.session, "session id")
+    manifest = Path(args.manifest).resolve()
+    load_manifest(manifest)  # fail here with a clear message, before starting a server
+    data = Path(args.data).resolve()
+    data.mkdir(parents=True, exist_ok=True)
+    cfg = {"manifest": str(manifest), "data_dir": str(data), "participant_id": args.participant,
+           "session_id": args.session, "study_seed": args.study_seed, "seed": args.seed,
+           "counterbalance_index": args.counterbalance_index}
+    design = _design_dict(args)
+    if design:
+        cfg["design"] = design
+    if args.texts:
+        cfg["texts"] = json.loads(Path(args.texts).read_text())
+    if args.print_config:
+        print(json.dumps(cfg, indent=2))
+        return 0
+    env = dict(os.environ)
+    env["MOCOMP_STUDY_CONFIG"] = json.dumps(cfg)
+    cmd = voila_command(args.port)
+    print(f"participant {args.participant}, session {args.session}: open http://127.0.0.1:{args.port}/ "
+          f"(data -> {data / args.participant / args.session}); Ctrl-C stops the server", flush=True)
+    proc = subprocess.Popen(cmd, env=env)
+    try:
+        return proc.wait()
+    except KeyboardInterrupt:
+        proc.send_signal(signal.SIGINT)
+        try:
+            return proc.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            return proc.wait()
+
+
+def register_analyze(subparsers) -> argparse.ArgumentParser:
+    p = subparsers.add_parser(
+        "analyze", help="analyse every session CSV under a folder (ratings, d', psychometric, mixed model)",
+        description="Read every responses.csv below RESPONSES_DIR (schema checked), and write tidy CSVs "
+                    "(conditions.csv, trials.csv, participants_*.csv, psychometric.csv, mixed_model.csv), "
+                    "figures and report.md to REPORT_DIR.")
+    p.add_argument("responses", metavar="RESPONSES_DIR")
+    p.add_argument("-o", "--out", required=True, metavar="REPORT_DIR")
+    p.add_argument("--correction", choices=("loglinear", "1/(2N)", "none"), default="loglinear",
+                   help="d' correction for rates of 0 or 1 (default loglinear)")
+    p.add_argument("--control", choices=("group", "pooled"), default="group",
+                   help="false-alarm baseline: unperturbed motions of the same error group, or all of them")
+    p.add_argument("--level", choices=("nominal_level", "achieved_error"), default="nominal_level",
+                   help="regressor of the psychometric fits")
+    p.add_argument("--link", choices=("probit", "logit"), default="probit")
+    p.add_argument("--n-boot", type=int, default=2000)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--min-attention", type=float, default=None,
+                   help="exclude participants whose attention-check pass rate is below this")
+    p.add_argument("--allow-mixed-sets", action="store_true", help="accept sessions from different stimulus sets")
+    p.add_argument("--no-figures", action="store_true")
+    p.set_defaults(func=run_analyze)
+    return p
+
+
+def run_analyze(args) -> int:
+    from .analysis import analyze
+
+    res = analyze(args.responses, args.out, level=args.level, control=args.control, correction=args.correction,
+                  link=args.link, n_boot=args.n_boot, seed=args.seed, min_attention=args.min_attention,
+                  allow_mixed_sets=args.allow_mixed_sets, figures=not args.no_figures)
+    s = res.settings
+    print(f"{s['n_participants']} participants, {s['n_test_trials']} test trials, "
+          f"{len(res.conditions)} condition rows -> {Path(args.out) / 'report.md'}")
+    return 0
