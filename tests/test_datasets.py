@@ -367,10 +367,25 @@ def test_real_list_names_resolve(real_data_dir):
     assert (real.description != "").mean() > 0.9
 
 
-@pytest.mark.parametrize("path", real_files("**/*.bvh"), ids=lambda p: p.name)
-def test_every_real_bvh_loads_by_name(path):
+REAL_MOTIONS = [p for p in real_files("**/*.bvh") + real_files("**/*.amc") + real_files("**/deepmimic_*.txt")
+                if "character" not in p.name]
+
+
+@pytest.fixture(scope="module")
+def real_names(real_data_dir):
+    df = datasets.list()
+    return {r.path: r.name for r in df[df.kind == "real"].itertuples()}
+
+
+@pytest.mark.parametrize("path", REAL_MOTIONS, ids=lambda p: p.name)
+def test_every_real_clip_loads_by_its_listed_name(path, real_names, real_data_dir):
+    from mocomp.io.units import standing_height
+
+    name = real_names[path.relative_to(real_data_dir).as_posix()]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        m = datasets.load(path.stem)
+        m = datasets.load(name)
     assert m.source.path == str(path)
     assert np.all(np.isfinite(m.positions))
+    assert 1.2 < standing_height(m) < 2.4, "implausible body height: wrong unit?"
+    assert m.fps in (16.0, 30.0, 60.0, 120.0) or m.source.format == "deepmimic"

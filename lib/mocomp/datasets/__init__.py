@@ -197,8 +197,9 @@ def _apply_facts(path: Path, fps, scale, raw: bool, **kw):
             notes.append(f"frame rate {facts.fps:g} Hz used instead of the header's "
                          f"{hdr:.6g} Hz: {facts.fps_reason}; override with fps= or raw=True" if hdr else
                          f"frame rate {facts.fps:g} Hz: {facts.fps_reason}")
-    elif fps is None and hdr and round(hdr) != hdr and abs(hdr - round(hdr)) <= 1e-4 * hdr:
-        # "Frame Time: .0083333" means 120 Hz: snap rates that are whole numbers up to the rounding
+    elif (fps is None and hdr and src.format == "bvh" and round(hdr) != hdr
+          and abs(hdr - round(hdr)) <= 1e-4 * hdr):
+        # BVH "Frame Time: .0083333" means 120 Hz: snap rates that are whole numbers up to the rounding
         if abs(hdr - round(hdr)) > 1e-7 * hdr:
             notes.append(f"frame rate {round(hdr)} Hz (the header's {hdr:.7g} Hz is a rounded frame time)")
         m = m.replace(fps=float(round(hdr)))
