@@ -166,6 +166,18 @@ def test_convert_real_clip_applies_corrections(real_data_dir, tmp_path, capsys):
     np.testing.assert_allclose(back.positions, ref.positions, atol=1e-6)
 
 
+@pytest.mark.parametrize("name", ["01_01.amc", "deepmimic_backflip"])
+def test_convert_other_formats_to_bvh(name, real_data_dir, tmp_path, capsys):
+    out = tmp_path / "c.bvh"
+    assert main(["convert", name, str(out), "--out-scale", "cm"]) == 0
+    ref = datasets.load(name)
+    back = read_bvh(out, scale="cm")
+    assert back.n_frames == ref.n_frames and back.fps == pytest.approx(ref.fps)
+    # BVH lists joints depth-first, so DeepMimic's order changes: compare by name
+    idx = [back.skeleton.index(n) for n in ref.skeleton.names]
+    np.testing.assert_allclose(back.positions[:, idx], ref.positions, atol=1e-6)
+
+
 # ------------------------------------------------------------------ plot
 def test_plot_writes_png(walker_bvh, tmp_path, capsys):
     out = tmp_path / "p.png"
