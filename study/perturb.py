@@ -32,21 +32,34 @@ the base motion's centre of mass (COM) at original time ``s``.
    ``T' = T / (1 + e/2)``. Take-off and landing phases keep their timing
    (the landing phase starts ``T' - T`` later).
 
-2. **COM parabola re-fitted** (every stimulus, including the unperturbed
-   control, so that all share one processing path). The flight COM is
-   replaced by the ballistic parabola ``P(u) = c(t_a) + v u - g u^2/2 y``. For
-   the control, ``v = v0 = (c(t_b) - c(t_a)) / T + g T / 2 y``: the exact
-   ballistic flight (gravity ``g``, default 9.81 m/s^2) through the captured
-   take-off and landing COM. For a retimed flight ``v = kappa v0`` with
-   ``kappa`` chosen so the COM comes back to the landing height exactly at
-   ``T'``: ``kappa = (dy + g T'^2/2) / (v0_y T')`` (``dy`` = landing minus take-off
-   COM height). Scaling the whole take-off velocity keeps the **take-off angle**
+2. **COM parabola re-fitted**. ``P0(u) = c(t_a) + v0 u - g u^2/2 y`` with
+   ``v0 = (c(t_b) - c(t_a)) / T + g T / 2 y`` is the exact ballistic flight
+   (gravity ``g``, default 9.81 m/s^2) through the captured take-off and
+   landing COM. A perturbed flight gets its own parabola ``P(u)`` over ``T'``:
+   for a retimed flight ``v = kappa v0`` with ``kappa`` chosen so the COM comes
+   back to the landing height exactly at ``T'``:
+   ``kappa = (dy + g T'^2/2) / (v0_y T')`` (``dy`` = landing minus take-off COM
+   height). Scaling the whole take-off velocity keeps the **take-off angle**
    unchanged (only its speed changes, ``kappa ~ T'/T``), so angular-momentum
    stimuli are not confounded with the take-off-angle stimuli; this is the
    repositioning of flips paper section 5.4 (``COM_y = a_y t^2 + k b_y t + c_y``,
-   horizontal velocity scaled by ``k``). The root is moved by ``P - c`` in each
-   flight frame; the translation does not change the angular momentum about
-   the COM (section 5.1, "Repositioning of the center of mass").
+   horizontal velocity scaled by ``k``). Two ways to move the body onto it
+   (``com_mode``):
+
+   * ``"capture"`` (default): the root is moved by ``P(u) - P0(sigma(u))``, the
+     difference between the new and the original *ideal* flights. The
+     unperturbed control is then the capture itself, untouched ("original
+     motion capture clips were used as base motions", sec. 7), and every
+     stimulus keeps the capture's own small deviations from a ballistic COM
+     (retimed with the poses), so control and stimulus differ only by the
+     perturbation;
+   * ``"ballistic"``: the root is moved by ``P(u) - c(u)`` so that the flight COM
+     *is* the parabola in every stimulus, control included (physically exact
+     COM; the change is reported as ``root_offset``).
+
+   Either way the translation does not change the angular momentum about the
+   COM (section 5.1, "Repositioning of the center of mass"); for an exact
+   (synthetic) flight both modes give the same motions.
 
 3. **Take-off-angle errors**: the flight keeps its timing (``T' = T``) and the
    horizontal velocity component along the jump direction ``h`` (the horizontal
@@ -179,9 +192,10 @@ class FlightRebuild:
     gravity: m/s^2 used for the parabola.
     original_time: ``(T_new,)`` s, the base motion's time shown at each new frame.
     rate: ``(T_new,)`` retiming rate at each new frame (1 outside the flight).
-    root_offset: ``(T_new,)`` m, magnitude of the root translation applied per frame
-        (the COM correction; in the control it measures how far the capture
-        was from a ballistic flight).
+    root_offset: ``(T_new,)`` m, magnitude of the root translation applied per frame.
+    com_mode: ``"capture"`` or ``"ballistic"`` (module docstring, step 2).
+    capture_deviation: m, largest distance of the base flight's COM from its
+        ideal parabola ``P0`` (0 for an exact flight; the capture's non-ballistic part).
     """
 
     motion: Motion
@@ -199,6 +213,8 @@ class FlightRebuild:
     original_time: np.ndarray
     rate: np.ndarray
     root_offset: np.ndarray
+    com_mode: str = "capture"
+    capture_deviation: float = 0.0
 
     @property
     def flight_duration(self) -> float:
@@ -213,7 +229,8 @@ class FlightRebuild:
 
 def rebuild_flight(base: Motion, flight: tuple[int, int], com: Callable[[Motion], np.ndarray], *,
                    kind: str = "none", error: float = 0.0, gravity: float = 9.81,
-                   switch_fraction: float = 0.5, min_horizontal_speed: float = 0.05) -> FlightRebuild:
+                   switch_fraction: float = 0.5, min_horizontal_speed: float = 0.05,
+                   com_mode: str = "capture") -> FlightRebuild:
     """Make one stimulus from ``base`` (see the module docstring for the method).
 
     Parameters
@@ -228,6 +245,8 @@ def rebuild_flight(base: Motion, flight: tuple[int, int], com: Callable[[Motion]
     gravity: m/s^2 of the rebuilt parabola.
     switch_fraction: where in the original flight an abrupt retiming switches on.
     min_horizontal_speed: m/s; a take-off-angle error needs a jump direction.
+    com_mode: ``"capture"`` (control = the capture; stimuli add the change of the ideal
+        flight) or ``"ballistic"`` (flight COM replaced by the exact parabola); step 2.
 
     Raises
     ------
@@ -239,6 +258,8 @@ def rebuild_flight(base: Motion, flight: tuple[int, int], com: Callable[[Motion]
         raise ValueError(f"unknown perturbation kind {kind!r}; expected one of {KINDS}")
     if kind == "none" and error != 0:
         raise ValueError("the unperturbed control ('none') takes error 0")
+    if com_mode not in ("capture", "ballistic"):
+        raise ValueError(f"com_mode must be 'capture' or 'ballistic', got {com_mode!r}")
     a, b = int(flight[0]), int(flight[1])
     n = base.n_frames
     if not (1 <= a and b - a >= 3 and b < n):
@@ -286,12 +307,21 @@ def rebuild_flight(base: Motion, flight: tuple[int, int], com: Callable[[Motion]
     s = np.clip(s, 0.0, base.duration)
     rate = np.where(in_flight, warp.rate(np.clip(u, 0.0, Tn)), 1.0)
     m = base.sample(s)
-    c_new = np.asarray(com(m), dtype=float)
 
-    P = p0 + np.outer(np.clip(u, 0.0, Tn), v) - 0.5 * gravity * np.clip(u, 0.0, Tn)[:, None] ** 2 * _Y
-    land = p0 + v * Tn - 0.5 * gravity * Tn * Tn * _Y
+    def parabola(vel, uu):
+        uu = np.asarray(uu, dtype=float)
+        return p0 + np.outer(uu, vel) - 0.5 * gravity * (uu ** 2)[:, None] * _Y
+
+    uf = np.clip(u, 0.0, Tn)
+    kb = np.arange(a, b)
+    dev = float(np.linalg.norm(c_base[kb] - parabola(v0, (kb - a) / fps), axis=1).max())
     delta = np.zeros((m_frames, 3))
-    delta[in_flight] = P[in_flight] - c_new[in_flight]
+    if com_mode == "ballistic":
+        c_new = np.asarray(com(m), dtype=float)
+        delta[in_flight] = parabola(v, uf[in_flight]) - c_new[in_flight]
+    else:
+        delta[in_flight] = parabola(v, uf[in_flight]) - parabola(v0, warp.sigma(uf[in_flight]))
+    land = parabola(v, [Tn])[0]
     after = u > Tn + 1e-12
     shift = land - p1
     if abs(shift[1]) > 1e-6:
@@ -304,4 +334,5 @@ def rebuild_flight(base: Motion, flight: tuple[int, int], com: Callable[[Motion]
     return FlightRebuild(
         motion=out, kind=kind, error=float(error), warp=warp, flight=(fa, fb), base_flight=(a, b),
         takeoff_time=ta, velocity=v, base_velocity=v0, jump_direction=h, landing_shift=shift,
-        gravity=float(gravity), original_time=s, rate=rate, root_offset=np.linalg.norm(delta, axis=1))
+        gravity=float(gravity), original_time=s, rate=rate, root_offset=np.linalg.norm(delta, axis=1),
+        com_mode=com_mode, capture_deviation=dev)

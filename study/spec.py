@@ -31,6 +31,7 @@ except ``[[base]]`` and ``[[condition]]`` entries are optional; defaults below):
     gravity = 9.81                      # m/s^2 of every rebuilt flight
     switch_fraction = 0.5               # abrupt errors switch on at this fraction of the flight
     contact_height = 0.05               # m, for real clips' flight detection (see stimuli.py)
+    com = "capture"                     # "capture" (control = the capture) | "ballistic" (study/perturb.py)
 
     [[base]]                            # one per base motion
     id = "synthetic_backflip"
@@ -122,6 +123,7 @@ class StudySpec:
     gravity: float = 9.81
     switch_fraction: float = 0.5
     contact_height: float = 0.05
+    com_mode: str = "capture"
     raw: dict = field(default_factory=dict, repr=False, compare=False)
 
     def design(self) -> list[tuple[str, str, str, float]]:
@@ -209,11 +211,13 @@ def parse_spec(data: dict, path: str | Path | None = None) -> StudySpec:
     pre_s = _get(c, "pre_s", float, 0.7, path, "clip", nonneg)
     post_s = _get(c, "post_s", float, 1.0, path, "clip", nonneg)
     f = data.get("flight", {})
-    _unknown(f, {"gravity", "switch_fraction", "contact_height"}, path, "flight")
+    _unknown(f, {"gravity", "switch_fraction", "contact_height", "com"}, path, "flight")
     gravity = _get(f, "gravity", float, 9.81, path, "flight", pos)
     switch = _get(f, "switch_fraction", float, 0.5, path, "flight",
                   lambda v: None if 0.05 <= v <= 0.95 else "must be in [0.05, 0.95]")
     contact_h = _get(f, "contact_height", float, 0.05, path, "flight", pos)
+    com_mode = _get(f, "com", str, "capture", path, "flight",
+                    lambda v: None if v in ("capture", "ballistic") else 'must be "capture" or "ballistic"')
 
     bases_raw = data.get("base")
     if not isinstance(bases_raw, list) or not bases_raw:
@@ -276,7 +280,8 @@ def parse_spec(data: dict, path: str | Path | None = None) -> StudySpec:
         conds.append(ConditionSpec(p, tuple(dirs), tuple(float(x) for x in lv)))
     return StudySpec(path=None if path is None else Path(path), name=name, title=title, reference=reference,
                      render=render, bases=tuple(bases), conditions=tuple(conds), pre_s=pre_s, post_s=post_s,
-                     gravity=gravity, switch_fraction=switch, contact_height=contact_h, raw=data)
+                     gravity=gravity, switch_fraction=switch, contact_height=contact_h, com_mode=com_mode,
+                     raw=data)
 
 
 def load_spec(path: str | Path) -> StudySpec:

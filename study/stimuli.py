@@ -17,8 +17,9 @@ Pipeline per base motion (``[[base]]`` of a specification, :mod:`study.spec`):
    front flips face -x, both travel towards -x); move the take-off COM to x = z = 0;
    shift vertically so the lowest joint of the standing phase sits one toe-capsule
    radius above the ground (feet on the floor in the rendering).
-4. **Perturb** (:func:`study.perturb.rebuild_flight`; the unperturbed control goes
-   through the same flight re-fit).
+4. **Perturb** (:func:`study.perturb.rebuild_flight`): retimed flights, COM parabola
+   re-fitted, landing translated; the unperturbed control is the capture itself
+   (``[flight] com = "capture"``, default) or its exact-ballistic version (``"ballistic"``).
 5. **Measure** each stimulus with the project's dynamics (:func:`measure_stimulus`):
    the achieved relative angular-momentum error, the change of the take-off
    velocity along the jump direction and of the take-off angle, the velocity
@@ -30,8 +31,7 @@ nominal direction) is, for angular-momentum stimuli, the ratio
 capture's own variation of ``|L|`` cancels), taken at its peak: the median over
 the flight after the switch (abrupt) or the value at landing of a straight-line
 fit over the flight (smooth). For take-off stimuli it is the relative change of
-the flight COM velocity along the jump direction, from a parabola fitted to the
-stimulus' COM. For controls it is the angular-momentum measure (about 0).
+the mean horizontal COM velocity over the flight along the jump direction. For controls it is the angular-momentum measure (about 0).
 """
 from __future__ import annotations
 
@@ -257,16 +257,15 @@ class Stimulus:
         return self.rebuild.motion
 
 
-def _fit_flight_velocity(com: np.ndarray, fps: float, a: int, b: int, gravity: float) -> np.ndarray:
-    """Take-off velocity (at frame ``a``) of the COM parabola fitted over frames ``a..b-1``.
+def _flight_velocity(com: np.ndarray, fps: float, a: int, b: int, gravity: float) -> np.ndarray:
+    """Take-off velocity of the ballistic flight through the COM at the first (``a``) and
+    last (``b - 1``) airborne frames: ``(c_b - c_a) / T + g T / 2 y``.
 
-    Quadratic least squares per axis (vertical acceleration free, so a non-ballistic
-    COM shows up in the residual rather than biasing the velocity).
+    Its horizontal part is the mean horizontal COM velocity over the flight; for
+    an exactly ballistic COM it is the take-off velocity itself.
     """
-    t = (np.arange(a, b) - a) / fps
-    A = np.stack([np.ones_like(t), t, t * t], axis=1)
-    coef, *_ = np.linalg.lstsq(A, com[a:b], rcond=None)
-    return coef[1]
+    T = (b - 1 - a) / fps
+    return (com[b - 1] - com[a]) / T + 0.5 * gravity * T * np.array([0.0, 1.0, 0.0])
 
 
 def measure_stimulus(rb: FlightRebuild, control: FlightRebuild, body, *, L_control: np.ndarray | None = None,
@@ -282,7 +281,10 @@ def measure_stimulus(rb: FlightRebuild, control: FlightRebuild, body, *, L_contr
     ``landing_shift_m``, ``takeoff_dv_ms`` / ``landing_dv_ms`` (COM velocity jump
     between the ground phase and the flight parabola) and
     ``L_direction_change_deg`` (largest angle between ``L`` and the control's
-    ``L`` at the same original time).
+    ``L`` at the same original time), ``com_capture_dev_m`` (how far the base
+    flight's COM is from a ballistic parabola). Velocities are those of the
+    ballistic flight through the stimulus' COM at its first and last airborne
+    frames (:func:`_flight_velocity`).
     """
     m = rb.motion
     fps = m.fps
@@ -295,8 +297,12 @@ def measure_stimulus(rb: FlightRebuild, control: FlightRebuild, body, *, L_contr
     if idx.size < 3:
         raise NoFlightPhaseError(f"flight of {fb - fa} frames is too short to measure")
     s = rb.original_time[idx]
-    tc = control.original_time  # control frames <-> original time (identity in the flight)
-    Lc_at = np.stack([np.interp(s, tc, L_control[:, k]) for k in range(3)], axis=1)
+    # the control's L at the same original time, from its own inner flight frames only
+    # (its first/last airborne frames straddle take-off/landing); held constant beyond them
+    ca, cb = control.flight
+    cin = np.arange(ca + 1, cb - 1)
+    tc = control.original_time[cin]
+    Lc_at = np.stack([np.interp(s, tc, L_control[cin, k]) for k in range(3)], axis=1)
     ratio = np.linalg.norm(L[idx], axis=1) / np.linalg.norm(Lc_at, axis=1)
     u = (idx - fa) / fps
     Tn = rb.warp.new_T
@@ -316,8 +322,8 @@ def measure_stimulus(rb: FlightRebuild, control: FlightRebuild, body, *, L_contr
     C = _center_of_mass(body, m) if com is None else com
     Cc = _center_of_mass(body, control.motion) if com_control is None else com_control
     g = rb.gravity
-    v = _fit_flight_velocity(C, fps, fa, fb, g)
-    vc = _fit_flight_velocity(Cc, fps, *control.flight, g)
+    v = _flight_velocity(C, fps, fa, fb, g)
+    vc = _flight_velocity(Cc, fps, *control.flight, g)
     h = control.jump_direction
     vh, vch = float(v @ h), float(vc @ h)
     v_err = (vh / vch - 1.0) if abs(vch) > 1e-6 else float("nan")
@@ -347,19 +353,21 @@ def measure_stimulus(rb: FlightRebuild, control: FlightRebuild, body, *, L_contr
         "takeoff_dv_ms": float(np.linalg.norm(v - v_before)),
         "landing_dv_ms": float(np.linalg.norm(v_after - v_land)),
         "L_direction_change_deg": L_dir,
+        "com_capture_dev_m": float(rb.capture_deviation),
     }
 
 
 def make_stimulus(base: BaseMotion, perturbation: str, direction: str, level_pct: float, *,
-                  gravity: float = 9.81, switch_fraction: float = 0.5,
+                  gravity: float = 9.81, switch_fraction: float = 0.5, com_mode: str = "capture",
                   control: FlightRebuild | None = None, L_control: np.ndarray | None = None) -> Stimulus:
     """Build and measure one stimulus of ``base`` (``level_pct`` in percent)."""
     com = lambda mm: _center_of_mass(base.body, mm)  # noqa: E731
     e = signed_level(direction, level_pct / 100.0)
     if control is None:
-        control = rebuild_flight(base.motion, base.flight, com, kind="none", gravity=gravity)
+        control = rebuild_flight(base.motion, base.flight, com, kind="none", gravity=gravity, com_mode=com_mode)
     rb = control if perturbation == "none" else rebuild_flight(
-        base.motion, base.flight, com, kind=perturbation, error=e, gravity=gravity, switch_fraction=switch_fraction)
+        base.motion, base.flight, com, kind=perturbation, error=e, gravity=gravity, switch_fraction=switch_fraction,
+        com_mode=com_mode)
     meas = measure_stimulus(rb, control, base.body, L_control=L_control)
     return Stimulus(stimulus_id(base.id, perturbation, direction, level_pct), base.id, base.source, perturbation,
                     direction, float(level_pct), rb, meas)
@@ -396,12 +404,13 @@ def build_stimuli(spec: StudySpec, *, skip_missing_data: bool = False, progress:
         base = by_id[bid]
         if bid not in controls:
             com = lambda mm, body=base.body: _center_of_mass(body, mm)  # noqa: E731
-            ctl = rebuild_flight(base.motion, base.flight, com, kind="none", gravity=spec.gravity)
+            ctl = rebuild_flight(base.motion, base.flight, com, kind="none", gravity=spec.gravity,
+                                 com_mode=spec.com_mode)
             controls[bid] = (ctl, _angular_momentum(base.body, ctl.motion))
         ctl, Lc = controls[bid]
         try:
             out.append(make_stimulus(base, p, d, lv, gravity=spec.gravity, switch_fraction=spec.switch_fraction,
-                                     control=ctl, L_control=Lc))
+                                     com_mode=spec.com_mode, control=ctl, L_control=Lc))
         except PhysicsError as e:
             raise PhysicsError(f"stimulus {stimulus_id(bid, p, d, lv)}: {e}") from None
     info = {bm.id: bm.info for bm in bases}
