@@ -334,3 +334,24 @@ def test_replace_and_continuous():
     c = flipped.continuous()
     assert np.all(np.sum(c.rotations[1:] * c.rotations[:-1], axis=-1) > 0)
     np.testing.assert_allclose(c.positions, m.positions, atol=1e-13)
+
+
+@pytest.mark.parametrize("name", ["01_01", "131_03", "sfu_0005_JumpRope001", "bandai2_walk_normal_001",
+                                  "deepmimic_backflip", "mass_backflip", "01_01.amc"])
+def test_mirrored_real_skeletons(name, real_data_dir):
+    """Real rigs: left/right pairs are found, the pairing respects the tree, and mirroring is exact."""
+    import warnings
+
+    from mocomp import datasets
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        m = datasets.load(name)[:150]
+    mp = m.skeleton.mirror_map()
+    par = m.skeleton.parents
+    np.testing.assert_array_equal(mp[mp], np.arange(len(mp)))
+    assert all(par[mp[j]] == mp[par[j]] for j in range(1, len(mp)))
+    assert (mp != np.arange(len(mp))).sum() >= 8  # at least the two arms and legs pair up
+    mm = m.mirrored()
+    np.testing.assert_allclose(mm.positions, m.positions[:, mp] * [-1, 1, 1], atol=1e-12)
+    np.testing.assert_allclose(mm.mirrored().positions, m.positions, atol=1e-12)
