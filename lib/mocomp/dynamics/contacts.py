@@ -30,7 +30,9 @@ class ContactResult:
     Attributes
     ----------
     effectors: ``(E,)`` names (``"foot_l"``, ``"toe_l"``, ``"hand_l"``, ... or the joints given).
-    labels: ``(T, E)`` bool, effector on the ground.
+    labels: ``(T, E)`` bool, effector planted: near its resting level *and* slow.
+    touching: ``(T, E)`` bool, effector near its resting level (height only; a rolling
+        toe or a sliding foot touches without being planted).
     ground_y: m, the clip's ground level (low percentile of the lowest effector height).
     intervals: effector name -> list of half-open ``(start, stop)`` contact frame ranges.
     positions: ``(T, E, 3)`` m, effector world positions.
@@ -45,6 +47,7 @@ class ContactResult:
 
     effectors: tuple[str, ...]
     labels: np.ndarray
+    touching: np.ndarray
     ground_y: float
     intervals: dict
     positions: np.ndarray
@@ -60,8 +63,13 @@ class ContactResult:
 
     @property
     def any_contact(self) -> np.ndarray:
-        """``(T,)`` bool, at least one effector on the ground."""
+        """``(T,)`` bool, at least one effector planted."""
         return self.labels.any(axis=1)
+
+    @property
+    def any_touching(self) -> np.ndarray:
+        """``(T,)`` bool, at least one effector touching the ground."""
+        return self.touching.any(axis=1)
 
     def contact_points(self) -> tuple[np.ndarray, np.ndarray]:
         """``(positions (T, E, 3), labels (T, E))`` projected on the ground plane, for
@@ -93,8 +101,13 @@ def _drop_short(labels: np.ndarray, value: bool, min_frames: int) -> np.ndarray:
 
 
 def default_effectors(skeleton) -> dict[str, tuple[int, np.ndarray]]:
-    """Feet (ankle joints), toe tips and hands (hand ends) from the skeleton's body-segment
-    mapping: name -> (joint index, local offset in metres)."""
+    """Feet (ankle joints), toe tips and hand ends from the skeleton's body-segment mapping:
+    name -> (joint index, local offset in metres).
+
+    A toe tip rides on the foot's descendant joint nearest to it (the toe joint,
+    e.g. ``LeftToeBase``), so that it stays on the floor while the heel rises; a
+    hand end rides on the hand's carrier joint.
+    """
     from ..body.mapping import resolve_landmark, resolve_mapping
 
     rm = resolve_mapping(skeleton)
@@ -106,6 +119,9 @@ def default_effectors(skeleton) -> dict[str, tuple[int, np.ndarray]]:
             k = rm.segments.index(f"{seg_kind}_{side}")
             j = int(rm.carriers[k])
             p = resolve_landmark(skeleton, lm[f"{landmark}_{side}"], lm, rest)
+            if kind == "toe":
+                desc = [c for c in range(skeleton.n_joints) if j in skeleton.chain(c)]
+                j = min(desc, key=lambda c: np.linalg.norm(rest[c] - p))
             out[f"{kind}_{side}"] = (j, p - rest[j])
     return out
 
@@ -181,17 +197,30 @@ def detect_contacts(motion, effectors=None, height_tol: float = 0.05, speed_tol:
     else:
         speeds = np.zeros(heights.shape)
     eligible = levels <= max_clearance
-    labels = (heights <= levels + height_tol) & (speeds <= speed_tol) & eligible[None]
-    for e in range(labels.shape[1]):
-        col = _drop_short(labels[:, e], False, min_frames)
-        labels[:, e] = _drop_short(col, True, min_frames)
+    touching = (heights <= levels + height_tol) & eligible[None]
+    labels = touching & (speeds <= speed_tol)
+    for arr in (labels, touching):
+        for e in range(arr.shape[1]):
+            col = _drop_short(arr[:, e], False, min_frames)
+            arr[:, e] = _drop_short(col, True, min_frames)
     intervals = {n: label_intervals(labels[:, e]) for e, n in enumerate(names)}
-    return ContactResult(names, labels, float(ground_y), intervals, pos, heights, speeds, levels,
+    return ContactResult(names, labels, touching, float(ground_y), intervals, pos, heights, speeds, levels,
                          float(height_tol), float(speed_tol), joints, offsets, motion.fps, tuple(notes))
 
 
-def airborne_intervals(contacts: ContactResult, min_frames: int = 1) -> list[tuple[int, int]]:
-    """Half-open ``(start, stop)`` frame ranges in which no effector touches the ground,
-    at least ``min_frames`` long. Runs touching the clip's ends are included."""
-    runs = label_intervals(~contacts.any_contact)
+def airborne_intervals(contacts: ContactResult, min_frames: int = 1, use: str = "touching") -> list[tuple[int, int]]:
+    """Half-open ``(start, stop)`` frame ranges with no ground contact, at least
+    ``min_frames`` long (runs touching the clip's ends included).
+
+    ``use="touching"`` (default): no effector near its resting level (height only);
+    ``use="planted"``: no effector planted (height and speed) -- longer, since
+    take-off and landing frames with a rolling foot count as airborne.
+    """
+    if use == "touching":
+        any_c = contacts.any_touching
+    elif use == "planted":
+        any_c = contacts.any_contact
+    else:
+        raise ValueError(f"use must be 'touching' or 'planted', got {use!r}")
+    runs = label_intervals(~any_c)
     return [(a, b) for a, b in runs if b - a >= min_frames]

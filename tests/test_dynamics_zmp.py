@@ -1,0 +1,93 @@
+"""ZMP (touch-up paper eq. 4) and the signed distance to the support polygon."""
+import numpy as np
+import pytest
+
+from dyn_helpers import wavy_motion
+from mocomp.body import BodyModel
+from mocomp.core import Motion
+from mocomp.dynamics import center_of_mass, support_polygon_distance, zmp
+
+
+@pytest.fixture(scope="module")
+def body():
+    return BodyModel.from_skeleton(wavy_motion(60).skeleton, 70.0)
+
+
+def _static(body, n=20, fps=60.0):
+    m = wavy_motion(fps)
+    return Motion(m.skeleton, fps, np.repeat(m.root_positions[:1], n, 0), np.repeat(m.rotations[:1], n, 0))
+
+
+def test_static_pose_zmp_is_com_projection(body):
+    m = _static(body)
+    z = zmp(body, m, ground_y=0.1)
+    com = center_of_mass(body, m)
+    assert np.all(z.defined)
+    assert np.allclose(z.zmp[:, [0, 2]], com[:, [0, 2]], atol=1e-12)
+    assert np.allclose(z.zmp[:, 1], 0.1)
+    assert np.allclose(z.vertical_force, 70.0 * 9.81)
+
+
+def test_uniform_acceleration_shifts_zmp_backwards(body):
+    """A rigid pose translating with constant acceleration a: Z = COM - a (y_COM - y0) / (a_y + g)."""
+    fps = 100.0
+    base = _static(body, n=40, fps=fps)
+    t = base.times
+    a = np.array([1.5, 0.8, -0.6])
+    m = base.replace(root_positions=base.root_positions + 0.5 * np.outer(t**2, a))
+    z = zmp(body, m, ground_y=0.0, g=9.81)
+    com = center_of_mass(body, m)
+    inner = slice(2, -2)  # central differences of central differences are exact for quadratics here
+    assert np.allclose(z.com_acceleration[inner], a, atol=1e-9)
+    expect_x = com[:, 0] - a[0] * com[:, 1] / (a[1] + 9.81)
+    expect_z = com[:, 2] - a[2] * com[:, 1] / (a[1] + 9.81)
+    assert np.allclose(z.zmp[inner, 0], expect_x[inner], atol=1e-9)
+    assert np.allclose(z.zmp[inner, 2], expect_z[inner], atol=1e-9)
+
+
+def test_free_fall_zmp_is_undefined(body):
+    fps = 100.0
+    base = _static(body, n=30, fps=fps)
+    t = base.times
+    m = base.replace(root_positions=base.root_positions - 0.5 * 9.81 * np.outer(t**2, [0, 1, 0]))
+    z = zmp(body, m, ground_y=0.0)
+    assert not z.defined[2:-2].any()
+    assert np.all(np.isnan(z.zmp[2:-2]))
+
+
+def test_support_polygon_signed_distance():
+    square = np.array([[0, 0, 0], [1, 0, 0], [1, 0, 1], [0, 0, 1]], float)
+    pts = np.array([[0.5, 0, 0.5], [0.9, 0, 0.5], [1.5, 0, 0.5], [2.0, 0, 2.0], [1.0, 0, 0.3]])
+    c = np.repeat(square[None], len(pts), 0)
+    d = support_polygon_distance(pts, c)
+    assert d == pytest.approx([-0.5, -0.1, 0.5, np.sqrt(2), 0.0])
+    # masks: only two contacts -> a segment; one -> a point; none -> NaN
+    mask = np.array([[1, 1, 0, 0], [1, 0, 0, 0], [0, 0, 0, 0], [1, 1, 1, 1], [1, 1, 1, 1]], bool)
+    d2 = support_polygon_distance(pts, c, mask)
+    assert d2[0] == pytest.approx(0.5)
+    assert d2[1] == pytest.approx(np.hypot(0.9, 0.5))
+    assert np.isnan(d2[2])
+    # collinear contact points
+    line = np.array([[[0, 0, 0], [1, 0, 0], [2, 0, 0]]], float)
+    assert support_polygon_distance(np.array([[1.0, 0, 0.3]]), line)[0] == pytest.approx(0.3)
+    with pytest.raises(ValueError):
+        support_polygon_distance(pts, c[:2])
+
+
+@pytest.mark.realdata
+def test_walk_zmp_mostly_inside_support_polygon(real_data_dir):
+    """On a captured walk the ZMP (with the touch-up paper's Gaussian pre-smoothing)
+    lies within a few centimetres of the support polygon on most stance frames."""
+    from mocomp.datasets import load
+    from mocomp.dynamics import detect_contacts
+
+    m = load(real_data_dir / "walks" / "sfu_0008_Walking002.bvh")[:600]
+    body = BodyModel.from_skeleton(m.skeleton, 60.0)
+    c = detect_contacts(m)
+    z = zmp(body, m, ground_y=c.ground_y, smooth_sigma=5 / 2.355 * 4)
+    feet = [c.effectors.index(n) for n in ("foot_l", "foot_r", "toe_l", "toe_r")]
+    pts, lab = c.contact_points()
+    d = support_polygon_distance(z, pts[:, feet], c.touching[:, feet])
+    ok = np.isfinite(d)
+    assert ok.mean() > 0.9
+    assert np.median(d[ok]) < 0.05
