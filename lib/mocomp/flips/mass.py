@@ -1,0 +1,348 @@
+"""Mass distribution from flight phases (flips paper section 4.2, dissertation eq. 5.1-5.2).
+
+During a flight the centre of mass moves on a line in x and z and a parabola in
+y. The segment masses ``m_i`` and the trajectory parameters are found together
+by one linear least-squares problem (eq. 5.1),
+
+    min  sum_t || sum_i (m_i / M) pos_i(t) - COM(t) ||^2,
+    COM(t) = [a_x t + b_x, a_y t^2 + b_y t + c_y, a_z t + b_z],
+
+subject to ``sum_i m_i = M``, ``m_i >= 0`` and equal left/right limb masses, plus
+the regulariser ``W sum_i (m_i - m_i^0)^2`` toward the table prior (eq. 5.2).
+
+Implementation: for fixed masses the optimal trajectory parameters are a linear
+projection, so they are eliminated exactly (the residual is the part of the
+mass-weighted segment trajectories outside the span of ``{1, t}`` in x, z and
+``{1, t, t^2}`` in y). What is left is a bounded linear least-squares problem in
+the symmetric mass fractions; the sum constraint is eliminated through the
+heaviest group and the bounds are handled by ``scipy.optimize.lsq_linear``.
+To make ``W`` dimensionless the position residual is divided by the number of
+equations and the standing height squared, and the masses are fractions of M::
+
+    J(f) = |r(f)|^2 / (N_eq h^2) + W |f - f0|^2.
+
+A change of the distribution by ``|df|`` is accepted only if it lowers the
+relative mean-square residual by more than ``W |df|^2``. Several flights of one
+performer share the masses and each has its own trajectory parameters
+(:func:`estimate_masses` with a list of flights).
+
+The gravity scale ``s = 2 |a_y| / g`` (``a_y`` is negative in a y-up world; the
+printed formula ``s = 2 a_y / g`` uses its magnitude) reveals unit errors and
+mislabelled frame rates; :func:`diagnose_gravity` says so in plain words.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import lsq_linear
+
+from ..body.model import BodyModel
+from ..errors import NoFlightPhaseError
+
+__all__ = ["G", "FlightFit", "MassEstimate", "fit_ballistic", "estimate_masses", "diagnose_gravity",
+           "momentum_deviation", "FlightTooShortError", "COMMON_RATES"]
+
+#: standard gravity, m/s^2
+G = 9.80665
+#: capture rates a mislabelled clip is snapped to when the gravity fit implies another rate
+COMMON_RATES = (24.0, 25.0, 30.0, 50.0, 60.0, 100.0, 120.0, 240.0)
+
+
+class FlightTooShortError(NoFlightPhaseError):
+    """A flight phase has too few frames to estimate a mass distribution."""
+
+
+@dataclass(frozen=True)
+class FlightFit:
+    """Ballistic COM trajectory of one flight (eq. 5.1), ``t`` in seconds from ``start``.
+
+    Attributes
+    ----------
+    start, stop: half-open frame range.
+    a_x, b_x, a_z, b_z: m/s and m, horizontal lines.
+    a_y, b_y, c_y: m/s^2, m/s, m, vertical parabola ``a_y t^2 + b_y t + c_y``.
+    gravity: m/s^2, ``-2 a_y`` (the clip's own gravity).
+    scale: ``gravity / G`` (1 when frame rate and units are right).
+    rms, max: m, residual of the COM about the fitted trajectory.
+    """
+
+    start: int
+    stop: int
+    a_x: float
+    b_x: float
+    a_y: float
+    b_y: float
+    c_y: float
+    a_z: float
+    b_z: float
+    gravity: float
+    scale: float
+    rms: float
+    max: float
+
+    @property
+    def n_frames(self) -> int:
+        return self.stop - self.start
+
+    def com(self, t: np.ndarray) -> np.ndarray:
+        """``(n, 3)`` fitted COM at times ``t`` (s from take-off)."""
+        t = np.asarray(t, dtype=float)
+        return np.column_stack([self.a_x * t + self.b_x, self.a_y * t * t + self.b_y * t + self.c_y,
+                                self.a_z * t + self.b_z])
+
+    def velocity(self, t: float) -> np.ndarray:
+        return np.array([self.a_x, 2 * self.a_y * t + self.b_y, self.a_z])
+
+
+def _design(t: np.ndarray, quadratic: bool) -> np.ndarray:
+    return np.column_stack([np.ones_like(t), t, t * t] if quadratic else [np.ones_like(t), t])
+
+
+def fit_ballistic(com: np.ndarray, fps: float, start: int = 0) -> FlightFit:
+    """Least-squares ballistic trajectory through ``com (n, 3)`` sampled at ``fps`` (frames
+    ``start .. start + n - 1``)."""
+    com = np.asarray(com, dtype=float)
+    n = com.shape[0]
+    if n < 4:
+        raise FlightTooShortError(f"a ballistic fit needs at least 4 frames, got {n}")
+    t = np.arange(n) / fps
+    A1, A2 = _design(t, False), _design(t, True)
+    bx, ax = np.linalg.lstsq(A1, com[:, 0], rcond=None)[0]
+    bz, az = np.linalg.lstsq(A1, com[:, 2], rcond=None)[0]
+    cy, by, ay = np.linalg.lstsq(A2, com[:, 1], rcond=None)[0]
+    fit = np.column_stack([ax * t + bx, ay * t * t + by * t + cy, az * t + bz])
+    r = np.linalg.norm(com - fit, axis=1)
+    g = -2.0 * ay
+    return FlightFit(int(start), int(start + n), float(ax), float(bx), float(ay), float(by), float(cy),
+                     float(az), float(bz), float(g), float(g / G), float(np.sqrt(np.mean(r * r))), float(r.max()))
+
+
+def _projector_complement(n: int, fps: float, quadratic: bool) -> np.ndarray:
+    """``I - A (A^T A)^-1 A^T`` for the time design of one axis."""
+    A = _design(np.arange(n) / fps, quadratic)
+    Q, _ = np.linalg.qr(A)
+    return np.eye(n) - Q @ Q.T
+
+
+def momentum_deviation(com: np.ndarray, fps: float, total_mass: float) -> float:
+    """RMS deviation (kg m/s) of the linear momentum ``p = M dCOM/dt`` from its ballistic
+    pattern (constant in x and z, linear in y) over a flight, on the interior frames
+    (central differences)."""
+    com = np.asarray(com, dtype=float)
+    if com.shape[0] < 5:
+        return float("nan")
+    v = (com[2:] - com[:-2]) * (fps / 2.0)
+    n = v.shape[0]
+    t = np.arange(n) / fps
+    dev = []
+    for axis in range(3):
+        A = _design(t, axis == 1)[:, :2] if axis == 1 else np.ones((n, 1))
+        coef = np.linalg.lstsq(A, v[:, axis], rcond=None)[0]
+        dev.append(v[:, axis] - A @ coef)
+    d = np.linalg.norm(np.column_stack(dev), axis=1)
+    return float(total_mass * np.sqrt(np.mean(d * d)))
+
+
+def diagnose_gravity(scale: float, fps: float, height: float | None = None) -> str:
+    """Plain-words reading of the gravity scale ``s`` of a flight fit at frame rate ``fps``."""
+    s = float(scale)
+    g = s * G
+    if not np.isfinite(s) or s <= 0:
+        return (f"the fitted vertical motion is not a downward parabola (gravity {g:.2f} m/s^2): the interval "
+                "is probably not a flight phase")
+    if 0.7 <= s <= 1.45:
+        return (f"fitted gravity {g:.2f} m/s^2 (s = {s:.2f}) is consistent with 9.81 m/s^2: frame rate "
+                f"({fps:g} Hz) and length units look right")
+    implied = fps / np.sqrt(s)
+    nearest = min(COMMON_RATES, key=lambda r: abs(np.log(r / implied)))
+    units_ok = height is None or 1.2 <= height <= 2.2
+    if units_ok and (s > 2.0 or s < 0.5) and abs(np.log(nearest / implied)) < np.log(1.25):
+        speed = "fast" if s > 1 else "slow"
+        return (f"fitted gravity is {g:.1f} m/s^2 (s = {s:.2f}) at the stated {fps:g} Hz: the motion runs "
+                f"{np.sqrt(s) if s > 1 else 1 / np.sqrt(s):.2f}x too {speed}, so the clip was most likely captured "
+                f"at about {implied:.0f} Hz (nearest common rate {nearest:g} Hz) but labelled {fps:g} Hz; reload "
+                f"it with fps={nearest:g} (CLI: --fps {nearest:g})")
+    if not units_ok:
+        return (f"fitted gravity is {g:.1f} m/s^2 (s = {s:.2f}) and the skeleton is {height:.2f} m tall: the "
+                f"length unit is probably wrong (lengths look {s:.3g}x too large); reload with the right scale")
+    return (f"fitted gravity {g:.2f} m/s^2 (s = {s:.2f}) is off by more than the fit's usual error but does "
+            f"not match a clean frame-rate or unit error (implied rate {implied:.0f} Hz); the flight may be short, "
+            "noisy or coarsely sampled, or the mass distribution poor")
+
+
+@dataclass(frozen=True)
+class MassEstimate:
+    """Result of eq. 5.1-5.2 with its evidence.
+
+    Attributes
+    ----------
+    body: new :class:`BodyModel` with the estimated masses and recomputed inertias.
+    prior: the table model it started from (``m^0``).
+    groups: symmetric segment groups (one mass each).
+    fits: per flight, the trajectory fitted with the estimated masses.
+    prior_fits: the same with the prior masses.
+    W: regulariser weight (dimensionless, see module docstring).
+    residual_rms, prior_residual_rms: m, COM residual about the fitted trajectories.
+    momentum_deviation, prior_momentum_deviation: kg m/s, RMS deviation of linear
+        momentum from its ballistic pattern (mean over flights).
+    reduction: ``1 - momentum_deviation / prior_momentum_deviation`` (the paper: 0.30).
+    gravity_scale: median ``s`` over flights; diagnosis: plain words about it.
+    seconds: time taken.
+    """
+
+    body: BodyModel
+    prior: BodyModel
+    groups: tuple[tuple[int, ...], ...]
+    fits: tuple[FlightFit, ...]
+    prior_fits: tuple[FlightFit, ...]
+    W: float
+    residual_rms: float
+    prior_residual_rms: float
+    momentum_deviation: float
+    prior_momentum_deviation: float
+    reduction: float
+    gravity_scale: float
+    diagnosis: str
+    seconds: float = 0.0
+    notes: tuple[str, ...] = field(default=())
+
+    @property
+    def masses(self) -> np.ndarray:
+        return self.body.masses
+
+    def table(self, truth: np.ndarray | None = None):
+        """Dissertation Table C.1 layout: per segment, initial and optimized mass in % of the
+        total (and the true % when ``truth`` masses are given), plus the change in points."""
+        import pandas as pd
+
+        M = self.body.total_mass
+        df = pd.DataFrame({
+            "segment": self.body.segment_names,
+            "joint": [self.body.skeleton.names[j] for j in self.body.segment_joint],
+            "initial_%": 100 * self.prior.masses / self.prior.total_mass,
+            "optimized_%": 100 * self.body.masses / M,
+        })
+        if truth is not None:
+            truth = np.asarray(truth, dtype=float)
+            df["true_%"] = 100 * truth / truth.sum()
+            df["initial_error_%"] = df["initial_%"] - df["true_%"]
+            df["optimized_error_%"] = df["optimized_%"] - df["true_%"]
+        else:
+            df["change_%"] = df["optimized_%"] - df["initial_%"]
+        return df
+
+    def error_vs(self, truth: np.ndarray) -> tuple[float, float]:
+        """RMS per-segment mass error (kg) of (estimate, prior) against ``truth``, with the
+        prior scaled to the truth's total mass."""
+        truth = np.asarray(truth, dtype=float)
+        est = self.body.masses * truth.sum() / self.body.total_mass
+        pri = self.prior.masses * truth.sum() / self.prior.total_mass
+        return float(np.sqrt(np.mean((est - truth) ** 2))), float(np.sqrt(np.mean((pri - truth) ** 2)))
+
+
+def estimate_masses(prior: BodyModel, motion, flights, W: float = 1e-4, symmetric: bool = True,
+                    min_frames: int = 8, segment_positions: np.ndarray | None = None) -> MassEstimate:
+    """Eq. 5.1-5.2 over one flight ``(start, stop)`` or several (a list): shared masses,
+    per-flight trajectories.
+
+    Parameters
+    ----------
+    prior: the table model (``m^0``, local COMs, shapes); its total mass is kept.
+    motion: the :class:`~mocomp.core.Motion` (the prior's skeleton).
+    flights: ``(start, stop)`` half-open frame range, or a list of them.
+    W: regulariser weight (dimensionless; see the module docstring). 0 = eq. 5.1 alone.
+    symmetric: one mass per left/right pair (:func:`mocomp.body.symmetry.symmetric_groups`).
+    min_frames: fewer airborne frames than this in every flight raises
+        :class:`FlightTooShortError`.
+    segment_positions: precomputed ``(T, S, 3)`` segment COMs (else computed).
+    """
+    from ..body.inertia import inertia_for_masses
+    from ..body.symmetry import symmetric_groups
+    from ..dynamics import segment_positions as seg_pos
+
+    t0 = time.perf_counter()
+    if isinstance(flights, tuple) and len(flights) == 2 and np.isscalar(flights[0]):
+        flights = [flights]
+    flights = [(int(a), int(b)) for a, b in flights]
+    if not flights:
+        raise NoFlightPhaseError("mass estimation needs at least one flight phase")
+    fps = motion.fps
+    short = [f for f in flights if f[1] - f[0] < min_frames]
+    usable = [f for f in flights if f[1] - f[0] >= min_frames]
+    if not usable:
+        a, b = max(flights, key=lambda f: f[1] - f[0])
+        raise FlightTooShortError(
+            f"the longest flight (frames {a}-{b - 1}) has {b - a} frames ({(b - a) / fps:.3f} s at {fps:g} Hz); "
+            f"estimating masses needs at least {min_frames} airborne frames: use a clip with a longer flight, "
+            "resample it to a higher frame rate, or skip estimation and keep the table prior")
+    notes = [f"flight {a}-{b - 1} ({b - a} frames) is too short and was not used" for a, b in short]
+    pos = seg_pos(prior, motion) if segment_positions is None else np.asarray(segment_positions)
+    M = prior.total_mass
+    f0 = prior.masses / M
+    S = f0.size
+    groups = symmetric_groups(prior) if symmetric else [[i] for i in range(S)]
+    Gm = np.zeros((S, len(groups)))
+    for gi, g in enumerate(groups):
+        Gm[g, gi] = 1.0
+    h = float(motion.skeleton.height()) if hasattr(motion.skeleton, "height") else 1.7
+    blocks = []
+    n_eq = 0
+    for a, b in usable:
+        P = pos[a:b]                       # (n, S, 3)
+        n = b - a
+        for axis in range(3):
+            C = _projector_complement(n, fps, axis == 1)
+            blocks.append(C @ P[:, :, axis])
+        n_eq += 3 * n
+    A = np.vstack(blocks) / (np.sqrt(n_eq) * h)          # residual r = A f (already projected)
+    K = np.vstack([A @ Gm, np.sqrt(W) * Gm])
+    y = np.concatenate([np.zeros(A.shape[0]), np.sqrt(W) * f0])
+    sizes = Gm.sum(axis=0)
+    # eliminate the sum constraint through the group with the largest prior mass
+    mu0 = (Gm.T @ f0) / sizes
+    kk = int(np.argmax(mu0 * sizes))
+    free = [i for i in range(len(groups)) if i != kk]
+    # mu_k = (1 - sum_{free} n_i mu_i) / n_k
+    E = np.zeros((len(groups), len(free)))
+    e0 = np.zeros(len(groups))
+    for c, i in enumerate(free):
+        E[i, c] = 1.0
+        E[kk, c] = -sizes[i] / sizes[kk]
+    e0[kk] = 1.0 / sizes[kk]
+    sol = lsq_linear(K @ E, y - K @ e0, bounds=(0.0, np.inf), method="bvls", tol=1e-12)
+    mu = E @ sol.x + e0
+    if mu[kk] < 0:       # pathological: the eliminated group would be negative; solve with SLSQP instead
+        from scipy.optimize import minimize
+
+        H = K.T @ K
+        c = K.T @ y
+        res = minimize(lambda x: x @ H @ x - 2 * c @ x, mu0, jac=lambda x: 2 * (H @ x - c), method="SLSQP",
+                       bounds=[(0, None)] * len(groups),
+                       constraints=[{"type": "eq", "fun": lambda x: sizes @ x - 1.0, "jac": lambda x: sizes}],
+                       options={"ftol": 1e-14, "maxiter": 500})
+        mu = np.clip(res.x, 0.0, None)
+        mu /= sizes @ mu
+        notes.append("the constrained solve used SLSQP (the eliminated group hit its bound)")
+    f = Gm @ mu
+    masses = f * M
+    body = prior.with_masses(masses, inertia_for_masses(prior, masses))
+    com_est = np.einsum("s,tsk->tk", f, pos)
+    com_pri = np.einsum("s,tsk->tk", f0, pos)
+    fits = tuple(fit_ballistic(com_est[a:b], fps, a) for a, b in usable)
+    pfits = tuple(fit_ballistic(com_pri[a:b], fps, a) for a, b in usable)
+    dev = float(np.mean([momentum_deviation(com_est[a:b], fps, M) for a, b in usable]))
+    pdev = float(np.mean([momentum_deviation(com_pri[a:b], fps, M) for a, b in usable]))
+    scale = float(np.median([ft.scale for ft in fits]))
+
+    def _rms(fs):
+        w = np.array([ft.n_frames for ft in fs], dtype=float)
+        return float(np.sqrt(np.sum(w * np.array([ft.rms for ft in fs]) ** 2) / w.sum()))
+
+    diag = diagnose_gravity(scale, fps, h)
+    return MassEstimate(body=body, prior=prior, groups=tuple(tuple(g) for g in groups), fits=fits, prior_fits=pfits,
+                        W=float(W), residual_rms=_rms(fits), prior_residual_rms=_rms(pfits),
+                        momentum_deviation=dev, prior_momentum_deviation=pdev,
+                        reduction=float(1.0 - dev / pdev) if pdev > 0 else float("nan"),
+                        gravity_scale=scale, diagnosis=diag, seconds=time.perf_counter() - t0, notes=tuple(notes))

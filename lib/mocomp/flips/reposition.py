@@ -1,0 +1,153 @@
+"""Repositioning of the flight (dissertation eq. 5.15-5.17, App. B height changes).
+
+Over the new flight (``t = 0 .. T_new`` from take-off) the COM follows
+
+    COM_x(t) = k a_x t + b_x,  COM_z(t) = k a_z t + b_z                 (eq. 5.15)
+    COM_y(t) = a_y t^2 + v0' t + c_y                                     (eq. 5.17)
+
+where ``v0' = k b_y`` at ``k = k*`` (eq. 5.17 as printed) and, for other ``k``, the
+vertical take-off velocity that lands at the requested level (see
+:mod:`mocomp.flips.retime`). ``b_x, b_z, c_y`` are anchored at the COM of the
+take-off frame (rather than the fitted intercepts, which differ from it by the
+fit residual) so positions are continuous at take-off. Every flight frame is
+translated so its COM (computed exactly from its pose with the estimated
+masses) lies on that trajectory; translation leaves angular momentum about the
+COM unchanged (section 5.4.1). Frames after the landing are offset by
+``COM_new(T_new) - COM(T)`` (eq. 5.16), including the height change ``dy``
+(App. B: changing ``c_y``/``dy`` moves the take-off or landing level).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..body.model import BodyModel
+
+__all__ = ["ComEvaluator", "FlightTrajectory", "flight_trajectory", "landing_offset"]
+
+
+class ComEvaluator:
+    """Whole-body COM relative to the root, fast, for many frames of one skeleton/body.
+
+    ``COM - root = sum_j G_j u_j`` where ``G_j`` is joint ``j``'s global rotation and
+    ``u_j = sum_{segments s on j} f_s c_s + sum_{children k of j} F(k) o_k`` (``f`` mass
+    fractions, ``c`` local COMs, ``o`` bone offsets, ``F(k)`` the mass fraction of the
+    subtree below ``k``): the mass-weighted forward kinematics collapsed onto one
+    constant vector per joint. Joints whose subtree carries no mass are skipped and
+    the rotation chain is evaluated one tree level at a time, vectorized over
+    joints and frames (exact; tested against full forward kinematics).
+    """
+
+    def __init__(self, body: BodyModel):
+        sk = body.skeleton
+        J = sk.n_joints
+        M = body.total_mass
+        if not M > 0:
+            raise ValueError("the body model has zero total mass")
+        f = np.zeros(J)
+        fc = np.zeros((J, 3))
+        np.add.at(f, body.segment_joint, body.masses / M)
+        np.add.at(fc, body.segment_joint, (body.masses / M)[:, None] * body.local_coms)
+        F = f.copy()                                   # subtree mass fractions
+        parents = sk.parents
+        for j in range(J - 1, 0, -1):
+            F[parents[j]] += F[j]
+        u = fc.copy()
+        for j in range(1, J):
+            u[parents[j]] += F[j] * sk.offsets[j]
+        needed = F > 1e-15
+        needed[0] = True
+        depth = np.zeros(J, dtype=int)
+        for j in range(1, J):
+            depth[j] = depth[parents[j]] + 1
+        self.joints = np.flatnonzero(needed)               # joints whose rotation matters
+        pos = {j: i for i, j in enumerate(self.joints)}
+        self._levels = []
+        for d in range(1, int(depth[self.joints].max()) + 1 if self.joints.size else 1):
+            js = [j for j in self.joints if depth[j] == d]
+            if js:
+                self._levels.append((np.array([pos[j] for j in js]),
+                                     np.array([pos[int(parents[j])] for j in js]),
+                                     np.array(js)))
+        self.u = u[self.joints]
+        self.total_mass = M
+
+    def relative(self, rotations: np.ndarray) -> np.ndarray:
+        """``(T, 3)`` COM minus root position for local rotations ``(T, J, 4)`` (root = world orientation)."""
+        q = np.asarray(rotations, dtype=float)
+        T = q.shape[0]
+        n = self.joints.size
+        # component-major (n, 4, T) so each operation runs on contiguous frame vectors
+        L = np.ascontiguousarray(np.transpose(q[:, self.joints], (1, 2, 0)))
+        G = np.empty_like(L)
+        G[0] = L[0]
+        for idx, pidx, _ in self._levels:
+            a = G[pidx]
+            b = L[idx]
+            ax, ay, az, aw = a[:, 0], a[:, 1], a[:, 2], a[:, 3]
+            bx, by, bz, bw = b[:, 0], b[:, 1], b[:, 2], b[:, 3]
+            G[idx, 0] = aw * bx + ax * bw + ay * bz - az * by
+            G[idx, 1] = aw * by - ax * bz + ay * bw + az * bx
+            G[idx, 2] = aw * bz + ax * by - ay * bx + az * bw
+            G[idx, 3] = aw * bw - ax * bx - ay * by - az * bz
+        # rotate each constant u_j by G_j: v' = v + w t + u x t, t = 2 u x v
+        ux, uy, uz, w = G[:, 0], G[:, 1], G[:, 2], G[:, 3]
+        vx, vy, vz = (self.u[:, i:i + 1] for i in range(3))
+        tx = 2.0 * (uy * vz - uz * vy)
+        ty = 2.0 * (uz * vx - ux * vz)
+        tz = 2.0 * (ux * vy - uy * vx)
+        out = np.empty((T, 3))
+        out[:, 0] = (vx + w * tx + uy * tz - uz * ty).sum(axis=0)
+        out[:, 1] = (vy + w * ty + uz * tx - ux * tz).sum(axis=0)
+        out[:, 2] = (vz + w * tz + ux * ty - uy * tx).sum(axis=0)
+        return out
+
+    def __call__(self, root_positions: np.ndarray, rotations: np.ndarray) -> np.ndarray:
+        """``(T, 3)`` world COM."""
+        return np.asarray(root_positions, dtype=float) + self.relative(rotations)
+
+
+@dataclass(frozen=True)
+class FlightTrajectory:
+    """The new flight's COM trajectory (eq. 5.15, 5.17).
+
+    Attributes
+    ----------
+    c0: ``(3,)`` m, COM at take-off (``b_x, c_y, b_z``).
+    velocity: ``(3,)`` m/s, COM velocity at take-off (``k a_x, v0', k a_z``).
+    a_y: m/s^2 / 2, the clip's vertical quadratic coefficient (``-g/2``).
+    T_new: s, flight duration.
+    """
+
+    c0: np.ndarray
+    velocity: np.ndarray
+    a_y: float
+    T_new: float
+
+    def __call__(self, t: np.ndarray) -> np.ndarray:
+        """``(n, 3)`` COM at times ``t`` (s since take-off)."""
+        t = np.asarray(t, dtype=float)
+        out = self.c0 + t[:, None] * self.velocity
+        out[:, 1] += self.a_y * t * t
+        return out
+
+    @property
+    def end(self) -> np.ndarray:
+        """``(3,)`` COM at landing."""
+        return self(np.array([self.T_new]))[0]
+
+
+def flight_trajectory(c0: np.ndarray, a_x: float, a_z: float, a_y: float, k: float, vy_takeoff: float,
+                      T_new: float) -> FlightTrajectory:
+    """Eq. 5.15/5.17 anchored at the take-off COM ``c0``."""
+    c0 = np.asarray(c0, dtype=float).copy()
+    v = np.array([k * a_x, vy_takeoff, k * a_z])
+    c0.setflags(write=False)
+    v.setflags(write=False)
+    return FlightTrajectory(c0=c0, velocity=v, a_y=float(a_y), T_new=float(T_new))
+
+
+def landing_offset(trajectory: FlightTrajectory, com_landing_original: np.ndarray) -> np.ndarray:
+    """Eq. 5.16 offset (x, z; and y, which carries the height change) for frames after the landing."""
+    return trajectory.end - np.asarray(com_landing_original, dtype=float)

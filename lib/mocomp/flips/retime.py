@@ -1,0 +1,137 @@
+"""Uniform retiming of take-off, flight and landing (section 5.3 / 5.4.3, App. B).
+
+Retiming by ``k`` (``k > 1`` = faster) multiplies velocities, and so linear and
+angular momentum, by ``k`` (eq. 5.8) and divides durations by ``k``. With the
+take-off vertical velocity ``v0`` and the flight duration ``T`` of the
+sequenced motion (before retiming), App. B's end condition
+``-1/2 g (T/k)^2 + k v0 (T/k) = dy`` gives (eq. B.5)
+
+    k* = sqrt( (g T / 2) / (v0 - dy / T) ),
+
+the one factor for which the retimed take-off velocity ``k v0`` flies exactly
+to the landing level ``dy`` above the take-off level in the retimed time
+``T / k``: linear momentum is then continuous at take-off and landing. The
+radicand is positive only for ``dy < v0 T`` (App. B's limit on raising the
+landing).
+
+**When k differs from k*** (the paper's default is ``k = 0.7 k*``: "higher jumps
+with slower rotations") the flight cannot both leave with ``k v0`` and land at the
+requested level after ``T / k``. Resolution chosen here: the flight keeps its
+duration ``T / k`` (so the rotation rate is ``k`` times the original) and both
+end levels, so its parabola is the ballistic one through the take-off and
+landing points, ``v0' = dy / T_new + g T_new / 2``; the take-off and landing
+phases keep their ``k``-retimed velocities, and the vertical velocity jumps by
+``v0' - k v0`` at take-off (and by the corresponding amount at landing). Those
+jumps are reported (they vanish at ``k = k*``); section 5.3 notes that small
+ones are not perceptible.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import PhysicsError
+
+__all__ = ["k_star", "RetimePlan", "plan_retime", "sample_positions"]
+
+
+def k_star(g: float, T: float, v0: float, dy: float = 0.0) -> float:
+    """App. B eq. B.5: ``k* = sqrt((g T / 2) / (v0 - dy / T))``.
+
+    ``g`` is the (clip's) gravity, positive; ``T`` the flight duration before
+    retiming (s); ``v0`` the original take-off vertical velocity (m/s); ``dy`` the
+    landing level minus the take-off level (m). Raises :class:`PhysicsError` when
+    the radicand is not positive, saying which parameter to change.
+    """
+    if not (g > 0 and T > 0):
+        raise PhysicsError(f"k* needs positive gravity and flight time, got g={g!r}, T={T!r}")
+    denom = v0 - dy / T
+    if not denom > 0:
+        if v0 <= 0:
+            raise PhysicsError(
+                f"k* is undefined: the take-off vertical velocity v0 = {v0:.3f} m/s is not upward, so no "
+                "retiming lets the flight reach its landing; check the detected flight phase")
+        raise PhysicsError(
+            f"k* is undefined (negative radicand): the landing would be {dy:.3f} m above the take-off but "
+            f"the take-off velocity v0 = {v0:.3f} m/s over the {T:.3f} s flight only allows dy < v0*T = "
+            f"{v0 * T:.3f} m (App. B); lower the height change (--height-change) below "
+            f"{v0 * T:.3f} m minus the clip's own landing offset, or give an explicit k (--k)")
+    return math.sqrt(0.5 * g * T / denom)
+
+
+@dataclass(frozen=True)
+class RetimePlan:
+    """The retiming decision and its physical consequences.
+
+    Attributes
+    ----------
+    k: the factor used (``k > 1`` = faster); ``k_star``: eq. B.5 (``nan`` if undefined
+        and ``k`` was given explicitly); ``k_ratio``: ``k / k_star``.
+    g: m/s^2, the clip's gravity (``-2 a_y`` of the flight fit).
+    T_seq: s, flight duration of the sequenced motion before retiming; ``T_new = T_seq / k``.
+    v0: m/s, original take-off vertical velocity (``b_y``); ``dy``: m, landing minus take-off level.
+    vy_takeoff_new: m/s, vertical take-off velocity of the new flight parabola.
+    vy_takeoff_jump, vy_landing_jump: m/s, vertical velocity discontinuities at take-off
+        and landing (new flight minus the ``k``-retimed ground phase; 0 at ``k = k*``).
+    note: plain-words remark.
+    """
+
+    k: float
+    k_star: float
+    k_ratio: float
+    g: float
+    T_seq: float
+    T_new: float
+    v0: float
+    dy: float
+    vy_takeoff_new: float
+    vy_takeoff_jump: float
+    vy_landing_jump: float
+    note: str = ""
+
+
+def plan_retime(g: float, T_seq: float, v0: float, dy: float, v_land: float,
+                k: float | None = None, k_ratio: float | None = None) -> RetimePlan:
+    """Choose ``k`` (explicit, or ``k_ratio * k*``, default ``0.7 k*`` as in section 5.3) and
+    derive the new flight's vertical velocity.
+
+    ``v_land`` is the original vertical velocity at landing (``b_y + 2 a_y T0``),
+    used for the landing discontinuity.
+    """
+    if k is not None and k_ratio is not None:
+        raise ValueError("give either k or k_ratio, not both")
+    if k is None and k_ratio is None:
+        k_ratio = 0.7
+    note = ""
+    try:
+        ks = k_star(g, T_seq, v0, dy)
+    except PhysicsError:
+        if k is None:
+            raise
+        ks = float("nan")
+        note = "k* is undefined for this height change; the explicit k is used and the take-off velocity jumps"
+    if k is None:
+        if not (k_ratio is not None and np.isfinite(k_ratio) and k_ratio > 0):
+            raise ValueError(f"k_ratio must be a positive number, got {k_ratio!r}")
+        k = float(k_ratio) * ks
+    if not (np.isfinite(k) and k > 0):
+        raise ValueError(f"the retiming factor k must be positive and finite, got {k!r}")
+    if not (0.25 <= k <= 4.0):
+        raise PhysicsError(f"retiming factor k = {k:.3f} is outside [0.25, 4]: finite-difference momentum "
+                           "scaling (eq. 5.8) is unreliable there; choose k (or --k-ratio) nearer 1")
+    T_new = T_seq / k
+    vy_new = dy / T_new + 0.5 * g * T_new
+    vy_land_new = vy_new - g * T_new
+    return RetimePlan(k=float(k), k_star=float(ks), k_ratio=float(k / ks) if np.isfinite(ks) else float("nan"),
+                      g=float(g), T_seq=float(T_seq), T_new=float(T_new), v0=float(v0), dy=float(dy),
+                      vy_takeoff_new=float(vy_new), vy_takeoff_jump=float(vy_new - k * v0),
+                      vy_landing_jump=float(vy_land_new - k * v_land), note=note)
+
+
+def sample_positions(n_seq: int, k: float) -> np.ndarray:
+    """Output frame ``i`` shows sequence time ``i k`` (in sequence frames): the retimed
+    frame grid at the original frame rate, ending at or before the last frame."""
+    n_out = int(math.floor((n_seq - 1) / k + 1e-9)) + 1
+    return np.minimum(np.arange(n_out) * k, n_seq - 1.0)
