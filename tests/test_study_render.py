@@ -1,0 +1,315 @@
+"""Offscreen rendering (mocomp.plots.render3d) and stimulus-set rendering (study.render).
+
+Small and fast: tiny images, few frames. Speed goals live in benchmarks/bench_render.py.
+"""
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from scipy.spatial.transform import Rotation
+
+from mocomp.core import Motion, Skeleton
+from mocomp.core.skeleton import EndSite
+from mocomp.plots import render3d as r3
+
+RED = (1.0, 0.0, 0.0)
+
+
+def figure_skeleton() -> Skeleton:
+    names = ["Hips", "Spine", "Head", "LeftUpLeg", "LeftLeg", "LeftFoot", "RightUpLeg", "RightLeg", "RightFoot",
+             "LeftArm", "LeftForeArm", "RightArm", "RightForeArm"]
+    parents = [-1, 0, 1, 0, 3, 4, 0, 6, 7, 1, 9, 1, 11]
+    offsets = [[0, 0.95, 0], [0, 0.25, 0], [0, 0.30, 0], [0.1, 0, 0], [0, -0.45, 0], [0, -0.42, 0],
+               [-0.1, 0, 0], [0, -0.45, 0], [0, -0.42, 0], [0.18, 0.22, 0], [0.0, -0.28, 0], [-0.18, 0.22, 0],
+               [0.0, -0.28, 0]]
+    ends = [EndSite(2, [0, 0.2, 0], "Head_end"), EndSite(5, [0, -0.05, 0.12], "LeftFoot_end"),
+            EndSite(8, [0, -0.05, 0.12], "RightFoot_end"), EndSite(10, [0, -0.25, 0], "LeftForeArm_end"),
+            EndSite(12, [0, -0.25, 0], "RightForeArm_end")]
+    return Skeleton(names, parents, offsets, end_sites=ends)
+
+
+def standing(x: float = 0.0, n: int = 1, fps: float = 30.0) -> Motion:
+    sk = figure_skeleton()
+    rot = np.zeros((n, sk.n_joints, 4))
+    rot[..., 3] = 1
+    root = np.tile([x, 0.97, 0.0], (n, 1))
+    return Motion(sk, fps, root, rot)
+
+
+def spinning(n: int = 8, fps: float = 20.0) -> Motion:
+    """The figure turning about z while moving along x (every frame different)."""
+    m = standing(n=n, fps=fps)
+    ang = np.linspace(0, np.pi, n)
+    rot = np.array(m.rotations)
+    rot[:, 0] = Rotation.from_rotvec(np.outer(ang, [0, 0, 1])).as_quat()
+    root = np.array(m.root_positions)
+    root[:, 0] = np.linspace(-0.5, 0.5, n)
+    root[:, 1] += 0.3 * np.sin(ang)
+    return m.replace(root_positions=root, rotations=rot)
+
+
+CAM = r3.Camera(position=(0.0, 1.0, 6.0), focal_point=(0.0, 1.0, 0.0), view_angle=35.0)
+SMALL = r3.RenderStyle(width=96, height=72, body_color=RED, shadow=True)
+
+
+def red_mask(img: np.ndarray) -> np.ndarray:
+    r, g, b = (img[..., k].astype(int) for k in range(3))
+    return (r > 90) & (g < 0.55 * r) & (b < 0.55 * r)
+
+
+# ------------------------------------------------------------------- style
+def test_bone_kinds_for_common_rigs():
+    kinds = {(figure_skeleton().names[b.joint], b.kind) for b in r3.bone_capsules(figure_skeleton())}
+    for pair in [("LeftUpLeg", "thigh"), ("LeftLeg", "shin"), ("LeftArm", "upper_arm"), ("LeftForeArm", "forearm"),
+                 ("Head", "head"), ("LeftFoot", "foot"), ("Hips", "torso")]:
+        assert pair in kinds, pair
+    # DeepMimic naming: right_hip -> right_knee is the thigh; chest -> right_shoulder a clavicle
+    names = ["root", "chest", "neck", "right_hip", "right_knee", "right_ankle", "right_shoulder", "right_elbow"]
+    sk = Skeleton(names, [-1, 0, 1, 0, 3, 4, 1, 6],
+                  [[0, 0, 0], [0, .24, 0], [0, .22, 0], [0, 0, .08], [0, -.42, 0], [0, -.41, 0], [0, .02, .18],
+                   [0, -.28, 0]], end_sites=[EndSite(2, [0, .2, 0], "head"), EndSite(7, [0, -.25, 0], "hand")])
+    k = {(names[b.joint], b.kind) for b in r3.bone_capsules(sk)}
+    assert {("right_hip", "thigh"), ("right_knee", "shin"), ("right_shoulder", "upper_arm"),
+            ("neck", "head"), ("right_elbow", "forearm"), ("chest", "clavicle")} <= k
+    # radii scale with body size
+    small = r3.bone_capsules(figure_skeleton().scaled(0.5))
+    big = r3.bone_capsules(figure_skeleton())
+    assert np.allclose([b.radius for b in small], [0.5 * b.radius for b in big])
+
+
+def test_fit_camera_frames_every_point():
+    rng = np.random.default_rng(0)
+    pts = rng.normal(size=(500, 3)) * [1.5, 0.6, 0.3] + [0.3, 1.2, 0.0]
+    for el in (0.0, 10.0):
+        cam = r3.fit_camera(pts, view_angle=30, aspect=4 / 3, margin=0.1, elevation=el, round_to=None)
+        d = np.subtract(cam.focal_point, cam.position)
+        d /= np.linalg.norm(d)
+        right = np.cross(d, cam.view_up)
+        right /= np.linalg.norm(right)
+        up = np.cross(right, d)
+        rel = pts - cam.position
+        z = rel @ d
+        assert np.all(z > 0)
+        t = np.tan(np.radians(15))
+        x, y = (rel @ right) / (z * t * 4 / 3), (rel @ up) / (z * t)
+        assert np.abs(x).max() <= 1.0 and np.abs(y).max() <= 1.0
+        assert max(np.abs(x).max(), np.abs(y).max()) > 0.6  # not absurdly far away
+    with pytest.raises(ValueError):
+        r3.fit_camera(pts, direction=(0, -1, 0))
+    with pytest.raises(ValueError):
+        r3.RenderStyle(width=95)
+
+
+# -------------------------------------------------------------- rendering
+def test_image_orientation_and_placement():
+    left = r3.render_still(standing(-0.8), style=SMALL, camera=CAM)
+    right = r3.render_still(standing(+0.8), style=SMALL, camera=CAM)
+    assert left.shape == (72, 96, 3) and left.dtype == np.uint8
+    ml, mr = red_mask(left), red_mask(right)
+    assert ml.sum() > 80 and mr.sum() > 80
+    cols = np.arange(96)
+    assert (ml * cols).sum() / ml.sum() < 40 < 56 < (mr * cols).sum() / mr.sum()
+    # not upside down: sky (background) on top, checkered ground at the bottom, head above feet
+    bg = (np.array(SMALL.background) * 255).round()
+    assert np.abs(left[0].astype(float) - bg).max() < 3
+    assert left[-1].std() > 3  # ground checker
+    rows = np.nonzero(ml.any(axis=1))[0]
+    assert rows.min() < 30 and rows.max() > 40
+    # shadow: darker pixels appear on the ground under the figure
+    no_shadow = r3.render_still(standing(-0.8), style=r3.RenderStyle(width=96, height=72, body_color=RED,
+                                                                     shadow=False), camera=CAM)
+    assert (np.abs(no_shadow.astype(int) - left.astype(int)).sum(axis=2) > 30)[45:].sum() > 5
+
+
+def test_frames_equal_fresh_stills_and_are_deterministic():
+    m = spinning(6)
+    with r3.MotionRenderer(m.skeleton, SMALL, CAM) as r:
+        frames = list(r.frames(m))
+    assert len(frames) == 6
+    assert any(np.abs(frames[0].astype(int) - f.astype(int)).max() > 50 for f in frames[1:])
+    for k in (0, 3, 5):
+        still = r3.render_still(m, k, style=SMALL, camera=CAM)
+        assert np.array_equal(still, frames[k]), k
+
+
+def _read_video(path):
+    import imageio_ffmpeg
+
+    gen = imageio_ffmpeg.read_frames(str(path))
+    meta = next(gen)
+    w, h = meta["size"]
+    return meta, [np.frombuffer(f, np.uint8).reshape(h, w, 3) for f in gen]
+
+
+def test_video_roundtrip_and_deterministic_bytes(tmp_path):
+    m = spinning(8, fps=20.0)
+    res = r3.write_video(m, tmp_path / "a.mp4", style=SMALL, camera=CAM, poster=tmp_path / "a.png")
+    assert res.n_frames == 8 and res.fps == 20.0 and res.duration_s == pytest.approx(0.4)
+    meta, frames = _read_video(res.path)
+    assert meta["codec"] == "h264" and meta["fps"] == 20.0 and tuple(meta["size"]) == (96, 72)
+    assert "yuv420p" in meta["pix_fmt"] and len(frames) == 8
+    with r3.MotionRenderer(m.skeleton, SMALL, CAM) as r:
+        f5 = r.frame(m, 5)
+    assert np.abs(frames[5].astype(float) - f5).mean() < 6  # lossy, but the same picture
+    import imageio.v3 as iio
+
+    assert np.array_equal(iio.imread(tmp_path / "a.png"), r3.render_still(m, 0, style=SMALL, camera=CAM))
+    r3.write_video(m, tmp_path / "b.mp4", style=SMALL, camera=CAM)
+    h = lambda p: hashlib.sha256(Path(p).read_bytes()).hexdigest()  # noqa: E731
+    assert h(tmp_path / "a.mp4") == h(tmp_path / "b.mp4")
+    # resampled to another rate: duration kept
+    res = r3.write_video(m, tmp_path / "c.mp4", fps=40.0, style=SMALL, camera=CAM)
+    assert res.n_frames == 15
+    assert not list(tmp_path.glob("*.partial*"))
+
+
+def test_filmstrip_layouts():
+    m = spinning(8)
+    ov = r3.render_filmstrip(m, n_poses=4, style=SMALL)
+    assert ov.shape == (72, 96, 3)
+    tiles = r3.render_filmstrip([m, m.translated((0, 0, 0.5))], n_poses=5, layout="tiles", style=SMALL)
+    assert tiles.shape == (2 * 72, 5 * 96, 3)
+    with pytest.raises(ValueError, match="skeleton"):
+        r3.render_filmstrip([m, standing().replace(skeleton=figure_skeleton().scaled(0.9))], style=SMALL)
+    with pytest.raises(ValueError, match="layout"):
+        r3.render_filmstrip(m, layout="grid", style=SMALL)
+
+
+def test_osmesa_backend_renders_the_same_picture(tmp_path):
+    """The OSMesa fallback (libosmesa6) draws the same scene as EGL, in a fresh process."""
+    code = (
+        "import sys, numpy as np; sys.path.insert(0, %r)\n"
+        "from test_study_render import standing, SMALL, CAM\n"
+        "from mocomp.plots import render3d as r3\n"
+        "img = r3.render_still(standing(0.3), style=SMALL, camera=CAM)\n"
+        "np.save(%r, img)\n" % (str(Path(__file__).parent), str(tmp_path / "os.npy")))
+    env = dict(os.environ, VTK_DEFAULT_OPENGL_WINDOW="vtkOSOpenGLRenderWindow")
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120)
+    if out.returncode != 0 and "OSMesa" in out.stderr and "load" in out.stderr.lower():
+        pytest.skip("libosmesa6 is not installed (scripts/setup-system.sh installs it)")
+    assert out.returncode == 0, out.stderr[-2000:]
+    os_img = np.load(tmp_path / "os.npy")
+    egl = r3.render_still(standing(0.3), style=SMALL, camera=CAM)
+    assert np.abs(os_img.astype(float) - egl).mean() < 2.0
+
+
+# ------------------------------------------------------- stimulus sets
+def _register_toy_examples():
+    from mocomp.datasets.examples import EXAMPLES, Example, register
+
+    if "_test_tumbling_flip" in EXAMPLES:
+        return
+    sys.path.insert(0, str(Path(__file__).parent))
+    from test_study_stimuli import tumbling_flip
+
+    class Res:
+        def __init__(self):
+            self.motion, self.body, self.flight = tumbling_flip(fps=60.0, n_stand=15, T=0.5, n_land=18)
+
+    register(Example("_test_tumbling_flip", "test only: rigid tumbling flip", Res))
+
+
+def _spec(tmp_path, **render):
+    _register_toy_examples()
+    data = {"study": {"name": "tiny"},
+            "render": dict({"width": 64, "height": 48, "fps": 15, "filmstrip": True, "filmstrip_poses": 3},
+                           **render),
+            "clip": {"pre_s": 0.1, "post_s": 0.15},
+            "base": [{"id": "toy", "source": "example:_test_tumbling_flip"}],
+            "condition": [{"perturbation": "am_abrupt", "directions": ["increase", "decrease"], "levels": [50]},
+                          {"perturbation": "takeoff", "directions": ["increase"], "levels": [30]}]}
+    p = tmp_path / "tiny.json"
+    p.write_text(json.dumps(data))
+    return p
+
+
+def test_render_set_manifest_hashes_and_skipping(tmp_path):
+    from study.render import EXTRA_COLUMNS, MANIFEST_COLUMNS, render_stimulus_set
+
+    spec = _spec(tmp_path)
+    out = tmp_path / "out"
+    rep = render_stimulus_set(spec, out, progress=False)
+    m = rep.manifest
+    assert list(m.columns[:len(MANIFEST_COLUMNS)]) == list(MANIFEST_COLUMNS)
+    assert set(EXTRA_COLUMNS) <= set(m.columns)
+    assert list(m["stimulus_id"]) == ["toy__none", "toy__am_abrupt_increase_50", "toy__am_abrupt_decrease_50",
+                                      "toy__takeoff_increase_30"]
+    assert rep.rendered == list(m["stimulus_id"]) and not rep.skipped
+    for _, r in m.iterrows():
+        f = out / r["file"]
+        assert hashlib.sha256(f.read_bytes()).hexdigest() == r["sha256"]
+        assert (out / r["poster"]).is_file() and (out / r["filmstrip"]).is_file()
+        meta, frames = _read_video(f)
+        assert len(frames) == r["n_frames"] and meta["fps"] == 15
+        assert r["duration_s"] == pytest.approx(r["n_frames"] / 15)
+    pert = m[m.perturbation != "none"]
+    # (a full turn in 0.5 s at 60 fps: central differences under-read fast rotation by ~1 %)
+    assert np.allclose(pert["achieved_error"], pert["nominal_level"], atol=1.5)
+    # abrupt increase shortens the flight, decrease lengthens it; take-off keeps it
+    fl = dict(zip(m.stimulus_id, m.flight_s))
+    assert fl["toy__am_abrupt_increase_50"] < fl["toy__none"] < fl["toy__am_abrupt_decrease_50"]
+    assert fl["toy__none"] == pytest.approx(fl["toy__takeoff_increase_30"])
+    info = json.loads((out / "render_info.json").read_text())
+    assert info["n_stimuli"] == 4 and info["camera"]["view_angle"] == 30.0
+    assert (out / "spec.json").is_file()
+    # the trial-design side reads it
+    from study.stimulus_set import load_manifest
+
+    ss = load_manifest(out / "manifest.csv", verify_hashes=True)
+    assert len(ss.ids) == 4 and ss.unperturbed == ["toy__none"]
+
+    # unchanged -> nothing rendered, manifest identical
+    before = (out / "manifest.csv").read_text()
+    rep2 = render_stimulus_set(spec, out, progress=False)
+    assert rep2.rendered == [] and len(rep2.skipped) == 4
+    a = pd.read_csv(out / "manifest.csv").drop(columns=["render_s"])
+    b = pd.read_csv(pd.io.common.StringIO(before)).drop(columns=["render_s"])
+    pd.testing.assert_frame_equal(a, b)
+    # a damaged video is rendered again, the others are not
+    vid = out / m.loc[1, "file"]
+    vid.write_bytes(vid.read_bytes()[:-10])
+    rep3 = render_stimulus_set(spec, out, progress=False)
+    assert rep3.rendered == ["toy__am_abrupt_increase_50"]
+    assert pd.read_csv(out / "manifest.csv").loc[1, "sha256"] == m.loc[1, "sha256"]  # deterministic re-render
+    # a style change (frame rate) re-renders everything
+    rep4 = render_stimulus_set(_spec(tmp_path, fps=10), out, progress=False)
+    assert len(rep4.rendered) == 4
+
+
+def test_render_cli(tmp_path, capsys):
+    from study.render_cli import register_render
+
+    parser = argparse.ArgumentParser(prog="mocomp study")
+    register_render(parser.add_subparsers(dest="sub"))
+    args = parser.parse_args(["render", str(_spec(tmp_path)), "-o", str(tmp_path / "o"), "--no-progress",
+                              "--only", "toy__none", "toy__takeoff_increase_30"])
+    assert args.func(args) == 0
+    out = capsys.readouterr().out
+    assert "2 stimuli" in out and "achieved vs nominal" in out
+    assert len(pd.read_csv(tmp_path / "o" / "manifest.csv")) == 2
+    from mocomp.errors import StudyDataError
+
+    args = parser.parse_args(["render", str(_spec(tmp_path)), "-o", str(tmp_path / "o"), "--only", "nope"])
+    with pytest.raises(StudyDataError, match="unknown stimulus"):
+        args.func(args)
+
+
+def test_mocomp_study_render_command(tmp_path):
+    """Through the real ``mocomp`` entry point (once the ``study`` command exists)."""
+    from mocomp.cli import COMMAND_MODULES, main
+
+    if "study" not in COMMAND_MODULES:
+        pytest.skip("the 'study' command is not registered yet")
+    _register_toy_examples()
+    rc = main(["study", "render", str(_spec(tmp_path)), "-o", str(tmp_path / "o"), "--no-progress"])
+    assert rc == 0 and (tmp_path / "o" / "manifest.csv").is_file()
+    assert main(["study", "render", str(tmp_path / "missing.toml"), "-o", str(tmp_path / "o")]) == 2
