@@ -18,7 +18,7 @@ from ..errors import MotionFormatError
 from .com import check_compatible
 from .derivatives import angular_velocity, central_difference, smooth_motion
 
-__all__ = ["MomentumResult", "momentum", "composite_inertia", "world_inertias", "joint_velocities"]
+__all__ = ["MomentumResult", "momentum", "assemble_momentum", "composite_inertia", "world_inertias", "joint_velocities"]
 
 VELOCITY_MODES = ("finite_difference", "kinematic")
 
@@ -138,6 +138,13 @@ def momentum(body, motion, smooth_sigma: float | None = None, velocity: str = "f
         vj, wj = joint_velocities(m_in)
         omega = wj[:, j]
         vel = vj[:, j] + np.cross(omega, pos - P[:, j])
+    return assemble_momentum(body, t, pos, rot, vel, omega, smooth_sigma=smooth_sigma, velocity_mode=velocity)
+
+
+def assemble_momentum(body, times, pos, rot, vel, omega, smooth_sigma=None, velocity_mode="given") -> MomentumResult:
+    """eq. 5.4-5.5 from segment kinematics already in hand: COM positions ``pos`` ``(T, S, 3)``,
+    orientations ``rot`` ``(T, S, 4)``, COM velocities ``vel`` ``(T, S, 3)`` and world angular
+    velocities ``omega`` ``(T, S, 3)`` (what :func:`momentum` computes from a motion)."""
     m = body.masses
     M = body.total_mass
     if M <= 0:
@@ -146,9 +153,10 @@ def momentum(body, motion, smooth_sigma: float | None = None, velocity: str = "f
     p = np.einsum("s,tsk->tk", m, vel)
     Iw = world_inertias(body, rot)
     L = np.einsum("tsij,tsj->ti", Iw, omega) + np.einsum("s,tsk->tk", m, np.cross(pos - com[:, None], vel))
-    return MomentumResult(times=t, com=com, com_velocity=p / M, linear=p, angular=L, segment_positions=pos,
-                          segment_velocities=vel, segment_angular_velocities=omega, total_mass=M,
-                          smooth_sigma=smooth_sigma if smooth_sigma else None, velocity_mode=velocity)
+    return MomentumResult(times=np.asarray(times), com=com, com_velocity=p / M, linear=p, angular=L,
+                          segment_positions=pos, segment_velocities=vel, segment_angular_velocities=omega,
+                          total_mass=M, smooth_sigma=smooth_sigma if smooth_sigma else None,
+                          velocity_mode=velocity_mode)
 
 
 def composite_inertia(body, motion) -> np.ndarray:

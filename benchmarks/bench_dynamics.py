@@ -1,0 +1,103 @@
+"""Whole-clip momentum of a 240-frame clip against a per-frame MuJoCo loop on the same model.
+
+Ours: :func:`mocomp.dynamics.momentum` on a fresh motion (empty FK cache):
+forward kinematics, quaternion finite differences, eq. 5.4-5.5 for all frames
+at once. Peer: MuJoCo (``mujoco`` PyPI) on the MJCF exported from the same body
+model, one frame at a time: ``qpos``/``qvel`` set, then ``mj_kinematics``,
+``mj_comPos``, ``mj_comVel``, ``mj_subtreeVel``; ``subtree_com`` and
+``subtree_angmom`` of the root. Two rows:
+
+1. ``motion -> L``: the peer also needs ``qpos``/``qvel`` from the motion
+   (our :func:`~mocomp.dynamics.mujoco_check.qpos_qvel`: FK and the same
+   quaternion differences), timed with its loop;
+2. ``state -> L``: both start from velocities in hand -- ours
+   :func:`~mocomp.dynamics.momentum.assemble_momentum` on segment kinematics,
+   the peer's loop alone on ``qpos``/``qvel``.
+
+The note reports the agreement (max relative difference of ``L``, ours with
+matched rigid-body velocities) so the speed is compared on the same answer.
+Goal (issue 3): ours no slower (ratio >= 1) on row 1.
+"""
+from __future__ import annotations
+
+import os
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from mocomp.body import BodyModel
+from mocomp.dynamics import momentum
+from mocomp.dynamics.momentum import assemble_momentum
+from mocomp.dynamics.mujoco_check import build_mujoco, mujoco_momentum, qpos_qvel
+from timing import best_of, result
+
+N_FRAMES = 240
+
+
+def clip(n_frames: int = N_FRAMES):
+    """The benchmark clip (CMU joint names, so the body mapping applies) and where it came from."""
+    d = os.environ.get("MOCOMP_DATA_DIR")
+    f = Path(d) / "flips" / "cmu_88_01_backflip.bvh" if d else None
+    if f is not None and f.is_file():
+        from mocomp.io import read_bvh
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            m = read_bvh(f, scale="cmu", fps=60.0)[1:]
+        m = m.resample((n_frames - 1 + 0.5) / m.duration)[:n_frames]
+        return m, f"real CMU 88_01 backflip (31 joints, 60 Hz) resampled to {n_frames} frames at {m.fps:.1f} Hz"
+    from scipy.spatial.transform import Rotation
+
+    from mocomp.core import Motion
+    from mocomp.synth.skeleton import synthetic_skeleton
+
+    sk = synthetic_skeleton(1.75)
+    rng = np.random.default_rng(2)
+    J = sk.n_joints
+    t = np.arange(n_frames) / 120.0
+    rv = rng.uniform(0.2, 0.8, (J, 3))[None] * np.sin(2 * np.pi * rng.uniform(0.3, 1.5, (J, 3))[None] * t[:, None, None])
+    rot = Rotation.from_rotvec(rv.reshape(-1, 3)).as_quat().reshape(n_frames, J, 4)
+    root = np.column_stack([np.sin(t), 1.0 + 0.05 * np.cos(3 * t), 0.3 * t])
+    return Motion(sk, 120.0, root, rot), \
+        f"synthetic motion on the mocomp.synth 31-joint skeleton, {n_frames} frames (set MOCOMP_DATA_DIR for CMU 88_01)"
+
+
+def run(quick: bool) -> list[dict]:
+    m, origin = clip()
+    body = BodyModel.from_skeleton(m.skeleton, 70.0)
+    model, data = build_mujoco(body)
+    repeat = 5 if quick else 20
+
+    ours_s, r = best_of(lambda mm: momentum(body, mm), repeat=repeat, setup=lambda: m.replace())
+
+    def peer(mm):
+        q, v = qpos_qvel(mm, model)
+        return mujoco_momentum(body, mm, model, data, q, v)
+
+    peer_s, mj = best_of(peer, repeat=repeat, setup=lambda: m.replace())
+    kin = momentum(body, m, velocity="kinematic")
+    Lrel = float(np.max(np.linalg.norm(kin.angular - mj.angular, axis=1)) / np.max(np.linalg.norm(mj.angular, axis=1)))
+    fdrel = float(np.max(np.linalg.norm(r.angular - kin.angular, axis=1)) / np.max(np.linalg.norm(kin.angular, axis=1)))
+    rows = [result(
+        f"momentum {m.skeleton.n_joints}j x {m.n_frames}f (motion -> p, L)", ours_s,
+        f"mujoco {_version()} qpos/qvel + per-frame subtreeVel loop", peer_s, goal="ratio >= 1",
+        note=f"{origin}; ours (matched rigid-body velocities) vs MuJoCo: max rel |dL| = {Lrel:.1e}; "
+             f"ours default finite-difference velocities differ from those by {fdrel:.1e}")]
+
+    q, v = qpos_qvel(m, model)
+    seg = (kin.segment_positions, m.global_rotations[:, body.segment_joint], kin.segment_velocities,
+           kin.segment_angular_velocities)
+    ours2, _ = best_of(lambda _: assemble_momentum(body, m.times, *seg), repeat=repeat)
+    peer2, _ = best_of(lambda _: mujoco_momentum(body, m, model, data, q, v), repeat=repeat)
+    rows.append(result(
+        f"momentum {m.skeleton.n_joints}j x {m.n_frames}f (state -> L)", ours2,
+        f"mujoco {_version()} per-frame loop on qpos/qvel", peer2,
+        note="both from velocities in hand (ours: segment kinematics; MuJoCo: qpos/qvel)"))
+    return rows
+
+
+def _version() -> str:
+    import mujoco
+
+    return mujoco.__version__
