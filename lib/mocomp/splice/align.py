@@ -1,0 +1,225 @@
+"""Two-stage alignment of a full-body motion and a hand motion (dissertation ch. 6.1-6.2).
+
+1. *Phase matching*: DTW with the sign metric of eq. 6.6 (rotation ``theta``
+   of eq. 6.7) in a band of ``W = 0.30 n`` frames (``n`` = body length),
+   reshaped by the user's matching points (eq. 6.4-6.5, Algorithm 1).
+2. *Within-phase refinement*: the hand motion is warped onto the body's frames
+   along the first path; a second DTW with the hand-angle metric of eq.
+   6.8-6.9 in a narrower band (``W = 0.10 n``) around the new diagonal
+   adjusts frames inside each phase. The user's points are re-mapped into the
+   warped hand's frame numbers first ("we recompute the user's input so the
+   frame numbers that need to be matched correspond to frames in the aligned
+   motion").
+
+The final correspondence composes both paths: body frame ``i`` matches the
+hand frames that the first pass matched to the warped frames the second pass
+matched to ``i``.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import AlignmentError
+from .bands import MatchPoint, as_points, matching_band
+from .dtw import DTWResult, dtw_band_costs, path_row_median, warp_values
+from .markers import HandMarkers
+from .metrics import ArmFeatures, angle_band_costs, arm_features, sign_band_costs, value_band_costs
+
+__all__ = ["SpliceConfig", "Alignment", "align_hands", "remap_points", "compose_paths", "alignment_error"]
+
+
+@dataclass(frozen=True)
+class SpliceConfig:
+    """Parameters of the two-stage alignment (defaults: the paper's).
+
+    Attributes
+    ----------
+    phase_width: band half-width ``W`` of the first pass as a fraction of the
+        body motion's length (paper: 30 %).
+    refine_width: same for the second pass (paper: 10 %).
+    theta: ``"window"`` (eq. 6.7 over ``theta_window`` frames), ``"trunk"``
+        (trunk-heading difference, as the paper did for the dance) or ``"none"``.
+    theta_window: frames per eq. 6.7 window (paper: 5, i.e. 20 marker positions).
+    metric: ``"sign"`` (eq. 6.6) or ``"values"`` (the derivative-value foil of Figure 6.4).
+    value_tau: seconds weighting accelerations in the value metric.
+    smooth: Savitzky-Golay window for the derivatives, seconds.
+    dead_zone: sign dead zone relative to each derivative's 95th percentile.
+    refine: run the second (eq. 6.9) pass.
+    """
+
+    phase_width: float = 0.30
+    refine_width: float = 0.10
+    theta: str = "window"
+    theta_window: int = 5
+    metric: str = "sign"
+    value_tau: float = 0.1
+    smooth: float = 0.2
+    dead_zone: float = 0.05
+    refine: bool = True
+    refine_step_cost: float = 0.05
+
+    def __post_init__(self):
+        for name in ("phase_width", "refine_width"):
+            v = getattr(self, name)
+            if not (np.isfinite(v) and v > 0):
+                raise AlignmentError(f"{name} must be a positive fraction of the body length, got {v!r}")
+        if self.theta not in ("window", "trunk", "none"):
+            raise ValueError(f"theta must be 'window', 'trunk' or 'none', got {self.theta!r}")
+        if self.metric not in ("sign", "values"):
+            raise ValueError(f"metric must be 'sign' or 'values', got {self.metric!r}")
+
+
+@dataclass(frozen=True, eq=False)
+class Alignment:
+    """Frame correspondence between a body motion (``n`` frames) and a hand motion (``m``).
+
+    Attributes
+    ----------
+    n, m: lengths.
+    pass1: the phase-matching DTW (``n x m``).
+    pass2: the refinement DTW (``n x n``: body vs. the hand warped by pass 1), or ``None``.
+    stage1_map: ``(n,)`` hand frame (median) matched to each body frame by pass 1.
+    hand_frame: ``(n,)`` final hand frame (median of the matched frames) per body frame.
+    path: ``(K, 2)`` composed monotone correspondence ``(body frame, hand frame)``.
+    points: user matching points (body frame, hand frame).
+    points2: the same re-mapped for pass 2 (body frame, warped-hand frame).
+    config: the :class:`SpliceConfig` used.
+    body_features, hand_features: the per-frame quantities of the metrics.
+    timings: seconds per stage (``features``, ``pass1``, ``pass2``, ``total``).
+    """
+
+    n: int
+    m: int
+    pass1: DTWResult
+    pass2: DTWResult | None
+    stage1_map: np.ndarray
+    hand_frame: np.ndarray
+    path: np.ndarray
+    points: tuple[MatchPoint, ...]
+    points2: tuple[MatchPoint, ...]
+    config: SpliceConfig
+    body_features: ArmFeatures = field(repr=False)
+    hand_features: ArmFeatures = field(repr=False)
+    timings: dict = field(default_factory=dict)
+
+    def matches(self, i: int) -> np.ndarray:
+        """Hand frames matched to body frame ``i``."""
+        return self.path[self.path[:, 0] == i, 1]
+
+    def error(self, truth: np.ndarray) -> dict:
+        """Alignment error against a known map ``truth (n,)`` (hand frame per body frame)."""
+        return alignment_error(self.hand_frame, truth)
+
+    def point_residuals(self) -> np.ndarray:
+        """For each user point, the distance (hand frames) from ``y`` to the nearest
+        hand frame matched to body frame ``x`` (0 when the point is honoured exactly)."""
+        out = []
+        for p in self.points:
+            js = self.matches(p.x)
+            out.append(float(np.min(np.abs(js - p.y))))
+        return np.array(out)
+
+
+def alignment_error(estimate: np.ndarray, truth: np.ndarray) -> dict:
+    """Mean/median/max absolute frame error and the share within 1 and 2 frames."""
+    e = np.abs(np.asarray(estimate, float) - np.asarray(truth, float))
+    if e.shape != np.shape(truth):
+        raise ValueError(f"estimate {np.shape(estimate)} and truth {np.shape(truth)} differ in shape")
+    return {"mean": float(e.mean()), "median": float(np.median(e)), "max": float(e.max()),
+            "within_1": float(np.mean(e <= 1.0)), "within_2": float(np.mean(e <= 2.0))}
+
+
+def remap_points(points: tuple[MatchPoint, ...], stage1_map: np.ndarray, n2: int) -> tuple[MatchPoint, ...]:
+    """Re-express user points ``(x, y)`` (body, hand frames) as ``(x, y')`` with ``y'``
+    the warped-hand frame whose source hand frame is ``y`` (nearest to ``x``
+    among equals); a tolerance ``T`` becomes the span of warped frames whose
+    source lies within ``[y - T, y + T]``."""
+    out = []
+    f = np.asarray(stage1_map, float)
+    for k, p in enumerate(points):
+        d = np.abs(f - p.y)
+        cand = np.nonzero(d == d.min())[0]
+        y2 = int(cand[np.argmin(np.abs(cand - p.x))])
+        inside = np.nonzero((f >= p.y - p.tol) & (f <= p.y + p.tol))[0]
+        tol2 = 0 if p.tol == 0 or inside.size == 0 else int(max(y2 - inside.min(), inside.max() - y2))
+        y2 = min(max(y2, 1), n2 - 2)
+        out.append(MatchPoint(p.x, y2, tol2))
+    for k in range(1, len(out)):
+        if out[k].y <= out[k - 1].y:
+            raise AlignmentError(
+                f"matching points {points[k - 1]} and {points[k]} fall on the same warped frame after the first pass; "
+                f"move them further apart"
+            )
+    return tuple(out)
+
+
+def compose_paths(path2: np.ndarray, path1: np.ndarray, n_mid: int) -> np.ndarray:
+    """Compose ``path2 (i, a)`` with ``path1 (a, j)`` into the unique sorted pairs ``(i, j)``."""
+    path1 = np.asarray(path1)
+    rows = path1[:, 0]
+    starts = np.searchsorted(rows, np.arange(n_mid), side="left")
+    stops = np.searchsorted(rows, np.arange(n_mid), side="right")
+    counts = (stops - starts)[path2[:, 1]]
+    i = np.repeat(path2[:, 0], counts)
+    idx = np.concatenate([np.arange(starts[a], stops[a]) for a in path2[:, 1]])
+    j = path1[idx, 1]
+    pairs = np.unique(np.stack([i, j], axis=1), axis=0)
+    return pairs
+
+
+def align_hands(body: HandMarkers, hand: HandMarkers, points=(), config: SpliceConfig | None = None,
+                **overrides) -> Alignment:
+    """Align a body recording's hand markers with a hand recording's (two-stage DTW, ch. 6.1-6.2).
+
+    ``points`` are user matching points ``(body frame, hand frame[, tolerance])``
+    (or :class:`MatchPoint` / ``"x:y~t"``). Both recordings must have the same
+    frame rate (resample first). Keyword overrides change single
+    :class:`SpliceConfig` fields.
+    """
+    cfg = config or SpliceConfig()
+    if overrides:
+        from dataclasses import replace
+
+        cfg = replace(cfg, **overrides)
+    if abs(body.fps - hand.fps) > 1e-6 * body.fps:
+        raise AlignmentError(f"body ({body.fps:g} fps) and hand ({hand.fps:g} fps) must share a frame rate; resample the hand motion")
+    pts = as_points(points)
+    t0 = time.perf_counter()
+    fb = arm_features(body, smooth=cfg.smooth, dead_zone=cfg.dead_zone, theta_window=cfg.theta_window, role="body")
+    fh = arm_features(hand, smooth=cfg.smooth, dead_zone=cfg.dead_zone, theta_window=cfg.theta_window, role="hand")
+    n, m = fb.n_frames, fh.n_frames
+    t1 = time.perf_counter()
+    band1 = matching_band(n, m, cfg.phase_width * n, pts)
+    if cfg.metric == "sign":
+        c1 = sign_band_costs(fb, fh, band1, cfg.theta)
+    else:
+        c1 = value_band_costs(fb, fh, band1, cfg.theta, cfg.value_tau)
+    tc = time.perf_counter()
+    r1 = dtw_band_costs(band1, c1, cost_seconds=tc - t1)
+    t2 = time.perf_counter()
+    map1 = r1.row_median()
+    r2 = None
+    pts2: tuple[MatchPoint, ...] = ()
+    if cfg.refine and n >= 3:
+        # the hand recording's eq. 6.8 vectors, warped onto the body's frames
+        f2, h2 = warp_values(fh.forearm, map1), warp_values(fh.hand, map1)
+        pts2 = remap_points(pts, map1, n)
+        band2 = matching_band(n, n, cfg.refine_width * n, pts2)
+        ts = time.perf_counter()
+        c2 = angle_band_costs(fb.forearm, fb.hand, f2, h2, band2) + cfg.refine_step_cost
+        r2 = dtw_band_costs(band2, c2, cost_seconds=time.perf_counter() - ts)
+        path = compose_paths(r2.path, r1.path, n)
+    else:
+        path = r1.path
+    t3 = time.perf_counter()
+    final = path_row_median(path, n)
+    for a in (map1, final, path):
+        a.setflags(write=False)
+    return Alignment(
+        n=n, m=m, pass1=r1, pass2=r2, stage1_map=map1, hand_frame=final, path=path,
+        points=pts, points2=pts2, config=cfg, body_features=fb, hand_features=fh,
+        timings={"features": t1 - t0, "pass1": t2 - t1, "pass2": t3 - t2, "total": t3 - t0},
+    )

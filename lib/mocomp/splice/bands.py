@@ -1,0 +1,432 @@
+"""Search bands for dynamic time warping: the slanted band (dissertation eq. 6.3)
+and its piecewise reshaping by user matching points (eq. 6.4-6.5, Algorithm 1).
+
+Indices are 0-based: the first sequence ``p`` (rows, the full-body motion) has
+``n`` frames ``i = 0..n-1``, the second ``q`` (columns, the hand motion) has
+``m`` frames ``j = 0..m-1``. A band is stored as one contiguous column range
+``lo[i]..hi[i]`` (inclusive) per row, so its cells are addressed in a flat,
+row-major array of length ``band.cells`` (offsets ``band.offsets``): memory is
+O(number of band cells), never O(n m).
+
+The paper writes the diagonal as ``j = (m/n) i`` with 1-based frames ending
+at ``(n, m)``. With 0-based frames the same line joins the corner cells
+``(0, 0)`` and ``(n-1, m-1)`` (as dtw-python's ``slantedband`` does), so we use
+the slope ``(m-1)/(n-1)`` and ``rho = W sqrt((n-1)^2 + (m-1)^2) / (n-1)``:
+``W`` is then exactly the band's half-width measured perpendicular to the
+diagonal, in frames.
+"""
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from typing import Iterable, Sequence
+
+import numpy as np
+
+from ..errors import AlignmentError
+
+__all__ = [
+    "MatchPoint",
+    "Band",
+    "full_band",
+    "slanted_band",
+    "matching_band",
+    "corridor_band",
+    "band_radius",
+    "parse_match",
+    "as_points",
+]
+
+
+@dataclass(frozen=True)
+class MatchPoint:
+    """A user matching point (x_k, y_k) of eq. 6.4-6.5.
+
+    Attributes
+    ----------
+    x: frame of the first sequence (full-body motion, matrix row), 0-based.
+    y: frame of the second sequence (hand motion, matrix column), 0-based.
+    tol: tolerance ``T`` in frames of the second sequence: the optimal path
+        must cross row ``x`` within columns ``[y - tol, y + tol]``
+        (``tol = 0``: the path passes exactly through ``(x, y)``).
+    """
+
+    x: int
+    y: int
+    tol: int = 0
+
+    def __post_init__(self):
+        for name in ("x", "y", "tol"):
+            v = getattr(self, name)
+            ok = isinstance(v, (int, np.integer)) or (isinstance(v, (float, np.floating)) and float(v).is_integer())
+            if isinstance(v, (bool, np.bool_)) or not ok:
+                raise AlignmentError(f"matching point {name} must be an integer frame number, got {v!r}")
+            object.__setattr__(self, name, int(v))
+        if self.tol < 0:
+            raise AlignmentError(f"matching point ({self.x}, {self.y}) has a negative tolerance {self.tol}")
+
+    def __str__(self) -> str:
+        return f"{self.x}:{self.y}" + (f"~{self.tol}" if self.tol else "")
+
+
+_MATCH_RE = re.compile(r"^\s*(-?\d+)\s*:\s*(-?\d+)\s*(?:~\s*(-?\d+)\s*)?$")
+
+
+def parse_match(text: str) -> MatchPoint:
+    """Parse ``"BODY:HAND"`` or ``"BODY:HAND~TOL"`` (frames), e.g. ``"300:280~5"``."""
+    mt = _MATCH_RE.match(text)
+    if not mt:
+        raise AlignmentError(
+            f"cannot read matching point {text!r}: expected BODY_FRAME:HAND_FRAME or BODY_FRAME:HAND_FRAME~TOLERANCE, e.g. 120:95 or 300:280~5"
+        )
+    x, y, t = mt.groups()
+    return MatchPoint(int(x), int(y), int(t) if t is not None else 0)
+
+
+def as_points(points) -> tuple[MatchPoint, ...]:
+    """Normalise matching points given as MatchPoint, ``(x, y)``, ``(x, y, tol)`` or ``"x:y~t"``."""
+    if points is None:
+        return ()
+    out = []
+    for p in points:
+        if isinstance(p, MatchPoint):
+            out.append(p)
+        elif isinstance(p, str):
+            out.append(parse_match(p))
+        else:
+            p = tuple(p)
+            if len(p) not in (2, 3):
+                raise AlignmentError(f"matching point {p!r} must be (x, y) or (x, y, tolerance)")
+            out.append(MatchPoint(*p))
+    return tuple(out)
+
+
+def band_radius(width: float, dx: float, dy: float) -> float:
+    """``rho = W sqrt(dx^2 + dy^2) / dx`` (eq. 6.3; eq. 6.4's ``rho_k`` per segment):
+    the vertical half-height of a band of perpendicular half-width ``W`` about a
+    line of slope ``dy/dx``."""
+    if dx <= 0:
+        raise AlignmentError(f"band segment has no rows (dx = {dx})")
+    return float(width) * float(np.hypot(dx, dy)) / float(dx)
+
+
+@dataclass(frozen=True, eq=False)
+class Band:
+    """Cells of an ``n x m`` DTW matrix that may be visited: columns ``lo[i]..hi[i]`` of each row.
+
+    Build with :func:`full_band`, :func:`slanted_band`, :func:`matching_band`
+    or :func:`corridor_band`; they return bands already *pruned* to the cells
+    that lie on at least one monotone path from ``(0, 0)`` to ``(n-1, m-1)``
+    (which leaves every DTW result unchanged) and raise
+    :class:`~mocomp.errors.AlignmentError` if no such path exists.
+
+    Attributes
+    ----------
+    n, m: matrix size (rows = first sequence, columns = second).
+    lo, hi: ``(n,)`` int64, inclusive column range per row; both non-decreasing.
+    kind: ``"full"``, ``"slanted"``, ``"points"`` or ``"corridor"``.
+    width: the band half-width ``W`` in frames (perpendicular to the diagonal), if any.
+    radii: ``rho_k`` per segment between consecutive anchor points (eq. 6.4).
+    points: the user matching points the band was shaped by.
+    raw_lo, raw_hi: the row ranges before pruning (what eq. 6.3-6.5 define), for plots.
+    """
+
+    n: int
+    m: int
+    lo: np.ndarray
+    hi: np.ndarray
+    kind: str = "custom"
+    width: float | None = None
+    radii: tuple[float, ...] = ()
+    points: tuple[MatchPoint, ...] = ()
+    raw_lo: np.ndarray | None = None
+    raw_hi: np.ndarray | None = None
+    _cache: dict = field(default_factory=dict, repr=False, compare=False)
+
+    def __post_init__(self):
+        lo = np.array(self.lo, dtype=np.int64).reshape(-1)
+        hi = np.array(self.hi, dtype=np.int64).reshape(-1)
+        if lo.shape != (self.n,) or hi.shape != (self.n,):
+            raise AlignmentError(f"band row ranges must have {self.n} rows, got {lo.shape} and {hi.shape}")
+        for a in (lo, hi):
+            a.setflags(write=False)
+        object.__setattr__(self, "lo", lo)
+        object.__setattr__(self, "hi", hi)
+        for name in ("raw_lo", "raw_hi"):
+            v = getattr(self, name)
+            v = (lo if name == "raw_lo" else hi) if v is None else np.array(v, dtype=np.int64)
+            v.setflags(write=False)
+            object.__setattr__(self, name, v)
+
+    # ------------------------------------------------------------- geometry
+    @property
+    def counts(self) -> np.ndarray:
+        """``(n,)`` number of cells in each row."""
+        return self.hi - self.lo + 1
+
+    @property
+    def offsets(self) -> np.ndarray:
+        """``(n+1,)`` start of each row in the flat cell arrays."""
+        if "off" not in self._cache:
+            off = np.zeros(self.n + 1, dtype=np.int64)
+            np.cumsum(self.counts, out=off[1:])
+            off.setflags(write=False)
+            self._cache["off"] = off
+        return self._cache["off"]
+
+    @property
+    def cells(self) -> int:
+        """Total number of band cells (the memory the DTW needs, per array)."""
+        return int(self.offsets[-1])
+
+    @property
+    def max_width(self) -> int:
+        return int(self.counts.max())
+
+    @property
+    def fill(self) -> float:
+        """Fraction of the full ``n x m`` matrix covered by the band."""
+        return self.cells / float(self.n * self.m)
+
+    def cell_indices(self, start: int = 0, stop: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Row and column of every cell of rows ``start..stop-1``, in flat order."""
+        stop = self.n if stop is None else stop
+        off = self.offsets
+        counts = self.counts[start:stop]
+        total = int(off[stop] - off[start])
+        rows = np.repeat(np.arange(start, stop, dtype=np.int64), counts)
+        # column = lo[row] + position within the row
+        within = np.arange(total, dtype=np.int64) - np.repeat(off[start:stop] - off[start], counts)
+        cols = self.lo[rows] + within
+        return rows, cols
+
+    def contains(self, i, j) -> np.ndarray:
+        """Whether cells ``(i, j)`` (arrays broadcast) lie in the band."""
+        i = np.asarray(i)
+        j = np.asarray(j)
+        ok = (i >= 0) & (i < self.n)
+        ic = np.clip(i, 0, self.n - 1)
+        return ok & (j >= self.lo[ic]) & (j <= self.hi[ic])
+
+    def flat_index(self, i, j) -> np.ndarray:
+        """Flat index of cells ``(i, j)`` (which must lie in the band)."""
+        i = np.asarray(i, dtype=np.int64)
+        j = np.asarray(j, dtype=np.int64)
+        if not np.all(self.contains(i, j)):
+            raise AlignmentError("flat_index() of a cell outside the band")
+        return self.offsets[i] + (j - self.lo[i])
+
+    def mask(self) -> np.ndarray:
+        """Dense ``(n, m)`` boolean mask (for plots and small problems only)."""
+        jj = np.arange(self.m)
+        return (jj[None, :] >= self.lo[:, None]) & (jj[None, :] <= self.hi[:, None])
+
+    def to_dense(self, values: np.ndarray, fill: float = np.nan) -> np.ndarray:
+        """Scatter flat band values into a dense ``(n, m)`` array (for plots)."""
+        values = np.asarray(values)
+        if values.shape != (self.cells,):
+            raise ValueError(f"expected {self.cells} band values, got {values.shape}")
+        out = np.full((self.n, self.m), fill, dtype=np.result_type(values.dtype, np.asarray(fill).dtype))
+        r, c = self.cell_indices()
+        out[r, c] = values
+        return out
+
+    def __repr__(self) -> str:
+        w = "" if self.width is None else f", W={self.width:g}"
+        p = f", {len(self.points)} points" if self.points else ""
+        return f"Band({self.kind}, {self.n}x{self.m}, {self.cells} cells ({100 * self.fill:.1f}%){w}{p})"
+
+
+def _prune(n: int, m: int, lo: np.ndarray, hi: np.ndarray, what: str) -> tuple[np.ndarray, np.ndarray]:
+    """Keep the cells on some monotone path (0,0) -> (n-1,m-1); raise if there is none.
+
+    Forward: a path reaches column ``j`` of row ``i`` only from a column ``<= j``
+    of row ``i-1``, so ``lo[i] <- max(lo[i], lo[i-1])``. Backward: from column
+    ``j`` the path continues in row ``i+1`` at a column ``>= j``, so
+    ``hi[i] <- min(hi[i], hi[i+1])``. Pruned cells can neither be reached from
+    the start nor reach the end, so no DTW value on the kept cells changes.
+    """
+    lo = np.clip(np.asarray(lo, dtype=np.int64), 0, None)
+    hi = np.clip(np.asarray(hi, dtype=np.int64), None, m - 1)
+    empty = np.nonzero(hi < lo)[0]
+    if empty.size:
+        i = int(empty[0])
+        raise AlignmentError(
+            f"{what}: row {i} of the {n}x{m} matrix has no cell in the band "
+            f"(sequences too short for the band, or the band is too narrow)"
+        )
+    if lo[0] != 0:
+        raise AlignmentError(f"{what}: the band does not contain the start cell (0, 0)")
+    if hi[-1] != m - 1:
+        raise AlignmentError(f"{what}: the band does not contain the end cell ({n - 1}, {m - 1})")
+    lo_p = np.maximum.accumulate(lo)
+    hi_p = np.minimum.accumulate(hi[::-1])[::-1]
+    bad = np.nonzero(hi_p < lo_p)[0]
+    gap = np.nonzero(lo_p[1:] > hi_p[:-1] + 1)[0]
+    if bad.size or gap.size:
+        i = int(bad[0]) if bad.size else int(gap[0]) + 1
+        raise AlignmentError(
+            f"{what}: no monotone path from (0, 0) to ({n - 1}, {m - 1}) stays inside the band "
+            f"(it is cut at row {i}); widen the band or check the matching points"
+        )
+    return lo_p, hi_p
+
+
+def _check_size(n: int, m: int):
+    for name, v in (("n", n), ("m", m)):
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
+            raise AlignmentError(f"sequence length {name} must be a positive integer, got {v!r}")
+
+
+def full_band(n: int, m: int) -> Band:
+    """The whole ``n x m`` matrix (unconstrained DTW, eq. 6.1-6.2)."""
+    _check_size(n, m)
+    return Band(int(n), int(m), np.zeros(n, dtype=np.int64), np.full(n, m - 1, dtype=np.int64), kind="full")
+
+
+def _segment_rows(n, m, x0, y0, x1, y1, rho, jmin, jmax, i):
+    """Column range of rows ``i`` in the segment (x0,y0)-(x1,y1) (eq. 6.4, clipped as eq. 6.5)."""
+    if x1 > x0:
+        c = y0 + (i - x0) * (y1 - y0) / (x1 - x0)
+    else:  # a single-row sequence
+        c = np.full(i.shape, float(y0))
+    lo = np.ceil(c - rho)
+    hi = np.floor(c + rho)
+    # Exact float boundaries the way dtw-python tests them: |j - c| <= rho.
+    lo = np.where(np.abs((lo - 1) - c) <= rho, lo - 1, lo)
+    lo = np.where(np.abs(lo - c) > rho, lo + 1, lo)
+    hi = np.where(np.abs((hi + 1) - c) <= rho, hi + 1, hi)
+    hi = np.where(np.abs(hi - c) > rho, hi - 1, hi)
+    lo = np.maximum(lo, max(jmin, 0))
+    hi = np.minimum(hi, min(jmax, m - 1))
+    return lo.astype(np.int64), hi.astype(np.int64)
+
+
+def slanted_band(n: int, m: int, width: float | None = None, *, radius: float | None = None) -> Band:
+    """The slanted band of eq. 6.3: cells with ``|j - i (m-1)/(n-1)| <= rho``.
+
+    Give either ``width`` (``W``, the half-width perpendicular to the diagonal,
+    in frames; ``rho = W sqrt((n-1)^2+(m-1)^2)/(n-1)``) or ``radius`` (``rho``
+    directly, the vertical half-height; this is dtw-python's ``window_size``
+    of ``window_type="slantedband"``). Exactly those cells, pruned to the ones
+    on some monotone path.
+    """
+    return matching_band(n, m, width, (), radius=radius)
+
+
+def matching_band(n: int, m: int, width: float | None, points: Iterable = (), *, radius: float | None = None) -> Band:
+    """The band reshaped by user matching points (eq. 6.4-6.5, Algorithm 1).
+
+    The anchors ``(0, 0)``, the points ``(x_k, y_k)`` (strictly increasing in
+    both coordinates, inside the matrix) and ``(n-1, m-1)`` split the matrix
+    into segments. Rows ``x_{k-1} <= i <= x_k`` of segment ``k`` get the slanted
+    band of that segment, ``|j - y_{k-1} - (i - x_{k-1}) |y_k|/|x_k|| <= rho_k``
+    with ``rho_k = W sqrt(|x_k|^2 + |y_k|^2) / |x_k|`` (eq. 6.4), clipped to
+    ``y_{k-1} - T_{k-1} <= j <= y_k + T_k`` (the ``lb``/``ub`` of eq. 6.5).
+    A row shared by two segments (a point's row ``x_k``) takes the
+    intersection, so the path crosses row ``x_k`` within ``[y_k - T_k, y_k + T_k]``
+    and passes exactly through ``(x_k, y_k)`` when ``T_k = 0``. With no points
+    this is the slanted band of eq. 6.3.
+
+    ``radius`` instead of ``width`` fixes ``rho`` for every segment (only
+    meaningful without points; used for the dtw-python cross-check).
+    """
+    _check_size(n, m)
+    n, m = int(n), int(m)
+    pts = as_points(points)
+    if (width is None) == (radius is None):
+        raise AlignmentError("give exactly one of width (W, frames) or radius (rho, frames)")
+    if width is not None and not (np.isfinite(width) and width >= 0):
+        raise AlignmentError(f"band width must be a non-negative number of frames, got {width!r}")
+    if radius is not None and not (np.isfinite(radius) and radius >= 0):
+        raise AlignmentError(f"band radius must be a non-negative number of frames, got {radius!r}")
+    prev = None
+    for k, p in enumerate(pts, 1):
+        if not (0 < p.x < n - 1):
+            raise AlignmentError(
+                f"matching point {k} ({p}) is outside the matrix: its body frame must lie strictly between 0 and {n - 1}"
+            )
+        if not (0 < p.y < m - 1):
+            raise AlignmentError(
+                f"matching point {k} ({p}) is outside the matrix: its hand frame must lie strictly between 0 and {m - 1}"
+            )
+        if prev is not None and not (p.x > prev.x and p.y > prev.y):
+            raise AlignmentError(
+                f"matching points out of order: point {k} ({p}) must come after point {k - 1} ({prev}) in both sequences"
+            )
+        if prev is not None and p.x == prev.x + 1 and p.y - p.tol > prev.y + prev.tol + 1:
+            raise AlignmentError(
+                f"matching points {k - 1} ({prev}) and {k} ({p}) are on consecutive body frames but "
+                f"{p.y - prev.y} hand frames apart: the hand frames between them could not be matched to any body frame; "
+                f"put them at least 2 body frames apart or give a tolerance"
+            )
+        prev = p
+    xs = [0] + [p.x for p in pts] + [n - 1]
+    ys = [0] + [p.y for p in pts] + [m - 1]
+    ts = [0] + [p.tol for p in pts] + [0]
+    lo = np.full(n, -np.iinfo(np.int64).max, dtype=np.int64)
+    hi = np.full(n, np.iinfo(np.int64).max, dtype=np.int64)
+    radii = []
+    for k in range(1, len(xs)):
+        x0, y0, x1, y1 = xs[k - 1], ys[k - 1], xs[k], ys[k]
+        if x1 > x0:
+            rho = radius if radius is not None else band_radius(width, x1 - x0, y1 - y0)
+        else:  # n == 1: one row, every column must be allowed
+            rho = float(m)
+        radii.append(float(rho))
+        rows = np.arange(x0, x1 + 1)
+        jmin = y0 - ts[k - 1] if k > 1 else 0
+        jmax = y1 + ts[k] if k < len(xs) - 1 else m - 1
+        slo, shi = _segment_rows(n, m, x0, y0, x1, y1, rho, jmin, jmax, rows)
+        lo[rows] = np.maximum(lo[rows], slo)
+        hi[rows] = np.minimum(hi[rows], shi)
+    raw_lo, raw_hi = np.clip(lo, 0, m - 1), np.clip(hi, 0, m - 1)
+    what = "band" if not pts else f"band shaped by {len(pts)} matching point(s)"
+    lo_p, hi_p = _prune(n, m, lo, hi, what)
+    return Band(
+        n, m, lo_p, hi_p,
+        kind="points" if pts else "slanted",
+        width=None if width is None else float(width),
+        radii=tuple(radii),
+        points=pts,
+        raw_lo=raw_lo,
+        raw_hi=raw_hi,
+    )
+
+
+def corridor_band(path: np.ndarray, n: int, m: int, radius: int) -> Band:
+    """Cells within ``radius`` columns of a monotone path (e.g. a coarse alignment).
+
+    Row ``i`` spans ``[min_j(path at i) - radius, max_j(path at i) + radius]``.
+    """
+    _check_size(n, m)
+    path = np.asarray(path, dtype=np.int64)
+    if path.ndim != 2 or path.shape[1] != 2:
+        raise AlignmentError(f"path must be (K, 2) pairs of frames, got shape {path.shape}")
+    if radius < 0:
+        raise AlignmentError(f"corridor radius must be >= 0, got {radius}")
+    rows = path[:, 0]
+    if rows.min() != 0 or rows.max() != n - 1:
+        raise AlignmentError(f"path must cover rows 0..{n - 1}")
+    lo = np.full(n, m, dtype=np.int64)
+    hi = np.full(n, -1, dtype=np.int64)
+    np.minimum.at(lo, rows, path[:, 1])
+    np.maximum.at(hi, rows, path[:, 1])
+    lo, hi = lo - int(radius), hi + int(radius)
+    lo_p, hi_p = _prune(n, m, lo, hi, "corridor band")
+    return Band(n, m, lo_p, hi_p, kind="corridor", radii=(float(radius),), raw_lo=np.clip(lo, 0, m - 1), raw_hi=np.clip(hi, 0, m - 1))
+
+
+def _as_band(n: int, m: int, band: Band | None, width=None, radius=None, points: Sequence = ()) -> Band:
+    """Resolve the band arguments of :func:`mocomp.splice.dtw.dtw`."""
+    if band is not None:
+        if width is not None or radius is not None or points:
+            raise AlignmentError("give either a Band or width/radius/points, not both")
+        if (band.n, band.m) != (n, m):
+            raise AlignmentError(f"band is for a {band.n}x{band.m} matrix, the sequences give {n}x{m}")
+        return band
+    if width is None and radius is None:
+        if points:
+            raise AlignmentError("matching points need a band width")
+        return full_band(n, m)
+    return matching_band(n, m, width, points, radius=radius)

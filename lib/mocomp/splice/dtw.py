@@ -1,0 +1,363 @@
+"""Dynamic time warping on a band (dissertation eq. 6.1-6.5, Algorithm 1).
+
+The cumulative cost follows eq. 6.1-6.2,
+
+    gamma(i, j) = D(p_i, q_j) + min(gamma(i-1, j-1), gamma(i, j-1), gamma(i-1, j)),
+
+with ``gamma(0, 0) = D(p_0, q_0)``: diagonal, horizontal and vertical steps of
+weight 1 (dtw-python's ``symmetric1`` step pattern). Only the cells of a
+:class:`~mocomp.splice.bands.Band` are computed and stored, in flat arrays of
+``band.cells`` entries (memory O(n x band width)). The recurrence and the
+backtracking run in compiled loops (numba); the local costs of feature
+sequences are computed block-wise with BLAS (``|a|^2 + |b|^2 - 2 a.b``).
+
+Ties are broken exactly as dtw-python does (the first minimum in the order
+diagonal, horizontal ``(i, j-1)``, vertical ``(i-1, j)``, comparing the sums
+``gamma + D``), so paths agree step for step with it (tested).
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numba
+import numpy as np
+from scipy.spatial.distance import cdist
+
+from ..errors import AlignmentError
+from .bands import Band, _as_band
+
+__all__ = ["DTWResult", "dtw", "dtw_band_costs", "band_costs", "feature_band_costs", "warp_values"]
+
+#: step codes stored per cell
+STEP_START, STEP_DIAGONAL, STEP_HORIZONTAL, STEP_VERTICAL, STEP_NONE = 0, 1, 2, 3, -1
+
+
+@numba.njit(cache=True, nogil=True)
+def _accumulate(cost, lo, hi, off, gamma, step):  # pragma: no cover - compiled
+    n = lo.shape[0]
+    inf = np.inf
+    for i in range(n):
+        l = lo[i]
+        h = hi[i]
+        base = off[i]
+        if i > 0:
+            lp = lo[i - 1]
+            hp = hi[i - 1]
+            bp = off[i - 1]
+        else:
+            lp = 1
+            hp = 0
+            bp = 0
+        for j in range(l, h + 1):
+            k = base + j - l
+            d = cost[k]
+            if i == 0 and j == 0:
+                gamma[k] = d
+                step[k] = 0
+                continue
+            best = inf
+            s = -1
+            if i > 0 and j - 1 >= lp and j - 1 <= hp:
+                v = gamma[bp + j - 1 - lp] + d
+                if v < best:
+                    best = v
+                    s = 1
+            if j - 1 >= l:
+                v = gamma[k - 1] + d
+                if v < best:
+                    best = v
+                    s = 2
+            if i > 0 and j >= lp and j <= hp:
+                v = gamma[bp + j - lp] + d
+                if v < best:
+                    best = v
+                    s = 3
+            gamma[k] = best
+            step[k] = s
+
+
+@numba.njit(cache=True, nogil=True)
+def _backtrack(lo, off, step, n, m):  # pragma: no cover - compiled
+    out = np.empty((n + m - 1, 2), dtype=np.int64)
+    i = n - 1
+    j = m - 1
+    K = 0
+    while True:
+        out[K, 0] = i
+        out[K, 1] = j
+        K += 1
+        if i == 0 and j == 0:
+            break
+        s = step[off[i] + j - lo[i]]
+        if s == 1:
+            i -= 1
+            j -= 1
+        elif s == 2:
+            j -= 1
+        elif s == 3:
+            i -= 1
+        else:
+            return out[:0]
+    return out[:K][::-1].copy()
+
+
+@dataclass(frozen=True, eq=False)
+class DTWResult:
+    """An optimal monotone alignment of two sequences inside a band.
+
+    Attributes
+    ----------
+    path: ``(K, 2)`` int64 matched frame pairs ``(i, j)`` from ``(0, 0)`` to
+        ``(n-1, m-1)``, each step diagonal, horizontal or vertical.
+    cost: total cost ``gamma(n-1, m-1)`` (sum of the local costs along the path).
+    band: the :class:`~mocomp.splice.bands.Band` searched.
+    local_cost: ``(band.cells,)`` local costs ``D`` of the band cells (flat).
+    cumulative: ``(band.cells,)`` cumulative costs ``gamma`` (``inf`` where unreachable).
+    steps: ``(band.cells,)`` int8 step into each cell: 1 diagonal, 2 horizontal,
+        3 vertical, 0 the start cell, -1 unreachable.
+    timings: seconds spent per stage (``cost``, ``recurrence``, ``backtrack``).
+    """
+
+    path: np.ndarray
+    cost: float
+    band: Band
+    local_cost: np.ndarray
+    cumulative: np.ndarray
+    steps: np.ndarray
+    timings: dict = field(default_factory=dict)
+
+    @property
+    def n(self) -> int:
+        return self.band.n
+
+    @property
+    def m(self) -> int:
+        return self.band.m
+
+    @property
+    def normalized_cost(self) -> float:
+        """Cost per matched pair, ``cost / len(path)``."""
+        return self.cost / len(self.path)
+
+    def step_counts(self) -> dict:
+        """How many diagonal, horizontal and vertical steps the path takes."""
+        d = np.diff(self.path, axis=0)
+        return {
+            "diagonal": int(np.sum((d[:, 0] == 1) & (d[:, 1] == 1))),
+            "horizontal": int(np.sum((d[:, 0] == 0) & (d[:, 1] == 1))),
+            "vertical": int(np.sum((d[:, 0] == 1) & (d[:, 1] == 0))),
+        }
+
+    def matches(self, i: int) -> np.ndarray:
+        """Columns ``j`` matched to row ``i``."""
+        return self.path[self.path[:, 0] == i, 1]
+
+    def row_median(self) -> np.ndarray:
+        """``(n,)`` median of the columns matched to each row (a frame map p -> q)."""
+        return path_row_median(self.path, self.n)
+
+    def col_median(self) -> np.ndarray:
+        """``(m,)`` median of the rows matched to each column (a frame map q -> p)."""
+        return path_row_median(self.path[:, ::-1], self.m)
+
+    def dense(self, which: str = "local") -> np.ndarray:
+        """Dense ``(n, m)`` copy of ``local`` or ``cumulative`` costs, NaN outside the band (plots only)."""
+        vals = {"local": self.local_cost, "cumulative": self.cumulative}[which]
+        return self.band.to_dense(vals)
+
+    def __repr__(self) -> str:
+        return f"DTWResult({self.n}x{self.m}, cost={self.cost:.6g}, path {len(self.path)} steps, {self.band!r})"
+
+
+def path_row_median(path: np.ndarray, n: int) -> np.ndarray:
+    """``(n,)`` median column matched to each row of a monotone path covering rows ``0..n-1``."""
+    path = np.asarray(path)
+    rows = path[:, 0]
+    starts = np.searchsorted(rows, np.arange(n), side="left")
+    stops = np.searchsorted(rows, np.arange(n), side="right")
+    if np.any(stops <= starts):
+        raise AlignmentError("path does not visit every row")
+    cols = path[:, 1].astype(float)
+    # the columns of a row are consecutive and sorted: the median is the mean of the middle pair
+    lo_mid = starts + (stops - starts - 1) // 2
+    hi_mid = starts + (stops - starts) // 2
+    return 0.5 * (cols[lo_mid] + cols[hi_mid])
+
+
+def _check_costs(band: Band, costs: np.ndarray, what: str = "local cost") -> np.ndarray:
+    costs = np.ascontiguousarray(costs, dtype=np.float64)
+    if costs.shape != (band.cells,):
+        raise AlignmentError(f"{what}: expected {band.cells} band values, got shape {costs.shape}")
+    bad = ~np.isfinite(costs)
+    if bad.any():
+        k = int(np.argmax(bad))
+        i = int(np.searchsorted(band.offsets, k, side="right") - 1)
+        j = int(band.lo[i] + k - band.offsets[i])
+        raise AlignmentError(f"{what} is {costs[k]} at cell ({i}, {j}); costs must be finite")
+    return costs
+
+
+def dtw_band_costs(band: Band, costs: np.ndarray, *, cost_seconds: float = 0.0) -> DTWResult:
+    """DTW (eq. 6.1-6.2 restricted to the band, eq. 6.3-6.5) from the band's local costs.
+
+    ``costs`` holds ``D(p_i, q_j)`` for every band cell in flat order
+    (see :func:`band_costs`).
+    """
+    costs = _check_costs(band, costs)
+    t0 = time.perf_counter()
+    gamma = np.empty(band.cells, dtype=np.float64)
+    step = np.empty(band.cells, dtype=np.int8)
+    _accumulate(costs, band.lo, band.hi, band.offsets, gamma, step)
+    t1 = time.perf_counter()
+    total = float(gamma[-1])
+    if not np.isfinite(total):  # cannot happen for a pruned band with finite costs
+        raise AlignmentError(f"no path through the band reaches ({band.n - 1}, {band.m - 1})")
+    path = _backtrack(band.lo, band.offsets, step, band.n, band.m)
+    t2 = time.perf_counter()
+    for a in (path, costs, gamma, step):
+        a.setflags(write=False)
+    return DTWResult(
+        path=path,
+        cost=total,
+        band=band,
+        local_cost=costs,
+        cumulative=gamma,
+        steps=step,
+        timings={"cost": cost_seconds, "recurrence": t1 - t0, "backtrack": t2 - t1},
+    )
+
+
+def _as_features(a, name: str) -> np.ndarray:
+    a = np.asarray(a, dtype=np.float64)
+    if a.ndim == 1:
+        a = a[:, None]
+    if a.ndim != 2:
+        raise AlignmentError(f"{name} must be a sequence of feature vectors (T, d), got shape {a.shape}")
+    if a.shape[0] < 1:
+        raise AlignmentError(f"{name} is empty")
+    if not np.all(np.isfinite(a)):
+        t = int(np.argwhere(~np.isfinite(a))[0, 0])
+        raise AlignmentError(f"{name} has a non-finite value at frame {t}")
+    return a
+
+
+def feature_band_costs(x: np.ndarray, y: np.ndarray, band: Band, metric: str = "sqeuclidean", block_rows: int = 64) -> np.ndarray:
+    """Local costs ``D(x_i, y_j)`` of the band cells for feature sequences.
+
+    ``metric`` is ``"sqeuclidean"`` or ``"euclidean"`` (computed as
+    ``|x|^2 + |y|^2 - 2 x.y`` with one matrix product per block of rows over
+    the block's column span) or any :func:`scipy.spatial.distance.cdist`
+    metric name (``"cityblock"``, ``"cosine"``, ...).
+    """
+    x = _as_features(x, "first sequence")
+    y = _as_features(y, "second sequence")
+    if x.shape[1] != y.shape[1]:
+        raise AlignmentError(f"feature dimensions differ: {x.shape[1]} vs {y.shape[1]}")
+    if (len(x), len(y)) != (band.n, band.m):
+        raise AlignmentError(f"band is {band.n}x{band.m}, sequences are {len(x)}x{len(y)}")
+    out = np.empty(band.cells)
+    fast = metric in ("sqeuclidean", "euclidean")
+    if fast:
+        xx = np.einsum("ij,ij->i", x, x)
+        yy = np.einsum("ij,ij->i", y, y)
+    off = band.offsets
+    for s in range(0, band.n, block_rows):
+        e = min(band.n, s + block_rows)
+        j0 = int(band.lo[s])
+        j1 = int(band.hi[s:e].max()) + 1
+        rows, cols = band.cell_indices(s, e)
+        if fast:
+            sub = x[s:e] @ y[j0:j1].T
+            sub *= -2.0
+            sub += xx[s:e, None]
+            sub += yy[None, j0:j1]
+        else:
+            sub = cdist(x[s:e], y[j0:j1], metric=metric)
+        out[off[s]:off[e]] = sub[rows - s, cols - j0]
+    if fast:
+        np.maximum(out, 0.0, out=out)  # round-off of the expansion
+        if metric == "euclidean":
+            np.sqrt(out, out=out)
+    return out
+
+
+def band_costs(band: Band, cost) -> np.ndarray:
+    """Local costs of the band cells from a dense ``(n, m)`` matrix or a callable.
+
+    A callable is called as ``cost(i, j)`` with int arrays of cell rows and
+    columns (in blocks) and must return one cost per cell.
+    """
+    if callable(cost):
+        out = np.empty(band.cells)
+        off = band.offsets
+        step = max(1, int(2_000_000 // max(band.max_width, 1)))
+        for s in range(0, band.n, step):
+            e = min(band.n, s + step)
+            r, c = band.cell_indices(s, e)
+            v = np.asarray(cost(r, c), dtype=np.float64)
+            if v.shape != r.shape:
+                raise AlignmentError(f"cost callable returned shape {v.shape} for {r.shape[0]} cells")
+            out[off[s]:off[e]] = v
+        return out
+    C = np.asarray(cost, dtype=np.float64)
+    if C.shape != (band.n, band.m):
+        raise AlignmentError(f"cost matrix is {C.shape}, the band is {band.n}x{band.m}")
+    r, c = band.cell_indices()
+    return C[r, c]
+
+
+def dtw(x=None, y=None, *, cost=None, metric: str = "sqeuclidean", band: Band | None = None,
+        width: float | None = None, radius: float | None = None, points=(), shape=None) -> DTWResult:
+    """Banded DTW with optional user matching points (eq. 6.1-6.5, Algorithm 1).
+
+    Either feature sequences ``x (n, d)`` and ``y (m, d)`` compared with
+    ``metric``, or ``cost``: a dense ``(n, m)`` matrix, or a callable
+    ``cost(i, j)`` over arrays of cells together with ``shape=(n, m)``.
+
+    The band: a :class:`Band`, or ``width`` (``W`` of eq. 6.3, frames
+    perpendicular to the diagonal) / ``radius`` (``rho``, vertical) with
+    optional matching ``points`` (``(x, y)``, ``(x, y, tol)``,
+    :class:`MatchPoint` or ``"x:y~tol"``); nothing: the full matrix.
+    """
+    t0 = time.perf_counter()
+    if cost is None:
+        if x is None or y is None:
+            raise AlignmentError("dtw() needs two sequences x, y or a cost")
+        xf = _as_features(x, "first sequence")
+        yf = _as_features(y, "second sequence")
+        b = _as_band(len(xf), len(yf), band, width, radius, points)
+        costs = feature_band_costs(xf, yf, b, metric)
+    else:
+        if x is not None or y is not None:
+            raise AlignmentError("give either sequences x, y or a cost, not both")
+        if callable(cost):
+            if shape is None and band is None:
+                raise AlignmentError("a cost callable needs shape=(n, m) or a band")
+            n, m = (band.n, band.m) if shape is None else shape
+        else:
+            cost = np.asarray(cost, dtype=np.float64)
+            if cost.ndim != 2:
+                raise AlignmentError(f"cost matrix must be 2-D, got shape {cost.shape}")
+            n, m = cost.shape
+        b = _as_band(int(n), int(m), band, width, radius, points)
+        costs = band_costs(b, cost)
+    return dtw_band_costs(b, costs, cost_seconds=time.perf_counter() - t0)
+
+
+def warp_values(values: np.ndarray, frame_map: np.ndarray) -> np.ndarray:
+    """Sample ``values (m, ...)`` at fractional frames ``frame_map (n,)`` by linear interpolation.
+
+    Used to build the aligned second sequence from a frame map (e.g.
+    :meth:`DTWResult.row_median`).
+    """
+    values = np.asarray(values, dtype=float)
+    f = np.asarray(frame_map, dtype=float)
+    m = values.shape[0]
+    if np.any(~np.isfinite(f)) or f.min() < 0 or f.max() > m - 1:
+        raise AlignmentError(f"frame map must lie in [0, {m - 1}]")
+    i0 = np.minimum(np.floor(f).astype(np.int64), m - 1)
+    i1 = np.minimum(i0 + 1, m - 1)
+    a = (f - i0).reshape((-1,) + (1,) * (values.ndim - 1))
+    return (1 - a) * values[i0] + a * values[i1]
