@@ -345,6 +345,7 @@ class StudyApp:
 
     def _show_break(self) -> None:
         self.controller.start_break()
+        self._update_progress()
 
         def resume():
             self.controller.end_break()

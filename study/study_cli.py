@@ -49,6 +49,8 @@ def register_run(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--practice", type=int, default=None, help="number of practice trials")
     p.add_argument("--attention-checks", type=int, default=None, help="number of attention-check trials")
     p.add_argument("--texts", metavar="JSON", help="participant-facing texts (JSON file, fields of HarnessTexts)")
+    p.add_argument("--lock-timeout", type=float, default=None, metavar="S",
+                   help="seconds a new window waits for a session held by another window (default 15)")
     p.add_argument("--print-config", action="store_true", help="print the app configuration and exit")
     p.set_defaults(func=run_run)
     return p
@@ -86,6 +88,8 @@ def run_run(args) -> int:
     design = _design_dict(args)
     if design:
         cfg["design"] = design
+    if args.lock_timeout is not None:
+        cfg["lock_timeout_s"] = args.lock_timeout
     if args.texts:
         cfg["texts"] = json.loads(Path(args.texts).read_text())
     if args.print_config:

@@ -1,0 +1,372 @@
+"""End to end in a real browser: Debian's Chromium, driven by Playwright, against the
+participant app served by Voila (``mocomp study run``) on 127.0.0.1.
+
+1. A scripted participant completes a short session (consent, info, examples,
+   trials by button and by key, a break, an attention check); the CSV holds
+   exactly the expected rows, in plan order, with the scripted answers.
+2. A second window on the same session is refused (session lock).
+3. The server is killed (SIGKILL, kernel included) in the middle of a session,
+   restarted, the page reopened: the app resumes at the first unanswered
+   trial; afterwards no response is lost and none is duplicated, and the rows
+   written before the crash are byte-for-byte unchanged.
+
+Skips locally when Chromium (/usr/bin/chromium), Playwright or Voila is
+missing; under CI=true it fails instead (``.ci/run`` installs Chromium).
+"""
+from __future__ import annotations
+
+import csv
+import io
+import json
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+IN_CI = os.environ.get("CI", "").lower() in ("1", "true", "yes")
+CHROMIUM = shutil.which("chromium") or ("/usr/bin/chromium" if os.path.exists("/usr/bin/chromium") else None)
+
+pytestmark = [pytest.mark.browser, pytest.mark.slow, pytest.mark.timeout(420)]
+
+CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
+                 "--disable-background-networking", "--disable-component-update", "--disable-sync",
+                 "--no-first-run", "--autoplay-policy=no-user-gesture-required"]
+LEVELS = {("am_abrupt", "increase"): (25, 50), ("takeoff", "increase"): (20,)}
+DESIGN = {"n_repeats": 2, "n_attention": 1, "break_every": 4}
+
+
+def _need(what: str, ok: bool):
+    if ok:
+        return
+    if IN_CI:
+        pytest.fail(f"CI=true but {what} is missing (the browser test must run in CI)")
+    pytest.skip(f"{what} not available")
+
+
+@pytest.fixture(scope="module")
+def browser():
+    _need("Chromium (/usr/bin/chromium; apt-get install chromium)", CHROMIUM is not None)
+    try:
+        from playwright.sync_api import sync_playwright
+    except ImportError:
+        _need("the playwright Python package", False)
+    try:
+        import voila  # noqa: F401
+    except ImportError:
+        _need("voila", False)
+    with sync_playwright() as p:
+        br = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS, timeout=60_000)
+        try:
+            yield br
+        finally:
+            br.close()
+
+
+@pytest.fixture(scope="module")
+def stimuli(tmp_path_factory):
+    from study.placeholders import make_placeholder_set
+
+    return make_placeholder_set(tmp_path_factory.mktemp("stimuli"), LEVELS, base_clips=("flip",), n_frames=8)
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _descendants(pid: int) -> list[int]:
+    """All descendant pids (from /proc), so that a kill takes the kernels too."""
+    children: dict[int, list[int]] = {}
+    for d in Path("/proc").iterdir():
+        if not d.name.isdigit():
+            continue
+        try:
+            ppid = int((d / "stat").read_text().rsplit(")", 1)[1].split()[1])
+        except (OSError, IndexError, ValueError):
+            continue
+        children.setdefault(ppid, []).append(int(d.name))
+    out, stack = [], [pid]
+    while stack:
+        for c in children.get(stack.pop(), []):
+            out.append(c)
+            stack.append(c)
+    return out
+
+
+class Server:
+    """``mocomp study run`` in its own process group, with its own Jupyter dirs."""
+
+    def __init__(self, tmp: Path, stimuli, data: Path, participant: str, session: str = "S1"):
+        self.tmp, self.data, self.port = tmp, data, _free_port()
+        self.args = [sys.executable, "-m", "mocomp", "study", "run", "--participant", participant,
+                     "--session", session, "--manifest", str(stimuli.path), "--data", str(data),
+                     "--port", str(self.port), "--design", str(self._design_file()), "--lock-timeout", "3"]
+        self.env = dict(os.environ)
+        for k in ("DATA", "RUNTIME", "CONFIG"):
+            d = tmp / f"jupyter_{k.lower()}"
+            d.mkdir(exist_ok=True)
+            self.env[f"JUPYTER_{k}_DIR"] = str(d)
+        self.env["JUPYTER_PLATFORM_DIRS"] = "1"
+        self.env.pop("MOCOMP_STUDY_CONFIG", None)
+        self.proc: subprocess.Popen | None = None
+        self.log = tmp / "server.log"
+
+    def _design_file(self) -> Path:
+        p = self.tmp / "design.json"
+        p.write_text(json.dumps(DESIGN))
+        return p
+
+    def start(self, timeout: float = 90.0) -> str:
+        self.port = _free_port()
+        self.args[self.args.index("--port") + 1] = str(self.port)
+        logf = open(self.log, "a")
+        self.proc = subprocess.Popen(self.args, env=self.env, stdout=logf, stderr=subprocess.STDOUT,
+                                     start_new_session=True, cwd=self.tmp)
+        url = f"http://127.0.0.1:{self.port}/"
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            if self.proc.poll() is not None:
+                raise AssertionError(f"server exited early ({self.proc.returncode}):\n{self.log.read_text()[-3000:]}")
+            # a TCP connect only: a page request would start a kernel (and open the session)
+            try:
+                with socket.create_connection(("127.0.0.1", self.port), timeout=2):
+                    return url
+            except OSError:
+                time.sleep(0.3)
+        raise AssertionError(f"server did not answer on {url} within {timeout} s:\n{self.log.read_text()[-3000:]}")
+
+    def kill(self) -> None:
+        """SIGKILL the server and every descendant (the kernels run in their own sessions)."""
+        if self.proc is None:
+            return
+        pids = [self.proc.pid] + _descendants(self.proc.pid)
+        for pid in pids:
+            try:
+                os.kill(pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+        try:
+            os.killpg(self.proc.pid, signal.SIGKILL)
+        except (ProcessLookupError, PermissionError):
+            pass
+        self.proc.wait(timeout=30)
+        deadline = time.monotonic() + 20
+        while time.monotonic() < deadline and any(Path(f"/proc/{p}").exists() and
+                                                  "Z" not in _state(p) for p in pids):
+            time.sleep(0.2)
+        self.proc = None
+
+    def stop(self) -> None:
+        self.kill()
+
+
+def _state(pid: int) -> str:
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except (OSError, IndexError):
+        return "Z"
+
+
+def _rows(path: Path) -> list[dict]:
+    if not path.exists():
+        return []
+    return list(csv.DictReader(io.StringIO(path.read_text())))
+
+
+def _wait_rows(path: Path, n: int, timeout: float = 20.0) -> list[dict]:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        rows = _rows(path)
+        if len(rows) >= n:
+            return rows
+        time.sleep(0.1)
+    raise AssertionError(f"{path} has {len(_rows(path))} rows, expected {n}")
+
+
+def _open(page, url):
+    page.goto(url, timeout=90_000, wait_until="domcontentloaded")
+    page.wait_for_selector(".mocomp-app", timeout=90_000)
+
+
+def _intro(page, age="23"):
+    page.click(".mocomp-screen-welcome .mocomp-btn-next")
+    page.check(".mocomp-consent-check input")
+    page.click(".mocomp-btn-consent:not([disabled])")
+    page.fill(".mocomp-info-age input", age)
+    page.click(".mocomp-btn-info")
+    page.wait_for_selector(".mocomp-screen-instructions")
+    page.keyboard.press("Space")  # Space = the visible "Start" button
+
+
+def _examples(page):
+    while True:
+        page.wait_for_selector(".mocomp-screen-example, .mocomp-screen-trial, .mocomp-screen-break")
+        if not page.query_selector(".mocomp-screen-example"):
+            return
+        idx = _current_trial(page)
+        page.click(".mocomp-screen-example .mocomp-btn-next")
+        page.wait_for_selector(f".mocomp-trial-{idx}", state="detached")
+
+
+def _current_trial(page) -> int:
+    return page.evaluate("""() => { for (const el of document.querySelectorAll("[class*='mocomp-trial-']")) {
+        const m = /mocomp-trial-(\\d+)/.exec(el.className); if (m) return parseInt(m[1]); } return -1; }""")
+
+
+def _answer_trials(page, n: int, answers: list, log: list) -> None:
+    """Answer ``n`` trials (taking breaks); answers[i] = (response, 'button'|'key')."""
+    done = 0
+    while done < n:
+        page.wait_for_selector(".mocomp-screen-trial, .mocomp-screen-break, .mocomp-screen-end")
+        if page.query_selector(".mocomp-screen-break"):
+            page.click(".mocomp-screen-break .mocomp-btn-next")
+            page.wait_for_selector(".mocomp-screen-break", state="detached")
+            log.append("break")
+            continue
+        if page.query_selector(".mocomp-screen-end"):
+            raise AssertionError("session ended early")
+        page.wait_for_selector(".mocomp-screen-trial .mocomp-btn-correct:not([disabled])")
+        idx = _current_trial(page)
+        attention = page.query_selector("text=Attention check") is not None
+        resp, via = answers[len([x for x in log if x != "break"])]
+        if attention:  # a diligent participant follows the instruction
+            resp = "incorrect" if page.query_selector("text=please press INCORRECT") else "correct"
+        if via == "key":
+            page.keyboard.press("c" if resp == "correct" else "i")
+        else:
+            page.click(f".mocomp-btn-{resp}")
+        page.wait_for_selector(f".mocomp-trial-{idx}", state="detached", timeout=30_000)
+        log.append((idx, resp, via))
+        done += 1
+
+
+def _script(n):
+    return [(("correct", "incorrect")[(i * 7) % 3 == 0], ("button", "key")[i % 2]) for i in range(n)]
+
+
+def _plan_response_indices(folder: Path) -> list[int]:
+    rows = _rows(folder / "plan.csv")
+    return [int(r["trial_index"]) for r in rows if r["kind"] != "example"]
+
+
+def test_complete_session_then_second_window_refused(browser, stimuli, tmp_path):
+    data = tmp_path / "data"
+    srv = Server(tmp_path, stimuli, data, "P01")
+    try:
+        url = srv.start()
+        page = browser.new_page()
+        _open(page, url)
+        folder = data / "P01" / "S1"
+        assert (folder / "plan.csv").exists()  # written before the first trial
+        expected_idx = _plan_response_indices(folder)
+        n = len(expected_idx)
+        assert n == 11  # (3 + 2) stimuli x 2 showings + 1 attention check
+        _intro(page)
+        _examples(page)
+        log: list = []
+        _answer_trials(page, n, _script(n), log)
+        page.wait_for_selector(".mocomp-screen-end")
+        rows = _wait_rows(folder / "responses.csv", n)
+        assert len(rows) == n
+        assert [int(r["trial_index"]) for r in rows] == expected_idx
+        answered = [x for x in log if x != "break"]
+        assert [int(r["trial_index"]) for r in rows] == [a[0] for a in answered]
+        assert [r["response"] for r in rows] == [a[1] for a in answered]
+        assert [r["input"] for r in rows] == [a[2] for a in answered]
+        assert log.count("break") == 2  # break_every=4 over 11 response trials
+        rts = [float(r["rt_s"]) for r in rows]
+        assert all(0 < t < 60 for t in rts)
+        client = [r["client_rt_s"] for r in rows if r["client_rt_s"] != ""]
+        assert len(client) >= n - 2  # the browser's clock: video onset -> click
+        att = [r for r in rows if r["kind"] == "attention"]
+        assert len(att) == 1 and att[0]["response"] == att[0]["expected_response"]
+        info = json.loads((folder / "participant.json").read_text())
+        assert info["age"] == 23 and info["participant_id"] == "P01"
+        ev = [json.loads(x)["event"] for x in (folder / "events.jsonl").read_text().splitlines()]
+        assert ev[0] == "opened" and "consent_given" in ev and ev[-1] == "finished"
+        page.close()
+
+        # a finished session reopens on the end screen and writes nothing
+        page = browser.new_page()
+        _open(page, url)
+        page.wait_for_selector(".mocomp-screen-end")
+        page.close()
+        assert len(_rows(folder / "responses.csv")) == n
+    finally:
+        srv.stop()
+
+    # two windows on one unfinished session: the second is refused
+    srv2 = Server(tmp_path, stimuli, data, "P02")
+    try:
+        url = srv2.start()
+        p1 = browser.new_page()
+        _open(p1, url)
+        _intro(p1)
+        p2 = browser.new_page()
+        _open(p2, url)
+        p2.wait_for_selector(".mocomp-screen-error", timeout=60_000)
+        assert "already open" in p2.inner_text(".mocomp-screen-error")
+        p2.close()
+        _examples(p1)
+        _answer_trials(p1, 2, _script(2), [])
+        assert len(_wait_rows(data / "P02" / "S1" / "responses.csv", 2)) == 2
+        p1.close()
+    finally:
+        srv2.stop()
+
+
+def test_kill_server_mid_session_and_resume(browser, stimuli, tmp_path):
+    data = tmp_path / "data"
+    folder = data / "P03" / "S1"
+    srv = Server(tmp_path, stimuli, data, "P03")
+    k = 5
+    try:
+        url = srv.start()
+        page = browser.new_page()
+        _open(page, url)
+        expected_idx = _plan_response_indices(folder)
+        n = len(expected_idx)
+        script = _script(n)
+        _intro(page)
+        _examples(page)
+        log: list = []
+        _answer_trials(page, k, script, log)
+        # the next trial is on screen, so the k-th answer is already on disk
+        page.wait_for_selector(".mocomp-screen-trial .mocomp-btn-correct:not([disabled]), .mocomp-screen-break")
+        before = (folder / "responses.csv").read_bytes()
+        assert len(_rows(folder / "responses.csv")) == k
+        srv.kill()  # crash: server and kernel die, the lock file stays behind
+        assert json.loads((folder / "session.lock").read_text() or "{}").get("pid")
+        page.close()
+
+        url = srv.start()
+        page = browser.new_page()
+        _open(page, url)
+        page.wait_for_selector(".mocomp-screen-welcome_back")
+        assert f"trial {k + 1} of {n}" in page.inner_text(".mocomp-screen-welcome_back")
+        page.click(".mocomp-screen-welcome_back .mocomp-btn-next")
+        _answer_trials(page, n - k, script[k:], log2 := [])
+        page.wait_for_selector(".mocomp-screen-end")
+        rows = _wait_rows(folder / "responses.csv", n)
+        after = (folder / "responses.csv").read_bytes()
+        assert after.startswith(before)  # nothing before the crash was rewritten
+        idx = [int(r["trial_index"]) for r in rows]
+        assert idx == expected_idx  # nothing lost, nothing duplicated, same order
+        assert len(set(idx)) == len(idx) == n
+        answered = [x for x in log + log2 if x != "break"]
+        assert [r["response"] for r in rows] == [a[1] for a in answered]
+        ev = [json.loads(x) for x in (folder / "events.jsonl").read_text().splitlines()]
+        names = [e["event"] for e in ev]
+        assert "stale_lock_recovered" in names and "resumed" in names and names[-1] == "finished"
+        resumed = next(e for e in ev if e["event"] == "resumed")
+        assert resumed["n_answered"] == k
+        page.close()
+    finally:
+        srv.stop()
