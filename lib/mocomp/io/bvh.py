@@ -62,10 +62,11 @@ def read_bvh(path, scale=None, fps: float | None = None, height_check: bool = Tr
         head = raw[:head_end].decode("utf-8")
     except UnicodeDecodeError:
         head = raw[:head_end].decode("latin-1")
-    return _parse(head, raw[head_end:], str(path), scale, fps, height_check)
+    return _parse(head, raw, head_end, str(path), scale, fps, height_check)
 
 
 _FRAME_TIME = re.compile(r"^[ \t]*Frame Time:[^\n]*\n?", flags=re.MULTILINE | re.IGNORECASE)
+_NON_SPACE = re.compile(rb"\S")
 _FRAME_TIME_B = re.compile(rb"^[ \t]*Frame Time:[^\n]*\n?", flags=re.MULTILINE | re.IGNORECASE)
 
 
@@ -74,11 +75,12 @@ def parse_bvh(text: str, path: str | None = None, scale=None, fps: float | None 
     """Parse BVH text (see :func:`read_bvh`)."""
     m_ft = _FRAME_TIME.search(text)
     head_end = m_ft.end() if m_ft else len(text)
-    return _parse(text[:head_end], text[head_end:].encode("utf-8"), path, scale, fps, height_check)
+    return _parse(text[:head_end], text[head_end:].encode("utf-8"), 0, path, scale, fps, height_check)
 
 
-def _parse(head: str, block: bytes, path, scale, fps, height_check) -> Motion:
-    """Header text (through the ``Frame Time:`` line) + frame block bytes -> Motion."""
+def _parse(head: str, raw: bytes, start: int, path, scale, fps, height_check) -> Motion:
+    """Header text (through the ``Frame Time:`` line) + the frame block, which is
+    ``raw[start:]`` (not sliced: a 2 MB copy is measurable) -> Motion."""
     lines = head.splitlines()
     names: list[str] = []
     parents: list[int] = []
@@ -216,12 +218,12 @@ def _parse(head: str, block: bytes, path, scale, fps, height_check) -> Motion:
         raise MotionFormatError(f"Frame Time must be positive, got {frame_time}", path, ln)
     first_data = len(lines)  # 0-based index of the first line after "Frame Time:"
     nch = sum(len(c) for c in channels)
-    data = _parse_frames(block)
+    data = _parse_frames(raw, start)
     if data is None or data.shape != (n_frames, nch):
-        _frame_block_error(block, first_data, n_frames, nch, path)  # always raises, naming the line
+        _frame_block_error(raw[start:], first_data, n_frames, nch, path)  # always raises, naming the line
     if not np.all(np.isfinite(data)):
         r, c = np.argwhere(~np.isfinite(data))[0]
-        line = _nth_data_line(block, r) + first_data + 1
+        line = _nth_data_line(raw[start:], r) + first_data + 1
         raise MotionFormatError(f"frame value {data[r, c]} in channel {c} is not finite", path, line)
 
     # ---- assemble (vectorized over frames; joints with the same rotation order in one batch)
@@ -261,7 +263,7 @@ def _parse(head: str, block: bytes, path, scale, fps, height_check) -> Motion:
         col += len(ch)
     for seq, (js, cols) in by_seq.items():
         ca = np.array(cols)
-        _euler_columns_to_quat(seq, [data[:, ca[:, k]] for k in range(ca.shape[1])], rots, js)
+        _euler_columns_to_quat(seq, [data[:, _as_slice(ca[:, k])] for k in range(ca.shape[1])], rots, js)
 
     notes = []
     parents_arr = np.array(parents)
@@ -293,7 +295,7 @@ def _parse(head: str, block: bytes, path, scale, fps, height_check) -> Motion:
         tuple(names), parents_arr, off, tuple(channels),
         tuple(EndSite(p, o, nm) for p, o, nm in end_sites),
     )
-    step = max(1, n_frames // 200)  # the height estimate needs only a sample of frames
+    step = max(1, n_frames // 64)  # the height estimate needs only a sample of frames
     probe = Motion(sk_file, 1.0, root_pos[::step], rots[::step])
     height_units = standing_height(probe)
     s, reason = resolve_scale(scale, height_units)
@@ -338,24 +340,43 @@ def _sparse_quat_multiply(a: list, b: list) -> list:
     return out
 
 
+def _as_slice(idx: np.ndarray):
+    """A slice equal to the index array when it is an arithmetic progression (a
+    view instead of a gathered copy), else the array itself."""
+    if idx.size == 1:
+        return slice(int(idx[0]), int(idx[0]) + 1)
+    d = np.diff(idx)
+    if d[0] > 0 and np.all(d == d[0]):
+        return slice(int(idx[0]), int(idx[-1]) + 1, int(d[0]))
+    return idx
+
+
 def _euler_columns_to_quat(seq: str, angles_deg: list, out: np.ndarray, joints: list) -> None:
     """Intrinsic Euler angles (BVH channel order ``seq``, e.g. ``"ZYX"``; one
     ``(T, Jg)`` array of degrees per axis) to quaternions written into
     ``out[:, joints]``. Same rotations as ``Rotation.from_euler(seq, ...)``
     (tested against scipy for every sequence); this is the BVH reader's hot path.
+    Works in blocks of about 8k values so that the temporaries stay in cache
+    (twice as fast as whole-array operations for a 2000-frame clip).
     """
-    q = None
-    for ax, a in zip(seq, angles_deg):
-        h = a * (np.pi / 360.0)
-        e: list = [None, None, None, np.cos(h)]
-        e["XYZ".index(ax)] = np.sin(h)
-        q = e if q is None else _sparse_quat_multiply(q, e)
+    T = out.shape[0]
     sel = slice(joints[0], joints[-1] + 1) if joints == list(range(joints[0], joints[-1] + 1)) else joints
-    for c in range(4):
-        out[:, sel, c] = 0.0 if q[c] is None else q[c]
+    rows = max(1, 8192 // max(1, len(joints)))
+    axes = ["XYZ".index(ax) for ax in seq]
+    for r0 in range(0, T, rows):
+        blk = slice(r0, r0 + rows)
+        q = None
+        for ax, a in zip(axes, angles_deg):
+            h = a[blk] * (np.pi / 360.0)
+            e: list = [None, None, None, np.cos(h)]
+            e[ax] = np.sin(h)
+            q = e if q is None else _sparse_quat_multiply(q, e)
+        o = out[blk]
+        for c in range(4):
+            o[:, sel, c] = 0.0 if q[c] is None else q[c]
 
 
-def _parse_frames(block: bytes) -> np.ndarray | None:
+def _parse_frames(raw: bytes, start: int = 0) -> np.ndarray | None:
     """All frame values as a (rows, columns) array, or ``None`` if the block is
     not a clean table of numbers (the caller then finds and reports the bad line).
 
@@ -365,13 +386,15 @@ def _parse_frames(block: bytes) -> np.ndarray | None:
     threaded CSV reader (not worth its 170 MB); blank lines are skipped, ragged
     rows and non-numbers raise. The values are identical to ``float(token)``.
     """
-    if not block or block.isspace():
+    if _NON_SPACE.search(raw, start) is None:
         return None
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             # bytes input is ~1.5x faster than a StringIO; latin-1 never fails to decode
-            return np.loadtxt(io.BytesIO(block), dtype=float, comments=None, ndmin=2, encoding="latin1")
+            f = io.BytesIO(raw)  # shares the bytes object's buffer; no copy
+            f.seek(start)
+            return np.loadtxt(f, dtype=float, comments=None, ndmin=2, encoding="latin1")
     except (ValueError, UnicodeError):
         return None
 

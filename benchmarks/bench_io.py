@@ -1,0 +1,171 @@
+"""BVH parsing speed: ``mocomp.io.read_bvh`` against ``bvhio.readAsBvh`` on the
+same 31-joint, 2000-frame file (issue 2: ours at least 10x faster).
+
+The file is the real CMU ``jumps/01_01.bvh`` (cgspeed conversion, 31 joints,
+96 channels) truncated to its first 2000 frames, byte for byte, when
+``MOCOMP_DATA_DIR`` is set; otherwise a synthetic 31-joint clip with the same
+tree and smooth random rotations written by our writer with 6 decimals (the
+size and token widths of typical BVH files). Both readers run on the same
+file in the same process, interleaved (each round: bvhio once, ours three
+times) so that both see the same background load and cache state on this shared
+machine. The row reports the **median CPU time** (``time.process_time``) of
+the repeats: on 2 cores shared with other jobs, wall time of a 15 ms call is
+dominated by preemption noise; the note gives wall-time medians and minima too. ``read_bvh`` builds the full
+:class:`~mocomp.core.Motion` (unit quaternions, metres, rest height estimate);
+``bvhio.readAsBvh`` builds its joint tree with per-frame poses. The note also
+gives the largest difference between bvhio's local joint rotations and ours
+on every 50th frame (bvhio stores 32-bit floats, so ~1e-6 rad is agreement).
+
+A second row times reading an AMC (``jumps/01_01.amc`` with ``01.asf``; no peer
+and no goal) when the real data are available.
+"""
+from __future__ import annotations
+
+import gc
+import os
+import statistics
+import tempfile
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from mocomp.core import Motion, Skeleton, SourceInfo
+from mocomp.core.rotations import quat_angle, quat_inverse, quat_multiply
+from mocomp.io import read_amc, read_bvh, write_bvh
+
+N_FRAMES = 2000
+GOAL = "ratio >= 10"
+CMU_PARENTS = [-1, 0, 1, 2, 3, 4, 0, 6, 7, 8, 9, 0, 11, 12, 13, 14, 15, 13, 17, 18, 19, 20, 21, 20, 13, 24, 25, 26,
+               27, 28, 27]
+
+
+def _data_dir() -> Path | None:
+    d = os.environ.get("MOCOMP_DATA_DIR")
+    return Path(d) if d and Path(d).is_dir() else None
+
+
+def make_file(folder: Path, n_frames: int = N_FRAMES) -> tuple[Path, float, str]:
+    """Write the benchmark BVH into ``folder``; returns (path, scale for read_bvh, description)."""
+    d = _data_dir()
+    src = d / "jumps" / "01_01.bvh" if d else None
+    out = folder / f"bench_{n_frames}.bvh"
+    if src is not None and src.is_file():
+        lines = src.read_bytes().split(b"\n")
+        k = next(i for i, ln in enumerate(lines) if ln.lstrip().startswith(b"Frames:"))
+        head = lines[:k] + [b"Frames: %d\r" % n_frames] + [lines[k + 1]]
+        out.write_bytes(b"\n".join(head + lines[k + 2:k + 2 + n_frames]) + b"\n")
+        return out, "cmu", f"real CMU jumps/01_01.bvh, first {n_frames} frames (31 joints, 96 channels)"
+    rng = np.random.default_rng(7)
+    J = len(CMU_PARENTS)
+    offsets = rng.normal(0.0, 0.12, (J, 3))
+    offsets[0] = 0.0
+    t = np.arange(n_frames) / 120.0
+    freq = rng.uniform(0.3, 2.0, (J, 3))
+    phase = rng.uniform(0, 2 * np.pi, (J, 3))
+    ang = 0.6 * np.sin(2 * np.pi * freq[None] * t[:, None, None] + phase[None])  # radians
+    from scipy.spatial.transform import Rotation
+
+    rots = Rotation.from_rotvec(ang.reshape(-1, 3)).as_quat().reshape(n_frames, J, 4)
+    root = np.stack([0.5 * np.sin(t), 0.9 + 0.05 * np.sin(3 * t), 0.3 * t], axis=1)
+    sk = Skeleton(tuple(f"joint{j}" for j in range(J)), np.array(CMU_PARENTS), offsets)
+    m = Motion(sk, 120.0, root, rots, source=SourceInfo(format="synthetic"))
+    write_bvh(m, out, precision=6)
+    return out, 1.0, f"synthetic 31-joint clip, {n_frames} frames, 6 decimals (MOCOMP_DATA_DIR not set)"
+
+
+def _timed(fn) -> tuple[float, float, object]:
+    """(CPU seconds of this process, wall seconds, output) of one call, GC paused."""
+    gc_was = gc.isenabled()
+    gc.disable()
+    try:
+        c0, t0 = time.process_time(), time.perf_counter()
+        out = fn()
+        return time.process_time() - c0, time.perf_counter() - t0, out
+    finally:
+        if gc_was:
+            gc.enable()
+
+
+def _time(fn, repeat: int) -> tuple[float, float, object]:
+    """(median, min) CPU time of ``fn()`` over ``repeat`` runs and the last output."""
+    ts, out = [], None
+    for _ in range(repeat):
+        dt, _, out = _timed(fn)
+        ts.append(dt)
+    return statistics.median(ts), min(ts), out
+
+
+def _time_pair(ours, peer, rounds: int, per_round: int) -> dict:
+    """Interleaved timing on a shared machine: each round runs the peer once and
+    ours ``per_round`` times, so both see the same background load and cache
+    state. Medians and minima of CPU and wall time for both, and the outputs."""
+    r: dict = {"ours_cpu": [], "ours_wall": [], "peer_cpu": [], "peer_wall": []}
+    for _ in range(rounds):
+        c, w, r["peer_out"] = _timed(peer)
+        r["peer_cpu"].append(c)
+        r["peer_wall"].append(w)
+        for _ in range(per_round):
+            c, w, r["ours_out"] = _timed(ours)
+            r["ours_cpu"].append(c)
+            r["ours_wall"].append(w)
+    for k in ("ours_cpu", "ours_wall", "peer_cpu", "peer_wall"):
+        r[k + "_min"] = min(r[k])
+        r[k] = statistics.median(r[k])
+    return r
+
+
+def _agreement(motion: Motion, bvh) -> float:
+    """Largest angle (rad) between bvhio's local rotations and ours, every 50th frame."""
+    layout = bvh.Root.layout()
+    frames = np.arange(0, motion.n_frames, 50)
+    worst = 0.0
+    for joint, _, _ in layout:
+        j = motion.skeleton.find(joint.Name)
+        if j is None:
+            continue
+        q = np.array([[k.Rotation.x, k.Rotation.y, k.Rotation.z, k.Rotation.w]
+                      for k in (joint.Keyframes[i] for i in frames)])
+        d = quat_angle(quat_multiply(quat_inverse(q / np.linalg.norm(q, axis=1, keepdims=True)),
+                                     motion.rotations[frames, j]))
+        worst = max(worst, float(d.max()))
+    return worst
+
+
+def run(quick: bool) -> list[dict]:
+    import bvhio
+
+    rows = []
+    reps_ours, reps_peer = (9, 3) if quick else (21, 7)
+    with tempfile.TemporaryDirectory() as tmp, warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        path, scale, desc = make_file(Path(tmp))
+        read_bvh(path, scale=scale)  # warm caches (imports, file cache) for both
+        bvhio.readAsBvh(str(path))
+        t = _time_pair(lambda: read_bvh(path, scale=scale), lambda: bvhio.readAsBvh(str(path)),
+                       reps_peer, reps_ours // reps_peer)
+        agree = _agreement(t["ours_out"], t["peer_out"])
+        rows.append({
+            "name": f"BVH read 31j x {N_FRAMES}f", "ours_s": t["ours_cpu"], "peer": "bvhio.readAsBvh",
+            "peer_s": t["peer_cpu"], "ratio": t["peer_cpu"] / t["ours_cpu"], "goal": GOAL,
+            "note": (f"{desc}; CPU-time medians of {reps_ours}/{reps_peer} interleaved runs; wall-time medians "
+                     f"{t['ours_wall'] * 1e3:.1f} ms vs {t['peer_wall'] * 1e3:.0f} ms "
+                     f"({t['peer_wall'] / t['ours_wall']:.1f}x), wall minima {t['ours_wall_min'] * 1e3:.1f} vs "
+                     f"{t['peer_wall_min'] * 1e3:.0f} ms; max local-rotation difference to bvhio {agree:.1e} rad"),
+        })
+        d = _data_dir()
+        if d is not None and (d / "jumps" / "01_01.amc").is_file():
+            amc = d / "jumps" / "01_01.amc"
+            med, mn, m = _time(lambda: read_amc(amc), 3 if quick else 7)
+            rows.append({
+                "name": f"AMC read 31j x {m.n_frames}f", "ours_s": med, "peer": None, "peer_s": None,
+                "ratio": None, "goal": None,
+                "note": f"real CMU jumps/01_01.amc with 01.asf, CPU-time median (min {mn * 1e3:.0f} ms); no peer",
+            })
+    return rows
+
+
+if __name__ == "__main__":
+    for r in run(quick=True):
+        print(r)
