@@ -175,3 +175,24 @@ def test_gyration_shape_uses_de_leva_radii():
     # the thigh hangs along -y: longitudinal radius 14.9 %, transverse radii 32.9 %
     assert body.inertias[i][1, 1] == pytest.approx(body.masses[i] * (0.149 * L) ** 2)
     assert body.inertias[i][0, 0] == pytest.approx(body.masses[i] * (0.329 * L) ** 2)
+
+
+def test_table_c1_comparison_and_plots():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from mocomp.body.compare import table_c1_comparison
+    from mocomp.plots.dynamics import plot_mass_comparison
+
+    sk = _stick_skeleton()
+    df = table_c1_comparison({"de Leva": BodyModel.from_skeleton(sk), "Dempster": BodyModel.from_skeleton(sk, table="dempster")})
+    assert df.loc["trunk (incl. clavicles)", "C.1 initial %"] == pytest.approx(42.9)
+    assert df.loc["trunk (incl. clavicles)", "de Leva %"] == pytest.approx(43.46)
+    assert df.loc["thigh L", "Dempster %"] == pytest.approx(10.0)
+    assert df.loc["thigh L", "de Leva - initial"] == pytest.approx(14.16 - 10.2)
+    # the groups (without the trunk sub-rows) partition the body
+    whole = [g for g in df.index if not g.startswith("  ")]
+    assert df.loc[whole, "de Leva %"].sum() == pytest.approx(100.0)
+    assert df.loc[whole, "C.1 initial %"].sum() == pytest.approx(100.0, abs=0.05)
+    fig = plot_mass_comparison(df)
+    assert len(fig.axes[0].patches) == len(df) * 4

@@ -180,3 +180,15 @@ def test_mujoco_cross_check_synthetic_flip():
     ex = load_example("backflip")
     body = getattr(ex, "body", None) or BodyModel.from_skeleton(ex.motion.skeleton, 70.0)
     _cross_check(body, ex.motion, "synthetic backflip (mocomp.synth, true masses)")
+
+
+def test_plot_momentum_draws_three_panels(body):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from mocomp.plots.dynamics import plot_momentum
+
+    r = momentum(body, wavy_motion(30))
+    fig = plot_momentum(r, airborne=[(3, 10)], title="test")
+    assert len(fig.axes) == 3
+    assert len(fig.axes[2].lines) == 4  # L_x, L_y, L_z, |L|
