@@ -81,3 +81,21 @@ def test_gaussian_smoothing_preserves_lines_and_unit_quaternions():
     assert (Rotation.from_quat(s).inv() * Rotation.from_quat(q)).magnitude().max() < 0.1
     with pytest.raises(ValueError):
         gaussian_smooth(x, -1)
+
+
+def test_fourth_order_differences_converge_faster():
+    e2, e4, w4 = [], [], []
+    for fps in (30, 60, 120):
+        t = np.arange(int(fps) + 1) / fps
+        x = np.sin(3 * t)[:, None] * [1.0, -2.0]
+        dx = 3 * np.cos(3 * t)[:, None] * [1.0, -2.0]
+        e2.append(np.abs(central_difference(x, t)[2:-2] - dx[2:-2]).max())
+        e4.append(np.abs(central_difference(x, t, order=4)[2:-2] - dx[2:-2]).max())
+        q, w = _two_axis(t)
+        w4.append(np.abs(angular_velocity(q, t, order=4)[2:-2] - w[2:-2]).max())
+    assert all(a / b > 14 for a, b in zip(e4, e4[1:])), e4
+    assert all(a / b > 14 for a, b in zip(w4, w4[1:])), w4
+    assert all(a / b > 3.5 for a, b in zip(e2, e2[1:]))
+    assert e4[-1] < 1e-3 * e2[-1]
+    with pytest.raises(ValueError, match="uniformly spaced"):
+        central_difference(np.zeros((6, 2)), [0, 0.1, 0.2, 0.35, 0.4, 0.5], order=4)

@@ -192,3 +192,20 @@ def test_plot_momentum_draws_three_panels(body):
     fig = plot_momentum(r, airborne=[(3, 10)], title="test")
     assert len(fig.axes) == 3
     assert len(fig.axes[2].lines) == 4  # L_x, L_y, L_z, |L|
+
+
+def test_fourth_order_momentum_matches_rigid_body_velocities_closer(body):
+    m = wavy_motion(120)
+    inner = slice(2, -2)
+    kin2 = momentum(body, m, velocity="kinematic")
+    kin4 = momentum(body, m, velocity="kinematic", order=4)
+    fd2 = momentum(body, m)
+    fd4 = momentum(body, m, order=4)
+    assert fd4.order == 4 and fd2.order == 2
+    # order 2: the two velocity models differ by O(h^2); order 4: by O(h^4)
+    d2 = _rel(fd2.angular[inner], kin2.angular[inner])
+    d4 = _rel(fd4.angular[inner], kin4.angular[inner])
+    assert d4 < 0.02 * d2
+    # a finer sampling of the same continuous motion agrees better at order 4
+    fine = momentum(body, wavy_motion(480), velocity="kinematic", order=4)
+    assert _rel(kin4.angular[inner], fine.angular[::4][inner]) < 0.05 * _rel(kin2.angular[inner], fine.angular[::4][inner])

@@ -39,7 +39,14 @@ def frame_times(times, n: int) -> np.ndarray:
     return t
 
 
-def central_difference(x, times, edge_order: int = 1) -> np.ndarray:
+def _uniform_step(t: np.ndarray) -> float:
+    h = np.diff(t)
+    if not np.allclose(h, h[0], rtol=1e-9, atol=0):
+        raise ValueError("order=4 differences need uniformly spaced frame times")
+    return float(h[0])
+
+
+def central_difference(x, times, edge_order: int = 1, order: int = 2) -> np.ndarray:
     """``d x / d t`` along axis 0.
 
     Parameters
@@ -47,17 +54,25 @@ def central_difference(x, times, edge_order: int = 1) -> np.ndarray:
     x: ``(T, ...)`` samples.
     times: ``(T,)`` frame times in seconds (strictly increasing), or a frame rate (fps).
     edge_order: 1 (one-sided first-order at the ends, default) or 2.
-
-    Interior frames use the second-order central difference on the true spacing
-    ``h1 = t_i - t_{i-1}``, ``h2 = t_{i+1} - t_i`` (for uniform spacing
-    ``(x_{i+1} - x_{i-1}) / 2h``).
+    order: 2 (default) or 4. Order 2: the second-order central difference on the
+        true spacing ``h1 = t_i - t_{i-1}``, ``h2 = t_{i+1} - t_i`` (for uniform
+        spacing ``(x_{i+1} - x_{i-1}) / 2h``). Order 4 (uniform spacing only): the
+        five-point stencil ``(x_{i-2} - 8 x_{i-1} + 8 x_{i+1} - x_{i+2}) / 12h``
+        on frames 2..T-3, order 2 next to the ends -- for exact synthetic data; on
+        noisy capture it amplifies noise ~1.3x more.
     """
     x = np.asarray(x, dtype=float)
     T = x.shape[0]
     t = frame_times(times, T)
     if T < 2:
         raise ValueError("a derivative needs at least 2 frames")
-    return np.gradient(x, t, axis=0, edge_order=min(edge_order, T - 1))
+    if order not in (2, 4):
+        raise ValueError(f"order must be 2 or 4, got {order!r}")
+    d = np.gradient(x, t, axis=0, edge_order=min(edge_order, T - 1))
+    if order == 4 and T >= 5:
+        h = _uniform_step(t)
+        d[2:-2] = (x[:-4] - 8 * x[1:-3] + 8 * x[3:-1] - x[4:]) / (12 * h)
+    return d
 
 
 def second_difference(x, times, edge_order: int = 1) -> np.ndarray:
@@ -73,7 +88,7 @@ def _rotvec_between(q_from, q_to) -> np.ndarray:
     return Rotation.from_quat(d.reshape(-1, 4)).as_rotvec().reshape(shape + (3,))
 
 
-def angular_velocity(quats, times) -> np.ndarray:
+def angular_velocity(quats, times, order: int = 2) -> np.ndarray:
     """World-frame angular velocity ``(T, ..., 3)`` rad/s of orientations ``quats`` ``(T, ..., 4)``.
 
     ``quats`` map body to world (scipy scalar-last). Interior frames blend the
@@ -83,14 +98,19 @@ def angular_velocity(quats, times) -> np.ndarray:
         w_i = h1/(h1+h2) * log(q_{i+1} q_i^-1)/h2 + h2/(h1+h2) * log(q_i q_{i-1}^-1)/h1
 
     which is exact for a constant angular velocity and second-order accurate
-    otherwise; the ends use the one-sided rotation vector. Sign flips of the
-    quaternions do not matter (the rotation vector takes the short way).
+    otherwise; the ends use the one-sided rotation vector. ``order=4`` (uniform
+    spacing) replaces frames 2..T-3 by the Richardson combination of the central
+    rotation vectors over 2h and 4h, ``(8 log(q_{i+1} q_{i-1}^-1) - log(q_{i+2} q_{i-2}^-1)) / 12h``
+    (also exact for a constant rate). Sign flips of the quaternions do not matter
+    (the rotation vector takes the short way).
     """
     q = np.asarray(quats, dtype=float)
     T = q.shape[0]
     t = frame_times(times, T)
     if T < 2:
         raise ValueError("an angular velocity needs at least 2 frames")
+    if order not in (2, 4):
+        raise ValueError(f"order must be 2 or 4, got {order!r}")
     h = np.diff(t).reshape((-1,) + (1,) * (q.ndim - 1))
     step = _rotvec_between(q[:-1], q[1:]) / h  # (T-1, ..., 3): rate over [t_i, t_{i+1}]
     out = np.empty(q.shape[:-1] + (3,))
@@ -100,6 +120,11 @@ def angular_velocity(quats, times) -> np.ndarray:
         h1 = h[:-1]
         h2 = h[1:]
         out[1:-1] = (h1 * step[1:] + h2 * step[:-1]) / (h1 + h2)
+    if order == 4 and T >= 5:
+        hu = _uniform_step(t)
+        r1 = _rotvec_between(q[1:-3], q[3:-1])
+        r2 = _rotvec_between(q[:-4], q[4:])
+        out[2:-2] = (8 * r1 - r2) / (12 * hu)
     return out
 
 

@@ -57,6 +57,7 @@ class MomentumResult:
     total_mass: float
     smooth_sigma: float | None = None
     velocity_mode: str = "finite_difference"
+    order: int = 2
 
     @property
     def n_frames(self) -> int:
@@ -89,7 +90,7 @@ def world_inertias(body, rotations) -> np.ndarray:
     return np.einsum("tsij,sjk,tslk->tsil", R, body.inertias, R, optimize=True)
 
 
-def joint_velocities(motion, omega_joints=None):
+def joint_velocities(motion, omega_joints=None, order: int = 2):
     """Rigid-body velocities of every joint origin ``(T, J, 3)`` and world angular velocities ``(T, J, 3)``.
 
     The root's linear velocity is the central difference of its positions;
@@ -98,9 +99,9 @@ def joint_velocities(motion, omega_joints=None):
     """
     P, G = motion.fk()
     t = motion.times
-    w = angular_velocity(G, t) if omega_joints is None else omega_joints
+    w = angular_velocity(G, t, order=order) if omega_joints is None else omega_joints
     v = np.empty_like(P)
-    v[:, 0] = central_difference(motion.root_positions, t)
+    v[:, 0] = central_difference(motion.root_positions, t, order=order)
     par = motion.skeleton.parents
     for j in range(1, motion.skeleton.n_joints):
         p = par[j]
@@ -108,7 +109,8 @@ def joint_velocities(motion, omega_joints=None):
     return v, w
 
 
-def momentum(body, motion, smooth_sigma: float | None = None, velocity: str = "finite_difference") -> MomentumResult:
+def momentum(body, motion, smooth_sigma: float | None = None, velocity: str = "finite_difference",
+             order: int = 2) -> MomentumResult:
     """Linear momentum (eq. 5.4) and angular momentum about the COM (eq. 5.5) for every frame.
 
     Parameters
@@ -119,6 +121,13 @@ def momentum(body, motion, smooth_sigma: float | None = None, velocity: str = "f
         rotations, sigma in frames (recorded in the result).
     velocity: ``"finite_difference"`` (default; papers) or ``"kinematic"`` (see
         :class:`MomentumResult`). Both use the same angular velocities.
+    order: accuracy order of the time differences, 2 (default) or 4 (uniform frame
+        times; for exact synthetic motions, see :func:`~mocomp.dynamics.derivatives.central_difference`).
+
+    ``L`` about the COM does not depend on a velocity error shared by all
+    segments, so with ``velocity="kinematic"`` only the angular-velocity error
+    enters ``L`` (the root's translational difference error cancels); this is
+    the most accurate choice for exact synthetic motions.
     """
     if velocity not in VELOCITY_MODES:
         raise ValueError(f"velocity must be one of {VELOCITY_MODES}, got {velocity!r}")
@@ -132,16 +141,18 @@ def momentum(body, motion, smooth_sigma: float | None = None, velocity: str = "f
     rot = G[:, j]
     pos = P[:, j] + quat_apply(rot, body.local_coms[None])
     if velocity == "finite_difference":
-        omega = angular_velocity(rot, t)
-        vel = central_difference(pos, t)
+        omega = angular_velocity(rot, t, order=order)
+        vel = central_difference(pos, t, order=order)
     else:
-        vj, wj = joint_velocities(m_in)
+        vj, wj = joint_velocities(m_in, order=order)
         omega = wj[:, j]
         vel = vj[:, j] + np.cross(omega, pos - P[:, j])
-    return assemble_momentum(body, t, pos, rot, vel, omega, smooth_sigma=smooth_sigma, velocity_mode=velocity)
+    return assemble_momentum(body, t, pos, rot, vel, omega, smooth_sigma=smooth_sigma, velocity_mode=velocity,
+                             order=order)
 
 
-def assemble_momentum(body, times, pos, rot, vel, omega, smooth_sigma=None, velocity_mode="given") -> MomentumResult:
+def assemble_momentum(body, times, pos, rot, vel, omega, smooth_sigma=None, velocity_mode="given",
+                      order: int = 2) -> MomentumResult:
     """eq. 5.4-5.5 from segment kinematics already in hand: COM positions ``pos`` ``(T, S, 3)``,
     orientations ``rot`` ``(T, S, 4)``, COM velocities ``vel`` ``(T, S, 3)`` and world angular
     velocities ``omega`` ``(T, S, 3)`` (what :func:`momentum` computes from a motion)."""
@@ -156,7 +167,7 @@ def assemble_momentum(body, times, pos, rot, vel, omega, smooth_sigma=None, velo
     return MomentumResult(times=np.asarray(times), com=com, com_velocity=p / M, linear=p, angular=L,
                           segment_positions=pos, segment_velocities=vel, segment_angular_velocities=omega,
                           total_mass=M, smooth_sigma=smooth_sigma if smooth_sigma else None,
-                          velocity_mode=velocity_mode)
+                          velocity_mode=velocity_mode, order=order)
 
 
 def composite_inertia(body, motion) -> np.ndarray:

@@ -27,7 +27,7 @@ def _wxyz(q):
     return np.concatenate([q[..., 3:4], q[..., :3]], axis=-1)
 
 
-def qpos_qvel(motion, model) -> tuple[np.ndarray, np.ndarray]:
+def qpos_qvel(motion, model, order: int = 2) -> tuple[np.ndarray, np.ndarray]:
     """``qpos (T, nq)`` and ``qvel (T, nv)`` of ``motion`` for ``model`` (from
     :func:`~mocomp.body.mjcf.to_mjcf` of a body on the same skeleton).
 
@@ -40,14 +40,14 @@ def qpos_qvel(motion, model) -> tuple[np.ndarray, np.ndarray]:
     t = motion.times
     T, J = motion.n_frames, motion.skeleton.n_joints
     names = mjcf_names(motion.skeleton)
-    w = angular_velocity(G, t)  # world
+    w = angular_velocity(G, t, order=order)  # world
     qpos = np.zeros((T, model.nq))
     qvel = np.zeros((T, model.nv))
     fj = model.joint("root_free")
     a, d = int(fj.qposadr[0]), int(fj.dofadr[0])
     qpos[:, a:a + 3] = motion.root_positions
     qpos[:, a + 3:a + 7] = _wxyz(motion.rotations[:, 0])
-    qvel[:, d:d + 3] = central_difference(motion.root_positions, t)
+    qvel[:, d:d + 3] = central_difference(motion.root_positions, t, order=order)
     qvel[:, d + 3:d + 6] = quat_apply(quat_inverse(G[:, 0]), w[:, 0])
     par = motion.skeleton.parents
     for j in range(1, J):
@@ -86,7 +86,7 @@ class MujocoMomentum:
     seconds: float
 
 
-def mujoco_momentum(body, motion, model=None, data=None, qpos=None, qvel=None) -> MujocoMomentum:
+def mujoco_momentum(body, motion, model=None, data=None, qpos=None, qvel=None, order: int = 2) -> MujocoMomentum:
     """COM, COM velocity and angular momentum about the COM from MuJoCo, frame by frame."""
     import time
 
@@ -95,7 +95,7 @@ def mujoco_momentum(body, motion, model=None, data=None, qpos=None, qvel=None) -
     if model is None:
         model, data = build_mujoco(body)
     if qpos is None:
-        qpos, qvel = qpos_qvel(motion, model)
+        qpos, qvel = qpos_qvel(motion, model, order=order)
     T = qpos.shape[0]
     root = model.body(mjcf_names(body.skeleton)[0]).id
     com = np.empty((T, 3))
