@@ -102,3 +102,13 @@ def test_mjcf_loads_in_mujoco_with_same_mass_properties():
         # body_ipos is the COM in the body frame
         assert np.allclose(model.body_ipos[b], com[j], atol=1e-12)
         assert np.allclose(model.body_pos[b], sk.offsets[j] if j else 0.0, atol=1e-12)
+
+
+def test_given_inertias_scale_with_mass():
+    import dataclasses
+
+    body = BodyModel.from_skeleton(_stick_skeleton(), 70.0)
+    given = dataclasses.replace(body, geometry=None, shape="given")
+    k = np.linspace(0.5, 2.0, body.n_segments)
+    assert np.allclose(inertia_for_masses(given, body.masses * k), body.inertias * k[:, None, None])
+    assert np.allclose(given.with_masses(body.masses * k).inertias, body.inertias * k[:, None, None])

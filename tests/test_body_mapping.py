@@ -86,3 +86,8 @@ def test_deepmimic_character_masses_load_into_body_model(real_data_dir):
     own_trunk = sum(m for n, m in zip(given.segment_names, given.masses) if n in ("root", "chest", "neck"))
     assert own_trunk == pytest.approx(22.0)
     assert table.masses[:4].sum() == pytest.approx(0.504 * 45.0, rel=1e-3)
+    # left/right pairs of the character's own bodies are found through the joint mirror map
+    from mocomp.body import symmetric_groups
+
+    pairs = {tuple(sorted(given.segment_names[i] for i in g)) for g in symmetric_groups(given) if len(g) == 2}
+    assert ("left_hip", "right_hip") in pairs and ("left_wrist", "right_wrist") in pairs and len(pairs) == 6
