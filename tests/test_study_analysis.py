@@ -1,0 +1,251 @@
+"""Analysis of responses: d' conventions and corrections, schema errors, condition tables,
+bootstrap, psychometric GLM and the ML GLMM (against statsmodels as a peer)."""
+from __future__ import annotations
+
+import csv
+import io
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from scipy.special import expit
+from scipy.stats import norm
+
+from mocomp.errors import StudyDataError
+from study.analysis import (analyze, condition_table, fit_mixed_model, fit_psychometric_glms, load_responses,
+                            participant_dprimes)
+from study.glmm import fit_logit_glmm
+from study.sdt import adjusted_rate, dprime_ceiling, dprime_counts, wilson_interval
+from study.session import RESPONSE_COLUMNS
+
+
+# ------------------------------------------------------------------ d'
+def test_dprime_known_values_and_corrections():
+    d = dprime_counts(84134, 100000, 50000, 100000, "none")
+    assert float(d.dprime) == pytest.approx(1.0, abs=1e-3)
+    # log-linear (Hautus 1995): +0.5 / +1 in every cell
+    assert adjusted_rate(3, 4, "loglinear") == pytest.approx(3.5 / 5)
+    assert adjusted_rate(4, 4, "loglinear") == pytest.approx(4.5 / 5)
+    # 1/(2N) (Macmillan & Kaplan 1985): only the extremes move
+    assert adjusted_rate(3, 4, "1/(2N)") == pytest.approx(0.75)
+    assert adjusted_rate(4, 4, "1/(2N)") == pytest.approx(1 - 1 / 8)
+    assert adjusted_rate(0, 4, "1/(2N)") == pytest.approx(1 / 8)
+    assert np.isinf(dprime_counts(4, 4, 1, 4, "none").dprime)
+    # ceilings: perfect performance hits them exactly
+    for corr in ("loglinear", "1/(2N)"):
+        d = dprime_counts(8, 8, 0, 12, corr)
+        assert float(d.dprime) == pytest.approx(float(dprime_ceiling(8, 12, corr)))
+        assert bool(d.at_ceiling)
+    assert float(dprime_ceiling(8, 12, "1/(2N)")) == pytest.approx(norm.ppf(1 - 1 / 16) - norm.ppf(1 / 24))
+    assert float(dprime_ceiling(8, 12, "loglinear")) == pytest.approx(norm.ppf(8.5 / 9) - norm.ppf(0.5 / 13))
+    with pytest.raises(ValueError):
+        dprime_counts(1, 4, 1, 4, "bogus")
+    with pytest.raises(ValueError):
+        adjusted_rate(5, 4)
+
+
+def test_wilson_interval_agrees_with_statsmodels():
+    from statsmodels.stats.proportion import proportion_confint
+
+    k, n = np.array([0, 3, 17, 40]), np.array([10, 10, 40, 40])
+    lo, hi = wilson_interval(k, n)
+    slo, shi = proportion_confint(k, n, method="wilson")
+    np.testing.assert_allclose(lo, slo, atol=1e-12)
+    np.testing.assert_allclose(hi, shi, atol=1e-12)
+
+
+# ------------------------------------------------------------ fixtures
+def _row(pid, sid, ti, pert, direction, level, resp, group, kind="test", set_id="SET1", expected=""):
+    r = {c: "" for c in RESPONSE_COLUMNS}
+    r.update(participant_id=pid, session_id=sid, stimulus_set_id=set_id, trial_index=ti, kind=kind, group=group,
+             repetition=1, stimulus_id=f"{pert}_{direction}_{level}", perturbation=pert, direction=direction,
+             nominal_level=level, achieved_error=level, response=resp, rated_correct=int(resp == "correct"),
+             input="observer", rt_s=1.0, expected_response=expected)
+    return r
+
+
+def _write(path: Path, rows: list[dict], columns=RESPONSE_COLUMNS):
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(columns), extrasaction="ignore")
+        w.writeheader()
+        w.writerows(rows)
+
+
+def _known_dataset(root: Path):
+    """Two participants; known counts per cell.
+
+    group A: controls 10 per participant, 3 "incorrect" each (FA 0.3);
+             am_abrupt/increase/25: 10 per participant, 6 and 8 "incorrect".
+    group T: controls 10, 1 and 3 incorrect; takeoff/increase/20: 10, all incorrect for P2.
+    """
+    spec = {"P1": dict(ctlA=3, a25=6, ctlT=1, t20=5), "P2": dict(ctlA=3, a25=8, ctlT=3, t20=10)}
+    for pid, s in spec.items():
+        rows, ti = [], 0
+        for cell, (pert, d, lv, g) in dict(ctlA=("none", "none", 0, "angular_momentum"),
+                                            a25=("am_abrupt", "increase", 25, "angular_momentum"),
+                                            ctlT=("none", "none", 0, "takeoff"),
+                                            t20=("takeoff", "increase", 20, "takeoff")).items():
+            for i in range(10):
+                rows.append(_row(pid, "S1", ti, pert, d, lv, "incorrect" if i < s[cell] else "correct", g))
+                ti += 1
+        rows.append(_row(pid, "S1", ti, "none", "none", 0, "incorrect", "", kind="attention", expected="incorrect"))
+        _write(root / pid / "S1" / "responses.csv", rows)
+    return spec
+
+
+def test_condition_table_known_counts(tmp_path):
+    _known_dataset(tmp_path)
+    data = load_responses(tmp_path)
+    tab = condition_table(data, correction="loglinear", n_boot=200, seed=1).set_index(["group", "condition"])
+    a = tab.loc[("angular_momentum", "am_abrupt/increase/25")]
+    assert a["n_trials"] == 20 and a["n_participants"] == 2
+    assert a["pct_rated_correct"] == pytest.approx(30.0)  # 14 of 20 called incorrect
+    assert a["hit_rate"] == pytest.approx(0.7) and a["fa_rate"] == pytest.approx(0.3)
+    assert a["dprime"] == pytest.approx(norm.ppf(14.5 / 21) - norm.ppf(6.5 / 21))
+    assert a["dprime_uncorrected"] == pytest.approx(norm.ppf(0.7) - norm.ppf(0.3))
+    assert a["control_source"] == "group"
+    t = tab.loc[("takeoff", "takeoff/increase/20")]
+    assert t["fa_rate"] == pytest.approx(0.2)  # the take-off group's own controls
+    assert t["dprime"] == pytest.approx(norm.ppf(15.5 / 21) - norm.ppf(4.5 / 21))
+    # pooled controls: F = 10/40
+    pooled = condition_table(data, control="pooled", correction="1/(2N)", n_boot=50).set_index("condition")
+    assert pooled.loc["takeoff/increase/20", "fa_rate"] == pytest.approx(0.25)
+    assert pooled.loc["takeoff/increase/20", "dprime"] == pytest.approx(norm.ppf(0.75) - norm.ppf(0.25))
+    assert (pooled["control_source"] == "pooled").all()
+    # the bootstrap is seeded and brackets the estimate
+    tab2 = condition_table(data, n_boot=200, seed=1).set_index(["group", "condition"])
+    assert tab2.loc[("angular_momentum", "am_abrupt/increase/25"), "dprime_ci_low"] == a["dprime_ci_low"]
+    assert a["dprime_ci_low"] <= a["dprime"] <= a["dprime_ci_high"]
+
+
+def test_participant_dprimes_known_counts(tmp_path):
+    _known_dataset(tmp_path)
+    pdp = participant_dprimes(load_responses(tmp_path), correction="1/(2N)", n_boot=300, seed=3)
+    r = pdp.set_index(["participant_id", "condition"]).loc[("P2", "takeoff/increase/20")]
+    assert r["hits"] == 10 and r["false_alarms"] == 3
+    assert r["dprime"] == pytest.approx(norm.ppf(1 - 1 / 20) - norm.ppf(0.3))
+    assert r["dprime"] == pytest.approx(r["ceiling"] - (norm.ppf(0.3) - norm.ppf(1 / 20)))
+    r1 = pdp.set_index(["participant_id", "condition"]).loc[("P1", "am_abrupt/increase/25")]
+    assert r1["ci_low"] < r1["dprime"] < r1["ci_high"] and not r1["ci_degenerate"]
+
+
+def test_schema_errors_are_clear(tmp_path):
+    _known_dataset(tmp_path)
+    # missing column
+    df = pd.read_csv(tmp_path / "P1" / "S1" / "responses.csv", dtype=str, keep_default_na=False)
+    df.drop(columns=["response"]).to_csv(tmp_path / "m.csv", index=False)
+    with pytest.raises(StudyDataError, match=r"m\.csv:1.*missing column\(s\) response"):
+        load_responses(tmp_path / "m.csv")
+    # empty file
+    e = tmp_path / "e" / "responses.csv"
+    e.parent.mkdir()
+    e.write_text("")
+    with pytest.raises(StudyDataError, match="empty CSV"):
+        load_responses(e.parent)
+    # header only: skipped, listed
+    h = tmp_path / "h" / "P9" / "S1" / "responses.csv"
+    _write(h, [])
+    shutil.copytree(tmp_path / "P1", tmp_path / "h" / "P1")
+    d = load_responses(tmp_path / "h")
+    assert len(d.skipped) == 1 and d.participants == ["P1"]
+    with pytest.raises(StudyDataError, match="all 1 responses CSV"):
+        load_responses(h)
+    # a bad value, with its line
+    rows = list(csv.DictReader(io.StringIO((tmp_path / "P1" / "S1" / "responses.csv").read_text())))
+    rows[4]["response"] = "maybe"
+    _write(tmp_path / "v" / "responses.csv", rows)
+    with pytest.raises(StudyDataError, match=r"responses\.csv:6 \[response\].*'maybe'"):
+        load_responses(tmp_path / "v")
+    # duplicate trial within a file
+    rows = list(csv.DictReader(io.StringIO((tmp_path / "P1" / "S1" / "responses.csv").read_text())))
+    _write(tmp_path / "d" / "responses.csv", rows + [rows[2]])
+    with pytest.raises(StudyDataError, match="duplicate trial.*trial 2"):
+        load_responses(tmp_path / "d")
+    # the same session copied twice
+    shutil.copytree(tmp_path / "P1", tmp_path / "c" / "a" / "P1")
+    shutil.copytree(tmp_path / "P1", tmp_path / "c" / "b" / "P1")
+    with pytest.raises(StudyDataError, match="duplicate trial"):
+        load_responses(tmp_path / "c")
+    # mixed stimulus sets
+    rows = list(csv.DictReader(io.StringIO((tmp_path / "P2" / "S1" / "responses.csv").read_text())))
+    for r in rows:
+        r["stimulus_set_id"] = "OTHER"
+    shutil.copytree(tmp_path / "P1", tmp_path / "mx" / "P1")
+    _write(tmp_path / "mx" / "P2" / "S1" / "responses.csv", rows)
+    with pytest.raises(StudyDataError, match="2 different stimulus sets"):
+        load_responses(tmp_path / "mx")
+    assert len(load_responses(tmp_path / "mx", allow_mixed_sets=True).stimulus_set_ids) == 2
+    (tmp_path / "nothing").mkdir()
+    with pytest.raises(StudyDataError, match="no responses.csv"):
+        load_responses(tmp_path / "nothing")
+
+
+def _probit_data(rng, slope=0.05, intercept=-0.6, levels=(10, 20, 30, 40), n=4000):
+    rows, ti = [], 0
+    for lv in (0,) + tuple(levels):
+        k = rng.binomial(n, norm.cdf(intercept + slope * lv))
+        for i in range(n):
+            pert, d = ("none", "none") if lv == 0 else ("takeoff", "increase")
+            rows.append(dict(participant_id="P1", kind="test", group="takeoff", perturbation=pert, direction=d,
+                             nominal_level=float(lv), incorrect=int(i < k), condition=f"{pert}/{d}/{lv}"))
+    return pd.DataFrame(rows)
+
+
+def test_psychometric_glm_recovers_probit_model():
+    df = _probit_data(np.random.default_rng(5))
+    fit = fit_psychometric_glms(df, link="probit").iloc[0]
+    assert fit["slope"] == pytest.approx(0.05, abs=3 * fit["slope_se"])
+    assert fit["intercept"] == pytest.approx(-0.6, abs=3 * fit["intercept_se"])
+    assert fit["threshold_ci_low"] <= 20.0 <= fit["threshold_ci_high"]  # d' = 1 at 1/0.05 = 20
+    assert fit["threshold"] == pytest.approx(1 / fit["slope"])
+    lg = fit_psychometric_glms(df, link="logit").iloc[0]
+    assert lg["slope"] > fit["slope"]  # logit coefficients are ~1.6-1.8x probit ones
+    assert 1.5 < lg["slope"] / fit["slope"] < 1.9
+
+
+def test_glmm_agrees_with_glm_when_no_participant_variance_and_quadrature_converges():
+    import statsmodels.api as sm
+
+    rng = np.random.default_rng(2)
+    P, C, m = 30, 4, 10
+    beta = np.array([-1.0, 0.5, 1.5, 2.5])
+    X = np.tile(np.eye(C), (P, 1))
+    X[:, 0] = 1
+    g = np.repeat(np.arange(P), C)
+    k = rng.binomial(m, expit(X @ beta))
+    n = np.full_like(k, m)
+    r = fit_logit_glmm(X, k, n, g)
+    glm = sm.GLM(np.column_stack([k, n - k]), X, family=sm.families.Binomial()).fit()
+    if r.sigma < 0.05:  # no participant variance in the data: the GLMM reduces to the GLM
+        np.testing.assert_allclose(r.beta, glm.params, atol=2e-3)
+    # participant variance present: recovered; the quadrature order does not matter
+    u = rng.normal(0, 1.0, P)
+    k2 = rng.binomial(m, expit(X @ beta + u[g]))
+    a = fit_logit_glmm(X, k2, n, g, n_nodes=15)
+    b = fit_logit_glmm(X, k2, n, g, n_nodes=30)
+    np.testing.assert_allclose(a.beta, b.beta, atol=1e-4)
+    assert a.llf == pytest.approx(b.llf, abs=1e-6)
+    assert abs(np.log(a.sigma) - np.log(1.0)) < 2.5 * a.log_sigma_se
+    assert np.all(np.abs(a.beta - beta) < 3 * a.se)
+    glm2 = sm.GLM(np.column_stack([k2, n - k2]), X, family=sm.families.Binomial()).fit()
+    # conditional effects exceed the marginal (GLM) ones when sigma > 0
+    assert np.all(np.abs(a.beta[1:]) > np.abs(glm2.params[1:]))
+
+
+def test_analyze_writes_report(tmp_path):
+    _known_dataset(tmp_path / "data")
+    res = analyze(tmp_path / "data", tmp_path / "report", n_boot=100, min_attention=0.5)
+    for f in ("conditions.csv", "trials.csv", "participants_condition.csv", "participants_series.csv",
+              "psychometric.csv", "mixed_model.csv", "attention.csv", "report.md", "settings.json",
+              "figures/dprime.png", "figures/ratings.png", "figures/psychometric.png", "figures/participants.png"):
+        assert (tmp_path / "report" / f).is_file(), f
+    tidy = pd.read_csv(tmp_path / "report" / "conditions.csv")
+    assert {"group", "perturbation", "direction", "level", "dprime", "correction", "ceiling"} <= set(tidy.columns)
+    assert res.attention["pass_rate"].tolist() == [1.0, 1.0]
+    assert "loglinear" in (tmp_path / "report" / "report.md").read_text()
+    mm = fit_mixed_model(res.data, cross_checks=False)
+    assert set(mm["group"]) == {"angular_momentum", "takeoff"}
+    assert mm["method"].str.contains("Gauss-Hermite").all()

@@ -1,0 +1,163 @@
+"""Crash-safe session storage: plan before the first trial, append+fsync, resume in the same
+order, never overwrite, torn-line repair, and the session lock (other process, stale, foreign host)."""
+from __future__ import annotations
+
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+
+import pytest
+
+from mocomp.errors import SessionLockedError, StudyDataError
+from study.controller import TrialController, run_headless
+from study.design import DesignConfig
+from study.placeholders import make_placeholder_set
+from study.session import RESPONSE_COLUMNS, Session, SessionLock
+
+LEVELS = {("am_abrupt", "increase"): (25, 50), ("takeoff", "increase"): (20,)}
+
+
+@pytest.fixture(scope="module")
+def stimuli(tmp_path_factory):
+    return make_placeholder_set(tmp_path_factory.mktemp("stim"), LEVELS, base_clips=("a", "b"), n_frames=4)
+
+
+def _answer_n(sess, n, resp="correct"):
+    ctl = TrialController(sess)
+    for _ in range(n):
+        ctl.show()
+        assert ctl.respond(resp, input="test") is not None
+    return ctl
+
+
+def test_create_resume_same_order(stimuli, tmp_path):
+    with Session.open(tmp_path, "P1", "S1", stimuli) as s:
+        folder = s.folder
+        assert (folder / "plan.csv").exists() and (folder / "plan.json").exists()
+        meta = json.loads((folder / "plan.json").read_text())
+        assert meta["plan_sha256"] == s.plan.sha256 and meta["stimulus_set_id"] == stimuli.set_id
+        plan_idx = list(s.plan.response_trials["trial_index"])
+        assert (folder / "responses.csv").read_text().strip() == ",".join(RESPONSE_COLUMNS)
+        ctl = _answer_n(s, 3)
+        # a second answer to the same trial (double click) is ignored, not written
+        ctl.show()
+        assert ctl.respond("incorrect", input="test") is not None
+        assert ctl.respond("incorrect", input="test") is None
+        assert ctl.respond("correct", input="test", trial_index=plan_idx[0]) is None
+    with Session.open(tmp_path, "P1", "S1", stimuli) as s2:
+        assert s2.state.resumed and s2.state.n_answered == 4
+        assert s2.next_response_index() == plan_idx[4]
+        run_headless(TrialController(s2), lambda v: ("incorrect", 0.5))
+        rows = s2.responses()
+    assert [int(i) for i in rows["trial_index"]] == plan_idx
+    assert list(rows["response"][:3]) == ["correct"] * 3 and rows["response"].iloc[3] == "incorrect"
+    ev = [json.loads(x)["event"] for x in (folder / "events.jsonl").read_text().splitlines()]
+    assert ev.count("opened") == 1 and ev.count("resumed") == 1 and ev[-1] == "finished"
+    assert "response_ignored" in ev
+
+
+def test_refuses_a_different_plan_or_stimulus_set(stimuli, tmp_path):
+    Session.open(tmp_path, "P1", "S1", stimuli, config=DesignConfig(break_every=5)).close()
+    with pytest.raises(ValueError, match="seed"):
+        Session.open(tmp_path, "P1", "S1", stimuli, seed=123)
+    with pytest.raises(ValueError, match="different design"):
+        Session.open(tmp_path, "P1", "S1", stimuli, config=DesignConfig(break_every=6))
+    other = make_placeholder_set(tmp_path / "other", LEVELS, base_clips=("a",), n_frames=4, seed=9)
+    with pytest.raises(StudyDataError, match="stimulus set"):
+        Session.open(tmp_path, "P1", "S1", other)
+    # the refused opens did not touch anything and released the lock
+    Session.open(tmp_path, "P1", "S1", stimuli).close()
+    # the plan on disk is protected by its hash
+    plan = tmp_path / "P1" / "S1" / "plan.csv"
+    plan.write_text(plan.read_text().replace("test", "tset", 1))
+    with pytest.raises(StudyDataError, match="plan_sha256"):
+        Session.open(tmp_path, "P1", "S1", stimuli)
+    for bad in ("../x", "a/b", "", ".hidden", "x" * 65):
+        with pytest.raises(ValueError, match="not valid"):
+            Session.open(tmp_path, bad, "S1", stimuli)
+
+
+def test_corrupt_responses_are_reported_with_line(stimuli, tmp_path):
+    with Session.open(tmp_path, "P1", "S1", stimuli) as s:
+        _answer_n(s, 3)
+        path = s.responses_path
+    lines = path.read_text().splitlines(keepends=True)
+    path.write_text("".join(lines + [lines[2]]))  # trial of line 3 appended again
+    with pytest.raises(StudyDataError, match=r"responses\.csv:5 \[trial_index\]: duplicate trial_index"):
+        Session.open(tmp_path, "P1", "S1", stimuli)
+
+
+def test_torn_last_line_is_backed_up_and_repaired(stimuli, tmp_path):
+    with Session.open(tmp_path, "P1", "S1", stimuli) as s:
+        _answer_n(s, 2)
+        path = s.responses_path
+    full = path.read_bytes()
+    path.write_bytes(full + b"P1,S1,abc,def,12")  # a crash in the middle of a write
+    with Session.open(tmp_path, "P1", "S1", stimuli) as s2:
+        assert s2.state.repaired_torn_line and s2.n_answered == 2
+        _answer_n(s2, 1)
+    backups = list(path.parent.glob("responses.csv.torn-*"))
+    assert len(backups) == 1 and backups[0].read_bytes() == full + b"P1,S1,abc,def,12"
+    assert path.read_bytes().startswith(full) and len(s2.responses()) == 3
+
+
+def test_participant_info_never_overwritten(stimuli, tmp_path):
+    with Session.open(tmp_path, "P1", "S1", stimuli) as s:
+        s.save_participant_info({"age": 22})
+    with Session.open(tmp_path, "P1", "S1", stimuli) as s:
+        assert s.save_participant_info({"age": 99})["age"] == 22
+        assert s.participant_info()["age"] == 22
+        assert s.events()[-1]["event"] == "participant_info_not_overwritten"
+
+
+_HOLDER = """
+import sys, time
+from study.stimulus_set import load_manifest
+from study.session import Session
+s = Session.open(sys.argv[1], "P1", "S1", load_manifest(sys.argv[2]))
+print("locked", flush=True)
+time.sleep(120)
+"""
+
+
+def test_lock_other_process_then_stale_after_crash(stimuli, tmp_path):
+    env = dict(os.environ)
+    proc = subprocess.Popen([sys.executable, "-c", _HOLDER, str(tmp_path), str(stimuli.path)],
+                            stdout=subprocess.PIPE, text=True, env=env)
+    try:
+        assert proc.stdout.readline().strip() == "locked"
+        with pytest.raises(SessionLockedError, match=f"pid {proc.pid}"):
+            Session.open(tmp_path, "P1", "S1", stimuli, lock_timeout=0.5)
+    finally:
+        proc.send_signal(signal.SIGKILL)  # a crash: no clean release
+        proc.wait(timeout=10)
+    lock = tmp_path / "P1" / "S1" / "session.lock"
+    assert json.loads(lock.read_text())["pid"] == proc.pid  # left behind
+    with Session.open(tmp_path, "P1", "S1", stimuli, lock_timeout=0.5) as s:
+        ev = s.events()
+        stale = [e for e in ev if e["event"] == "stale_lock_recovered"]
+        assert stale and stale[0]["previous_holder"]["pid"] == proc.pid
+        # the same process cannot open it twice either
+        t0 = time.monotonic()
+        with pytest.raises(SessionLockedError, match="this process"):
+            Session.open(tmp_path, "P1", "S1", stimuli, lock_timeout=5)
+        assert time.monotonic() - t0 < 1
+    assert lock.read_text() == ""  # released cleanly
+
+
+def test_lock_from_another_host(tmp_path):
+    folder = tmp_path / "P1" / "S1"
+    folder.mkdir(parents=True)
+    lock = folder / "session.lock"
+    lock.write_text(json.dumps({"pid": 1, "host": "elsewhere-" + socket.gethostname(), "since": "x"}))
+    with pytest.raises(SessionLockedError, match="host elsewhere"):
+        SessionLock(folder, stale_after_s=60).acquire(timeout=0)
+    old = time.time() - 3600
+    os.utime(lock, (old, old))  # heartbeat an hour old: stale
+    lk = SessionLock(folder, stale_after_s=60).acquire(timeout=0)
+    assert lk.took_over["host"].startswith("elsewhere")
+    lk.release()
