@@ -158,6 +158,10 @@ class BodyModel:
 
         return to_mjcf(self, **kwargs)
 
+    def principal_moments(self) -> np.ndarray:
+        """``(S, 3)`` kg m^2, eigenvalues of each segment's inertia tensor, ascending."""
+        return np.linalg.eigvalsh(self.inertias)
+
     def scaled_to(self, total_mass: float) -> "BodyModel":
         """All masses scaled to a new total (shapes kept, inertias recomputed)."""
         if not (np.isfinite(total_mass) and total_mass > 0):
