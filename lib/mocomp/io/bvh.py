@@ -65,9 +65,12 @@ def read_bvh(path, scale=None, fps: float | None = None, height_check: bool = Tr
     return _parse(head, raw, head_end, str(path), scale, fps, height_check)
 
 
-_FRAME_TIME = re.compile(r"^[ \t]*Frame Time:[^\n]*\n?", flags=re.MULTILINE | re.IGNORECASE)
+# the "Frame Time:" line with its line end (LF, CRLF or old-Mac CR)
+_FRAME_TIME = re.compile(r"(?:^|(?<=\r))[ \t]*Frame[ \t]+Time:[^\r\n]*(?:\r\n|\r|\n)?", flags=re.MULTILINE | re.IGNORECASE)
 _NON_SPACE = re.compile(rb"\S")
-_FRAME_TIME_B = re.compile(rb"^[ \t]*Frame Time:[^\n]*\n?", flags=re.MULTILINE | re.IGNORECASE)
+_LONE_CR = re.compile(rb"\r(?!\n)")
+_FRAME_TIME_B = re.compile(rb"(?:^|(?<=\r))[ \t]*Frame[ \t]+Time:[^\r\n]*(?:\r\n|\r|\n)?",
+                           flags=re.MULTILINE | re.IGNORECASE)
 
 
 def parse_bvh(text: str, path: str | None = None, scale=None, fps: float | None = None,
@@ -199,7 +202,7 @@ def _parse(head: str, raw: bytes, start: int, path, scale, fps, height_check) ->
         if i >= n:
             raise MotionFormatError(f"missing '{prefix}' line (file truncated?)", path, n)
         ln = i + 1
-        s = lines[i].strip()
+        s = " ".join(lines[i].split())  # "Frame\tTime:" and "Frame  Time:" too
         i += 1
         if not s.lower().startswith(prefix.lower()):
             raise MotionFormatError(f"expected '{prefix}', found {s[:40]!r}", path, ln)
@@ -396,7 +399,10 @@ def _parse_frames(raw: bytes, start: int = 0) -> np.ndarray | None:
             f.seek(start)
             return np.loadtxt(f, dtype=float, comments=None, ndmin=2, encoding="latin1")
     except (ValueError, UnicodeError):
-        return None
+        pass
+    if _LONE_CR.search(raw, start):  # old-Mac line ends, which loadtxt does not split on
+        return _parse_frames(raw[start:].replace(b"\r\n", b"\n").replace(b"\r", b"\n"))
+    return None
 
 
 def _nth_data_line(block: bytes, r: int) -> int:
@@ -437,8 +443,8 @@ def _frame_block_error(block: bytes, first_data: int, n_frames: int, nch: int, p
 
 
 def _fmt(values: np.ndarray, precision: int) -> list[str]:
-    fmt = f"%.{precision}f"
-    return [" ".join(fmt % v for v in row) for row in values]
+    row = " ".join([f"%.{precision}f"] * values.shape[1])  # one format per row: ~1.5x faster than per value
+    return [row % tuple(r) for r in values.tolist()]
 
 
 def format_bvh(motion: Motion, scale: float = 1.0, precision: int = 8, channels=None) -> str:
