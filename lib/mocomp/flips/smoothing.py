@@ -31,21 +31,38 @@ from ..core.motion import slerp
 from ..core.rotations import quat_apply, quat_inverse, quat_multiply
 from .similarity import axis_quat, twist_angle
 
-__all__ = ["split_root", "compose_root", "shortest_arc", "ramp", "SeamSide", "seam_corrections",
+__all__ = ["root_reference", "split_root", "compose_root", "shortest_arc", "ramp", "SeamSide", "seam_corrections",
            "apply_rotation_offsets", "apply_direction_offsets"]
 
 
-def split_root(q: np.ndarray, axis: np.ndarray, unwrap: bool = True) -> tuple[np.ndarray, np.ndarray]:
+def root_reference(b_ref: np.ndarray, axis: np.ndarray) -> np.ndarray:
+    """A fixed root offset ``q_0`` with ``q_0 b_ref = axis``: the split below is taken of
+    ``q q_0^-1`` so that it is well conditioned for every frame whose body-frame ``L``
+    direction ``b`` is near ``b_ref`` (typically the mean over the flight). Without it the
+    split is singular when a body axis happens to be anti-parallel to the world ``L``
+    (e.g. a back flip about the body's -x axis with ``L`` along world +x)."""
+    a = np.asarray(axis, dtype=float)
+    a = a / np.linalg.norm(a)
+    r = np.asarray(b_ref, dtype=float)
+    r = r / np.linalg.norm(r)
+    return shortest_arc(r, a)
+
+
+def split_root(q: np.ndarray, axis: np.ndarray, ref: np.ndarray | None = None,
+               unwrap: bool = True) -> tuple[np.ndarray, np.ndarray]:
     """Eq. 5.14 split of root orientations ``q (T, 4)``: ``(theta (T,), b (T, 3))``.
 
-    ``theta`` is the rotation about the world ``axis`` (unwrapped over frames when
-    ``unwrap``), ``b = q^-1 axis`` is the axis direction in the body frame, which
-    fixes the perpendicular part ``q_P`` (see :func:`compose_root`).
+    ``theta`` is the rotation about the world ``axis`` of ``q q_0^-1`` (``q_0 = ref``, a
+    fixed offset from :func:`root_reference`, identity by default), unwrapped over
+    frames when ``unwrap``; ``b = q^-1 axis`` is the axis direction in the body frame,
+    which fixes the perpendicular part ``q_P`` (see :func:`compose_root`). Rotating a
+    frame about the world axis by ``a`` adds ``a`` to ``theta`` and leaves ``b``.
     """
     q = np.asarray(q, dtype=float)
     a = np.asarray(axis, dtype=float)
     a = a / np.linalg.norm(a)
-    theta = twist_angle(q, a)
+    qq = q if ref is None else quat_multiply(q, quat_inverse(ref))
+    theta = twist_angle(qq, a)
     if unwrap and theta.ndim == 1 and theta.size > 1:
         theta = np.unwrap(theta, period=2 * np.pi)
     b = quat_apply(quat_inverse(q), a)
@@ -56,7 +73,7 @@ def shortest_arc(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Quaternions of the shortest rotations taking unit vectors ``u`` to ``v`` (broadcasting).
 
     Undefined for exactly opposite vectors; those get a rotation by pi about an
-    axis perpendicular to ``u`` (a warning-free, deterministic choice).
+    axis perpendicular to ``u`` (a deterministic choice).
     """
     u = np.asarray(u, dtype=float)
     v = np.asarray(v, dtype=float)
@@ -76,13 +93,16 @@ def shortest_arc(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     return q / n[..., None]
 
 
-def compose_root(theta: np.ndarray, b: np.ndarray, axis: np.ndarray) -> np.ndarray:
-    """Inverse of :func:`split_root`: ``q = q_L(theta) q_P`` with ``q_P`` the shortest arc ``b -> axis``."""
+def compose_root(theta: np.ndarray, b: np.ndarray, axis: np.ndarray, ref: np.ndarray | None = None) -> np.ndarray:
+    """Inverse of :func:`split_root`: ``q = q_L(theta) q_P q_0`` with ``q_P`` the shortest
+    arc from ``q_0 b`` to ``axis``."""
     a = np.asarray(axis, dtype=float)
     a = a / np.linalg.norm(a)
     b = np.asarray(b, dtype=float)
     b = b / np.linalg.norm(b, axis=-1, keepdims=True)
-    return quat_multiply(axis_quat(a, theta), shortest_arc(b, a))
+    if ref is None:
+        return quat_multiply(axis_quat(a, theta), shortest_arc(b, a))
+    return quat_multiply(quat_multiply(axis_quat(a, theta), shortest_arc(quat_apply(ref, b), a)), ref)
 
 
 def ramp(d: np.ndarray, window: int) -> np.ndarray:

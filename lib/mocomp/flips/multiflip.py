@@ -1,0 +1,416 @@
+"""The run-time stage: a multi-flip jump from a prepared single flip (flips paper section 5;
+dissertation section 5.4), with a physics report.
+
+:func:`multiflip` runs, each stage timed:
+
+1. **sequence** -- eq. 5.10-5.11 and the landing search (:mod:`.sequence`), from the
+   cached self-looping fragment;
+2. **smooth** -- root rotation about ``L`` plus the rotated copies' extra turn, the
+   loop seam correction computed once in pre-processing and pasted at every seam,
+   the landing seam (eq. 5.14, :mod:`.smoothing`);
+3. **retime** -- one factor ``k`` for take-off, flight and landing (App. B, :mod:`.retime`);
+   slerp of every joint at the retimed instants;
+4. **reposition** -- flight frames translated so the exact COM (estimated masses) follows
+   eq. 5.15/5.17; landing frames offset by eq. 5.16 (:mod:`.reposition`);
+5. **assemble** -- the new :class:`~mocomp.core.Motion`.
+
+The self-looping search belongs to pre-processing (cached per clip); its time is
+reported separately, as is the time of the physics evaluation (momentum of the
+new motion), which is evidence, not part of the method.
+"""
+from __future__ import annotations
+
+import dataclasses
+import json
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..core.motion import Motion
+from ..core.rotations import quat_angle, quat_apply, quat_inverse, quat_multiply
+from .preprocess import PreparedFlip, flight_L_stats, smooth_block
+from .reposition import FlightTrajectory, flight_trajectory
+from .retime import RetimePlan, plan_retime, sample_positions
+from .sequence import Sequence, build_sequence
+from .similarity import axis_quat
+from .smoothing import seam_corrections, split_root
+
+__all__ = ["PhysicsReport", "MultiFlipResult", "multiflip", "slerp_frames"]
+
+RUNTIME_STAGES = ("sequence", "smooth", "retime", "reposition", "assemble")
+
+
+def slerp_frames(q0: np.ndarray, q1: np.ndarray, a: np.ndarray) -> np.ndarray:
+    """Slerp of ``(N, J, 4)`` quaternion rows with one weight per row ``a (N,)``: the
+    run-time stage's hot loop, written for few temporaries (agrees with
+    :func:`mocomp.core.motion.slerp`, tested)."""
+    dot = np.einsum("nji,nji->nj", q0, q1)
+    sign = np.where(dot < 0.0, -1.0, 1.0)
+    dot *= sign
+    np.minimum(dot, 1.0, out=dot)
+    theta = np.arccos(dot)
+    s = np.sin(theta)
+    small = s < 1e-8
+    s[small] = 1.0
+    a2 = a[:, None]
+    w0 = np.sin((1.0 - a2) * theta) / s
+    w1 = np.sin(a2 * theta) / s * sign
+    if small.any():
+        w0 = np.where(small, 1.0 - a2, w0)
+        w1 = np.where(small, a2 * sign, w1)
+    out = q0 * w0[..., None]
+    out += q1 * w1[..., None]
+    return out
+
+
+@dataclass(frozen=True)
+class PhysicsReport:
+    """What a researcher needs to judge a generated multi-flip (angles in degrees).
+
+    Rotation: ``requested_rotation`` (``360 x flips``), ``target_rotation`` (the input's own
+    rotation about L plus ``360 x (flips - 1)``, so it lands as the input did),
+    ``original_rotation``, ``achieved_rotation`` (root rotation about L, first to last
+    frame, of the new motion), ``rotation_error`` (achieved - target).
+    Sequencing: ``r`` (the paper's count), ``copies_used``, ``phi`` (per repetition),
+    ``phi_S``, ``phi_E``, frames ``m, n`` (loop), ``f`` (source frame), ``f_copy``, ``g``,
+    ``loop_distance``, ``loop_mean_angle``, ``landing_distance``, ``join_twist``
+    (rotation mismatch at the landing join, spread over the flight), ``loop_found``.
+    Timing: ``k``, ``k_star``, ``k_ratio``; flight durations (s) ``T_original``,
+    ``T_sequenced``, ``T_new``; ``gravity`` (m/s^2, the clip's), ``gravity_scale``.
+    Angular momentum (kg m^2/s, estimated masses, flight interior): ``L_original``,
+    ``L_new`` (mean |L|), ``L_variation_original``, ``L_variation_new`` (max relative
+    deviation of |L| from its mean), ``L_std_original``, ``L_std_new``,
+    ``L_direction_change`` (angle between the mean L directions, after removing the
+    rotation applied).
+    COM: ``com_residual_rms``, ``com_residual_max`` (m, new flight COM about its own
+    ballistic fit), ``com_target_error`` (m, max distance to eq. 5.15/5.17).
+    Take-off: ``takeoff_angle_original``, ``takeoff_angle_new``, ``takeoff_angle_change``
+    (elevation of the COM velocity). Linear momentum jumps (kg m/s): ``p_jump_takeoff``,
+    ``p_jump_landing``, and relative to ``M |v|`` at take-off: ``p_jump_takeoff_rel``,
+    ``p_jump_landing_rel``. Landing: ``landing_orientation_error`` (final root orientation
+    vs the original's final one). ``height_change`` (m), ``dy`` (m, landing minus take-off
+    COM level of the new motion).
+    ``times_ms``: per stage, ``runtime_total`` (sum of run-time stages),
+    ``loop_search`` (pre-processing, cached), ``preprocess_total``, ``evaluate``.
+    """
+
+    flips: int | None
+    requested_rotation: float | None
+    target_rotation: float
+    original_rotation: float
+    achieved_rotation: float
+    rotation_error: float
+    r: int
+    copies_used: int
+    phi: float
+    phi_S: float
+    phi_E: float
+    m: int
+    n: int
+    f: int
+    f_copy: int
+    g: int
+    loop_distance: float
+    loop_mean_angle: float
+    landing_distance: float
+    join_twist: float
+    loop_found: bool
+    k: float
+    k_star: float
+    k_ratio: float
+    T_original: float
+    T_sequenced: float
+    T_new: float
+    gravity: float
+    gravity_scale: float
+    L_original: float
+    L_new: float
+    L_variation_original: float
+    L_variation_new: float
+    L_std_original: float
+    L_std_new: float
+    L_direction_change: float
+    com_residual_rms: float
+    com_residual_max: float
+    com_target_error: float
+    takeoff_angle_original: float
+    takeoff_angle_new: float
+    takeoff_angle_change: float
+    p_jump_takeoff: float
+    p_jump_landing: float
+    p_jump_takeoff_rel: float
+    p_jump_landing_rel: float
+    landing_orientation_error: float
+    height_change: float
+    dy: float
+    times_ms: dict
+    notes: tuple[str, ...] = ()
+
+    def to_dict(self) -> dict:
+        d = dataclasses.asdict(self)
+        d["notes"] = list(self.notes)
+        return d
+
+    def to_json(self, path=None, indent: int = 2) -> str:
+        def clean(v):
+            if isinstance(v, float) and not np.isfinite(v):
+                return None
+            if isinstance(v, (np.floating, np.integer)):
+                return v.item()
+            if isinstance(v, dict):
+                return {k: clean(x) for k, x in v.items()}
+            if isinstance(v, (list, tuple)):
+                return [clean(x) for x in v]
+            return v
+
+        text = json.dumps(clean(self.to_dict()), indent=indent)
+        if path is not None:
+            from pathlib import Path
+
+            Path(path).write_text(text + "\n")
+        return text
+
+    def __str__(self) -> str:
+        t = self.times_ms
+        req = f"{self.requested_rotation:.0f}" if self.requested_rotation is not None else "-"
+        lines = [
+            f"rotation about L: requested {req} deg, target {self.target_rotation:.1f}, achieved "
+            f"{self.achieved_rotation:.1f} (error {self.rotation_error:+.2f}); original {self.original_rotation:.1f}",
+            f"sequencing: loop m={self.m} n={self.n} phi={self.phi:.1f} deg ({'self-looping' if self.loop_found else 'FALLBACK'}"
+            f", mean mismatch {self.loop_mean_angle:.1f} deg), r={self.r}, copies used {self.copies_used}, "
+            f"landing join f={self.f} (copy {self.f_copy}) ~ g={self.g} (D={self.landing_distance:.3f}, "
+            f"twist {self.join_twist:+.2f} deg spread)",
+            f"retiming: k={self.k:.3f}, k*={self.k_star:.3f} (k/k*={self.k_ratio:.2f}); flight "
+            f"{self.T_original:.3f} s -> {self.T_sequenced:.3f} s sequenced -> {self.T_new:.3f} s; clip gravity "
+            f"{self.gravity:.2f} m/s^2 (s={self.gravity_scale:.2f})",
+            f"angular momentum |L|: {self.L_original:.2f} -> {self.L_new:.2f} kg m^2/s; variation over the flight "
+            f"{100 * self.L_variation_original:.1f}% -> {100 * self.L_variation_new:.1f}% (std "
+            f"{100 * self.L_std_original:.1f}% -> {100 * self.L_std_new:.1f}%), direction change "
+            f"{self.L_direction_change:.1f} deg",
+            f"COM: residual about a ballistic fit rms {1e3 * self.com_residual_rms:.3f} mm, max "
+            f"{1e3 * self.com_residual_max:.3f} mm; max distance to eq. 5.15/5.17 {1e3 * self.com_target_error:.2e} mm",
+            f"take-off angle {self.takeoff_angle_original:.1f} -> {self.takeoff_angle_new:.1f} deg "
+            f"(change {self.takeoff_angle_change:+.1f}); linear momentum jump at take-off {self.p_jump_takeoff:+.2f} "
+            f"kg m/s ({100 * self.p_jump_takeoff_rel:+.1f}%), at landing {self.p_jump_landing:+.2f} "
+            f"({100 * self.p_jump_landing_rel:+.1f}%)",
+            f"landing: final root orientation differs from the original's by {self.landing_orientation_error:.2f} deg; "
+            f"height change {self.height_change:+.3f} m",
+            "times (ms): " + ", ".join(f"{k} {v:.3f}" for k, v in t.items()),
+        ]
+        lines += [f"note: {n}" for n in self.notes]
+        return "\n".join(lines)
+
+
+@dataclass(frozen=True, eq=False)
+class MultiFlipResult:
+    """A generated multi-flip and its evidence.
+
+    Attributes
+    ----------
+    motion: the new :class:`Motion` (same skeleton and frame rate as the input).
+    original: the input as used (``prepared.motion``).
+    prepared: the :class:`PreparedFlip`.
+    sequence: the frame plan (:class:`~mocomp.flips.sequence.Sequence`).
+    plan: the retiming decision (:class:`~mocomp.flips.retime.RetimePlan`).
+    trajectory: the new flight's COM trajectory (:class:`FlightTrajectory`).
+    seq_positions: ``(T_new,)`` position in the sequence shown by each output frame.
+    flight: ``(start, stop)`` output frames on the new flight.
+    report: the :class:`PhysicsReport` (``None`` when ``evaluate=False``).
+    timings: seconds per run-time stage.
+    """
+
+    motion: Motion
+    original: Motion
+    prepared: PreparedFlip
+    sequence: Sequence
+    plan: RetimePlan
+    trajectory: FlightTrajectory
+    seq_positions: np.ndarray
+    flight: tuple[int, int]
+    report: PhysicsReport | None
+    timings: dict
+    momentum: object = field(default=None, repr=False)
+
+    @property
+    def runtime_seconds(self) -> float:
+        return float(sum(self.timings[s] for s in RUNTIME_STAGES))
+
+
+def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None = None,
+              k_ratio: float | None = None, height_change: float = 0.0, extra_rotation: float | None = None,
+              window: int | None = None, evaluate: bool = True, max_delta: float | None = None) -> MultiFlipResult:
+    """Turn a prepared single flip into a ``flips``-somersault jump (section 5).
+
+    Parameters
+    ----------
+    prepared: from :func:`~mocomp.flips.prepare`.
+    flips: total somersaults (>= 2); or give ``extra_rotation`` (radians about ``L``) instead.
+    k: explicit retiming factor (``> 1`` faster); default ``k_ratio * k*`` with ``k_ratio = 0.7``
+        (section 5.3). Give one of ``k`` and ``k_ratio``.
+    height_change: m, landing level change (negative = land lower, e.g. off a platform);
+        App. B: must stay below ``v0 T``.
+    window: seam smoothing half-window in frames (default ``prepared.default_window()``).
+    evaluate: compute the physics report (momentum of the new motion; timed separately).
+    max_delta: radians, largest rotation mismatch accepted at the landing join.
+    """
+    P = prepared
+    fps = P.fps
+    timings: dict[str, float] = {}
+    t0 = time.perf_counter()
+    seq = build_sequence(P.rotations, P.theta, P.flight, P.loop, P.axis, P.weights, flips=flips,
+                         extra_rotation=extra_rotation, omegas=P.omegas, max_delta=max_delta)
+    t1 = time.perf_counter()
+    timings["sequence"] = t1 - t0
+    # ---------------------------------------------------------------- smooth
+    src = seq.frames
+    nseq = src.size
+    rot = P.rotations[src]                                  # (nseq, J, 4) gathered copy, zero extra rotation
+    w = P.default_window() if window is None else int(window)
+    hi_u = seq.landing_seam + 1                             # repetitions end here (exclusive)
+    if seq.loop_seams:
+        left_blk, right_blk = P.loop_seam(w)
+        for a in seq.loop_seams:
+            rot[a - w:a + 1] = left_blk
+            hi = min(a + 2 + w, hi_u)
+            rot[a + 1:hi] = right_blk[:hi - a - 1]
+    # landing seam f -> g+1 (pair f ~ g at f's instant); root split of the current (possibly
+    # loop-smoothed) frames, rotation about L untouched
+    a, g = seq.landing_seam, seq.join.g
+    la, rb = max(a - w, 0), min(a + 2 + w, nseq)
+    blk = rot[la:rb]
+    b_blk = quat_apply(quat_inverse(blk[:, 0]), P.axis)
+    left, right = seam_corrections(rot[a], P.rotations[g], b_blk[a - la], P.bdir[g], w, pair_at_left=True)
+    nl = a + 1 - la
+    rot[la:a + 1] = smooth_block(P, src[la:a + 1], _tail(left, nl), blk[:nl], b_blk[:nl])
+    rot[a + 1:rb] = smooth_block(P, src[a + 1:rb], _head(right, rb - a - 1), blk[nl:], b_blk[nl:])
+    # each frame's rotation about L (copies j*phi, landing extra, spread join correction), on the left
+    rot[:, 0] = quat_multiply(axis_quat(P.axis, seq.extra), rot[:, 0])
+    t2 = time.perf_counter()
+    timings["smooth"] = t2 - t1
+    # ---------------------------------------------------------------- retime
+    fit = P.fit
+    s, e = P.flight
+    T0 = (e - 1 - s) / fps
+    T_seq = (seq.landing - seq.takeoff) / fps
+    com0 = P.com[s]
+    com_land = P.com[e - 1]
+    dy = float(com_land[1] - com0[1] + height_change)
+    v_land = fit.b_y + 2.0 * fit.a_y * T0
+    plan = plan_retime(fit.gravity, T_seq, fit.b_y, dy, v_land, k=k, k_ratio=k_ratio)
+    kk = plan.k
+    tau = sample_positions(nseq, kk)
+    i0 = np.minimum(np.floor(tau).astype(int), nseq - 2)
+    al = tau - i0
+    rot_out = slerp_frames(rot[i0], rot[i0 + 1], al)
+    t3 = time.perf_counter()
+    timings["retime"] = t3 - t2
+    # ------------------------------------------------------------- reposition
+    rp_seq = P.motion.root_positions[src]
+    traj = flight_trajectory(com0, fit.a_x, fit.a_z, fit.a_y, kk, plan.vy_takeoff_new, plan.T_new)
+    post = seq.landing + 1
+    extra = seq.extra_total
+    if abs(np.remainder(extra + np.pi, 2 * np.pi) - np.pi) < 1e-9:
+        rp_seq[post:] += traj.end - com_land                         # eq. 5.16 (offset incl. height)
+    else:                                                           # e.g. a twist jump turned further
+        qx = axis_quat(P.axis, extra)
+        rp_seq[post:] = quat_apply(qx, rp_seq[post:] - com_land) + traj.end
+    root_out = rp_seq[i0] + al[:, None] * (rp_seq[i0 + 1] - rp_seq[i0])
+    fl = np.flatnonzero((tau >= seq.takeoff - 1e-9) & (tau <= seq.landing + 1e-9))
+    tf = (tau[fl] - seq.takeoff) / (kk * fps)
+    root_out[fl] = traj(tf) - P.com_eval.relative(rot_out[fl])
+    t4 = time.perf_counter()
+    timings["reposition"] = t4 - t3
+    # --------------------------------------------------------------- assemble
+    notes = (f"multi-flip ({flips if flips else 'extra rotation'}) by mocomp.flips from {P.name}: k={kk:.3f}",)
+    new = P.motion.replace(root_positions=root_out, rotations=rot_out,
+                           source=dataclasses.replace(P.motion.source, format="generated",
+                                                      notes=P.motion.source.notes + notes))
+    t5 = time.perf_counter()
+    timings["assemble"] = t5 - t4
+    flight_out = (int(fl[0]), int(fl[-1]) + 1)
+    report, mom = None, None
+    if evaluate:
+        report, mom = _evaluate(P, seq, plan, traj, new, flight_out, timings, height_change, dy, flips,
+                                extra_rotation)
+    return MultiFlipResult(motion=new, original=P.motion, prepared=P, sequence=seq, plan=plan, trajectory=traj,
+                           seq_positions=tau, flight=flight_out, report=report, timings=timings, momentum=mom)
+
+
+def _tail(side, n):
+    return dataclasses.replace(side, weights=side.weights[-n:])
+
+
+def _head(side, n):
+    return dataclasses.replace(side, weights=side.weights[:n])
+
+
+def _ballistic_residual(com: np.ndarray, fps: float) -> tuple[float, float]:
+    from .mass import fit_ballistic
+
+    f = fit_ballistic(com, fps)
+    return f.rms, f.max
+
+
+def _evaluate(P: PreparedFlip, seq: Sequence, plan: RetimePlan, traj: FlightTrajectory, new: Motion,
+              flight_out: tuple[int, int], timings: dict, height_change: float, dy: float, flips, extra_rotation):
+    from ..dynamics import momentum as compute_momentum
+
+    t = time.perf_counter()
+    fps = P.fps
+    mom = compute_momentum(P.body, new, smooth_sigma=P.smooth_sigma)
+    a, b = flight_out
+    Lo, Ln = P.L_stats, flight_L_stats(mom.angular, a, b)
+    # mean L direction of the new flight, compared after undoing nothing (rotation about L keeps L)
+    ia, ib = Ln["frames"]
+    Ld = mom.angular[ia:ib].mean(axis=0)
+    dir_change = float(np.degrees(np.arccos(np.clip(Ld @ P.axis / max(np.linalg.norm(Ld), 1e-12), -1, 1))))
+    com = mom.com[a:b]
+    rms, mx = _ballistic_residual(com, fps)
+    tt = (np.arange(a, b) * plan.k - seq.takeoff) / (plan.k * fps)
+    target_err = float(np.max(np.linalg.norm(com - traj(tt), axis=1)))
+    theta_new, _ = split_root(new.rotations[:, 0], P.axis, ref=P.root_ref)
+    achieved = float(theta_new[-1] - theta_new[0])
+    orig = P.total_rotation
+    fit = P.fit
+    vh = np.hypot(fit.a_x, fit.a_z)
+    ang0 = float(np.degrees(np.arctan2(fit.b_y, vh)))
+    ang1 = float(np.degrees(np.arctan2(plan.vy_takeoff_new, plan.k * vh)))
+    M = P.body.total_mass
+    speed = float(np.hypot(plan.k * vh, plan.k * fit.b_y))
+    q_end = new.rotations[-1, 0]
+    q_ref = P.motion.rotations[-1, 0]
+    land_err = float(np.degrees(quat_angle(quat_multiply(q_end, quat_inverse(q_ref)))))
+    timings["evaluate"] = time.perf_counter() - t
+    times = {k: 1e3 * v for k, v in timings.items()}
+    times["runtime_total"] = 1e3 * sum(timings[s] for s in RUNTIME_STAGES)
+    times["loop_search"] = 1e3 * P.timings.get("loop_search", float("nan"))
+    times["preprocess_total"] = 1e3 * P.timings.get("total", float("nan"))
+    notes = list(seq.notes) + list(P.notes)
+    if plan.note:
+        notes.append(plan.note)
+    if not P.loop.found:
+        notes.append("fallback (section 5.2): no self-looping fragment met the similarity threshold; copies "
+                     "were joined by wider smoothing and L is not constant across the joins")
+    req = 360.0 * flips if extra_rotation is None else None
+    rep = PhysicsReport(
+        flips=int(flips) if extra_rotation is None else None, requested_rotation=req,
+        target_rotation=float(np.degrees(seq.target)), original_rotation=float(np.degrees(orig)),
+        achieved_rotation=float(np.degrees(achieved)), rotation_error=float(np.degrees(achieved - seq.target)),
+        r=seq.r, copies_used=int(seq.join.copy + 1), phi=float(np.degrees(P.loop.phi)),
+        phi_S=float(np.degrees(seq.phi_S)), phi_E=float(np.degrees(seq.phi_E)), m=P.loop.m, n=P.loop.n,
+        f=seq.join.f, f_copy=seq.join.copy, g=seq.join.g, loop_distance=P.loop.distance,
+        loop_mean_angle=P.loop.mean_angle_deg, landing_distance=seq.join.distance,
+        join_twist=float(np.degrees(seq.join.delta)), loop_found=P.loop.found,
+        k=plan.k, k_star=plan.k_star, k_ratio=plan.k_ratio, T_original=(P.flight[1] - 1 - P.flight[0]) / fps,
+        T_sequenced=plan.T_seq, T_new=plan.T_new, gravity=plan.g, gravity_scale=fit.scale,
+        L_original=Lo["mean"], L_new=Ln["mean"], L_variation_original=Lo["variation"],
+        L_variation_new=Ln["variation"], L_std_original=Lo["std"], L_std_new=Ln["std"],
+        L_direction_change=dir_change, com_residual_rms=rms, com_residual_max=mx, com_target_error=target_err,
+        takeoff_angle_original=ang0, takeoff_angle_new=ang1, takeoff_angle_change=ang1 - ang0,
+        p_jump_takeoff=M * plan.vy_takeoff_jump, p_jump_landing=M * plan.vy_landing_jump,
+        p_jump_takeoff_rel=plan.vy_takeoff_jump / speed if speed > 0 else float("nan"),
+        p_jump_landing_rel=plan.vy_landing_jump / speed if speed > 0 else float("nan"),
+        landing_orientation_error=land_err, height_change=float(height_change), dy=dy, times_ms=times,
+        notes=tuple(notes))
+    return rep, mom

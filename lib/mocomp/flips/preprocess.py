@@ -1,0 +1,328 @@
+"""The pre-processing stage, once per clip (flips paper section 4; dissertation section 5.3).
+
+:func:`prepare` turns a single-flip clip into a :class:`PreparedFlip`: the motion as
+used (frame-rate corrections and resampling applied), the detected flight, the
+estimated mass distribution and inertias, momentum per frame, the angular
+momentum direction, the root split about it, the similarity weights and the
+self-looping fragment. Everything the run-time stage needs is precomputed and
+cached here, so :func:`mocomp.flips.multiflip` only sequences, smooths, retimes
+and repositions.
+"""
+from __future__ import annotations
+
+import dataclasses
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..body.model import BodyModel
+from ..core.motion import Motion
+from ..core.rotations import make_continuous
+from ..errors import PhysicsError
+from .looping import SelfLoop, find_self_loop
+from .mass import FlightFit, MassEstimate, diagnose_gravity, estimate_masses, fit_ballistic
+from .phases import FlightDetection, default_prior, detect_flights
+from .reposition import ComEvaluator
+from .similarity import SimilarityWeights, local_angular_velocities, similarity_weights
+from .smoothing import (apply_direction_offsets, apply_rotation_offsets, compose_root, root_reference,
+                        seam_corrections, split_root)
+
+__all__ = ["PreparedFlip", "prepare", "prepare_cached", "clip_prior", "spline_resample", "flight_L_stats"]
+
+
+def spline_resample(motion: Motion, fps: float) -> Motion:
+    """Resample sparse key frames smoothly: cubic spline through root positions and a C2
+    rotation spline (``scipy.spatial.transform.RotationSpline``) per joint.
+
+    Used for key-framed clips (DeepMimic's 16 Hz keys): slerp/linear resampling makes
+    velocities piecewise constant, which breaks flight detection and momentum.
+    """
+    from scipy.interpolate import CubicSpline
+    from scipy.spatial.transform import Rotation, RotationSpline
+
+    t = motion.times
+    n = int(np.floor(motion.duration * fps + 1e-9)) + 1
+    tn = np.arange(n) / fps
+    rp = CubicSpline(t, motion.root_positions, axis=0)(tn)
+    rot = np.stack([RotationSpline(t, Rotation.from_quat(motion.rotations[:, j]))(tn).as_quat()
+                    for j in range(motion.skeleton.n_joints)], axis=1)
+    src = dataclasses.replace(motion.source, notes=motion.source.notes + (
+        f"resampled from {motion.fps:g} Hz key frames to {fps:g} Hz with cubic / rotation splines",))
+    return motion.replace(root_positions=rp, rotations=rot, fps=float(fps), source=src)
+
+
+def clip_prior(motion: Motion, total_mass: float = 70.0, table: str = "de_leva_male",
+               shape: str = "ellipsoid") -> BodyModel:
+    """The prior mass distribution for a clip: the DeepMimic character's own masses for
+    DeepMimic clips, else the table (de Leva 1996 male by default)."""
+    if motion.source.format == "deepmimic":
+        from ..io.deepmimic import read_deepmimic_body
+
+        for note in motion.source.notes:
+            if note.startswith("character "):
+                return read_deepmimic_body(note[len("character "):], motion.skeleton)
+    return default_prior(motion.skeleton, total_mass=total_mass, table=table, shape=shape)
+
+
+def smooth_block(prep: "PreparedFlip", frames: np.ndarray, side, rotations: np.ndarray | None = None,
+                 bdir: np.ndarray | None = None) -> np.ndarray:
+    """Rotations of ``frames`` (source frame indices) with one seam side's ramped corrections:
+    joints offset by slerp (section 5.4.2.2), the root's perpendicular part ``b`` rotated and
+    recomposed with the frames' own rotation about ``L`` (eq. 5.14). ``rotations``/``bdir``
+    override the source values (e.g. frames already smoothed by another seam)."""
+    R = prep.rotations[frames] if rotations is None else rotations
+    b = prep.bdir[frames] if bdir is None else bdir
+    out = apply_rotation_offsets(R, side)
+    out[:, 0] = compose_root(prep.theta[frames], apply_direction_offsets(b, side), prep.axis, prep.root_ref)
+    out.setflags(write=False)
+    return out
+
+
+def flight_L_stats(L: np.ndarray, start: int, stop: int, margin: int = 1) -> dict:
+    """``|L|`` over a flight's interior (``margin`` frames dropped at each end, where central
+    differences straddle take-off/landing): mean, max relative deviation from the mean, and
+    relative standard deviation."""
+    a, b = start + margin, stop - margin
+    if b - a < 2:
+        a, b = start, stop
+    mag = np.linalg.norm(np.asarray(L)[a:b], axis=1)
+    mean = float(mag.mean())
+    return {"mean": mean, "variation": float(np.max(np.abs(mag - mean)) / mean) if mean > 0 else float("nan"),
+            "std": float(mag.std() / mean) if mean > 0 else float("nan"), "frames": (a, b)}
+
+
+@dataclass(frozen=True, eq=False)
+class PreparedFlip:
+    """A single-flip clip prepared for the run-time stage (all fields immutable).
+
+    Attributes
+    ----------
+    motion: the clip as used (corrections, resampling applied; see ``notes``).
+    name: where it came from.
+    prior: the table model the masses started from; body: the estimated one.
+    detection: all ballistic intervals (:class:`~mocomp.flips.phases.FlightDetection`).
+    flight: ``(start, stop)`` half-open frames of the flight used.
+    mass: the :class:`~mocomp.flips.mass.MassEstimate` (``None`` when estimation was skipped).
+    fit: ballistic COM trajectory of the flight with the body used (``a_x .. c_y``, gravity).
+    momentum: :class:`~mocomp.dynamics.MomentumResult` with ``body`` (eq. 5.4-5.5).
+    axis: ``(3,)`` unit direction of the mean angular momentum over the flight.
+    L_stats: ``|L|`` over the flight interior (:func:`flight_L_stats`).
+    rotations: ``(T, J, 4)`` sign-continuous local rotations.
+    theta, bdir: root split about ``axis`` (eq. 5.14; :func:`~mocomp.flips.smoothing.split_root`)
+        relative to the fixed offset ``root_ref``.
+    omegas: ``(T, J, 3)`` local angular velocities when the similarity uses them, else ``None``.
+    weights: eq. 5.13 weights; loop: the self-looping fragment (eq. 5.9).
+    com_eval: fast exact COM for the estimated body; com: ``(T, 3)`` COM of ``motion``.
+    smooth_sigma: momentum pre-smoothing (frames) used here and in the report.
+    timings: seconds per pre-processing step.
+    """
+
+    motion: Motion
+    name: str
+    prior: BodyModel
+    body: BodyModel
+    detection: FlightDetection
+    flight: tuple[int, int]
+    mass: MassEstimate | None
+    fit: FlightFit
+    momentum: object
+    axis: np.ndarray
+    L_stats: dict
+    rotations: np.ndarray
+    theta: np.ndarray
+    bdir: np.ndarray
+    root_ref: np.ndarray
+    omegas: np.ndarray | None
+    weights: SimilarityWeights
+    loop: SelfLoop
+    com_eval: ComEvaluator
+    com: np.ndarray
+    smooth_sigma: float | None
+    timings: dict
+    notes: tuple[str, ...] = ()
+    _cache: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def fps(self) -> float:
+        return self.motion.fps
+
+    @property
+    def total_rotation(self) -> float:
+        """Radians of root rotation about ``axis`` from the first to the last frame."""
+        return float(self.theta[-1] - self.theta[0])
+
+    def default_window(self) -> int:
+        """Seam smoothing half-window in frames: about 40 ms, within the loop period."""
+        w = max(1, int(round(0.04 * self.fps)))
+        if not self.loop.found:
+            w *= 2
+        return int(min(w, max(1, (self.loop.period - 2) // 2)))
+
+    def loop_seam(self, window: int):
+        """The loop seam correction ``f_{n-1} -> R(f_m)``, computed once and reused for every
+        repetition (section 5.4.2.2): ``(left (w+1, J, 4), right (w+1, J, 4))`` smoothed
+        rotations of source frames ``n-1-w .. n-1`` and ``m .. m+w``, the root recomposed
+        from its own rotation about ``L`` and the smoothed perpendicular part (eq. 5.14), at
+        zero extra rotation (a copy's rotation about ``L`` is applied on the left later)."""
+        key = ("loop_seam", int(window))
+        if key not in self._cache:
+            m, n, w = self.loop.m, self.loop.n, int(window)
+            self._cache[key] = tuple(smooth_block(self, frames, side) for frames, side in zip(
+                (np.arange(n - 1 - w, n), np.arange(m, m + w + 1)),
+                seam_corrections(self.rotations[n], self.rotations[m], self.bdir[n], self.bdir[m], w,
+                                 pair_at_left=False)))
+        return self._cache[key]
+
+    def summary(self) -> str:
+        s, e = self.flight
+        lines = [f"{self.name}: {self.motion.n_frames} frames at {self.fps:g} Hz; flight frames {s}-{e - 1} "
+                 f"({(e - s) / self.fps:.3f} s), rotation about L in the clip {np.degrees(self.total_rotation):.0f} deg",
+                 f"  gravity {self.fit.gravity:.2f} m/s^2 (s = {self.fit.scale:.2f}); "
+                 + (self.mass.diagnosis if self.mass else diagnose_gravity(self.fit.scale, self.fps)),
+                 f"  |L| {self.L_stats['mean']:.2f} kg m^2/s over the flight, variation {100 * self.L_stats['variation']:.1f}%",
+                 f"  self-loop m={self.loop.m} n={self.loop.n} phi={np.degrees(self.loop.phi):.0f} deg, "
+                 f"mean mismatch {self.loop.mean_angle_deg:.1f} deg" + ("" if self.loop.found else " (fallback)")]
+        if self.mass is not None:
+            lines.append(f"  masses: linear-momentum deviation {self.mass.prior_momentum_deviation:.3f} -> "
+                         f"{self.mass.momentum_deviation:.3f} kg m/s ({100 * self.mass.reduction:.0f}% reduction)")
+        lines += [f"  note: {n}" for n in self.notes]
+        return "\n".join(lines)
+
+
+def _load(source, fps):
+    if isinstance(source, Motion):
+        m = source if fps is None else source.with_fps(fps)
+        return m, (m.source.path or "motion")
+    from .. import datasets
+
+    return datasets.load(source, fps=fps), str(source)
+
+
+def prepare(source, *, body: BodyModel | None = None, total_mass: float = 70.0, table: str = "de_leva_male",
+            shape: str = "ellipsoid", fps: float | None = None, fix_timing: bool = False,
+            min_fps: float = 50.0, resample_fps: float = 120.0, flight: tuple[int, int] | None = None,
+            estimate: bool = True, joint_flights: bool = False, W: float = 1e-4,
+            smooth_sigma: float | None = None, weight_overrides: dict | None = None,
+            velocity_weight: float = 0.0, loop_options: dict | None = None) -> PreparedFlip:
+    """Pre-process a single-flip clip (sections 4.1-4.3 and the self-looping search).
+
+    Parameters
+    ----------
+    source: a :class:`Motion`, a file path, an embedded example name ("backflip") or a
+        real clip name (``mocomp.datasets.load`` applies its known corrections).
+    body: the prior body model (default: :func:`clip_prior` with ``total_mass``,
+        ``table``, ``shape``).
+    fps: frame rate to use instead of the file's.
+    fix_timing: when the flight's gravity fit says the frame rate is mislabelled (e.g. a
+        60 Hz capture stamped 120 Hz), relabel it and start over (the note says so);
+        otherwise the clip is used as is and the diagnosis is reported.
+    min_fps, resample_fps: clips below ``min_fps`` (key frames) are spline-resampled to
+        ``resample_fps`` first.
+    flight: force the flight frames ``(start, stop)`` instead of detecting them.
+    estimate: estimate the masses (eq. 5.1-5.2); ``False`` keeps the prior.
+    joint_flights: estimate from every detected flight jointly (e.g. hops before the flip).
+    W: regulariser of eq. 5.2 (see :mod:`mocomp.flips.mass`).
+    smooth_sigma: Gaussian pre-smoothing (frames) for momentum; ``None`` = none.
+    weight_overrides, velocity_weight: similarity weights (:func:`similarity_weights`).
+    loop_options: keyword arguments for :func:`~mocomp.flips.looping.find_self_loop`.
+    """
+    timings: dict[str, float] = {}
+    t0 = time.perf_counter()
+    motion, name = _load(source, fps)
+    notes: list[str] = []
+    if motion.fps < min_fps:
+        notes.append(f"key frames at {motion.fps:g} Hz were spline-resampled to {resample_fps:g} Hz")
+        motion = spline_resample(motion, resample_fps)
+    timings["load"] = time.perf_counter() - t0
+    for attempt in range(2):
+        t = time.perf_counter()
+        prior = clip_prior(motion, total_mass, table, shape) if body is None else body
+        det = detect_flights(motion, prior)
+        timings["phases"] = time.perf_counter() - t
+        if flight is None:
+            fl = det.flight
+        else:
+            fl = (int(flight[0]), int(flight[1]))
+            if not (0 <= fl[0] < fl[1] <= motion.n_frames):
+                raise ValueError(f"flight={flight} is outside the clip's {motion.n_frames} frames")
+        t = time.perf_counter()
+        if estimate:
+            flights = det.intervals if (joint_flights and det.flights) else [fl]
+            if fl not in flights:
+                flights = [fl] + list(flights)
+            mass = estimate_masses(prior, motion, flights, W=W)
+            est = mass.body
+            fit = next(f for f in mass.fits if (f.start, f.stop) == fl)
+            diagnosis = mass.diagnosis
+        else:
+            mass, est = None, prior
+            from ..dynamics import center_of_mass
+
+            fit = fit_ballistic(center_of_mass(prior, motion)[fl[0]:fl[1]], motion.fps, fl[0])
+            diagnosis = diagnose_gravity(fit.scale, motion.fps, motion.skeleton.height())
+        timings["mass"] = time.perf_counter() - t
+        if attempt == 0 and fix_timing and "labelled" in diagnosis:
+            new_fps = float(diagnosis.split("fps=")[1].split(" ")[0])
+            notes.append(f"frame rate relabelled {motion.fps:g} -> {new_fps:g} Hz: {diagnosis}")
+            motion = motion.with_fps(new_fps)
+            continue
+        break
+    if "labelled" in diagnosis and not fix_timing:
+        notes.append(diagnosis)
+    t = time.perf_counter()
+    from ..dynamics import momentum as compute_momentum
+
+    mom = compute_momentum(est, motion, smooth_sigma=smooth_sigma)
+    s, e = fl
+    Ls = flight_L_stats(mom.angular, s, e)
+    a, b = Ls["frames"]
+    Lmean = mom.angular[a:b].mean(axis=0)
+    if not np.linalg.norm(Lmean) > 1e-6:
+        raise PhysicsError(f"the flight (frames {s}-{e - 1}) has no angular momentum: there is no somersault "
+                           "axis to repeat rotation about; use a clip with a flip")
+    axis = Lmean / np.linalg.norm(Lmean)
+    timings["momentum"] = time.perf_counter() - t
+    t = time.perf_counter()
+    rot = make_continuous(np.asarray(motion.rotations), axis=0)
+    _, b_all = split_root(rot[:, 0], axis, unwrap=False)
+    b_mean = b_all[s:e].mean(axis=0)
+    root_ref = root_reference(b_mean, axis)
+    theta, bdir = split_root(rot[:, 0], axis, ref=root_ref)
+    weights = similarity_weights(motion.skeleton, weight_overrides, velocity_weight=velocity_weight)
+    omegas = local_angular_velocities(rot, motion.fps) if velocity_weight > 0 else None
+    loop = find_self_loop(rot, theta, fl, axis, weights, omegas, **(loop_options or {}))
+    if not loop.found:
+        notes.append(loop.note)
+    timings["loop_search"] = time.perf_counter() - t
+    t = time.perf_counter()
+    com_eval = ComEvaluator(est)
+    timings["setup"] = time.perf_counter() - t
+    timings["total"] = time.perf_counter() - t0
+    for arr in (rot, theta, bdir, axis, root_ref):
+        arr.setflags(write=False)
+    return PreparedFlip(motion=motion, name=name, prior=prior, body=est, detection=det, flight=fl, mass=mass,
+                        fit=fit, momentum=mom, axis=axis, L_stats=Ls, rotations=rot, theta=theta, bdir=bdir,
+                        root_ref=root_ref, omegas=omegas, weights=weights, loop=loop, com_eval=com_eval, com=mom.com,
+                        smooth_sigma=smooth_sigma, timings=timings, notes=tuple(notes))
+
+
+_CACHE: dict = {}
+
+
+def prepare_cached(source, **options) -> PreparedFlip:
+    """:func:`prepare` memoised per clip: by name (or path and its modification time) and
+    options; motions are keyed by identity. Results are immutable, so sharing is safe."""
+    if isinstance(source, Motion):
+        key = ("motion", id(source))
+    else:
+        p = Path(str(source))
+        key = ("file", str(p.resolve()), p.stat().st_mtime) if p.is_file() else ("name", str(source))
+    key = key + tuple(sorted((k, repr(v)) for k, v in options.items()))
+    hit = _CACHE.get(key)
+    if hit is not None and (key[0] != "motion" or hit[0] is source):
+        return hit[1]
+    prep = prepare(source, **options)
+    _CACHE[key] = (source if isinstance(source, Motion) else None, prep)
+    return prep
