@@ -1,0 +1,33 @@
+"""``mocomp study run`` / ``mocomp study analyze`` through the real CLI entry point."""
+from __future__ import annotations
+
+import json
+
+import pandas as pd
+
+from mocomp.cli import main
+from study.observers import Observer, Psychometric, simulate_cohort
+from study.placeholders import make_placeholder_set
+
+
+def test_study_commands(tmp_path, capsys):
+    stim = make_placeholder_set(tmp_path / "s", {("takeoff", "increase"): (20, 40)}, base_clips=("a", "b"),
+                                n_frames=4)
+    simulate_cohort(stim, Observer({("takeoff", "increase"): Psychometric(25, 2)}), tmp_path / "data", n=4)
+    assert main(["study", "analyze", str(tmp_path / "data"), "-o", str(tmp_path / "rep"), "--n-boot", "50",
+                 "--correction", "1/(2N)", "--no-figures"]) == 0
+    c = pd.read_csv(tmp_path / "rep" / "conditions.csv")
+    assert set(c["correction"]) == {"1/(2N)"} and len(c) == 3
+    assert "4 participants" in capsys.readouterr().out
+    # bad input: one line, exit 2
+    assert main(["study", "analyze", str(tmp_path / "nope"), "-o", str(tmp_path / "r2")]) == 2
+    assert "not found" in capsys.readouterr().err
+    assert main(["study", "run", "--participant", "P1", "--session", "S1", "--manifest", str(stim.path),
+                 "--data", str(tmp_path / "d"), "--break-every", "3", "--print-config"]) == 0
+    cfg = json.loads(capsys.readouterr().out)
+    assert cfg["design"] == {"break_every": 3} and cfg["participant_id"] == "P1"
+    assert main(["study", "run", "--participant", "../P1", "--session", "S1", "--manifest", str(stim.path),
+                 "--data", str(tmp_path / "d"), "--print-config"]) == 2
+    assert "not valid" in capsys.readouterr().err
+    assert main(["study", "run", "--participant", "P1", "--session", "S1", "--manifest", str(tmp_path / "m.csv"),
+                 "--data", str(tmp_path / "d"), "--print-config"]) == 2

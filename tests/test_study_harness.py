@@ -1,0 +1,141 @@
+"""The ipywidgets app without a browser: screens, clicks, double clicks, stale screens,
+a simulated observer pressing the app's own buttons, resume, locks, configuration."""
+from __future__ import annotations
+
+import json
+
+import ipywidgets as W
+import numpy as np
+import pandas as pd
+import pytest
+
+from study.design import DesignConfig
+from study.harness import StudyApp, app_from_config, app_from_environment, config_from_environment
+from study.observers import Observer, Psychometric
+from study.placeholders import make_placeholder_set
+
+LEVELS = {("am_abrupt", "increase"): (25, 50), ("takeoff", "increase"): (20,)}
+
+
+@pytest.fixture(scope="module")
+def stimuli(tmp_path_factory):
+    return make_placeholder_set(tmp_path_factory.mktemp("stim"), LEVELS, base_clips=("a",), n_frames=4)
+
+
+def _find(widget, cls):
+    out, stack = [], [widget]
+    while stack:
+        w = stack.pop()
+        if cls in getattr(w, "_dom_classes", ()):
+            out.append(w)
+        stack.extend(getattr(w, "children", ()))
+    return out
+
+
+def _click(app, cls):
+    (b,) = _find(app.widget, cls)
+    b.click()
+    return b
+
+
+def _through_intro(app, age="31"):
+    assert app.screen_name == "welcome"
+    _click(app, "mocomp-btn-next")
+    assert app.screen_name == "consent"
+    (cons,) = _find(app.widget, "mocomp-btn-consent")
+    assert cons.disabled
+    _find(app.widget, "mocomp-consent-check")[0].value = True
+    assert not cons.disabled
+    cons.click()
+    assert app.screen_name == "info"
+    _find(app.widget, "mocomp-info-age")[0].value = "abc"
+    _click(app, "mocomp-btn-info")
+    assert app.screen_name == "info"  # rejected, with a message
+    _find(app.widget, "mocomp-info-age")[0].value = age
+    _click(app, "mocomp-btn-info")
+    assert app.screen_name == "instructions"
+    _click(app, "mocomp-btn-next")
+    while app.screen_name == "example":
+        _click(app, "mocomp-btn-next")
+
+
+def test_app_drives_a_whole_session_by_its_buttons(stimuli, tmp_path):
+    """A simulated observer answers by clicking the app's buttons: the widget code path end to end."""
+    app = StudyApp(stimuli, tmp_path, "P1", "S1", design=DesignConfig(break_every=4, n_attention=1))
+    _through_intro(app)
+    obs = Observer({("am_abrupt", "increase"): Psychometric(30, 2)}, bias=0.3)
+    rng = np.random.default_rng(0)
+    n_breaks, clicks = 0, []
+    while app.screen_name != "end":
+        if app.screen_name == "break":
+            n_breaks += 1
+            _click(app, "mocomp-btn-next")
+            continue
+        assert app.screen_name == "trial"
+        view = app.controller.current()
+        resp, _ = obs.respond(view, rng)
+        b = _click(app, f"mocomp-btn-{resp}")
+        b.click()  # a double click: ignored
+        clicks.append((view.trial_index, resp))
+    rows = pd.read_csv(tmp_path / "P1" / "S1" / "responses.csv", keep_default_na=False)
+    assert list(zip(rows["trial_index"], rows["response"])) == clicks
+    assert len(rows) == 11 and n_breaks == 2
+    assert set(rows["input"]) == {"button"}
+    att = rows[rows["kind"] == "attention"]
+    assert (att["response"] == att["expected_response"]).all()
+    info = json.loads((tmp_path / "P1" / "S1" / "participant.json").read_text())
+    assert info["age"] == 31 and info["experience_gymnastics"] == "none"
+    assert app.session.closed  # the lock is released at the end
+
+
+def test_resume_stale_screens_and_locks(stimuli, tmp_path):
+    app = StudyApp(stimuli, tmp_path, "P2", "S1")
+    _through_intro(app)
+    first = _find(app.widget, "mocomp-btn-correct")[0]
+    first.click()
+    second = _find(app.widget, "mocomp-btn-incorrect")[0]
+    first.click()  # a click on the previous trial's button: ignored (logged)
+    second.click()
+    # a second app on the same session (another window) is refused
+    other = StudyApp(stimuli, tmp_path, "P2", "S1")
+    assert other.screen_name == "error" and "already open" in other.error
+    app.close()  # e.g. the page is closed; the session is not finished
+    again = StudyApp(stimuli, tmp_path, "P2", "S1")
+    assert again.screen_name == "welcome_back"
+    assert "trial 3 of" in _find(again.widget, "mocomp-screen-welcome_back")[0].children[0].value
+    _click(again, "mocomp-btn-next")
+    assert again.screen_name == "trial" and again.controller.n_answered == 2
+    again.close()
+    rows = pd.read_csv(tmp_path / "P2" / "S1" / "responses.csv")
+    assert list(rows["response"]) == ["correct", "incorrect"]
+    ev = [json.loads(x)["event"] for x in (tmp_path / "P2" / "S1" / "events.jsonl").read_text().splitlines()]
+    assert "response_ignored" in ev
+
+
+def test_consent_declined(stimuli, tmp_path):
+    app = StudyApp(stimuli, tmp_path, "P3", "S1")
+    _click(app, "mocomp-btn-next")
+    _click(app, "mocomp-btn-decline")
+    assert app.screen_name == "declined"
+    assert pd.read_csv(tmp_path / "P3" / "S1" / "responses.csv").empty
+    assert not (tmp_path / "P3" / "S1" / "participant.json").exists()
+
+
+def test_configuration_from_environment(stimuli, tmp_path):
+    w = app_from_environment() if "MOCOMP_STUDY_CONFIG" not in __import__("os").environ else None
+    if w is not None:
+        assert isinstance(w, W.HTML) and "not configured" in w.value
+    with pytest.raises(ValueError, match="lacks session_id"):
+        config_from_environment({"MOCOMP_STUDY_CONFIG": json.dumps({"manifest": "m", "data_dir": "d",
+                                                                    "participant_id": "p"})})
+    cfg = {"manifest": str(stimuli.path), "data_dir": str(tmp_path), "participant_id": "P4", "session_id": "S9",
+           "design": {"break_every": 3}, "key_correct": "f", "key_incorrect": "j",
+           "texts": {"title": "Pilot"}}
+    p = tmp_path / "cfg.json"
+    p.write_text(json.dumps(cfg))
+    app = app_from_config(config_from_environment({"MOCOMP_STUDY_CONFIG": str(p)}))
+    assert app.cfg.key_correct == "f" and "Pilot" in app._title.value
+    assert app.session.plan.meta["design"]["break_every"] == 3
+    app.close()
+    bad = StudyApp(tmp_path / "missing.csv", tmp_path, "P5", "S1")
+    assert bad.screen_name == "error" and "not found" in bad.error
