@@ -111,8 +111,12 @@ def _load_source(b: BaseSpec, spec: StudySpec):
     if kind == "example":
         from mocomp import datasets
 
-        loader = getattr(datasets, "load_example", None) or getattr(datasets, "load")
-        res = loader(name)
+        if name not in datasets.examples():
+            # a missing example is a wrong spec (or an incomplete install), never "missing data"
+            raise StudyDataError(f"base {b.id!r}: no embedded example {name!r}; available: "
+                                 f"{', '.join(sorted(datasets.examples())) or 'none registered'}",
+                                 spec.path, column="base.source")
+        res = datasets.load_example(name)
         motion = res.motion
         body = getattr(res, "body", None)
         flight = getattr(res, "flight", None)

@@ -104,7 +104,7 @@ class RenderStyle:
     light_direction: tuple[float, float, float] = (0.25, -1.0, -0.35)
     radius_scale: float = 1.0
     min_bone_length: float = 0.01
-    resolution: int = 14
+    resolution: int = 10
     multi_samples: int = 0
     backend: str | None = None
 
@@ -427,12 +427,14 @@ class MotionRenderer:
 
         # Characters: one actor per bone (and per shadow), moved by user matrices.
         meshes = [_capsule_mesh(b, style.resolution) for b in self.capsules]
+        # flat grey silhouettes need fewer facets (halves the triangles llvmpipe sets up)
+        smeshes = [_capsule_mesh(b, max(4, style.resolution // 2 + 1)) for b in self.capsules]
         self._mats: list[list] = []
         self._shadow_mats: list[list] = []
         self._actors: list[list] = []
         for k in range(n_characters):
             mats, smats, acts = [], [], []
-            for mesh in meshes:
+            for mesh, smesh in zip(meshes, smeshes):
                 a = pl.add_mesh(mesh, color=tuple(colors[k]), smooth_shading=True, ambient=0.25, diffuse=0.75,
                                 specular=0.15, specular_power=20.0, reset_camera=False)
                 m = vtk.vtkMatrix4x4()
@@ -440,7 +442,7 @@ class MotionRenderer:
                 mats.append(m)
                 acts.append(a)
                 if style.shadow:
-                    s = pl.add_mesh(mesh, color=style.shadow_color, lighting=False, reset_camera=False)
+                    s = pl.add_mesh(smesh, color=style.shadow_color, lighting=False, reset_camera=False)
                     sm = vtk.vtkMatrix4x4()
                     s.SetUserMatrix(sm)
                     smats.append(sm)
