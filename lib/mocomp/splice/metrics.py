@@ -161,8 +161,10 @@ def theta_band(body: ArmFeatures, hand: ArmFeatures, band: Band, mode: str = "wi
     """``cos theta`` and ``sin theta`` for every band cell.
 
     ``mode="window"``: eq. 6.7 over the ``w``-frame windows around both
-    frames (``4 w`` marker positions); the sums are matrix products of the
-    centred window coordinates. ``mode="trunk"``: the difference of the trunk
+    frames (``4 w`` marker positions). With centred window coordinates the
+    denominator and numerator of eq. 6.7 are the real and imaginary parts of
+    ``conj(x + i z) . (x' + i z')``, computed as one complex matrix product
+    per block of band rows. ``mode="trunk"``: the difference of the trunk
     headings. ``mode="none"``: ``theta = 0``.
     """
     if mode == "none":
@@ -180,25 +182,24 @@ def theta_band(body: ArmFeatures, hand: ArmFeatures, band: Band, mode: str = "wi
         raise AlignmentError(
             f"eq. 6.7 windows differ in size ({body.theta_window} vs {hand.theta_window} frames): a sequence is shorter than the window"
         )
-    cs = np.empty(band.cells)
-    sn = np.empty(band.cells)
+    # sum_k (x_k x'_k + z_k z'_k) + i sum_k (x_k z'_k - z_k x'_k) = conj(x + i z) . (x' + i z'):
+    # eq. 6.7's numerator and denominator are one complex dot product per cell
+    B = body.win_x - 1j * body.win_z
+    H = hand.win_x + 1j * hand.win_z
+    zz = np.empty(band.cells, dtype=complex)
     off = band.offsets
     for s in range(0, band.n, block_rows):
         e = min(band.n, s + block_rows)
         j0 = int(band.lo[s])
         j1 = int(band.hi[s:e].max()) + 1
-        bx, bz = body.win_x[s:e], body.win_z[s:e]
-        hx, hz = hand.win_x[j0:j1], hand.win_z[j0:j1]
-        num = bx @ hz.T - bz @ hx.T
-        den = bx @ hx.T + bz @ hz.T
+        sub = B[s:e] @ H[j0:j1].T
         rows, cols = band.cell_indices(s, e)
-        nu = num[rows - s, cols - j0]
-        de = den[rows - s, cols - j0]
-        rr = np.hypot(nu, de)
-        zero = rr < 1e-300
-        rr[zero] = 1.0
-        cs[off[s]:off[e]] = np.where(zero, 1.0, de / rr)
-        sn[off[s]:off[e]] = np.where(zero, 0.0, nu / rr)
+        zz[off[s]:off[e]] = sub[rows - s, cols - j0]
+    rr = np.abs(zz)
+    zero = rr < 1e-300
+    rr[zero] = 1.0
+    cs = np.where(zero, 1.0, zz.real / rr)
+    sn = np.where(zero, 0.0, zz.imag / rr)
     return cs, sn
 
 

@@ -8,11 +8,12 @@ for reports and plots.
 | Preparation (P) | ``a = 0, v > 0`` (outwards)            |
 | Retraction (R)  | ``a = 0, v < 0`` (towards the body)    |
 
-``v`` is the radial velocity of the hand marker away from the shoulder and
+``v`` is the velocity of the hand marker away from its resting position and
 ``a`` the tangential acceleration (rate of change of its speed). "Zero" means
 below a threshold relative to the sequence's own 95th percentile, so the
-labels do not depend on the performance's amplitude. Runs shorter than
-``min_duration`` are merged into their longer neighbour.
+labels do not depend on the performance's amplitude. Labels are given per
+movement segment (between changes of direction), not per frame, because
+the profiles of Table 6.1 describe whole phases.
 """
 from __future__ import annotations
 
@@ -54,7 +55,7 @@ class PhaseLabels:
     labels: ``(T,)`` one of ``"S", "H", "P", "R"`` per frame (after merging short runs).
     phases: the runs of equal labels.
     speed: ``(T,)`` m/s of the hand marker relative to the shoulder.
-    radial_velocity: ``(T,)`` m/s, positive away from the shoulder.
+    radial_velocity: ``(T,)`` m/s, positive away from the resting position.
     tangential_acceleration: ``(T,)`` m/s^2, ``d speed / dt``.
     thresholds: ``{"hold_speed": m/s, "stroke_acceleration": m/s^2}`` used.
     fps: frames per second.
@@ -113,13 +114,26 @@ def _merge_short(labels: np.ndarray, min_len: int) -> np.ndarray:
 
 
 def motion_phases(hm: HandMarkers, *, marker: str = "hand", smooth: float = 0.2, hold_speed: float = 0.15,
-                  stroke_acceleration: float = 0.35, min_duration: float = 0.1) -> PhaseLabels:
-    """Label every frame with a Table 6.1 phase.
+                  stroke_acceleration: float = 0.6, split: float = 0.2, min_duration: float = 0.1,
+                  still_speed: float = 0.03, min_stroke_acceleration: float = 0.5) -> PhaseLabels:
+    """Segment a hand-marker sequence into Table 6.1 phases.
 
-    ``hold_speed`` and ``stroke_acceleration`` are fractions of the 95th
-    percentile of the hand marker's speed and absolute tangential acceleration
-    in this sequence; derivatives are Savitzky-Golay over ``smooth`` seconds.
+    Frames whose speed is below ``hold_speed`` (fraction of the sequence's
+    95th-percentile speed) are holds. Movements between holds are cut at the
+    speed minima that mark a change of direction (prominence at least
+    ``split`` times the 95th-percentile speed), the phase boundaries of the
+    paper's section 6.2. Each movement segment is a stroke if its peak
+    tangential acceleration reaches ``stroke_acceleration`` times the
+    sequence's 95th percentile ("more force is exerted than in neighbouring
+    phases"), otherwise a preparation or a retraction by the sign of its net
+    displacement away from the resting position (the median hand position
+    over the 10 % of frames where the hand is lowest relative to the shoulder). Derivatives are Savitzky-Golay
+    over ``smooth`` seconds; runs shorter than ``min_duration`` seconds merge
+    into their longer neighbour. Absolute floors (``still_speed`` m/s,
+    ``min_stroke_acceleration`` m/s^2) keep a motionless hand a hold.
     """
+    from scipy.signal import find_peaks
+
     k = smoothing_frames(hm.fps, smooth)
     require_frames(hm, k, f"phase labelling with a {k}-frame derivative window", "input")
     q = MARKER_ROLES.index(marker)
@@ -127,17 +141,31 @@ def motion_phases(hm: HandMarkers, *, marker: str = "hand", smooth: float = 0.2,
     dt = 1.0 / hm.fps
     vel = savgol_filter(r, k, 3, deriv=1, delta=dt, axis=0, mode="interp")
     speed = np.linalg.norm(vel, axis=1)
-    dist = np.linalg.norm(r, axis=1)
+    # "outwards" = away from the resting position: the median hand position
+    # (relative to the shoulder) over the 10 % of frames where it is lowest
+    low = r[:, 1] <= np.percentile(r[:, 1], 10)
+    rest = np.median(r[low], axis=0)
+    dist = savgol_filter(np.linalg.norm(r - rest, axis=1), k, 3, mode="interp")
     radial = savgol_filter(dist, k, 3, deriv=1, delta=dt, mode="interp")
     acc_t = savgol_filter(speed, k, 3, deriv=1, delta=dt, mode="interp")
-    v_hold = hold_speed * float(np.percentile(speed, 95))
-    a_stroke = stroke_acceleration * float(np.percentile(np.abs(acc_t), 95))
-    lab = np.where(radial > 0, "P", "R")
-    lab = np.where((speed < v_hold) & (np.abs(acc_t) < a_stroke), "H", lab)
-    lab = np.where(np.abs(acc_t) >= a_stroke, "S", lab)
-    lab = _merge_short(lab.astype("<U1"), max(1, int(round(min_duration * hm.fps))))
+    p95 = float(np.percentile(speed, 95))
+    v_hold = max(hold_speed * p95, still_speed)
+    a_stroke = max(stroke_acceleration * float(np.percentile(np.abs(acc_t), 95)), min_stroke_acceleration)
+    T = len(speed)
+    lab = np.full(T, "H", dtype="<U1")
+    moving = speed >= v_hold
+    cuts = set(find_peaks(-speed, prominence=split * p95)[0].tolist()) if p95 > 0 else set()
+    edges = np.diff(np.concatenate([[0], moving.astype(int), [0]]))
+    for a0, b0 in zip(np.nonzero(edges == 1)[0], np.nonzero(edges == -1)[0]):
+        bounds = [a0] + sorted(c for c in cuts if a0 < c < b0) + [b0]
+        for a, b in zip(bounds[:-1], bounds[1:]):
+            if np.max(np.abs(acc_t[a:b])) >= a_stroke:
+                lab[a:b] = "S"
+            else:
+                lab[a:b] = "P" if dist[b - 1] - dist[a] > 0 else "R"
+    lab = _merge_short(lab, max(1, int(round(min_duration * hm.fps))))
     phases = tuple(Phase(str(l), s, e) for l, s, e in _runs(lab))
-    for a in (lab, speed, radial, acc_t):
-        a.setflags(write=False)
+    for arr in (lab, speed, radial, acc_t):
+        arr.setflags(write=False)
     return PhaseLabels(lab, phases, speed, radial, acc_t,
                        {"hold_speed": v_hold, "stroke_acceleration": a_stroke}, hm.fps)

@@ -45,6 +45,8 @@ __all__ = [
     "synthetic_pair",
     "ambiguous_pair",
     "scale_arm_amplitude",
+    "MarkerPair",
+    "make_marker_pair",
 ]
 
 
@@ -149,12 +151,12 @@ def _random_gesture(rng: np.random.Generator) -> dict:
                        rng.uniform(45, 105), rng.uniform(-20, 20), rng.uniform(-10, 10)])
     return dict(
         target=target,
-        t_prep=rng.uniform(0.5, 0.8),
+        t_prep=rng.uniform(0.8, 1.2),
         strokes=int(rng.integers(1, 4)),
-        stroke_hz=rng.uniform(1.6, 2.4),
+        stroke_hz=rng.uniform(2.0, 3.0),
         amp=np.array([rng.uniform(-8, 8), rng.uniform(-10, 10), 0.0, rng.uniform(20, 35), rng.uniform(15, 30), 0.0]),
         t_hold=rng.uniform(0.25, 0.5),
-        t_ret=rng.uniform(0.5, 0.8),
+        t_ret=rng.uniform(0.8, 1.2),
         t_rest=rng.uniform(0.3, 0.5),
     )
 
@@ -185,7 +187,7 @@ def gesture_clip(rng=0, n_gestures: int = 4, fps: float = 30.0, side: str = "rig
 
     Each gesture is scripted as rest, preparation (minimum-jerk move to a
     random pose in the gesture space), 1-3 strokes (beats of elbow and wrist at
-    1.6-2.4 Hz), hold, retraction to the rest pose (Table 6.1 phases).
+    2-3 Hz), hold, retraction to the rest pose (Table 6.1 phases).
     A slow idle drift of ``idle_deg`` degrees (smoothed noise, 0.4 s
     correlation) on shoulder elevation, elbow and wrist keeps holds from being
     perfectly static. ``periodic=True`` repeats the first gesture's script
@@ -448,3 +450,53 @@ def ambiguous_pair(rng=0, *, n_cycles: int = 4, fps: float = 30.0, side: str = "
             f"{n_cycles - 1} cycles (hand frames {skip_a}-{skip_b - 1} skipped); matching points at body frames {x} and {x2}")
     return SplicePair(pair.body, pair.hand, truth, pair.amplitude, side, pts, desc,
                       dict(pair.params, n_cycles=n_cycles, skipped=(int(skip_a), int(skip_b)), cycle_starts=tuple(cs)))
+
+
+@dataclass(frozen=True, eq=False)
+class MarkerPair:
+    """A marker-data ground-truth pair (see :func:`make_marker_pair`)."""
+
+    body: object
+    hand: object
+    truth: np.ndarray
+    amplitude: np.ndarray
+    side: str
+    description: str = ""
+
+
+_ARM_MARKERS = {"right": ("RWRA", "RWRB", "RFRM", "RFIN", "RELB", "RUPA"), "left": ("LWRA", "LWRB", "LFRM", "LFIN", "LELB", "LUPA")}
+
+
+def make_marker_pair(markers, rng=0, *, side: str = "right", n_body: int | None = None, warp_strength: float = 0.5,
+                     amplitude: tuple[float, float] = (0.5, 1.5), noise: float = 0.002, arm_markers=None) -> MarkerPair:
+    """Ground truth for the marker path: ``markers`` (e.g. a Plug-in-Gait C3D)
+    is the hand recording; the body recording shows it at the warped frames
+    ``truth`` (linear interpolation), with the arm markers' excursion about
+    the shoulder (``SHO``) scaled by a smooth factor in ``amplitude`` and
+    white noise of ``noise`` metres on every marker."""
+    from dataclasses import replace as dc_replace
+
+    from .dtw import warp_values
+    from .markers import _lookup
+
+    rng = np.random.default_rng(rng)
+    m = markers.n_frames
+    n = int(round(1.2 * m)) if n_body is None else int(n_body)
+    truth = time_warp(n, m, rng, warp_strength)
+    amp = amplitude_profile(n, rng, *amplitude)
+    P = warp_values(np.nan_to_num(markers.positions), truth)
+    names = arm_markers or _ARM_MARKERS[side]
+    sh = _lookup(markers, "RSHO" if side == "right" else "LSHO")
+    if sh is None:
+        raise AlignmentError(f"no {side} shoulder marker to scale the arm about")
+    idx = [k for k in (_lookup(markers, nm) for nm in names) if k is not None]
+    rel = P[:, idx] - P[:, sh][:, None]
+    mean = rel.mean(axis=0, keepdims=True)
+    P[:, idx] = P[:, sh][:, None] + mean + amp[:, None, None] * (rel - mean)
+    P = P + rng.normal(scale=noise, size=P.shape)
+    mask = warp_values(markers.mask.astype(float), truth) > 0.999
+    P[~mask] = np.nan
+    body = dc_replace(markers, positions=P, mask=mask, notes=tuple(getattr(markers, "notes", ())) + (
+        f"ground truth: warped to {n} frames, arm amplitude {amp.min():.2f}-{amp.max():.2f}, noise {noise} m",))
+    return MarkerPair(body, markers, truth, amp, side,
+                      f"{m}-frame marker clip warped to {n} frames (strength {warp_strength}), arm amplitude x{amplitude}")

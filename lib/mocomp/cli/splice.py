@@ -1,0 +1,101 @@
+"""``mocomp splice BODY HAND -o OUT.bvh``: splice a hand recording's arm onto a
+full-body recording with two-stage banded DTW (dissertation ch. 6)."""
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+
+def _match_arg(text: str):
+    from ..splice.bands import parse_match
+
+    try:
+        return parse_match(text)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+
+
+def _fraction(text: str) -> float:
+    try:
+        v = float(text.rstrip("%")) / (100.0 if text.endswith("%") else 1.0)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a fraction (e.g. 0.3 or 30%)") from None
+    if not 0 < v <= 2:
+        raise argparse.ArgumentTypeError(f"band width must be a positive fraction of the body length, got {text}")
+    return v
+
+
+def register(sub) -> None:
+    from ._common import fps_arg
+
+    p = sub.add_parser(
+        "splice", help="splice a hand recording onto a full-body recording (two-stage banded DTW)",
+        description="Align the arm of HAND (a separately captured gesture) with the same gesture in BODY using "
+                    "the two-stage DTW of Majkowska's dissertation ch. 6 (sign-of-derivative phase matching in a "
+                    "30%% band, then hand-angle refinement in a 10%% band), optionally pinned by matching points, "
+                    "and write BODY with the arm joints driven by the aligned HAND. Both may be files (BVH, "
+                    "ASF/AMC, ...) or clip names; they need arm joints with the same names.")
+    p.add_argument("body", metavar="BODY", help="full-body recording (file or clip name)")
+    p.add_argument("hand", metavar="HAND", help="hand/gesture recording (file or clip name)")
+    p.add_argument("-o", "--out", required=True, metavar="OUT.bvh", help="output BVH file")
+    p.add_argument("--match", type=_match_arg, action="append", default=[], metavar="B:H[~T]",
+                   help="matching point: BODY frame B shows HAND frame H (0-based, each file's own frames), "
+                        "optionally within T hand frames; repeat for several, in order")
+    p.add_argument("--side", choices=("right", "left", "both"), default="right", help="which arm (default right)")
+    p.add_argument("--layer", choices=("arm", "forearm", "hand"), default="arm",
+                   help="joints taken from HAND: the whole arm from the clavicle (default), forearm and below, "
+                        "or wrist and below")
+    p.add_argument("--phase-width", type=_fraction, default=0.30, metavar="F",
+                   help="pass-1 band half-width as a fraction of BODY's length (default 0.30)")
+    p.add_argument("--refine-width", type=_fraction, default=0.10, metavar="F",
+                   help="pass-2 band half-width as a fraction of BODY's length (default 0.10)")
+    p.add_argument("--theta", choices=("window", "trunk", "none"), default="window",
+                   help="rotation about the vertical before comparing: eq. 6.7 over 5-frame windows (default), "
+                        "trunk-heading difference, or none")
+    p.add_argument("--metric", choices=("sign", "values"), default="sign",
+                   help="pass-1 metric: signs of derivatives (eq. 6.6, default) or their values")
+    p.add_argument("--no-refine", action="store_true", help="skip the second (hand-angle) pass")
+    p.add_argument("--body-fps", type=fps_arg, metavar="F", help="override BODY's frame rate")
+    p.add_argument("--hand-fps", type=fps_arg, metavar="F", help="override HAND's frame rate")
+    p.add_argument("--plot", metavar="PNG", help="write the bands, paths and frame map (Figure 6.3 style)")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from .. import datasets
+    from ..io import write_bvh
+    from ..splice import SpliceConfig, splice_motions
+
+    out = Path(args.out)
+    if out.suffix.lower() != ".bvh":
+        raise ValueError(f"output {out} must be a .bvh file")
+    for f in (out, Path(args.plot) if args.plot else None):
+        if f is not None and not f.parent.is_dir():
+            raise FileNotFoundError(f"output folder {f.parent} does not exist")
+    body = datasets.load(args.body, fps=args.body_fps)
+    hand = datasets.load(args.hand, fps=args.hand_fps)
+    cfg = SpliceConfig(phase_width=args.phase_width, refine_width=args.refine_width, theta=args.theta,
+                       metric=args.metric, refine=not args.no_refine)
+    res = splice_motions(body, hand, args.match, side=args.side, layer=args.layer, config=cfg)
+    write_bvh(res.motion, out)
+    print(f"body {body.n_frames} frames at {body.fps:g} fps, hand {hand.n_frames} frames at {hand.fps:g} fps"
+          + (f" (resampled to {res.hand_resampled[1]:g} fps)" if res.hand_resampled else ""))
+    print(res.summary())
+    print(f"wrote {out}: {', '.join(j for s in res.joints for j in res.joints[s])} from {args.hand}")
+    if args.plot:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        from ..plots.dtw import plot_alignment
+
+        for k, (side, al) in enumerate(res.alignments.items()):
+            path = Path(args.plot)
+            if len(res.alignments) > 1:
+                path = path.with_name(f"{path.stem}_{side}{path.suffix}")
+            fig = plot_alignment(al, title=f"{Path(args.body).name} <- {Path(args.hand).name} ({side} arm)")
+            fig.savefig(path, dpi=110)
+            plt.close(fig)
+            print(f"wrote {path}")
+    return 0
