@@ -18,6 +18,7 @@ from ..errors import MocompError
 COMMAND_MODULES: list[str] = [
     "info", "convert", "plot",
     "study",
+    "splice",
 ]
 
 
