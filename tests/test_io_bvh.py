@@ -247,6 +247,8 @@ def _lines(text):
     (lambda L: L[:8] + ["\t\tCHANNELS 3 Zrotation Xrotation Wrotation"] + L[9:], 9, "unknown channel"),
     (lambda L: L[:7] + ["\t\tOFFSET 0 -40"] + L[8:], 8, "OFFSET needs 3 numbers"),
     (lambda L: L[:7] + ["\t\tOFFSET 0 x 0"] + L[8:], 8, "'x' is not a number"),
+    (lambda L: L[:6] + L[7:], 7, "expected '{' after joint 'Leg'"),
+    (lambda L: L[:10] + L[11:], 11, "expected '{' after End Site"),
     (lambda L: L[:10], 10, "open block"),                                       # truncated header
     (lambda L: L[:15], 15, "no MOTION section"),
     (lambda L: ["HIERARCH"] + L[1:], 1, "does not start with HIERARCHY"),

@@ -111,6 +111,9 @@ def _parse(head: str, raw: bytes, start: int, path, scale, fps, height_check) ->
             continue
         key = toks[0]
         ukey = key.upper()
+        if key != "{" and (pending is not None or pending_end):
+            what = "End Site" if pending_end else f"joint {names[pending]!r}"
+            raise MotionFormatError(f"expected '{{' after {what}, found {key!r}", path, ln)
         if ukey in ("ROOT", "JOINT"):
             if len(toks) < 2:
                 raise MotionFormatError(f"{key} without a joint name", path, ln)
@@ -193,6 +196,10 @@ def _parse(head: str, raw: bytes, start: int, path, scale, fps, height_check) ->
         raise MotionFormatError("no MOTION section (file truncated?)", path, n)
     if not names:
         raise MotionFormatError("HIERARCHY has no joints", path, motion_line)
+    for j, nm in enumerate(names):
+        if offsets[j] is None or channels[j] is None:
+            raise MotionFormatError(f"joint {nm!r} has no {'OFFSET' if offsets[j] is None else 'CHANNELS'}",
+                                    path, motion_line)
 
     # ---- motion header
     def header(prefix: str):
