@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from mocomp.core import Motion, Skeleton
+from mocomp.core import EndSite, Motion, Skeleton
 
 NAMES = ("Hips", "LowerBack", "Spine", "Head", "LeftUpLeg", "LeftLeg", "LeftFoot", "RightUpLeg", "RightLeg",
          "RightFoot", "LeftArm", "LeftForeArm", "LeftHand", "RightArm", "RightForeArm", "RightHand")
@@ -14,8 +14,13 @@ OFFSETS = ((0, 1.0, 0), (0, 0.1, 0), (0, 0.25, 0), (0, 0.25, 0), (0.1, -0.05, 0)
            (-0.18, 0.2, 0), (-0.28, 0, 0), (-0.25, 0, 0))
 
 
+ENDS = ((3, (0, 0.2, 0), "Head/end"), (6, (0, -0.05, 0.15), "LeftFoot/end"), (9, (0, -0.05, 0.15), "RightFoot/end"),
+        (12, (0.15, 0, 0), "LeftHand/end"), (15, (-0.15, 0, 0), "RightHand/end"))
+
+
 def skeleton() -> Skeleton:
-    return Skeleton(NAMES, np.array(PARENTS), np.array(OFFSETS, dtype=float))
+    return Skeleton(NAMES, np.array(PARENTS), np.array(OFFSETS, dtype=float),
+                    end_sites=tuple(EndSite(p, np.array(o, dtype=float), n) for p, o, n in ENDS))
 
 
 def rot_x(angle) -> np.ndarray:
@@ -63,3 +68,19 @@ def spinning_motion(T: int = 200, fps: float = 120.0, flight=(40, 160), rate: fl
     root = np.zeros((T, 3))
     root[:, 1] = 1.0
     return Motion(sk, fps, root, rot)
+
+
+def synthetic(name: str, **params):
+    """A synthetic example's full result (``.motion``, ``.body``, ``.flight``, ``.L0``): the
+    registered embedded example when no parameters are given, else the generator."""
+    from mocomp import datasets
+    from mocomp.errors import DataNotFoundError
+
+    if not params:
+        try:
+            return datasets.load_example(name)
+        except DataNotFoundError:
+            pass
+    from mocomp.synth import flights
+
+    return getattr(flights, name)(**params)

@@ -242,8 +242,9 @@ class MassEstimate:
         return float(np.sqrt(np.mean((est - truth) ** 2))), float(np.sqrt(np.mean((pri - truth) ** 2)))
 
 
-def estimate_masses(prior: BodyModel, motion, flights, W: float = 1e-4, symmetric: bool = True,
-                    min_frames: int = 8, segment_positions: np.ndarray | None = None) -> MassEstimate:
+def estimate_masses(prior: BodyModel, motion, flights, W: float = 3e-4, symmetric: bool = True,
+                    min_frames: int = 8, smooth: float = 2.0,
+                    segment_positions: np.ndarray | None = None) -> MassEstimate:
     """Eq. 5.1-5.2 over one flight ``(start, stop)`` or several (a list): shared masses,
     per-flight trajectories.
 
@@ -256,6 +257,12 @@ def estimate_masses(prior: BodyModel, motion, flights, W: float = 1e-4, symmetri
     symmetric: one mass per left/right pair (:func:`mocomp.body.symmetry.symmetric_groups`).
     min_frames: fewer airborne frames than this in every flight raises
         :class:`FlightTooShortError`.
+    smooth: Gaussian sigma (frames at 120 Hz, scaled with the frame rate) applied to the
+        segment trajectories before the fit, with ``ceil(2 sigma)`` frames dropped at each
+        end of a flight (the kernel reaches into the ground phases there). Capture noise
+        in the segment positions is noise in the regressors of eq. 5.1 and biases the
+        masses; a Gaussian maps a parabola to a parabola, so the ballistic model is kept.
+        0 disables it. Reported fits and momentum deviations use the raw trajectories.
     segment_positions: precomputed ``(T, S, 3)`` segment COMs (else computed).
     """
     from ..body.inertia import inertia_for_masses
@@ -287,10 +294,20 @@ def estimate_masses(prior: BodyModel, motion, flights, W: float = 1e-4, symmetri
     for gi, g in enumerate(groups):
         Gm[g, gi] = 1.0
     h = float(motion.skeleton.height()) if hasattr(motion.skeleton, "height") else 1.7
+    sig = smooth * fps / 120.0 if smooth else 0.0
+    if sig >= 0.3:
+        from scipy.ndimage import gaussian_filter1d
+
+        spos = gaussian_filter1d(pos, sig, axis=0, mode="nearest")
+        drop = int(np.ceil(2 * sig))
+    else:
+        spos, drop = pos, 0
     blocks = []
     n_eq = 0
     for a, b in usable:
-        P = pos[a:b]                       # (n, S, 3)
+        d = drop if b - a - 2 * drop >= min_frames else 0
+        a, b = a + d, b - d
+        P = spos[a:b]                       # (n, S, 3)
         n = b - a
         for axis in range(3):
             C = _projector_complement(n, fps, axis == 1)

@@ -84,7 +84,7 @@ class FlightDetection:
         return f"{len(self.flights)} flight(s); longest frames {self.flight[0]}-{self.flight[1] - 1}"
 
 
-def _ballistic_span(vy: np.ndarray, lo: int, hi: int, fps: float, min_n: int,
+def _ballistic_span(vy: np.ndarray, y: np.ndarray, lo: int, hi: int, fps: float, min_n: int,
                     gravity_range: tuple[float, float], min_r2: float) -> tuple[int, int] | None:
     """Longest ``[i, j + 1)`` in ``[lo, hi)`` where ``i`` is a peak of the vertical COM velocity
     (end of the push), ``j`` a later trough (start of the landing) and the velocity falls on a
@@ -118,7 +118,9 @@ def _ballistic_span(vy: np.ndarray, lo: int, hi: int, fps: float, min_n: int,
     # tighten to the frames where the ground force has (nearly) vanished: vertical
     # acceleration below -g/2 (the peak/trough are where it equals g, mid-push)
     g_est = -np.polyfit(t[i:j + 1], v[i:j + 1], 1)[0]
-    acc = np.gradient(v, 1.0 / fps)
+    yy = y[lo:hi]
+    acc = np.full(n, np.inf)
+    acc[1:-1] = (yy[2:] - 2.0 * yy[1:-1] + yy[:-2]) * fps * fps      # 3-point: no smearing past a border
     free = np.flatnonzero(acc[i:j + 1] < -0.5 * g_est)
     if free.size >= min_n:
         i, j = i + int(free[0]), i + int(free[-1])
@@ -200,7 +202,7 @@ def detect_flights(motion, prior: BodyModel | None = None, still_speed: float = 
         merged.append((a, b))
     flights, rejected = [], []
     for a, b in merged:
-        seg = _ballistic_span(vy, max(0, a - W), min(T, b + W), fps, min_n, gravity_range, min_r2)
+        seg = _ballistic_span(vy, cs[:, 1], max(0, a - W), min(T, b + W), fps, min_n, gravity_range, min_r2)
         if seg is None:
             rejected.append((a, b, "no take-off peak / landing trough pair with a ballistic momentum "
                                    "pattern in between"))

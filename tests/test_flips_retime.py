@@ -1,0 +1,96 @@
+"""Retiming factor k* (App. B, eq. B.5), the retiming plan, repositioning (eq. 5.15-5.17)."""
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from mocomp.body import BodyModel
+from mocomp.dynamics import center_of_mass
+from mocomp.errors import PhysicsError
+from mocomp.flips.reposition import ComEvaluator, flight_trajectory, landing_offset
+from mocomp.flips.retime import k_star, plan_retime, sample_positions
+
+from _flips_data import skeleton, spinning_motion
+
+G = 9.81
+
+
+def test_k_star_known_answers():
+    T0 = 0.6
+    v0 = G * T0 / 2                       # level flight of T0
+    assert k_star(G, T0, v0, 0.0) == pytest.approx(1.0)
+    # the sequenced flight is twice as long: k* = sqrt(2) (take-off sqrt(2) faster, flight sqrt(2) longer)
+    assert k_star(G, 2 * T0, v0, 0.0) == pytest.approx(np.sqrt(2.0))
+    # eq. B.4 holds at k*: -1/2 g (T/k)^2 + v0 T = dy
+    for dy in (-1.0, -0.2, 0.3):
+        T = 1.3
+        k = k_star(G, T, v0, dy)
+        assert -0.5 * G * (T / k) ** 2 + v0 * T == pytest.approx(dy, abs=1e-12)
+
+
+def test_negative_radicand_says_what_to_change():
+    with pytest.raises(PhysicsError, match="height-change") as e:
+        k_star(G, 1.0, 2.0, 2.5)           # dy > v0 T
+    assert "2.000 m" in str(e.value)
+    with pytest.raises(PhysicsError, match="not upward"):
+        k_star(G, 1.0, -1.0, 0.0)
+    with pytest.raises(PhysicsError):
+        k_star(0.0, 1.0, 2.0, 0.0)
+
+
+def test_plan_at_k_star_is_continuous_and_default_is_0_7():
+    T0, v0 = 0.6, G * 0.3
+    v_land = v0 - G * T0
+    p = plan_retime(G, 1.2, v0, 0.0, v_land, k_ratio=1.0)
+    assert p.vy_takeoff_jump == pytest.approx(0.0, abs=1e-12)
+    assert p.vy_landing_jump == pytest.approx(0.0, abs=1e-9)
+    d = plan_retime(G, 1.2, v0, 0.0, v_land)
+    assert d.k == pytest.approx(0.7 * d.k_star) and d.k_ratio == pytest.approx(0.7)
+    # lands at the requested level after T/k
+    assert -0.5 * G * d.T_new ** 2 + d.vy_takeoff_new * d.T_new == pytest.approx(0.0, abs=1e-12)
+    # slower than k*: higher jump, the take-off velocity has to jump up (factor (k*/k)^2 for dy = 0)
+    assert d.vy_takeoff_new / (d.k * v0) == pytest.approx(1 / 0.49)
+    e = plan_retime(G, 1.2, v0, 0.0, v_land, k=1.2)
+    assert e.k == 1.2
+    with pytest.raises(ValueError):
+        plan_retime(G, 1.2, v0, 0.0, v_land, k=1.2, k_ratio=0.7)
+    with pytest.raises(PhysicsError):
+        plan_retime(G, 1.2, v0, 0.0, v_land, k=10.0)
+    # an explicit k survives an impossible k* (reported as nan), the k_ratio default does not
+    x = plan_retime(G, 1.2, v0, 4.0, v_land, k=1.0)
+    assert np.isnan(x.k_star) and x.note
+    with pytest.raises(PhysicsError):
+        plan_retime(G, 1.2, v0, 4.0, v_land)
+
+
+def test_sample_positions():
+    s = sample_positions(101, 1.25)
+    assert s[0] == 0 and s[-1] <= 100 and np.allclose(np.diff(s), 1.25)
+    assert len(s) == 81
+
+
+def test_com_evaluator_is_exact():
+    m = spinning_motion()
+    rng = np.random.default_rng(0)
+    rot = Rotation.random(m.n_frames * m.skeleton.n_joints, random_state=1).as_quat().reshape(m.rotations.shape)
+    m2 = m.replace(rotations=rot, root_positions=rng.normal(size=(m.n_frames, 3)))
+    sk = skeleton()
+    carriers = [j for j in range(sk.n_joints) if j not in (12, 15)]     # hands carry nothing
+    S = len(carriers)
+    body = BodyModel(sk, tuple(sk.names[j] for j in carriers), np.array(carriers), rng.uniform(0.5, 9.0, S),
+                     rng.normal(scale=0.1, size=(S, 3)), np.tile(np.eye(3) * 0.01, (S, 1, 1)))
+    ev = ComEvaluator(body)
+    np.testing.assert_allclose(ev(m2.root_positions, m2.rotations), center_of_mass(body, m2), atol=1e-12)
+    # joints that carry no mass below them (finger tips etc.) are skipped
+    assert 12 not in ev.joints and 15 not in ev.joints
+
+
+def test_flight_trajectory_and_offset():
+    c0 = np.array([0.1, 1.0, -0.3])
+    tr = flight_trajectory(c0, a_x=0.5, a_z=-0.2, a_y=-G / 2, k=1.2, vy_takeoff=4.0, T_new=0.8)
+    t = np.array([0.0, 0.4, 0.8])
+    c = tr(t)
+    np.testing.assert_allclose(c[0], c0)
+    np.testing.assert_allclose(c[:, 0], 0.1 + 1.2 * 0.5 * t)          # eq. 5.15
+    np.testing.assert_allclose(c[:, 2], -0.3 - 1.2 * 0.2 * t)
+    np.testing.assert_allclose(c[:, 1], 1.0 + 4.0 * t - G / 2 * t * t)  # eq. 5.17
+    np.testing.assert_allclose(landing_offset(tr, c0), tr.end - c0)       # eq. 5.16
