@@ -31,3 +31,13 @@ def register(example: Example) -> Example:
         raise ValueError(f"example {example.name!r} registered twice")
     EXAMPLES[example.name] = example
     return example
+
+
+def _register_builtin_examples() -> None:
+    """Register the embedded synthetic examples of :mod:`mocomp.synth` (generation stays lazy)."""
+    import importlib
+
+    importlib.import_module("mocomp.synth.registry")
+
+
+_register_builtin_examples()
