@@ -87,7 +87,8 @@ def _pyvista_movie(motion, camera, path: Path, multi_samples: int | None) -> flo
     actors = [pl.add_mesh(r3._capsule_mesh(b, style.resolution), color=style.body_color, smooth_shading=True)
               for b in caps]
     S = r3._shadow_matrix(style.light_direction)
-    shadows = [pl.add_mesh(r3._capsule_mesh(b, style.resolution), color=style.shadow_color, lighting=False)
+    shadows = [pl.add_mesh(r3._capsule_mesh(b, max(4, style.resolution // 2 + 1)), color=style.shadow_color,
+                           lighting=False)
                for b in caps]
     pl.camera.position, pl.camera.focal_point = camera.position, camera.focal_point
     pl.camera.up, pl.camera.view_angle = camera.view_up, camera.view_angle

@@ -322,7 +322,7 @@ def test_synthetic_flips_achieved_matches_nominal(name):
         assert s.measures["achieved_error"] == pytest.approx(s.nominal_level, abs=1.0), s.stimulus_id
         if s.perturbation.startswith("am_"):
             assert s.measures["L_direction_change_deg"] < 2.0
-            assert abs(s.measures["takeoff_angle_change_deg"]) < 1e-6
+            assert abs(s.measures["takeoff_angle_change_deg"]) < 0.02  # root interpolated between frames
     # same take-off position: every stimulus starts with the control's frames
     for s in built.stimuli:
         a = s.rebuild.flight[0]
