@@ -34,7 +34,6 @@ of the CMU BVH conversions (tested: FK of ``01_01.amc`` matches ``01_01.bvh``).
 """
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -316,7 +315,7 @@ def parse_asf(text: str, path: str | None = None) -> Asf:
             else:
                 raise MotionFormatError(f"unknown root field {key!r}", path, ln)
         elif section == ":bonedata":
-            if pending_limits and low not in ("end",) and not low.isalpha():
+            if pending_limits and (not low.isalpha() or low in ("inf", "infinity")):  # a "(lo hi)" line
                 vals = [_float(t, path, ln, "limits", allow_inf=True) for t in toks]
                 if len(vals) != 2:
                     raise MotionFormatError(f"a limits line needs 2 numbers (lo hi), got {len(vals)}", path, ln)
