@@ -70,7 +70,8 @@ class OffsetLayer(_Range):
         w = ease_weights(motion.n_frames, self.start, self.stop, self.ease)
         off = Rotation.from_rotvec(w[:, None] * np.asarray(self.rotvec, dtype=float)[None]).as_quat()
         rot = np.array(motion.rotations)
-        rot[:, j] = quat_multiply(rot[:, j], off)
+        on = w > 0   # frames outside the layer stay bit-identical
+        rot[on, j] = quat_multiply(rot[on, j], off[on])
         return motion.replace(rotations=rot)
 
 
@@ -86,7 +87,8 @@ class TargetLayer(_Range):
         w = ease_weights(motion.n_frames, self.start, self.stop, self.ease)
         tgt = np.broadcast_to(np.asarray(self.target, dtype=float), (motion.n_frames, 4))
         rot = np.array(motion.rotations)
-        rot[:, j] = slerp(rot[:, j], tgt, w)
+        on = w > 0
+        rot[on, j] = slerp(rot[on, j], tgt[on], w[on])
         return motion.replace(rotations=rot)
 
 
@@ -133,7 +135,8 @@ class AimLayer(_Range):
         Gp = G[:, p] if p >= 0 else np.broadcast_to([0.0, 0.0, 0.0, 1.0], (motion.n_frames, 4))
         new_global = quat_multiply(fix, G[:, j])
         rot = np.array(motion.rotations)
-        rot[:, j] = quat_multiply(quat_inverse(Gp), new_global)
+        on = w > 0   # frames outside the layer stay bit-identical
+        rot[on, j] = quat_multiply(quat_inverse(Gp[on]), new_global[on])
         return motion.replace(rotations=rot)
 
 

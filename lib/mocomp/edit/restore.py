@@ -1,19 +1,27 @@
-"""Restoring momentum conservation after in-flight edits (dissertation section 5.5,
-flips paper section 5.5).
-
-Three steps:
+"""Restoring angular-momentum conservation after in-flight edits, steps 1 and 2
+(dissertation section 5.5.1-5.5.2, flips paper section 5.5).
 
 1. :func:`correct_direction` -- the direction of L (eq. 5.18-5.21). ``L_f`` is
-   computed from poses ``f-1, f, f+1`` (central differences, the same
-   discretisation as :func:`mocomp.dynamics.momentum`). Walking forward through
-   the flight, whenever ``unit(L_f)`` departs from ``unit(L*)`` the whole body at
-   frame ``f+1`` is rotated about its COM by the rotation ``R`` that restores the
+   computed from poses ``f-1, f, f+1`` (central differences, the discretisation
+   of :func:`mocomp.dynamics.momentum`). Walking forward through the flight,
+   whenever ``unit(L_f)`` departs from the target the whole body at frame
+   ``f+1`` is rotated about its COM by the rotation ``R`` that restores the
    direction; the solution for one frame warm-starts the next (eq. 5.21).
 2. :func:`correct_magnitude` -- the magnitude of L by non-uniform retiming
-   (eq. 5.22): ``next = last + 1/ratio(last)``, ``ratio(f) = |L_new(f)| / |L*|``,
-   with L evaluated on interpolated (slerped) poses.
-3. Uniform retiming and COM repositioning onto the gravity parabola
-   (:func:`restore_momentum`, using :mod:`mocomp.flips` retiming/repositioning).
+   (eq. 5.22): ``next = last + 1/ratio(last)``, with L evaluated on
+   interpolated (slerped) poses.
+
+Step 3 (uniform retiming and COM repositioning) is :mod:`mocomp.edit.linear`;
+the whole pipeline with its evidence is :func:`mocomp.edit.restore_momentum`.
+
+**The target.** The dissertation writes the target as the constant flight
+momentum ``L*`` of the unedited motion (eq. 5.19) and ``ratio(f) = |L_new(f)| /
+|L*|``; the conference paper (section 5.5) writes ``ratio(f) = |L_modif(f)| /
+|L(f)|`` with the original motion's own ``L(f)``. Both are supported: pass a
+constant ``L_star`` (3,), or per-frame targets (T, 3) / a ``reference`` motion
+(the unedited original). On exact synthetic flights they coincide; on capture
+data the per-frame form leaves the unedited frames exactly untouched and
+removes only what the edit changed (the capture's own momentum noise stays).
 
 Every step returns the evidence the paper plots (Figures 3, 5.4, 5.5): the
 per-frame direction error (radians) and magnitude error (fraction) before and
@@ -23,7 +31,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.optimize import minimize
@@ -32,6 +40,7 @@ from ..core.motion import Motion
 from ..core.rotations import quat_apply, quat_inverse, quat_multiply
 from ..dynamics.com import check_compatible
 from ..dynamics.momentum import momentum
+from .layers import EditRangeError
 
 __all__ = [
     "DirectionResult",
@@ -40,23 +49,83 @@ __all__ = [
     "correct_magnitude",
     "direction_error",
     "magnitude_error",
+    "flight_momentum",
+    "interior_L",
+    "segment_state",
+    "validate_flight",
 ]
 
 
 # ----------------------------------------------------------------- evidence
+def _rows(L_star, n):
+    Ls = np.asarray(L_star, dtype=float)
+    return np.broadcast_to(Ls, (n, 3)) if Ls.ndim == 1 else Ls
+
+
 def direction_error(L: np.ndarray, L_star: np.ndarray) -> np.ndarray:
-    """``(T,)`` angle in radians between each ``L`` row and ``L*``."""
-    L = np.atleast_2d(L)
-    u = np.asarray(L_star, dtype=float)
-    u = u / np.linalg.norm(u)
-    return np.arctan2(np.linalg.norm(np.cross(L, u), axis=1), L @ u)
+    """``(T,)`` angle in radians between each ``L`` row and ``L*`` (one vector, or one per row)."""
+    L = np.atleast_2d(np.asarray(L, dtype=float))
+    u = _rows(L_star, L.shape[0])
+    return np.arctan2(np.linalg.norm(np.cross(L, u), axis=1), np.sum(L * u, axis=1))
 
 
 def magnitude_error(L: np.ndarray, L_star: np.ndarray) -> np.ndarray:
-    """``(T,)`` relative magnitude error ``| |L| - |L*| | / |L*|``."""
-    n = np.linalg.norm(np.atleast_2d(L), axis=1)
-    s = float(np.linalg.norm(L_star))
-    return np.abs(n - s) / s
+    """``(T,)`` relative magnitude error ``| |L| - |L*| | / |L*|`` (``L*`` one vector or one per row)."""
+    L = np.atleast_2d(np.asarray(L, dtype=float))
+    s = np.linalg.norm(_rows(L_star, L.shape[0]), axis=1)
+    return np.abs(np.linalg.norm(L, axis=1) - s) / s
+
+
+def _nan_rows(fn, L, ref):
+    """``fn(L, ref)`` on the finite rows of ``L`` (and ``ref`` when it has rows), NaN elsewhere."""
+    out = np.full(L.shape[0], np.nan)
+    ref = np.asarray(ref, dtype=float)
+    ok = np.all(np.isfinite(L), axis=1)
+    if ref.ndim == 2:
+        ok &= np.all(np.isfinite(ref), axis=1)
+    if ok.any():
+        out[ok] = fn(L[ok], ref[ok] if ref.ndim == 2 else ref)
+    return out
+
+
+def segment_state(body, motion: Motion) -> tuple[np.ndarray, np.ndarray]:
+    """``(X (T, S, 3), Q (T, S, 4))``: segment COM positions and world orientations (contiguous)."""
+    P, G = motion.fk()
+    Q = np.ascontiguousarray(G[:, body.segment_joint])
+    X = np.ascontiguousarray(P[:, body.segment_joint] + quat_apply(Q, body.local_coms[None]))
+    return X, Q
+
+
+def interior_L(body, motion: Motion) -> np.ndarray:
+    """``(T, 3)`` L about the COM (eq. 5.5) on frames ``1 .. T-2`` (NaN at the ends), compiled;
+    equals :func:`mocomp.dynamics.momentum`'s ``angular`` there (central differences)."""
+    from ._kernels import interior_momentum
+
+    X, Q = segment_state(body, motion)
+    return interior_momentum(np.ascontiguousarray(body.masses, dtype=float),
+                             np.ascontiguousarray(body.inertias, dtype=float), X, Q,
+                             np.ascontiguousarray(motion.times, dtype=float))
+
+
+def flight_momentum(body, motion: Motion, flight) -> np.ndarray:
+    """``(T, 3)`` angular momentum about the COM (eq. 5.5, central differences) on the
+    flight's interior frames ``start+1 .. stop-2`` (NaN elsewhere: their differences
+    straddle take-off or landing). Computed on the flight's frames only."""
+    a, b = int(flight[0]), int(flight[1])
+    L = np.full((motion.n_frames, 3), np.nan)
+    if b - a >= 3:
+        L[a + 1:b - 1] = interior_L(body, motion[a:b])[1:-1]
+    return L
+
+
+def validate_flight(motion: Motion, flight) -> tuple[int, int]:
+    """``(start, stop)`` as ints, checked against the motion (at least 4 frames)."""
+    a, b = int(flight[0]), int(flight[1])
+    if not (0 <= a < b <= motion.n_frames):
+        raise EditRangeError(f"flight frames [{a}, {b}) lie outside the motion's 0..{motion.n_frames}")
+    if b - a < 4:
+        raise EditRangeError(f"flight [{a}, {b}) has {b - a} frames; momentum correction needs at least 4")
+    return a, b
 
 
 # ------------------------------------------------- small quaternion helpers
@@ -201,42 +270,58 @@ class DirectionResult:
     motion: the corrected motion (root orientation/position changed per frame;
         frames after the flight carry the last frame's rotation rigidly).
     corrections: ``(T, 4)`` rotation applied to each frame about its COM (identity before the edit).
-    error_before, error_after: ``(T,)`` radians, angle between ``L_f`` and ``L*``
+    error_before, error_after: ``(T,)`` radians, angle between ``L_f`` and the target
         (NaN outside the flight's interior frames, where ``L_f`` is not defined by the method).
-    L_star: ``(3,)`` kg m^2/s target.
+    L_before, L_after: ``(T, 3)`` kg m^2/s, ``L_f`` of the input and of the output (NaN off-flight).
+    L_star: ``(3,)`` or ``(T, 3)`` kg m^2/s, the target.
     first_departure: ``f*``, the first frame whose direction error exceeded ``tol``
         (``None`` if none did).
     method: ``"gauss-newton"`` or ``"bfgs"``.
-    evaluations: number of L evaluations used.
-    seconds: wall time.
+    evaluations: number of ``L`` evaluations used.
+    seconds: wall time (``solve_seconds``: the frame loop alone, without the evidence).
     """
 
     motion: Motion
     corrections: np.ndarray
     error_before: np.ndarray
     error_after: np.ndarray
+    L_before: np.ndarray
+    L_after: np.ndarray
     L_star: np.ndarray
     first_departure: int | None
     method: str
     evaluations: int
     seconds: float
+    solve_seconds: float = 0.0
+
+    @property
+    def max_error_before(self) -> float:
+        return float(np.nanmax(self.error_before)) if np.any(np.isfinite(self.error_before)) else 0.0
+
+    @property
+    def max_error_after(self) -> float:
+        return float(np.nanmax(self.error_after)) if np.any(np.isfinite(self.error_after)) else 0.0
 
 
-def _flight_L(body, motion, flight):
-    L = np.full((motion.n_frames, 3), np.nan)
-    res = momentum(body, motion)
-    a, b = flight
-    L[a + 1:b - 1] = res.angular[a + 1:b - 1]
-    return L
-
-
-def _validate_flight(motion: Motion, flight) -> tuple[int, int]:
-    a, b = int(flight[0]), int(flight[1])
-    if not (0 <= a < b <= motion.n_frames):
-        raise ValueError(f"flight frames [{a}, {b}) lie outside the motion's 0..{motion.n_frames}")
-    if b - a < 4:
-        raise ValueError(f"flight [{a}, {b}) has {b - a} frames; momentum correction needs at least 4")
-    return a, b
+def _targets(L_star, L_before, a, b, n_frames) -> np.ndarray:
+    """Per-frame unit targets ``(T, 3)`` (rows outside the flight interior are unused)."""
+    if L_star is None:
+        L_star = L_before[a + 1]
+    Ls = np.asarray(L_star, dtype=float)
+    if Ls.ndim == 1:
+        if Ls.shape != (3,) or not np.linalg.norm(Ls) > 0:
+            raise ValueError(f"L_star must be a non-zero 3-vector, got {Ls!r}")
+        U = np.broadcast_to(Ls / np.linalg.norm(Ls), (n_frames, 3)).copy()
+    else:
+        if Ls.shape != (n_frames, 3):
+            raise ValueError(f"per-frame L_star must have shape ({n_frames}, 3), got {Ls.shape}")
+        seg = Ls[a + 1:b - 1]
+        n = np.linalg.norm(seg, axis=1)
+        if not np.all(np.isfinite(seg)) or np.any(n <= 0):
+            raise ValueError(f"per-frame L_star must be finite and non-zero on the flight frames {a + 1}..{b - 2}")
+        U = np.zeros((n_frames, 3))
+        U[a + 1:b - 1] = seg / n[:, None]
+    return U
 
 
 def correct_direction(body, motion: Motion, flight, L_star=None, method: str = "gauss-newton",
@@ -248,132 +333,117 @@ def correct_direction(body, motion: Motion, flight, L_star=None, method: str = "
     body: body model of the motion's skeleton.
     motion: the edited motion.
     flight: ``(start, stop)`` half-open frame range of the ballistic phase.
-    L_star: the target angular momentum (the original flight's; default: L at
-        the first interior flight frame of ``motion``, which the edit must not
-        touch, eq. 5.19).
-    method: ``"gauss-newton"`` (default; an analytic linearisation of
+    L_star: the target: one vector ``(3,)`` (eq. 5.19's constant ``L*``; default: L at
+        the first interior flight frame of ``motion``, which the edit must not touch),
+        or per-frame targets ``(T, 3)`` (e.g. the unedited original's own ``L_f``).
+    method: ``"gauss-newton"`` (default; compiled, an analytic linearisation of
         ``L(R)`` with a minimum-norm update, a few evaluations per frame) or
-        ``"bfgs"`` (``scipy.optimize.minimize(method="BFGS")`` on the squared
-        direction angle plus a tiny pull toward the warm start, as the paper
-        used Matlab's quasi-Newton method). Both are started from the previous
-        frame's rotation; the first correction starts from the rotation between
-        ``L_new`` and ``L*`` (section 5.5.1).
+        ``"bfgs"`` (``scipy.optimize.minimize(method="BFGS")`` on the direction
+        error, the paper's quasi-Newton method -- it used Matlab's). Both are
+        started from the previous frame's rotation; BFGS's first correction starts
+        from the rotation between ``L_new`` and ``L*`` (section 5.5.1).
     tol: direction error (radians) below which a frame is left alone.
     """
     if method not in ("gauss-newton", "bfgs"):
         raise ValueError(f"method must be 'gauss-newton' or 'bfgs', got {method!r}")
     check_compatible(body, motion)
-    a, b = _validate_flight(motion, flight)
+    a, b = validate_flight(motion, flight)
     t0 = time.perf_counter()
-    P, G = motion.fk()
-    sj = body.segment_joint
-    Q = np.array(G[:, sj])
-    X = P[:, sj] + quat_apply(Q, body.local_coms[None])
-    t = motion.times
-    m = body.masses
+    L_before = flight_momentum(body, motion, (a, b))
+    U = _targets(L_star, L_before, a, b, motion.n_frames)
+    L_star_out = np.asarray(L_before[a + 1] if L_star is None else L_star, dtype=float)
+    # the sweep reads frames a .. b-1 only
+    sl = motion[a:b]
+    X, Q = segment_state(body, sl)
+    t = np.ascontiguousarray(sl.times, dtype=float)
+    m = np.ascontiguousarray(body.masses, dtype=float)
     M = m.sum()
-    L_before = _flight_L(body, motion, (a, b))
-    if L_star is None:
-        L_star = L_before[a + 1]
-    L_star = np.asarray(L_star, dtype=float)
-    u = L_star / np.linalg.norm(L_star)
+    n = b - a
+    pivots_fl = np.einsum("s,tsk->tk", m, X) / M  # each frame's COM: the rotation pivot
+    Uf = np.ascontiguousarray(U[a:b])
+    ts = time.perf_counter()
+    if method == "gauss-newton":
+        from ._kernels import direction_sweep
+
+        corr_fl, evals, first, _ = direction_sweep(m, np.ascontiguousarray(body.inertias, dtype=float), X, Q, t,
+                                                   Uf, 0, n, float(tol), int(max_iter))
+        first = None if first < 0 else int(first) + a
+    else:
+        corr_fl, evals, first = _bfgs_sweep(m, body.inertias, X, Q, t, Uf, 0, n, tol, pivots_fl)
+        first = None if first is None else int(first) + a
     corr = np.tile([0.0, 0.0, 0.0, 1.0], (motion.n_frames, 1))
+    corr[a:b] = corr_fl
+    corr[b:] = corr_fl[-1]
+    solve_s = time.perf_counter() - ts
+    current = corr[b - 1]
+    # Apply: rotate each flight frame's whole body about its COM pivot; after the flight,
+    # rigidly about the last flight frame's pivot. Frames before the flight are untouched.
+    rp = np.array(motion.root_positions)
+    rot = np.array(motion.rotations)
+    rp[a:b] = pivots_fl + quat_apply(corr_fl, rp[a:b] - pivots_fl)
+    rot[a:, 0] = quat_multiply(corr[a:], rot[a:, 0])
+    if b < motion.n_frames:
+        c = pivots_fl[-1]
+        rp[b:] = c + quat_apply(current, motion.root_positions[b:] - c)
+    out = motion.replace(root_positions=rp, rotations=rot)
+    L_after = flight_momentum(body, out, (a, b))
+    return DirectionResult(
+        motion=out, corrections=corr, error_before=_nan_rows(direction_error, L_before, U),
+        error_after=_nan_rows(direction_error, L_after, U), L_before=L_before, L_after=L_after,
+        L_star=L_star_out, first_departure=first, method=method, evaluations=int(evals),
+        seconds=time.perf_counter() - t0, solve_seconds=solve_s)
+
+
+def _bfgs_sweep(m, I_local, X, Q, t, U, a, b, tol, pivots):
+    """The frame loop of eq. 5.21 with scipy's BFGS per frame (the paper's optimiser)."""
+    X = np.array(X)
+    Q = np.array(Q)
+    T = X.shape[0]
+    corr = np.tile([0.0, 0.0, 0.0, 1.0], (T, 1))
     current = np.array([0.0, 0.0, 0.0, 1.0])
     first = None
     evals = 0
-    pivots = np.einsum("s,tsk->tk", m, X) / M  # each frame's COM (rotation pivot; unchanged by the rotation)
-
     for f in range(a + 1, b - 1):
-        # Carry the previous correction to frame f+1, then refine it.
         qf = current
         if qf[3] < 1.0:
             X[f + 1] = pivots[f + 1] + (X[f + 1] - pivots[f + 1]) @ _quat_matrix1(qf).T
             Q[f + 1] = quat_multiply(qf, Q[f + 1])
-        fm = _FrameMomentum(m, body.inertias, X, Q, t, f)
+        fm = _FrameMomentum(m, I_local, X, Q, t, f)
+        u = U[f]
         L0 = fm.L(np.array([0.0, 0.0, 0.0, 1.0]))
         evals += 1
-        err = _angle(L0, u)
-        if err <= tol:
+        if _angle(L0, u) <= tol:
             corr[f + 1] = qf
             continue
         is_first = first is None
         if is_first:
             first = f
-        dq = _solve_frame(fm, u, method, tol, max_iter, paper_start=is_first)
-        evals += dq[1]
-        dq = dq[0]
+        # Eq. 5.21 fixes two of R's three degrees of freedom (one family of rotations keeps
+        # unit(L) on target); search the plane of rotation vectors orthogonal to that family's
+        # direction at the start, so the answer is the smallest such rotation (as the
+        # Gauss-Newton variant's minimum-norm step) rather than an arbitrary member.
+        n0 = float(np.linalg.norm(L0))
+        J = ((np.eye(3) - np.outer(L0, L0) / (n0 * n0)) / n0) @ fm.jacobian(np.array([0.0, 0.0, 0.0, 1.0]))
+        B = np.linalg.svd(J)[2][:2].T                      # (3, 2): the two constrained directions
+        # start: the previous frame's rotation (already applied, so zero here); at the first
+        # departure f*, the rotation between L_new and L* (section 5.5.1), projected on the plane
+        start = B.T @ _qlog(_rotation_between(L0, u)[None])[0] if is_first else np.zeros(2)
+
+        def cost(x):
+            L = fm.L(_qexp(B @ x))
+            c = min(float(L @ u) / float(np.linalg.norm(L)), 1.0)
+            return (1.0 - c) * 2.0           # ~ angle^2 near the optimum
+
+        r = minimize(cost, start, method="BFGS", options={"gtol": 1e-14, "maxiter": 200})
+        evals += int(r.nfev)
+        dq = _qexp(B @ r.x)
         X[f + 1] = pivots[f + 1] + (X[f + 1] - pivots[f + 1]) @ _quat_matrix1(dq).T
         Q[f + 1] = quat_multiply(dq, Q[f + 1])
         current = _qmul1(dq, qf)
         current /= np.linalg.norm(current)
         corr[f + 1] = current
     corr[b:] = current
-    # Apply: rotate each frame's whole body about its COM pivot.
-    rp = pivots + quat_apply(corr, motion.root_positions - pivots)
-    rot = np.array(motion.rotations)
-    rot[:, 0] = quat_multiply(corr, rot[:, 0])
-    if b < motion.n_frames:  # after the flight: rigid, about the last flight frame's pivot
-        c = pivots[b - 1]
-        rp[b:] = c + quat_apply(current, motion.root_positions[b:] - c)
-    out = motion.replace(root_positions=rp, rotations=rot)
-    L_after = _flight_L(body, out, (a, b))
-    return DirectionResult(
-        motion=out, corrections=corr, error_before=_nan_rows(direction_error, L_before, u),
-        error_after=_nan_rows(direction_error, L_after, u), L_star=L_star, first_departure=first,
-        method=method, evaluations=evals, seconds=time.perf_counter() - t0)
-
-
-def _nan_rows(fn, L, ref):
-    out = np.full(L.shape[0], np.nan)
-    ok = np.all(np.isfinite(L), axis=1)
-    if ok.any():
-        out[ok] = fn(L[ok], ref)
-    return out
-
-
-def _solve_frame(fm: _FrameMomentum, u: np.ndarray, method: str, tol: float, max_iter: int,
-                 paper_start: bool = False):
-    """Rotation ``dq`` (applied on top of the warm start) that aligns ``L_f`` with ``u``."""
-    ident = np.array([0.0, 0.0, 0.0, 1.0])
-    L0 = fm.L(ident)
-    evals = 1
-    if method == "bfgs":
-        # Start: the previous frame's rotation (already applied, so zero here); at the
-        # first departure f*, the rotation between L_new and L* (section 5.5.1).
-        start = _qlog(_rotation_between(L0, u)[None])[0] if paper_start else np.zeros(3)
-
-        def cost(phi):
-            L = fm.L(_qexp(phi))
-            c = float(L @ u) / float(np.linalg.norm(L))
-            return (1.0 - c) * 2.0 + 1e-8 * float(phi @ phi)   # ~ angle^2 near the optimum
-
-        r = minimize(cost, start, method="BFGS", options={"gtol": 1e-12, "maxiter": 200})
-        return _qexp(r.x), evals + int(r.nfev)
-    q = ident
-    L = L0
-    eye = np.eye(3)
-    for _ in range(max_iter):
-        n = math.sqrt(float(L @ L))
-        err_old = _angle(L, u)
-        if err_old <= tol:
-            break
-        e = L / n - u
-        J = ((eye - np.outer(L, L) / (n * n)) / n) @ fm.jacobian(q)
-        # minimum-norm Gauss-Newton step (J has rank 2: rotations about L leave its direction alone)
-        JtJ = J.T @ J
-        step = -np.linalg.solve(JtJ + 1e-12 * np.trace(JtJ) * eye, J.T @ e)
-        q_new = _qmul1(_qexp(step), q)
-        L_new = fm.L(q_new)
-        evals += 1
-        k = 0  # backtracking keeps it robust far from the solution
-        while _angle(L_new, u) > err_old and k < 6:
-            step *= 0.5
-            q_new = _qmul1(_qexp(step), q)
-            L_new = fm.L(q_new)
-            evals += 1
-            k += 1
-        q, L = q_new, L_new
-    return q / np.linalg.norm(q), evals
+    return corr, evals, first
 
 
 # ---------------------------------------------------------------- step 2
@@ -386,8 +456,10 @@ class MagnitudeResult:
     motion: the retimed motion (take-off and landing frames unchanged, flight re-sampled).
     flight: new ``(start, stop)`` flight frames.
     source_times: ``(T_new,)`` s, the time in the input motion each output frame shows.
-    ratio_times, ratio: the curve ``|L_new(t)| / |L*|`` over the input flight (fine grid).
+    ratio_times, ratio: the curve ``|L_new(t)| / |L_ref(t)|`` over the input flight (fine grid).
+    ref_times, ref_magnitude: ``|L_ref|`` on the same fine grid (the target magnitude).
     error_before, error_after: ``(T,)``/``(T_new,)`` relative magnitude errors (NaN off-flight).
+    L_before, L_after: ``(T, 3)``/``(T_new, 3)`` kg m^2/s on the interior flight frames.
     seconds: wall time.
     """
 
@@ -396,13 +468,31 @@ class MagnitudeResult:
     source_times: np.ndarray
     ratio_times: np.ndarray
     ratio: np.ndarray
+    ref_magnitude: np.ndarray
     error_before: np.ndarray
     error_after: np.ndarray
+    L_before: np.ndarray
+    L_after: np.ndarray
     seconds: float
 
+    @property
+    def time_stretch(self) -> float:
+        """New flight duration over the old one."""
+        return float((self.flight[1] - 1 - self.flight[0]) / max(self.ratio_times[-1] - self.ratio_times[0], 1e-12)
+                     / self.motion.fps)
 
-def correct_magnitude(body, motion: Motion, flight, L_star, oversample: int = 8) -> MagnitudeResult:
-    """Non-uniform retiming of the flight so ``|L|`` stays ``|L*|`` (eq. 5.22).
+    @property
+    def max_error_before(self) -> float:
+        return float(np.nanmax(self.error_before)) if np.any(np.isfinite(self.error_before)) else 0.0
+
+    @property
+    def max_error_after(self) -> float:
+        return float(np.nanmax(self.error_after)) if np.any(np.isfinite(self.error_after)) else 0.0
+
+
+def correct_magnitude(body, motion: Motion, flight, L_star=None, oversample: int = 8,
+                      reference: Motion | None = None, L_before: np.ndarray | None = None) -> MagnitudeResult:
+    """Non-uniform retiming of the flight so ``|L|`` stays on target (eq. 5.22).
 
     Eq. 5.22 steps through the input as ``next = last + 1 / ratio(last)``; here
     its continuous form ``d t_in / d t_out = 1 / ratio(t_in)`` is integrated
@@ -410,46 +500,67 @@ def correct_magnitude(body, motion: Motion, flight, L_star, oversample: int = 8)
     computed from the interpolated poses, as the paper does for in-between
     frames) and inverted by interpolation, so frames land at exact times
     instead of accumulating Euler error. Outside the flight ``ratio = 1``.
+    ``L_before`` (the input's :func:`flight_momentum`, if already known) saves its
+    recomputation.
+
+    The target magnitude is ``|L_star|`` (dissertation: ``ratio = |L_new| / |L*|``),
+    or, with ``reference`` (the unedited original, same frame times), that motion's
+    own ``|L(t)|`` computed the same way on the same fine grid (the conference
+    paper's ``ratio = |L_modif(f)| / |L(f)|``): frames the edit did not change then
+    get ``ratio = 1`` exactly.
     """
     check_compatible(body, motion)
-    a, b = _validate_flight(motion, flight)
+    a, b = validate_flight(motion, flight)
+    if (L_star is None) == (reference is None):
+        raise ValueError("give exactly one of L_star (a constant target) or reference (the original motion)")
+    if reference is not None and (reference.n_frames != motion.n_frames or reference.fps != motion.fps):
+        raise ValueError(f"reference motion has {reference.n_frames} frames at {reference.fps:g} Hz; the edited "
+                         f"one {motion.n_frames} at {motion.fps:g} Hz: they must share their frame times")
+    if not (isinstance(oversample, (int, np.integer)) and oversample >= 1):
+        raise ValueError(f"oversample must be a positive integer, got {oversample!r}")
     t0 = time.perf_counter()
-    Ls = float(np.linalg.norm(L_star))
     ta, tb = a / motion.fps, (b - 1) / motion.fps
     fine_fps = motion.fps * oversample
-    n_fine = int(round((tb - ta) * fine_fps)) + 1
+    n_fine = (b - 1 - a) * oversample + 1
     tf = ta + np.arange(n_fine) / fine_fps
-    tf[-1] = min(tf[-1], motion.duration)
-    fine = motion.sample(tf, fps=fine_fps)
-    Lf = momentum(body, fine).angular
-    ratio = np.linalg.norm(Lf, axis=1) / Ls
+    tf[-1] = tb
+    Lf = interior_L(body, motion.sample(tf, fps=fine_fps))
+    if reference is not None:
+        ref = np.linalg.norm(interior_L(body, reference.sample(tf, fps=fine_fps)), axis=1)
+        # identical poses give identical L: keep ratio exactly 1 there (no spurious retiming)
+        ref[0], ref[-1] = ref[1], ref[-2]
+    else:
+        ref = np.full(n_fine, float(np.linalg.norm(L_star)))
+    if not np.all(ref > 0):
+        raise ValueError("the target angular momentum is zero somewhere in the flight: nothing to retime against")
+    mag = np.linalg.norm(Lf, axis=1)
     # ends of the flight: the one-sided differences are less accurate; hold the nearest interior value
-    ratio[0], ratio[-1] = ratio[1], ratio[-2]
+    mag[0], mag[-1] = mag[1], mag[-2]
+    ratio = mag / ref
+    if not np.all(np.isfinite(ratio) & (ratio > 0)):
+        raise ValueError("the edited flight has zero or undefined angular momentum somewhere; cannot retime it")
     # output time as a function of input time: tau(t) = ta + integral ratio
     tau_f = ta + np.concatenate([[0.0], np.cumsum(0.5 * (ratio[1:] + ratio[:-1]) * np.diff(tf))])
-    new_flight_len = tau_f[-1] - ta
-    shift = new_flight_len - (tb - ta)
-    T_in = motion.times
-
-    def t_in_of(tau):
-        tau = np.asarray(tau, dtype=float)
-        out = np.where(tau <= ta, tau, np.nan)
-        inside = (tau > ta) & (tau <= tau_f[-1])
-        out[inside] = np.interp(tau[inside], tau_f, tf)
-        after = tau > tau_f[-1]
-        out[after] = tau[after] - shift
-        return out
-
+    shift = (tau_f[-1] - ta) - (tb - ta)
     total = motion.duration + shift
     n_out = int(np.floor(total * motion.fps + 1e-9)) + 1
     tau_out = np.arange(n_out) / motion.fps
-    src = np.clip(t_in_of(tau_out), 0.0, T_in[-1])
+    src = np.where(tau_out <= ta, tau_out, tau_out - shift)
+    inside = (tau_out > ta) & (tau_out <= tau_f[-1])
+    src[inside] = np.interp(tau_out[inside], tau_f, tf)
+    src = np.clip(src, 0.0, motion.duration)
     out = motion.sample(src)
-    new_a = a
     new_b = int(np.floor(tau_f[-1] * motion.fps + 1e-9)) + 1
-    L_before = _flight_L(body, motion, (a, b))
-    L_after = _flight_L(body, out, (new_a, new_b))
+    if L_before is None:
+        L_before = flight_momentum(body, motion, (a, b))
+    L_after = flight_momentum(body, out, (a, new_b))
+    tgt_before = np.interp(motion.times, tf, ref)
+    tgt_after = np.interp(src, tf, ref)
+
+    def rel(L, tgt):
+        return np.abs(np.linalg.norm(L, axis=1) - tgt) / tgt
+
     return MagnitudeResult(
-        motion=out, flight=(new_a, new_b), source_times=src, ratio_times=tf, ratio=ratio,
-        error_before=_nan_rows(magnitude_error, L_before, L_star),
-        error_after=_nan_rows(magnitude_error, L_after, L_star), seconds=time.perf_counter() - t0)
+        motion=out, flight=(a, new_b), source_times=src, ratio_times=tf, ratio=ratio, ref_magnitude=ref,
+        error_before=rel(L_before, tgt_before), error_after=rel(L_after, tgt_after), L_before=L_before,
+        L_after=L_after, seconds=time.perf_counter() - t0)

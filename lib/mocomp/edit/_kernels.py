@@ -1,0 +1,376 @@
+"""Compiled (numba) inner loop of the direction-of-L correction (dissertation eq. 5.18-5.21).
+
+The loop over flight frames is a recurrence (the rotation found for frame
+``f + 1`` changes the poses that ``L_{f+1}`` is computed from), so it runs
+compiled. The arithmetic is exactly that of :func:`mocomp.dynamics.momentum`
+with central differences (``order=2``): segment COM velocities by the
+non-uniform central difference, world angular velocities blending the
+backward and forward rotation vectors, ``L = sum_i R_i I_i R_i^T w_i +
+m_i (c_i - COM) x v_i`` (eq. 5.5). :class:`mocomp.edit.restore._FrameMomentum`
+is the same model in numpy (used by the BFGS variant and by the tests that pin
+the two to each other).
+"""
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+__all__ = ["direction_sweep"]
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _qmul(a0, a1, a2, a3, b0, b1, b2, b3):
+    return (a3 * b0 + a0 * b3 + a1 * b2 - a2 * b1,
+            a3 * b1 - a0 * b2 + a1 * b3 + a2 * b0,
+            a3 * b2 + a0 * b1 - a1 * b0 + a2 * b3,
+            a3 * b3 - a0 * b0 - a1 * b1 - a2 * b2)
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _qlog(x, y, z, w):
+    """Rotation vector of a unit quaternion, the short way."""
+    if w < 0.0:
+        x, y, z, w = -x, -y, -z, -w
+    s = math.sqrt(x * x + y * y + z * z)
+    if s < 1e-12:
+        return 2.0 * x, 2.0 * y, 2.0 * z
+    k = 2.0 * math.atan2(s, w) / s
+    return k * x, k * y, k * z
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _qexp(p0, p1, p2):
+    a = math.sqrt(p0 * p0 + p1 * p1 + p2 * p2)
+    if a < 1e-12:
+        k = 0.5
+    else:
+        k = math.sin(0.5 * a) / a
+    return k * p0, k * p1, k * p2, math.cos(0.5 * a)
+
+
+@numba.njit(cache=True, nogil=True)
+def _qmat(q, R):
+    x, y, z, w = q[0], q[1], q[2], q[3]
+    R[0, 0] = 1 - 2 * (y * y + z * z)
+    R[0, 1] = 2 * (x * y - z * w)
+    R[0, 2] = 2 * (x * z + y * w)
+    R[1, 0] = 2 * (x * y + z * w)
+    R[1, 1] = 1 - 2 * (x * x + z * z)
+    R[1, 2] = 2 * (y * z - x * w)
+    R[2, 0] = 2 * (x * z - y * w)
+    R[2, 1] = 2 * (y * z + x * w)
+    R[2, 2] = 1 - 2 * (x * x + y * y)
+
+
+@numba.njit(cache=True, nogil=True)
+def _angle(L, u):
+    cx = L[1] * u[2] - L[2] * u[1]
+    cy = L[2] * u[0] - L[0] * u[2]
+    cz = L[0] * u[1] - L[1] * u[0]
+    return math.atan2(math.sqrt(cx * cx + cy * cy + cz * cz), L[0] * u[0] + L[1] * u[1] + L[2] * u[2])
+
+
+@numba.njit(cache=True, nogil=True)
+def _frame_L(q, Iw, D, w_back, wf, C0, const, dt, R, out):
+    """L at frame f when pose f+1 is rotated by ``q`` about its COM (eq. 5.21's L(R pose))."""
+    _qmat(q, R)
+    # orbital part: axial(C0 R^T) / dt + const
+    C = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            C[i, j] = C0[i, 0] * R[j, 0] + C0[i, 1] * R[j, 1] + C0[i, 2] * R[j, 2]
+    out[0] = (C[1, 2] - C[2, 1]) / dt + const[0]
+    out[1] = (C[2, 0] - C[0, 2]) / dt + const[1]
+    out[2] = (C[0, 1] - C[1, 0]) / dt + const[2]
+    S = D.shape[0]
+    for s in range(S):
+        a0, a1, a2, a3 = _qmul(q[0], q[1], q[2], q[3], D[s, 0], D[s, 1], D[s, 2], D[s, 3])
+        r0, r1, r2 = _qlog(a0, a1, a2, a3)
+        w0 = wf * r0 + w_back[s, 0]
+        w1 = wf * r1 + w_back[s, 1]
+        w2 = wf * r2 + w_back[s, 2]
+        out[0] += Iw[s, 0, 0] * w0 + Iw[s, 0, 1] * w1 + Iw[s, 0, 2] * w2
+        out[1] += Iw[s, 1, 0] * w0 + Iw[s, 1, 1] * w1 + Iw[s, 1, 2] * w2
+        out[2] += Iw[s, 2, 0] * w0 + Iw[s, 2, 1] * w1 + Iw[s, 2, 2] * w2
+
+
+@numba.njit(cache=True, nogil=True)
+def _rotate_frame(X, Q, pivot, f, q, R):
+    """Rotate frame ``f``'s segment COMs about ``pivot`` and its orientations by ``q`` (in place)."""
+    _qmat(q, R)
+    for s in range(X.shape[1]):
+        d0 = X[f, s, 0] - pivot[0]
+        d1 = X[f, s, 1] - pivot[1]
+        d2 = X[f, s, 2] - pivot[2]
+        X[f, s, 0] = pivot[0] + R[0, 0] * d0 + R[0, 1] * d1 + R[0, 2] * d2
+        X[f, s, 1] = pivot[1] + R[1, 0] * d0 + R[1, 1] * d1 + R[1, 2] * d2
+        X[f, s, 2] = pivot[2] + R[2, 0] * d0 + R[2, 1] * d1 + R[2, 2] * d2
+        a0, a1, a2, a3 = _qmul(q[0], q[1], q[2], q[3], Q[f, s, 0], Q[f, s, 1], Q[f, s, 2], Q[f, s, 3])
+        Q[f, s, 0] = a0
+        Q[f, s, 1] = a1
+        Q[f, s, 2] = a2
+        Q[f, s, 3] = a3
+
+
+@numba.njit(cache=True, nogil=True)
+def direction_sweep(m, I_local, X, Q, t, U, a, b, tol, max_iter):
+    """Eq. 5.18-5.21 over the flight ``[a, b)``: for ``f = a+1 .. b-2`` find the rotation of
+    pose ``f+1`` about its COM that makes ``unit(L_f) = U[f]``, warm-started from the
+    previous frame's rotation; Gauss-Newton on the unit-vector residual with an
+    analytic Jacobian (minimum-norm step: rotations about ``L`` leave its direction
+    alone) and step halving.
+
+    ``X (T, S, 3)`` segment COMs and ``Q (T, S, 4)`` segment orientations are
+    corrected in place. Returns ``(corr (T, 4), evaluations, first departure or -1,
+    iterations (T,))``; ``corr[g]`` is the total rotation applied to frame ``g``
+    about its COM (identity before the first departure; frames ``>= b`` get the last one).
+    """
+    T, S = X.shape[0], X.shape[1]
+    M = 0.0
+    for s in range(S):
+        M += m[s]
+    corr = np.zeros((T, 4))
+    corr[:, 3] = 1.0
+    iters = np.zeros(T, dtype=np.int64)
+    pivots = np.zeros((T, 3))
+    for f in range(T):
+        for s in range(S):
+            for k in range(3):
+                pivots[f, k] += m[s] * X[f, s, k]
+        for k in range(3):
+            pivots[f, k] /= M
+    cur = np.array([0.0, 0.0, 0.0, 1.0])
+    R = np.empty((3, 3))
+    Rf = np.empty((3, 3))
+    Iw = np.empty((S, 3, 3))
+    D = np.empty((S, 4))
+    w_back = np.empty((S, 3))
+    C0 = np.empty((3, 3))
+    const = np.empty(3)
+    ma = np.empty((S, 3))
+    d = np.empty((S, 3))
+    Iw_sum = np.empty((3, 3))
+    L = np.empty(3)
+    Ln = np.empty(3)
+    u = np.empty(3)
+    q = np.empty(4)
+    qn = np.empty(4)
+    ident = np.array([0.0, 0.0, 0.0, 1.0])
+    evals = 0
+    first = -1
+    for f in range(a + 1, b - 1):
+        if cur[3] < 1.0:
+            _rotate_frame(X, Q, pivots[f + 1], f + 1, cur, R)
+        h1 = t[f] - t[f - 1]
+        h2 = t[f + 1] - t[f]
+        dt = h1 + h2
+        wf = h1 / dt / h2
+        c1 = pivots[f + 1]
+        for k in range(3):
+            const[k] = 0.0
+            for j in range(3):
+                C0[k, j] = 0.0
+                Iw_sum[k, j] = 0.0
+        for s in range(S):
+            for k in range(3):
+                ma[s, k] = m[s] * (X[f, s, k] - pivots[f, k])
+                d[s, k] = X[f + 1, s, k] - c1[k]
+            # world inertia at f
+            _qmat(Q[f, s], Rf)
+            for i in range(3):
+                for j in range(3):
+                    acc = 0.0
+                    for p in range(3):
+                        for r in range(3):
+                            acc += Rf[i, p] * I_local[s, p, r] * Rf[j, r]
+                    Iw[s, i, j] = acc
+                    Iw_sum[i, j] += acc
+            # backward rotation vector q_f q_{f-1}^-1
+            b0, b1, b2, b3 = _qmul(Q[f, s, 0], Q[f, s, 1], Q[f, s, 2], Q[f, s, 3],
+                                   -Q[f - 1, s, 0], -Q[f - 1, s, 1], -Q[f - 1, s, 2], Q[f - 1, s, 3])
+            r0, r1, r2 = _qlog(b0, b1, b2, b3)
+            w_back[s, 0] = h2 / dt * r0 / h1
+            w_back[s, 1] = h2 / dt * r1 / h1
+            w_back[s, 2] = h2 / dt * r2 / h1
+            e0, e1, e2, e3 = _qmul(Q[f + 1, s, 0], Q[f + 1, s, 1], Q[f + 1, s, 2], Q[f + 1, s, 3],
+                                   -Q[f, s, 0], -Q[f, s, 1], -Q[f, s, 2], Q[f, s, 3])
+            D[s, 0] = e0
+            D[s, 1] = e1
+            D[s, 2] = e2
+            D[s, 3] = e3
+            for i in range(3):
+                for j in range(3):
+                    C0[i, j] += ma[s, i] * d[s, j]
+            v0 = c1[0] - X[f - 1, s, 0]
+            v1 = c1[1] - X[f - 1, s, 1]
+            v2 = c1[2] - X[f - 1, s, 2]
+            const[0] += (ma[s, 1] * v2 - ma[s, 2] * v1) / dt
+            const[1] += (ma[s, 2] * v0 - ma[s, 0] * v2) / dt
+            const[2] += (ma[s, 0] * v1 - ma[s, 1] * v0) / dt
+        for k in range(3):
+            u[k] = U[f, k]
+        _frame_L(ident, Iw, D, w_back, wf, C0, const, dt, R, L)
+        evals += 1
+        err = _angle(L, u)
+        if err <= tol:
+            for k in range(4):
+                corr[f + 1, k] = cur[k]
+            continue
+        if first < 0:
+            first = f
+        for k in range(4):
+            q[k] = ident[k]
+        it = 0
+        while it < max_iter:
+            n = math.sqrt(L[0] * L[0] + L[1] * L[1] + L[2] * L[2])
+            err_old = _angle(L, u)
+            if err_old <= tol:
+                break
+            it += 1
+            # Jacobian dL/dphi for q <- exp(phi) q: K/dt + wf * Iw_sum
+            _qmat(q, R)
+            K = np.zeros((3, 3))
+            ad = 0.0
+            rd = np.empty((S, 3))
+            for s in range(S):
+                for i in range(3):
+                    rd[s, i] = R[i, 0] * d[s, 0] + R[i, 1] * d[s, 1] + R[i, 2] * d[s, 2]
+                ad += ma[s, 0] * rd[s, 0] + ma[s, 1] * rd[s, 1] + ma[s, 2] * rd[s, 2]
+            for i in range(3):
+                for j in range(3):
+                    acc = 0.0
+                    for s in range(S):
+                        acc += rd[s, i] * ma[s, j]
+                    K[i, j] = -acc
+                K[i, i] += ad
+            Jl = np.empty((3, 3))
+            for i in range(3):
+                for j in range(3):
+                    Jl[i, j] = K[i, j] / dt + wf * Iw_sum[i, j]
+            # J = (I - l l^T)/n @ Jl, residual e = L/n - u
+            J = np.empty((3, 3))
+            e = np.empty(3)
+            for i in range(3):
+                e[i] = L[i] / n - u[i]
+                for j in range(3):
+                    acc = 0.0
+                    for k in range(3):
+                        P = (1.0 if i == k else 0.0) - L[i] * L[k] / (n * n)
+                        acc += P * Jl[k, j]
+                    J[i, j] = acc / n
+            JtJ = J.T @ J
+            tr = JtJ[0, 0] + JtJ[1, 1] + JtJ[2, 2]
+            for i in range(3):
+                JtJ[i, i] += 1e-12 * tr
+            step = -np.linalg.solve(JtJ, J.T @ e)
+            accepted = False
+            for _h in range(7):
+                x0, x1, x2, x3 = _qexp(step[0], step[1], step[2])
+                a0, a1, a2, a3 = _qmul(x0, x1, x2, x3, q[0], q[1], q[2], q[3])
+                qn[0] = a0
+                qn[1] = a1
+                qn[2] = a2
+                qn[3] = a3
+                _frame_L(qn, Iw, D, w_back, wf, C0, const, dt, R, Ln)
+                evals += 1
+                if _angle(Ln, u) <= err_old:
+                    accepted = True
+                    break
+                step *= 0.5
+            for k in range(4):
+                q[k] = qn[k]
+            for k in range(3):
+                L[k] = Ln[k]
+            if not accepted:
+                break
+        iters[f + 1] = it
+        nq = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+        for k in range(4):
+            q[k] /= nq
+        _rotate_frame(X, Q, pivots[f + 1], f + 1, q, R)
+        a0, a1, a2, a3 = _qmul(q[0], q[1], q[2], q[3], cur[0], cur[1], cur[2], cur[3])
+        nq = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2 + a3 * a3)
+        cur[0] = a0 / nq
+        cur[1] = a1 / nq
+        cur[2] = a2 / nq
+        cur[3] = a3 / nq
+        for k in range(4):
+            corr[f + 1, k] = cur[k]
+    for g in range(b, T):
+        for k in range(4):
+            corr[g, k] = cur[k]
+    return corr, evals, first, iters
+
+
+@numba.njit(cache=True, nogil=True)
+def interior_momentum(m, I_local, X, Q, t):
+    """``(n, 3)`` angular momentum about the COM (eq. 5.5) at frames ``1 .. n-2`` of segment COMs
+    ``X (n, S, 3)`` and orientations ``Q (n, S, 4)`` at times ``t``; rows 0 and n-1 are NaN.
+
+    Same discretisation as :func:`mocomp.dynamics.momentum` (``order=2``): non-uniform
+    central differences of the segment COMs, angular velocities blending the backward and
+    forward rotation vectors. The whole-body COM velocity cancels in ``L`` about the COM.
+    """
+    n, S = X.shape[0], X.shape[1]
+    out = np.full((n, 3), np.nan)
+    M = 0.0
+    for s in range(S):
+        M += m[s]
+    Rf = np.empty((3, 3))
+    for f in range(1, n - 1):
+        h1 = t[f] - t[f - 1]
+        h2 = t[f + 1] - t[f]
+        dt = h1 + h2
+        c0 = 0.0
+        c1 = 0.0
+        c2 = 0.0
+        for s in range(S):
+            c0 += m[s] * X[f, s, 0]
+            c1 += m[s] * X[f, s, 1]
+            c2 += m[s] * X[f, s, 2]
+        c0 /= M
+        c1 /= M
+        c2 /= M
+        L0 = 0.0
+        L1 = 0.0
+        L2 = 0.0
+        for s in range(S):
+            b0, b1, b2, b3 = _qmul(Q[f, s, 0], Q[f, s, 1], Q[f, s, 2], Q[f, s, 3],
+                                   -Q[f - 1, s, 0], -Q[f - 1, s, 1], -Q[f - 1, s, 2], Q[f - 1, s, 3])
+            r0, r1, r2 = _qlog(b0, b1, b2, b3)
+            e0, e1, e2, e3 = _qmul(Q[f + 1, s, 0], Q[f + 1, s, 1], Q[f + 1, s, 2], Q[f + 1, s, 3],
+                                   -Q[f, s, 0], -Q[f, s, 1], -Q[f, s, 2], Q[f, s, 3])
+            g0, g1, g2 = _qlog(e0, e1, e2, e3)
+            w0 = (h1 * g0 / h2 + h2 * r0 / h1) / dt
+            w1 = (h1 * g1 / h2 + h2 * r1 / h1) / dt
+            w2 = (h1 * g2 / h2 + h2 * r2 / h1) / dt
+            # R I R^T w = R (I (R^T w))
+            _qmat(Q[f, s], Rf)
+            u0 = Rf[0, 0] * w0 + Rf[1, 0] * w1 + Rf[2, 0] * w2
+            u1 = Rf[0, 1] * w0 + Rf[1, 1] * w1 + Rf[2, 1] * w2
+            u2 = Rf[0, 2] * w0 + Rf[1, 2] * w1 + Rf[2, 2] * w2
+            v0 = I_local[s, 0, 0] * u0 + I_local[s, 0, 1] * u1 + I_local[s, 0, 2] * u2
+            v1 = I_local[s, 1, 0] * u0 + I_local[s, 1, 1] * u1 + I_local[s, 1, 2] * u2
+            v2 = I_local[s, 2, 0] * u0 + I_local[s, 2, 1] * u1 + I_local[s, 2, 2] * u2
+            L0 += Rf[0, 0] * v0 + Rf[0, 1] * v1 + Rf[0, 2] * v2
+            L1 += Rf[1, 0] * v0 + Rf[1, 1] * v1 + Rf[1, 2] * v2
+            L2 += Rf[2, 0] * v0 + Rf[2, 1] * v1 + Rf[2, 2] * v2
+            # orbital: m (x - c) x v, v by the non-uniform central difference
+            p0 = X[f, s, 0] - c0
+            p1 = X[f, s, 1] - c1
+            p2 = X[f, s, 2] - c2
+            a = h2 / (h1 * dt)
+            bb = (h2 - h1) / (h1 * h2)
+            c = h1 / (h2 * dt)
+            q0 = -a * X[f - 1, s, 0] + bb * X[f, s, 0] + c * X[f + 1, s, 0]
+            q1 = -a * X[f - 1, s, 1] + bb * X[f, s, 1] + c * X[f + 1, s, 1]
+            q2 = -a * X[f - 1, s, 2] + bb * X[f, s, 2] + c * X[f + 1, s, 2]
+            L0 += m[s] * (p1 * q2 - p2 * q1)
+            L1 += m[s] * (p2 * q0 - p0 * q2)
+            L2 += m[s] * (p0 * q1 - p1 * q0)
+        out[f, 0] = L0
+        out[f, 1] = L1
+        out[f, 2] = L2
+    return out

@@ -1,0 +1,240 @@
+"""Step 3 of the restoration: linear momentum (dissertation section 5.5.3).
+
+"The non-uniform retiming described in the previous section can cause changes
+in the jump duration. To ensure proper momentum build-up and release, we retime
+the motion uniformly, similarly as in Section 5.4.3. Next, we reposition the
+character's center of mass (as in Section 5.4.4) so that it follows a correct
+trajectory under gravity."
+
+:func:`correct_linear` does exactly that with the Acrobatics-I machinery:
+:func:`mocomp.flips.retime.plan_retime` chooses ``k`` (``k*`` of App. B eq. B.5
+for the new flight duration, default ``0.7 k*`` as section 5.4.3; ``k`` and
+``k*`` explained there, including how a ``k`` different from ``k*`` is
+resolved), the whole motion is played ``k`` times faster, and every flight
+frame is translated so its COM lies on the parabola of eq. 5.15/5.17
+(:func:`mocomp.flips.reposition.flight_trajectory`, anchored at the take-off
+COM); frames after the landing get eq. 5.16's offset. Translation does not
+change angular momentum about the COM (section 5.4.1), so steps 1-2 survive;
+uniform retiming multiplies it by ``k`` everywhere (eq. 5.8), take-off included.
+
+**Take-off height and the platform** (App. B, Fig. 5.8 and 5.10). ``takeoff_height``
+raises everything before the flight by that many metres (a dive from a
+platform); the landing stays where it was, so ``dy`` (landing minus take-off
+level) falls by the same amount and ``k*`` follows App. B. With a raised
+take-off the body must not pass through the platform on the way down (Fig.
+5.10: "guarantees that the character's body does not touch the platform during
+the fall phase"): the platform is the half-space behind the take-off edge (the
+most forward point of the body at take-off along the horizontal travel
+direction) below the take-off level. If some joint would dip below the
+platform top while still over it, the horizontal take-off speed along the
+travel direction is raised by the smallest amount that clears it (bisection),
+and that change is reported.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..core.motion import Motion
+from ..errors import PhysicsError
+from ..flips.mass import FlightFit
+from ..flips.reposition import ComEvaluator, FlightTrajectory, flight_trajectory
+from ..flips.retime import RetimePlan, plan_retime
+
+__all__ = ["LinearResult", "PlatformCheck", "correct_linear"]
+
+
+@dataclass(frozen=True)
+class PlatformCheck:
+    """Clearance of the body over the take-off platform during the flight.
+
+    Attributes
+    ----------
+    top: m, platform top (the take-off support level after the height change).
+    edge: m, position of the platform edge along ``direction`` (horizontal unit vector).
+    direction: ``(3,)`` horizontal travel direction.
+    clearance: m, smallest height of any joint above the platform top while over it
+        (``inf`` when no joint is over the platform during the flight).
+    extra_speed: m/s, horizontal take-off speed added along ``direction`` to clear it.
+    """
+
+    top: float
+    edge: float
+    direction: np.ndarray
+    clearance: float
+    extra_speed: float
+
+
+@dataclass(frozen=True, eq=False)
+class LinearResult:
+    """Step 3 (section 5.5.3) output and evidence.
+
+    Attributes
+    ----------
+    motion: uniformly retimed and repositioned motion.
+    flight: ``(start, stop)`` flight frames of the output.
+    source_times: ``(T_out,)`` s, the input time each output frame shows (``k`` x its own time).
+    plan: the :class:`~mocomp.flips.retime.RetimePlan` (``k``, ``k*``, velocity jumps).
+    trajectory: the flight's COM parabola (:class:`~mocomp.flips.reposition.FlightTrajectory`,
+        ``t`` in seconds from the take-off instant ``takeoff_time``).
+    takeoff_time: s, take-off instant in the output (in general between two frames).
+    com_residual: m, max distance of the output flight frames' COM from the parabola.
+    takeoff_height: m, height change applied to the take-off (App. B).
+    platform: :class:`PlatformCheck` or ``None``.
+    seconds: wall time.
+    """
+
+    motion: Motion
+    flight: tuple[int, int]
+    source_times: np.ndarray
+    plan: RetimePlan
+    trajectory: FlightTrajectory
+    takeoff_time: float
+    com_residual: float
+    takeoff_height: float
+    platform: PlatformCheck | None
+    seconds: float
+
+    @property
+    def k(self) -> float:
+        return self.plan.k
+
+
+def _lowest_and_forward(motion: Motion, frame: int, direction: np.ndarray) -> tuple[float, float]:
+    P = np.concatenate([motion.positions[frame], motion.end_site_positions()[frame]], axis=0) \
+        if motion.skeleton.end_sites else motion.positions[frame]
+    return float(P[:, 1].min()), float((P @ direction).max())
+
+
+def correct_linear(body, motion: Motion, flight, fit: FlightFit, *, k: float | None = None,
+                   k_ratio: float | None = None, takeoff_height: float = 0.0, platform: bool | str = "auto",
+                   clearance: float = 0.0, gravity: float | None = None,
+                   com_eval: ComEvaluator | None = None) -> LinearResult:
+    """Uniform retiming by ``k`` and COM repositioning over the flight (section 5.5.3).
+
+    Parameters
+    ----------
+    body: body model of the motion (the one the COM is computed with).
+    motion: the motion after steps 1-2 (its flight ``[start, stop)`` may be longer or
+        shorter than the original's; frames before ``start`` are the original's).
+    flight: ``(start, stop)`` of ``motion``'s flight.
+    fit: the *original* flight's ballistic fit (:func:`mocomp.flips.mass.fit_ballistic`):
+        take-off velocity ``(a_x, b_y, a_z)`` and duration; its gravity is used unless
+        ``gravity`` is given.
+    k, k_ratio: retiming factor, or its ratio to ``k*`` (default 0.7, section 5.4.3).
+    takeoff_height: m, raise the take-off (all frames before the flight) by this much.
+    platform: enforce clearance over the take-off platform: ``"auto"`` (when
+        ``takeoff_height > 0``), ``True`` or ``False``.
+    clearance: m, required margin above the platform top.
+    com_eval: a prepared :class:`~mocomp.flips.reposition.ComEvaluator` for ``body``.
+    """
+    t0 = time.perf_counter()
+    a, b = int(flight[0]), int(flight[1])
+    if not (0 <= a < b <= motion.n_frames and b - a >= 3):
+        raise ValueError(f"flight [{a}, {b}) is not a flight of this {motion.n_frames}-frame motion")
+    fps = motion.fps
+    ce = com_eval if com_eval is not None else ComEvaluator(body)
+    g = float(fit.gravity if gravity is None else gravity)
+    if not g > 0:
+        raise PhysicsError(f"the original flight's fitted gravity is {g:.3f} m/s^2 (not downward); "
+                           "the flight fit is not ballistic")
+    h = float(takeoff_height)
+    if not np.isfinite(h):
+        raise ValueError(f"takeoff_height must be finite, got {takeoff_height!r}")
+    com_in = ce(motion.root_positions[[a, b - 1]], motion.rotations[[a, b - 1]])
+    c_take, c_land = com_in[0], com_in[1]
+    T_seq = (b - 1 - a) / fps
+    T0 = (fit.stop - 1 - fit.start) / fps
+    v0 = fit.b_y
+    v_land = fit.b_y + 2.0 * fit.a_y * T0
+    dy = float(c_land[1] - c_take[1] - h)
+    try:
+        plan = plan_retime(g, T_seq, v0, dy, v_land, k=k, k_ratio=k_ratio)
+    except PhysicsError as e:
+        if h != 0.0:
+            raise PhysicsError(f"{e} (take-off raised by {h:.3f} m, so the landing lies {dy:.3f} m above it)") from e
+        raise
+    kk = plan.k
+    n_out = int(np.floor(motion.duration * fps / kk + 1e-9)) + 1
+    src = np.minimum(np.arange(n_out) * kk / fps, motion.duration)
+    out = motion.sample(src)
+    ta, tl = a / fps, (b - 1) / fps
+    tau_a = ta / kk
+    eps = 1e-9
+    ja = int(np.ceil(ta * fps / kk - eps))
+    jb = int(np.floor(tl * fps / kk + eps))
+    c0 = c_take + np.array([0.0, h, 0.0])
+    traj = flight_trajectory(c0, fit.a_x, fit.a_z, -0.5 * g, kk, plan.vy_takeoff_new, plan.T_new)
+    rp = np.array(out.root_positions)
+    rot = out.rotations
+    before = src < ta - eps
+    rp[before, 1] += h
+    fl = np.arange(ja, jb + 1)
+    rel = ce.relative(rot[fl])                      # COM - root of each flight frame
+    tt = fl / fps - tau_a
+    pcheck = None
+    vel = np.array(traj.velocity)
+    use_platform = (h > 0) if platform == "auto" else bool(platform)
+    if use_platform:
+        vh = np.array([vel[0], 0.0, vel[2]])
+        if np.linalg.norm(vh) < 1e-6:
+            raise PhysicsError("the platform check needs a horizontal travel direction, but the take-off has no "
+                               "horizontal velocity; give platform=False or a clip that leaves the platform")
+        d = vh / np.linalg.norm(vh)
+        low, edge = _lowest_and_forward(motion, a, d)
+        top = low + h
+        # joint positions relative to each flight frame's COM (translation-invariant)
+        sk = out.skeleton
+        Pj = out[int(fl[0]):int(fl[-1]) + 1].positions
+        if sk.end_sites:
+            Pj = np.concatenate([Pj, out[int(fl[0]):int(fl[-1]) + 1].end_site_positions()], axis=1)
+        com_fl = rp[fl] + rel
+        Prel = Pj - com_fl[:, None, :]
+
+        def clear(extra):
+            v = vel + extra * d
+            c = c0 + tt[:, None] * v
+            c[:, 1] += traj.a_y * tt * tt
+            P = Prel + c[:, None, :]
+            over = (P @ d) <= edge
+            if not np.any(over):
+                return np.inf
+            return float(np.min(np.where(over, P[..., 1] - top, np.inf)))
+
+        extra = 0.0
+        cl = clear(0.0)
+        if cl < clearance:
+            hi = 0.5
+            while clear(hi) < clearance:
+                hi *= 2
+                if hi > 20.0:
+                    raise PhysicsError(
+                        f"the body passes {-cl:.3f} m below the platform top ({h:.3f} m take-off) and even "
+                        f"{hi:.0f} m/s more horizontal speed does not clear it; lower takeoff_height")
+            lo = 0.0
+            for _ in range(40):
+                mid = 0.5 * (lo + hi)
+                if clear(mid) >= clearance:
+                    hi = mid
+                else:
+                    lo = mid
+            extra = hi
+            vel = vel + extra * d
+            traj = FlightTrajectory(c0=traj.c0, velocity=vel, a_y=traj.a_y, T_new=traj.T_new)
+            cl = clear(extra)
+        pcheck = PlatformCheck(top=float(top), edge=float(edge), direction=d, clearance=float(cl),
+                               extra_speed=float(extra))
+    target = traj(tt)
+    rp[fl] = target - rel
+    after = src > tl + eps
+    if np.any(after):
+        c_land_new = traj(np.array([(tl - ta) / kk]))[0]
+        rp[after] += c_land_new - c_land
+    res = out.replace(root_positions=rp)
+    com_out = ce(rp[fl], rot[fl])
+    resid = float(np.max(np.linalg.norm(com_out - target, axis=1))) if fl.size else 0.0
+    return LinearResult(motion=res, flight=(ja, jb + 1), source_times=src, plan=plan, trajectory=traj,
+                        takeoff_time=float(tau_a), com_residual=resid, takeoff_height=h, platform=pcheck,
+                        seconds=time.perf_counter() - t0)

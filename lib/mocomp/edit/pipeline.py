@@ -1,0 +1,383 @@
+"""The whole restoration after an in-flight edit (dissertation section 5.5, flips paper 5.5).
+
+:func:`restore_momentum` runs the three steps on an edited motion and keeps the
+evidence the paper plots:
+
+1. direction of L (eq. 5.18-5.21, :func:`~mocomp.edit.restore.correct_direction`);
+2. magnitude of L by non-uniform retiming (eq. 5.22, :func:`~mocomp.edit.restore.correct_magnitude`);
+3. uniform retiming and COM repositioning (section 5.5.3, :func:`~mocomp.edit.linear.correct_linear`).
+
+For each stage (the unedited original, the edit, after each step) the
+per-frame direction error (radians) and magnitude error (fraction) of ``L``
+over the flight are recorded against the target (Figures 3 / 5.4 / 5.5);
+after step 3 the target is ``k`` times the original one, since uniform
+retiming scales momentum by ``k`` (eq. 5.8).
+"""
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..core.motion import Motion
+from ..dynamics.com import check_compatible
+from ..flips.mass import FlightFit, fit_ballistic
+from ..flips.reposition import ComEvaluator
+from .layers import EditRangeError
+from .linear import LinearResult, correct_linear
+from .restore import (DirectionResult, MagnitudeResult, correct_direction, correct_magnitude, direction_error,
+                      flight_momentum, magnitude_error, validate_flight)
+
+__all__ = ["StageErrors", "RestoreResult", "restore_momentum", "changed_frames", "STAGES"]
+
+#: evidence stages in order
+STAGES = ("original", "edited", "direction", "magnitude", "final")
+
+
+@dataclass(frozen=True, eq=False)
+class StageErrors:
+    """Per-frame momentum errors over one stage's flight (interior frames).
+
+    Attributes
+    ----------
+    stage: one of :data:`STAGES`.
+    frames: ``(n,)`` frame indices in that stage's motion.
+    times: ``(n,)`` s since that stage's take-off.
+    phase: ``(n,)`` fraction of that stage's flight (0 = take-off, 1 = landing).
+    source_times: ``(n,)`` s, the time in the *original* motion each frame shows.
+    L: ``(n, 3)`` kg m^2/s; target: ``(n, 3)`` the target it is compared with.
+    direction: ``(n,)`` rad, angle between ``L`` and the target.
+    magnitude: ``(n,)`` relative magnitude error (fraction; x100 for %).
+    """
+
+    stage: str
+    frames: np.ndarray
+    times: np.ndarray
+    phase: np.ndarray
+    source_times: np.ndarray
+    L: np.ndarray
+    target: np.ndarray
+    direction: np.ndarray
+    magnitude: np.ndarray
+
+    @property
+    def max_direction(self) -> float:
+        return float(np.max(self.direction)) if self.direction.size else 0.0
+
+    @property
+    def max_magnitude(self) -> float:
+        return float(np.max(self.magnitude)) if self.magnitude.size else 0.0
+
+    @property
+    def rms_magnitude(self) -> float:
+        return float(np.sqrt(np.mean(self.magnitude ** 2))) if self.magnitude.size else 0.0
+
+    def as_dict(self) -> dict:
+        return {"stage": self.stage, "frames": self.frames.tolist(), "time_s": self.times.tolist(),
+                "phase": self.phase.tolist(), "source_time_s": self.source_times.tolist(),
+                "direction_error_rad": self.direction.tolist(), "magnitude_error": self.magnitude.tolist(),
+                "max_direction_error_rad": self.max_direction, "max_magnitude_error": self.max_magnitude}
+
+
+@dataclass(frozen=True, eq=False)
+class RestoreResult:
+    """Output and evidence of :func:`restore_momentum`.
+
+    Attributes
+    ----------
+    motion: the restored motion.
+    original, edited: the inputs.
+    body: the body model used.
+    flight: ``(start, stop)`` of the original/edited flight; flight_out: of the output.
+    reference: ``"constant"`` (target ``L*``, dissertation eq. 5.19/5.22) or ``"original"``
+        (the original's own ``L(f)``, conference paper section 5.5).
+    L_star: ``(3,)`` kg m^2/s, the constant target (the original flight's mean ``L`` unless given).
+    fit: the original flight's ballistic COM fit (take-off velocity, gravity).
+    edit_frames: ``(first, last)`` frames the edit changed (``None``: nothing changed).
+    direction, magnitude, linear: the three steps' results.
+    stages: :class:`StageErrors` per stage (:data:`STAGES`); ``final`` is the output.
+    timings: seconds per step (``direction``, ``magnitude``, ``linear``, ``polish``, ``evidence``, ``total``).
+    polish: the final direction sweep over the output flight (``None`` if disabled).
+    """
+
+    motion: Motion
+    original: Motion
+    edited: Motion
+    body: object
+    flight: tuple[int, int]
+    flight_out: tuple[int, int]
+    reference: str
+    L_star: np.ndarray
+    fit: FlightFit
+    edit_frames: tuple[int, int] | None
+    direction: DirectionResult
+    magnitude: MagnitudeResult
+    linear: LinearResult
+    stages: dict
+    timings: dict
+    notes: tuple[str, ...] = field(default=())
+    polish: DirectionResult | None = None
+
+    @property
+    def k(self) -> float:
+        return self.linear.plan.k
+
+    @property
+    def k_star(self) -> float:
+        return self.linear.plan.k_star
+
+    def flight_duration(self, which: str = "final") -> float:
+        """Seconds from the take-off frame to the last airborne frame."""
+        fps = self.motion.fps
+        if which == "final":
+            a, b = self.flight_out
+        elif which == "magnitude":
+            a, b = self.magnitude.flight
+        else:
+            a, b = self.flight
+        return (b - 1 - a) / fps
+
+    def summary(self) -> str:
+        s = self.stages
+        lines = [f"edit frames {self.edit_frames}, flight {self.flight[0]}-{self.flight[1] - 1} "
+                 f"({self.flight_duration('original'):.3f} s) -> {self.flight_out[0]}-{self.flight_out[1] - 1} "
+                 f"({self.flight_duration():.3f} s); target {self.reference} |L*| = {np.linalg.norm(self.L_star):.2f}",
+                 "stage       max dir err (rad)   max |L| err (%)   rms |L| err (%)"]
+        for name in STAGES:
+            e = s[name]
+            lines.append(f"{name:<11} {e.max_direction:>17.2e}   {100 * e.max_magnitude:>15.2f}   "
+                         f"{100 * e.rms_magnitude:>15.2f}")
+        p = self.linear.plan
+        lines.append(f"k = {p.k:.3f} (k* = {p.k_star:.3f}), take-off vy jump {p.vy_takeoff_jump:+.3f} m/s, "
+                     f"landing vy jump {p.vy_landing_jump:+.3f} m/s; COM parabola residual "
+                     f"{self.linear.com_residual:.1e} m")
+        if self.linear.platform is not None:
+            pc = self.linear.platform
+            lines.append(f"platform top {pc.top:.3f} m: clearance {pc.clearance:.3f} m, extra horizontal speed "
+                         f"{pc.extra_speed:.3f} m/s")
+        if self.polish is not None:
+            ang = np.degrees(np.max(2 * np.arccos(np.clip(np.abs(self.polish.corrections[:, 3]), 0, 1))))
+            lines.append(f"final direction sweep: largest rotation {ang:.2f} deg")
+        lines.append("time: " + ", ".join(f"{k} {1e3 * v:.1f} ms" for k, v in self.timings.items()))
+        lines += [f"note: {n}" for n in self.notes]
+        return "\n".join(lines)
+
+    def report(self, curves: bool = True) -> dict:
+        """A JSON-serialisable report (numbers, and the per-frame curves when ``curves``)."""
+        p = self.linear.plan
+        d = {
+            "flight": list(self.flight), "flight_out": list(self.flight_out),
+            "flight_duration_s": {"original": self.flight_duration("original"),
+                                  "after_magnitude": self.flight_duration("magnitude"),
+                                  "final": self.flight_duration()},
+            "fps": self.motion.fps, "edit_frames": None if self.edit_frames is None else list(self.edit_frames),
+            "reference": self.reference, "L_star": self.L_star.tolist(),
+            "gravity": self.fit.gravity, "takeoff_velocity": [self.fit.a_x, self.fit.b_y, self.fit.a_z],
+            "direction": {"method": self.direction.method, "first_departure": self.direction.first_departure,
+                          "evaluations": self.direction.evaluations,
+                          "max_correction_deg": float(np.degrees(np.max(2 * np.arccos(np.clip(
+                              np.abs(self.direction.corrections[:, 3]), 0, 1)))))},
+            "retime": {"k": p.k, "k_star": p.k_star, "k_ratio": p.k_ratio, "T_seq": p.T_seq, "T_new": p.T_new,
+                       "v0": p.v0, "dy": p.dy, "vy_takeoff_new": p.vy_takeoff_new,
+                       "vy_takeoff_jump": p.vy_takeoff_jump, "vy_landing_jump": p.vy_landing_jump, "note": p.note},
+            "polish_max_rotation_deg": None if self.polish is None else float(np.degrees(np.max(
+                2 * np.arccos(np.clip(np.abs(self.polish.corrections[:, 3]), 0, 1))))),
+            "com_parabola_residual_m": self.linear.com_residual,
+            "takeoff_height_m": self.linear.takeoff_height,
+            "platform": None if self.linear.platform is None else {
+                "top": self.linear.platform.top, "clearance": self.linear.platform.clearance,
+                "extra_speed": self.linear.platform.extra_speed},
+            "max_errors": {n: {"direction_rad": e.max_direction, "magnitude": e.max_magnitude,
+                               "rms_magnitude": e.rms_magnitude} for n, e in self.stages.items()},
+            "timings_s": dict(self.timings), "notes": list(self.notes),
+        }
+        if curves:
+            d["curves"] = {n: e.as_dict() for n, e in self.stages.items()}
+        return d
+
+    def write_report(self, path, curves: bool = True) -> None:
+        with open(path, "w") as fh:
+            json.dump(self.report(curves), fh, indent=1)
+
+
+def changed_frames(original: Motion, edited: Motion, atol: float = 1e-9) -> np.ndarray:
+    """Indices of frames whose root position or any joint rotation differs (quaternion sign ignored)."""
+    if original.skeleton.names != edited.skeleton.names or original.n_frames != edited.n_frames:
+        raise EditRangeError(f"the edited motion ({edited.n_frames} frames, {edited.skeleton.n_joints} joints) "
+                             f"does not match the original ({original.n_frames} frames, "
+                             f"{original.skeleton.n_joints} joints): an edit must keep the frames and skeleton")
+    dp = np.abs(edited.root_positions - original.root_positions).max(axis=1)
+    qa, qb = edited.rotations, original.rotations
+    dq = np.minimum(np.linalg.norm(qa - qb, axis=-1), np.linalg.norm(qa + qb, axis=-1)).max(axis=1)
+    return np.flatnonzero((dp > atol) | (dq > atol))
+
+
+def _stage(name, body, motion, flight, src_of_frame, target_fn, scale=1.0, L=None):
+    a, b = flight
+    frames = np.arange(a + 1, b - 1)
+    if L is None:
+        L = flight_momentum(body, motion, flight)
+    L = L[frames]
+    src = src_of_frame(frames)
+    tgt = scale * target_fn(src)
+    fps = motion.fps
+    dur = max((b - 1 - a) / fps, 1e-12)
+    t = (frames - a) / fps
+    return StageErrors(stage=name, frames=frames, times=t, phase=t / dur, source_times=src, L=L, target=tgt,
+                       direction=direction_error(L, tgt) if frames.size else np.zeros(0),
+                       magnitude=magnitude_error(L, tgt) if frames.size else np.zeros(0))
+
+
+def restore_momentum(body, original: Motion, edited: Motion, flight, *, k_ratio: float | None = None,
+                     k: float | None = None, reference: str = "constant", L_star=None,
+                     method: str = "gauss-newton", takeoff_height: float = 0.0, platform: bool | str = "auto",
+                     clearance: float = 0.0, gravity: float | None = None, oversample: int = 8,
+                     tol: float = 1e-7, fit: FlightFit | None = None, polish: bool = True) -> RestoreResult:
+    """Restore momentum conservation of an in-flight edit (section 5.5, all three steps).
+
+    Parameters
+    ----------
+    body: body model (segment masses and inertias) of the skeleton.
+    original: the unedited motion; edited: the same frames after the animator's edit
+        (e.g. :func:`mocomp.edit.apply_preset`); the edit must change only frames strictly
+        inside the flight (``start+1 .. stop-2``), else :class:`EditRangeError`.
+    flight: ``(start, stop)`` half-open frames of the ballistic phase.
+    k_ratio, k: step 3's uniform retiming factor, or its ratio to ``k*`` (App. B eq. B.5 for the
+        restored flight's duration). Default ``k_ratio = 1``: section 5.5.3 retimes "to ensure
+        proper momentum build-up and release", i.e. linear momentum continuous at take-off and
+        landing, which is ``k = k*``; the flight then lasts ``sqrt(T_seq T)`` (longer, higher,
+        slower rotation for a straight-leg edit, as Fig. 5.9 shows). ``k_ratio = 0.7`` is
+        section 5.4.3's aesthetic choice for multi-flips ("higher jumps with slower rotations");
+        it leaves vertical velocity jumps at take-off and landing (reported).
+    reference: ``"constant"`` (default): the target is the constant ``L*`` (eq. 5.19, 5.22), the
+        original flight's mean ``L`` unless ``L_star`` is given; ``"original"``: the original's own
+        ``L(f)`` frame by frame (conference paper's ``ratio = |L_modif(f)| / |L(f)|``).
+    method: step 1's solver, ``"gauss-newton"`` or ``"bfgs"`` (the paper's).
+    takeoff_height, platform, clearance, gravity: step 3 options (:func:`~mocomp.edit.linear.correct_linear`).
+    oversample: step 2's fine grid (x the frame rate).
+    tol: step 1's direction tolerance (rad).
+    fit: the original flight's ballistic fit, if already computed.
+    polish: after step 3, sweep step 1 once more over the output flight (targets at the
+        frames' source times): the in-between poses that steps 2-3 interpolate move the
+        finite-difference ``L`` off its direction by about the data's own frame-to-frame
+        noise. The rotations are about each frame's COM, so the parabola stays exact; the
+        frames after the landing turn rigidly with the last one (reported).
+    """
+    t_all = time.perf_counter()
+    if k is None and k_ratio is None:
+        k_ratio = 1.0
+    if reference not in ("constant", "original"):
+        raise ValueError(f"reference must be 'constant' or 'original', got {reference!r}")
+    if reference == "original" and L_star is not None:
+        raise ValueError("L_star is a constant target; it cannot be combined with reference='original'")
+    check_compatible(body, original)
+    check_compatible(body, edited)
+    if edited.fps != original.fps:
+        raise EditRangeError(f"the edited motion is at {edited.fps:g} Hz, the original at {original.fps:g} Hz")
+    a, b = validate_flight(original, flight)
+    changed = changed_frames(original, edited)
+    edit_frames = (int(changed[0]), int(changed[-1])) if changed.size else None
+    if changed.size and (changed[0] < a + 1 or changed[-1] > b - 2):
+        raise EditRangeError(
+            f"the edit changes frames {changed[0]}-{changed[-1]}, but the flight is frames {a}-{b - 1}: edits "
+            f"must lie strictly inside it (frames {a + 1}-{b - 2}), so that L at take-off stays the original's "
+            "(eq. 5.19) and the landing is untouched; move or shorten the edit")
+    timings = {}
+    ce = ComEvaluator(body)
+    fps = original.fps
+    if fit is None:
+        fit = fit_ballistic(ce(original.root_positions[a:b], original.rotations[a:b]), fps, a)
+    L_orig = flight_momentum(body, original, (a, b))
+    Lmean = np.nanmean(L_orig[a + 1:b - 1], axis=0)
+    L_const = Lmean if L_star is None else np.asarray(L_star, dtype=float)
+    if L_const.shape != (3,) or not np.linalg.norm(L_const) > 0:
+        raise ValueError(f"L_star must be a non-zero 3-vector, got {L_star!r}")
+    notes = []
+    if edit_frames is None:
+        notes.append("the edited motion equals the original: nothing to restore but the uniform retiming")
+    # step 1
+    t = time.perf_counter()
+    target1 = L_const if reference == "constant" else L_orig
+    d = correct_direction(body, edited, (a, b), L_star=target1, method=method, tol=tol)
+    timings["direction"] = time.perf_counter() - t
+    # step 2
+    t = time.perf_counter()
+    if reference == "constant":
+        mg = correct_magnitude(body, d.motion, (a, b), L_star=L_const, oversample=oversample, L_before=d.L_after)
+    else:
+        mg = correct_magnitude(body, d.motion, (a, b), oversample=oversample, reference=original,
+                               L_before=d.L_after)
+    timings["magnitude"] = time.perf_counter() - t
+    # step 3
+    t = time.perf_counter()
+    lin = correct_linear(body, mg.motion, mg.flight, fit, k=k, k_ratio=k_ratio, takeoff_height=takeoff_height,
+                         platform=platform, clearance=clearance, gravity=gravity, com_eval=ce)
+    timings["linear"] = time.perf_counter() - t
+    # evidence
+    t = time.perf_counter()
+    frame_t = original.times
+    if reference == "constant":
+        def dir_target(src):
+            return np.broadcast_to(L_const, (np.size(src), 3))
+
+        def mag_target(src):
+            return dir_target(src)
+    else:
+        good = np.all(np.isfinite(L_orig), axis=1)
+        tt, LL = frame_t[good], L_orig[good]
+
+        def dir_target(src):
+            return np.column_stack([np.interp(src, tt, LL[:, i]) for i in range(3)])
+
+        def mag_target(src):
+            # direction from the frame-rate original, magnitude from step 2's fine grid (its exact target)
+            v = dir_target(src)
+            v = v / np.linalg.norm(v, axis=1, keepdims=True)
+            return v * np.interp(src, mg.ratio_times, mg.ref_magnitude)[:, None]
+
+    ident = lambda f: frame_t[f]  # noqa: E731
+    stages = {
+        # the clip's own variation: the unedited flight against its own constant target
+        "original": _stage("original", body, original, (a, b), ident,
+                           lambda src: np.broadcast_to(L_const, (np.size(src), 3)), L=L_orig),
+        "edited": _stage("edited", body, edited, (a, b), ident, dir_target, L=d.L_before),
+        "direction": _stage("direction", body, d.motion, (a, b), ident, dir_target, L=d.L_after),
+    }
+    src2 = mg.source_times
+    stages["magnitude"] = _stage("magnitude", body, mg.motion, mg.flight, lambda f: src2[f], mag_target,
+                                 L=mg.L_after)
+    t2 = mg.motion.times
+
+    def src3(f):
+        return np.interp(lin.source_times[f], t2, src2)
+
+    final = lin.motion
+    polish_res = None
+    if polish:
+        # Resampling at in-between times (steps 2 and 3) moves the finite-difference L off its
+        # direction by about the capture's own frame-to-frame noise; one more sweep of step 1
+        # over the output flight (targets at the source times) removes that. Rotations about
+        # each frame's COM leave the COM parabola of step 3 exact.
+        tp = time.perf_counter()
+        fr = np.arange(lin.motion.n_frames)
+        tgt = np.full((lin.motion.n_frames, 3), np.nan)
+        fa, fb = lin.flight
+        tgt[fa + 1:fb - 1] = dir_target(src3(fr[fa + 1:fb - 1]))
+        tgt[:fa + 1] = tgt[fa + 1]
+        tgt[fb - 1:] = tgt[fb - 2]
+        polish_res = correct_direction(body, lin.motion, lin.flight, L_star=tgt, method="gauss-newton", tol=tol)
+        final = polish_res.motion
+        timings["polish"] = time.perf_counter() - tp
+        t += timings["polish"]
+    stages["final"] = _stage("final", body, final, lin.flight, src3, mag_target, scale=lin.plan.k,
+                             L=None if polish_res is None else polish_res.L_after)
+    timings["evidence"] = time.perf_counter() - t
+    timings["total"] = time.perf_counter() - t_all
+    if lin.plan.note:
+        notes.append(lin.plan.note)
+    return RestoreResult(motion=final, original=original, edited=edited, body=body, flight=(a, b),
+                         flight_out=lin.flight, reference=reference, L_star=L_const, fit=fit,
+                         edit_frames=edit_frames, direction=d, magnitude=mg, linear=lin, stages=stages,
+                         timings=timings, notes=tuple(notes), polish=polish_res)
