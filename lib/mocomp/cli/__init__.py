@@ -19,6 +19,7 @@ COMMAND_MODULES: list[str] = [
     "info", "convert", "plot",
     "study",
     "splice",
+    "flips",
 ]
 
 

@@ -361,5 +361,5 @@ def estimate_masses(prior: BodyModel, motion, flights, W: float = 3e-4, symmetri
     return MassEstimate(body=body, prior=prior, groups=tuple(tuple(g) for g in groups), fits=fits, prior_fits=pfits,
                         W=float(W), residual_rms=_rms(fits), prior_residual_rms=_rms(pfits),
                         momentum_deviation=dev, prior_momentum_deviation=pdev,
-                        reduction=float(1.0 - dev / pdev) if pdev > 0 else float("nan"),
+                        reduction=float(1.0 - dev / pdev) if pdev > 1e-9 * M else float("nan"),
                         gravity_scale=scale, diagnosis=diag, seconds=time.perf_counter() - t0, notes=tuple(notes))

@@ -29,6 +29,7 @@ import numpy as np
 
 from ..core.motion import Motion
 from ..core.rotations import quat_angle, quat_apply, quat_inverse, quat_multiply
+from ..errors import PhysicsError
 from .preprocess import PreparedFlip, flight_L_stats, smooth_block
 from .reposition import FlightTrajectory, flight_trajectory
 from .retime import RetimePlan, plan_retime, sample_positions
@@ -80,7 +81,8 @@ class PhysicsReport:
     ``T_sequenced``, ``T_new``; ``gravity`` (m/s^2, the clip's), ``gravity_scale``.
     Angular momentum (kg m^2/s, estimated masses, flight interior): ``L_original``,
     ``L_new`` (mean |L|), ``L_variation_original``, ``L_variation_new`` (max relative
-    deviation of |L| from its mean), ``L_std_original``, ``L_std_new``,
+    deviation of |L| from its mean), ``L_std_original``, ``L_std_new`` (coefficient of
+    variation), ``L_range_original``, ``L_range_new`` (peak to peak over the mean),
     ``L_direction_change`` (angle between the mean L directions, after removing the
     rotation applied).
     COM: ``com_residual_rms``, ``com_residual_max`` (m, new flight COM about its own
@@ -130,6 +132,8 @@ class PhysicsReport:
     L_variation_new: float
     L_std_original: float
     L_std_new: float
+    L_range_original: float
+    L_range_new: float
     L_direction_change: float
     com_residual_rms: float
     com_residual_max: float
@@ -185,8 +189,9 @@ class PhysicsReport:
             f"{self.T_original:.3f} s -> {self.T_sequenced:.3f} s sequenced -> {self.T_new:.3f} s; clip gravity "
             f"{self.gravity:.2f} m/s^2 (s={self.gravity_scale:.2f})",
             f"angular momentum |L|: {self.L_original:.2f} -> {self.L_new:.2f} kg m^2/s; variation over the flight "
-            f"{100 * self.L_variation_original:.1f}% -> {100 * self.L_variation_new:.1f}% (std "
-            f"{100 * self.L_std_original:.1f}% -> {100 * self.L_std_new:.1f}%), direction change "
+            f"{100 * self.L_variation_original:.1f}% -> {100 * self.L_variation_new:.1f}% of the mean at most (std "
+            f"{100 * self.L_std_original:.1f}% -> {100 * self.L_std_new:.1f}%, peak to peak {100 * self.L_range_original:.1f}%"
+            f" -> {100 * self.L_range_new:.1f}%), direction change "
             f"{self.L_direction_change:.1f} deg",
             f"COM: residual about a ballistic fit rms {1e3 * self.com_residual_rms:.3f} mm, max "
             f"{1e3 * self.com_residual_max:.3f} mm; max distance to eq. 5.15/5.17 {1e3 * self.com_target_error:.2e} mm",
@@ -297,7 +302,17 @@ def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None 
     com_land = P.com[e - 1]
     dy = float(com_land[1] - com0[1] + height_change)
     v_land = fit.b_y + 2.0 * fit.a_y * T0
-    plan = plan_retime(fit.gravity, T_seq, fit.b_y, dy, v_land, k=k, k_ratio=k_ratio)
+    try:
+        plan = plan_retime(fit.gravity, T_seq, fit.b_y, dy, v_land, k=k, k_ratio=k_ratio)
+    except PhysicsError as exc:
+        if "radicand" not in str(exc):
+            raise
+        limit = fit.b_y * T_seq - (dy - height_change)
+        raise PhysicsError(
+            f"impossible height change {height_change:+.3f} m for a {flips}-flip from this clip: k* (App. B) needs "
+            f"the landing less than v0*T = {fit.b_y * T_seq:.3f} m above the take-off (v0 = {fit.b_y:.3f} m/s, "
+            f"sequenced flight T = {T_seq:.3f} s); the clip already lands {dy - height_change:+.3f} m from its "
+            f"take-off level, so use --height-change below {limit:.3f} m (or an explicit --k)") from None
     kk = plan.k
     tau = sample_positions(nseq, kk)
     i0 = np.minimum(np.floor(tau).astype(int), nseq - 2)
@@ -406,6 +421,7 @@ def _evaluate(P: PreparedFlip, seq: Sequence, plan: RetimePlan, traj: FlightTraj
         T_sequenced=plan.T_seq, T_new=plan.T_new, gravity=plan.g, gravity_scale=fit.scale,
         L_original=Lo["mean"], L_new=Ln["mean"], L_variation_original=Lo["variation"],
         L_variation_new=Ln["variation"], L_std_original=Lo["std"], L_std_new=Ln["std"],
+        L_range_original=Lo["range"], L_range_new=Ln["range"],
         L_direction_change=dir_change, com_residual_rms=rms, com_residual_max=mx, com_target_error=target_err,
         takeoff_angle_original=ang0, takeoff_angle_new=ang1, takeoff_angle_change=ang1 - ang0,
         p_jump_takeoff=M * plan.vy_takeoff_jump, p_jump_landing=M * plan.vy_landing_jump,

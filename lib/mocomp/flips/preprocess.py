@@ -82,15 +82,18 @@ def smooth_block(prep: "PreparedFlip", frames: np.ndarray, side, rotations: np.n
 
 def flight_L_stats(L: np.ndarray, start: int, stop: int, margin: int = 1) -> dict:
     """``|L|`` over a flight's interior (``margin`` frames dropped at each end, where central
-    differences straddle take-off/landing): mean, max relative deviation from the mean, and
-    relative standard deviation."""
+    differences straddle take-off/landing): ``mean``; ``variation``, the largest relative
+    deviation from the mean; ``std``, the coefficient of variation; ``range``, peak to peak
+    over the mean."""
     a, b = start + margin, stop - margin
     if b - a < 2:
         a, b = start, stop
     mag = np.linalg.norm(np.asarray(L)[a:b], axis=1)
     mean = float(mag.mean())
-    return {"mean": mean, "variation": float(np.max(np.abs(mag - mean)) / mean) if mean > 0 else float("nan"),
-            "std": float(mag.std() / mean) if mean > 0 else float("nan"), "frames": (a, b)}
+    ok = mean > 0
+    return {"mean": mean, "variation": float(np.max(np.abs(mag - mean)) / mean) if ok else float("nan"),
+            "std": float(mag.std() / mean) if ok else float("nan"),
+            "range": float(np.ptp(mag) / mean) if ok else float("nan"), "frames": (a, b)}
 
 
 @dataclass(frozen=True, eq=False)
@@ -185,8 +188,10 @@ class PreparedFlip:
                  f"  self-loop m={self.loop.m} n={self.loop.n} phi={np.degrees(self.loop.phi):.0f} deg, "
                  f"mean mismatch {self.loop.mean_angle_deg:.1f} deg" + ("" if self.loop.found else " (fallback)")]
         if self.mass is not None:
-            lines.append(f"  masses: linear-momentum deviation {self.mass.prior_momentum_deviation:.3f} -> "
-                         f"{self.mass.momentum_deviation:.3f} kg m/s ({100 * self.mass.reduction:.0f}% reduction)")
+            red = self.mass.reduction
+            lines.append(f"  masses: linear-momentum deviation from the ballistic pattern "
+                         f"{self.mass.prior_momentum_deviation:.3f} -> {self.mass.momentum_deviation:.3f} kg m/s "
+                         + (f"({100 * red:.0f}% reduction)" if np.isfinite(red) else "(already ballistic with the prior)"))
         lines += [f"  note: {n}" for n in self.notes]
         return "\n".join(lines)
 

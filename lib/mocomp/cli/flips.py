@@ -1,0 +1,64 @@
+"""``mocomp flips``: a multi-flip jump from a single flip (flips paper, section 5)."""
+from __future__ import annotations
+
+import argparse
+import math
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser(
+        "flips", help="turn a single flip into a double, triple, ... flip (momentum-conserving)",
+        description="Make an N-somersault jump from a single flip (Majkowska & Faloutsos 2007): detect the "
+                    "flight, estimate the mass distribution, repeat a self-looping fragment rotated about the "
+                    "angular momentum, retime (k = 0.7 k* by default) and reposition the centre of mass. "
+                    "Prints the physics report.")
+    p.add_argument("input", metavar="INPUT", help="motion file (BVH, ASF/AMC, DeepMimic) or a dataset name "
+                                                  "(e.g. backflip, 88_01)")
+    p.add_argument("--flips", type=int, default=2, help="total number of somersaults (default 2)")
+    k = p.add_mutually_exclusive_group()
+    k.add_argument("--k-ratio", type=float, default=None, help="retiming factor as a fraction of k* (default 0.7)")
+    k.add_argument("--k", type=float, default=None, help="explicit retiming factor (>1 = faster)")
+    p.add_argument("--height-change", type=float, default=0.0, metavar="DY",
+                   help="change of the landing level in metres (negative = land lower)")
+    p.add_argument("-o", "--output", required=True, metavar="OUT.bvh", help="where to write the new motion (BVH)")
+    p.add_argument("--report", metavar="report.json", help="also write the physics report as JSON")
+    p.add_argument("--fps", type=float, default=None, help="frame rate to use instead of the file's")
+    p.add_argument("--fix-timing", action="store_true",
+                   help="relabel the frame rate when the flight's gravity fit shows it is wrong")
+    p.add_argument("--flight", type=int, nargs=2, metavar=("START", "STOP"), default=None,
+                   help="flight frames [START, STOP) instead of detecting them")
+    p.add_argument("--total-mass", type=float, default=70.0, help="body mass in kg for the prior (default 70)")
+    p.add_argument("--no-mass-estimate", action="store_true", help="keep the table's mass distribution")
+    p.add_argument("--filmstrip", metavar="PNG", help="also draw the original and the result side by side")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..flips import multiflip, prepare
+    from ..io.bvh import write_bvh
+
+    if args.flips < 2:
+        raise ValueError(f"--flips must be at least 2 (the input is one flip), got {args.flips}")
+    if args.k is not None and not (math.isfinite(args.k) and args.k > 0):
+        raise ValueError(f"--k must be a positive number, got {args.k}")
+    if args.k_ratio is not None and not (math.isfinite(args.k_ratio) and args.k_ratio > 0):
+        raise ValueError(f"--k-ratio must be a positive number, got {args.k_ratio}")
+    prep = prepare(args.input, fps=args.fps, fix_timing=args.fix_timing, total_mass=args.total_mass,
+                   flight=tuple(args.flight) if args.flight else None, estimate=not args.no_mass_estimate)
+    res = multiflip(prep, flips=args.flips, k=args.k, k_ratio=args.k_ratio, height_change=args.height_change)
+    out = write_bvh(res.motion, args.output)
+    print(prep.summary())
+    print(res.report)
+    print(f"wrote {out} ({res.motion.n_frames} frames at {res.motion.fps:g} Hz)")
+    if args.report:
+        res.report.to_json(args.report)
+        print(f"wrote {args.report}")
+    if args.filmstrip:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        from ..plots.flips import filmstrip
+
+        kind, _ = filmstrip(res, path=args.filmstrip)
+        print(f"wrote {args.filmstrip} ({kind})")
+    return 0

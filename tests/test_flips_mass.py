@@ -1,0 +1,134 @@
+"""Mass distribution from flight (eq. 5.1-5.2), gravity scale and its diagnosis."""
+import warnings
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from mocomp import datasets
+from mocomp.core.motion import concatenate
+from mocomp.core.rotations import quat_multiply
+from mocomp.flips.mass import FlightTooShortError, diagnose_gravity, estimate_masses, fit_ballistic
+from mocomp.flips.phases import default_prior, detect_flights
+from mocomp.flips.preprocess import clip_prior, spline_resample
+
+from _flips_data import synthetic
+
+
+@pytest.fixture(scope="module")
+def tall():
+    """Synthetic flips of a "tall performer" (heavier trunk, lighter limbs) and the average prior."""
+    out = {}
+    for name in ("backflip", "sideflip"):
+        r = synthetic(name, mass_factors="tall_performer")
+        out[name] = (r, default_prior(r.motion.skeleton))
+    return out
+
+
+def noisy(motion, deg, mm, seed):
+    rng = np.random.default_rng(seed)
+    T, J, _ = motion.rotations.shape
+    jit = Rotation.from_rotvec(rng.normal(scale=np.radians(deg), size=(T * J, 3))).as_quat().reshape(T, J, 4)
+    return motion.replace(rotations=quat_multiply(motion.rotations, jit),
+                          root_positions=motion.root_positions + rng.normal(scale=mm / 1000, size=(T, 3)))
+
+
+@pytest.mark.parametrize("name", ["backflip", "sideflip"])
+def test_exact_recovery_without_regulariser(tall, name):
+    r, prior = tall[name]
+    est = estimate_masses(prior, r.motion, r.flight, W=0.0, smooth=0.0)
+    np.testing.assert_allclose(est.masses, r.body.masses, rtol=1e-6, atol=1e-6)
+    assert est.residual_rms < 1e-9 and est.prior_residual_rms > 1e-3
+    assert est.fits[0].gravity == pytest.approx(r.g, rel=1e-6)
+
+
+@pytest.mark.parametrize("name", ["backflip", "sideflip"])
+@pytest.mark.parametrize("noise", [(0.0, 0.0, 0), (0.3, 1.0, 0), (0.3, 1.0, 1), (0.3, 1.0, 2)])
+def test_estimate_closer_to_truth_than_prior(tall, name, noise):
+    r, prior = tall[name]
+    m = noisy(r.motion, *noise) if noise[0] else r.motion
+    est = estimate_masses(prior, m, r.flight)
+    err, err0 = est.error_vs(r.body.masses)
+    assert err < err0, est.table(r.body.masses).to_string()
+    tab = est.table(r.body.masses)
+    assert {"initial_%", "optimized_%", "true_%", "initial_error_%", "optimized_error_%"} <= set(tab.columns)
+    # the tall-performer pattern of the dissertation: trunk up, limbs down
+    trunk = [i for i, s in enumerate(est.body.segment_names) if "trunk" in s]
+    assert est.masses[trunk].sum() > prior.masses[trunk].sum()
+
+
+def test_constraints_symmetry_sum_bounds(tall):
+    r, prior = tall["backflip"]
+    est = estimate_masses(prior, noisy(r.motion, 1.0, 3.0, 5), r.flight, W=1e-6)
+    assert est.body.total_mass == pytest.approx(prior.total_mass)
+    assert np.all(est.masses >= 0)
+    for g in est.groups:
+        assert np.ptp(est.masses[list(g)]) < 1e-12
+    assert any(len(g) == 2 for g in est.groups)
+    # inertias were recomputed for the new masses
+    assert not np.allclose(est.body.inertias, prior.inertias)
+
+
+def test_joint_estimation_over_two_flights(tall):
+    r, prior = tall["backflip"]
+    r2 = synthetic("straight_jump", mass_factors="tall_performer")
+    m = concatenate([r.motion, r2.motion.translated(r.motion.root_positions[-1] - r2.motion.root_positions[0])])
+    T1 = r.motion.n_frames
+    flights = [r.flight, (r2.flight[0] + T1, r2.flight[1] + T1)]
+    est = estimate_masses(prior, m, flights, W=0.0, smooth=0.0)
+    np.testing.assert_allclose(est.masses, r.body.masses, rtol=1e-6, atol=1e-6)
+    assert len(est.fits) == 2 and all(f.gravity == pytest.approx(r.g, rel=1e-6) for f in est.fits)
+    assert est.fits[1].start == flights[1][0]
+
+
+def test_gravity_scale_reveals_frame_rate_and_units(tall):
+    r, prior = tall["backflip"]
+    fast = r.motion.with_fps(240.0)                       # a 120 Hz capture stamped 240 Hz
+    est = estimate_masses(prior, fast, r.flight)
+    assert est.gravity_scale == pytest.approx(4.0, rel=0.02)
+    assert "labelled 240 Hz" in est.diagnosis and "fps=120" in est.diagnosis
+    slow = r.motion.with_fps(60.0)
+    assert "fps=120" in estimate_masses(prior, slow, r.flight).diagnosis
+    assert "consistent" in estimate_masses(prior, r.motion, r.flight).diagnosis
+    assert "length unit" in diagnose_gravity(100.0, 120.0, height=175.0)
+    assert "not a downward parabola" in diagnose_gravity(-0.5, 120.0)
+
+
+def test_too_short_flight_is_a_clear_error(tall):
+    r, prior = tall["backflip"]
+    s = r.flight[0]
+    with pytest.raises(FlightTooShortError, match="5 frames") as e:
+        estimate_masses(prior, r.motion, (s, s + 5))
+    assert "longer flight" in str(e.value)
+    with pytest.raises(FlightTooShortError):
+        fit_ballistic(np.zeros((3, 3)), 120.0)
+
+
+@pytest.mark.realdata
+@pytest.mark.parametrize("name", ["cmu_88_01_backflip", "cmu_88_05_cartwheel_backflip", "deepmimic_backflip",
+                                  "deepmimic_sideflip"])
+def test_real_flights_momentum_deviation_reduced(real_data_dir, name):
+    """The paper reports a 30% reduction of the linear-momentum deviation from its ballistic
+    pattern relative to the prior (section 4.2)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        m = datasets.load(name)
+    if m.fps < 50:
+        m = spline_resample(m, 120.0)
+    prior = clip_prior(m)
+    d = detect_flights(m, prior)
+    est = estimate_masses(prior, m, d.flight)
+    assert est.reduction > 0.2, (est.prior_momentum_deviation, est.momentum_deviation)
+    assert 0.7 < est.gravity_scale < 1.45
+
+
+@pytest.mark.realdata
+def test_joint_estimation_over_ten_real_hops(real_data_dir):
+    m = datasets.load("jumps/01_01.bvh")
+    prior = clip_prior(m)
+    d = detect_flights(m, prior)
+    assert len(d.flights) == 10
+    est = estimate_masses(prior, m, d.intervals)
+    assert len(est.fits) == 10
+    assert all(0.9 < f.scale < 1.12 for f in est.fits)
+    assert est.momentum_deviation <= est.prior_momentum_deviation
