@@ -8,8 +8,8 @@ with ``gamma(0, 0) = D(p_0, q_0)``: diagonal, horizontal and vertical steps of
 weight 1 (dtw-python's ``symmetric1`` step pattern). Only the cells of a
 :class:`~mocomp.splice.bands.Band` are computed and stored, in flat arrays of
 ``band.cells`` entries (memory O(n x band width)). The recurrence and the
-backtracking run in compiled loops (numba); the local costs of feature
-sequences are computed block-wise with BLAS (``|a|^2 + |b|^2 - 2 a.b``).
+backtracking run in compiled loops (numba), as does the squared-Euclidean
+local cost of feature sequences on the band cells.
 
 Ties are broken exactly as dtw-python does (the first minimum in the order
 diagonal, horizontal ``(i, j-1)``, vertical ``(i-1, j)``, comparing the sums
@@ -101,6 +101,18 @@ def _backtrack(lo, off, step, n, m):  # pragma: no cover - compiled
         else:
             return out[:0]
     return out[:K][::-1].copy()
+
+
+@numba.njit(cache=True, nogil=True, fastmath=True)
+def _sqeuclidean_band(lo, hi, off, x, y, out):  # pragma: no cover - compiled
+    d = x.shape[1]
+    for i in range(lo.shape[0]):
+        for j in range(lo[i], hi[i] + 1):
+            acc = 0.0
+            for k in range(d):
+                t = x[i, k] - y[j, k]
+                acc += t * t
+            out[off[i] + j - lo[i]] = acc
 
 
 @dataclass(frozen=True, eq=False)
@@ -246,10 +258,11 @@ def _as_features(a, name: str) -> np.ndarray:
 def feature_band_costs(x: np.ndarray, y: np.ndarray, band: Band, metric: str = "sqeuclidean", block_rows: int = 64) -> np.ndarray:
     """Local costs ``D(x_i, y_j)`` of the band cells for feature sequences.
 
-    ``metric`` is ``"sqeuclidean"`` or ``"euclidean"`` (computed as
-    ``|x|^2 + |y|^2 - 2 x.y`` with one matrix product per block of rows over
-    the block's column span) or any :func:`scipy.spatial.distance.cdist`
-    metric name (``"cityblock"``, ``"cosine"``, ...).
+    ``metric`` is ``"sqeuclidean"`` or ``"euclidean"`` (a compiled loop over
+    the band cells: no matrix-product cancellation, and no multi-threaded BLAS
+    call, which stalls badly on an oversubscribed machine) or any
+    :func:`scipy.spatial.distance.cdist` metric name (``"cityblock"``,
+    ``"cosine"``, ...; evaluated block-wise over the rows' column spans).
     """
     x = _as_features(x, "first sequence")
     y = _as_features(y, "second sequence")
@@ -258,28 +271,19 @@ def feature_band_costs(x: np.ndarray, y: np.ndarray, band: Band, metric: str = "
     if (len(x), len(y)) != (band.n, band.m):
         raise AlignmentError(f"band is {band.n}x{band.m}, sequences are {len(x)}x{len(y)}")
     out = np.empty(band.cells)
-    fast = metric in ("sqeuclidean", "euclidean")
-    if fast:
-        xx = np.einsum("ij,ij->i", x, x)
-        yy = np.einsum("ij,ij->i", y, y)
+    if metric in ("sqeuclidean", "euclidean"):
+        _sqeuclidean_band(band.lo, band.hi, band.offsets, np.ascontiguousarray(x), np.ascontiguousarray(y), out)
+        if metric == "euclidean":
+            np.sqrt(out, out=out)
+        return out
     off = band.offsets
     for s in range(0, band.n, block_rows):
         e = min(band.n, s + block_rows)
         j0 = int(band.lo[s])
         j1 = int(band.hi[s:e].max()) + 1
         rows, cols = band.cell_indices(s, e)
-        if fast:
-            sub = x[s:e] @ y[j0:j1].T
-            sub *= -2.0
-            sub += xx[s:e, None]
-            sub += yy[None, j0:j1]
-        else:
-            sub = cdist(x[s:e], y[j0:j1], metric=metric)
+        sub = cdist(x[s:e], y[j0:j1], metric=metric)
         out[off[s]:off[e]] = sub[rows - s, cols - j0]
-    if fast:
-        np.maximum(out, 0.0, out=out)  # round-off of the expansion
-        if metric == "euclidean":
-            np.sqrt(out, out=out)
     return out
 
 

@@ -10,8 +10,7 @@
   and hand vector ``h = p4 - (p1+p2)/2``; rotate the second motion so its forearm
   matches the first one's, then take the angle between the hand vectors.
 
-The per-cell loops run compiled (numba); the eq. 6.7 sums over windows are
-matrix products computed block-wise over the band's rows.
+The per-cell loops (including eq. 6.7's sums over windows) run compiled (numba).
 """
 from __future__ import annotations
 
@@ -156,15 +155,13 @@ def theta_eq67(p: np.ndarray, q: np.ndarray) -> float:
     return float(np.arctan2(num, den))
 
 
-def theta_band(body: ArmFeatures, hand: ArmFeatures, band: Band, mode: str = "window",
-               block_rows: int = 64) -> tuple[np.ndarray, np.ndarray]:
+def theta_band(body: ArmFeatures, hand: ArmFeatures, band: Band, mode: str = "window") -> tuple[np.ndarray, np.ndarray]:
     """``cos theta`` and ``sin theta`` for every band cell.
 
     ``mode="window"``: eq. 6.7 over the ``w``-frame windows around both
-    frames (``4 w`` marker positions). With centred window coordinates the
-    denominator and numerator of eq. 6.7 are the real and imaginary parts of
-    ``conj(x + i z) . (x' + i z')``, computed as one complex matrix product
-    per block of band rows. ``mode="trunk"``: the difference of the trunk
+    frames (``4 w`` marker positions); with centred window coordinates the
+    numerator and denominator of eq. 6.7 are two dot products per cell
+    (compiled loop). ``mode="trunk"``: the difference of the trunk
     headings. ``mode="none"``: ``theta = 0``.
     """
     if mode == "none":
@@ -182,34 +179,36 @@ def theta_band(body: ArmFeatures, hand: ArmFeatures, band: Band, mode: str = "wi
         raise AlignmentError(
             f"eq. 6.7 windows differ in size ({body.theta_window} vs {hand.theta_window} frames): a sequence is shorter than the window"
         )
-    # sum_k (x_k x'_k + z_k z'_k) + i sum_k (x_k z'_k - z_k x'_k) = conj(x + i z) . (x' + i z'):
-    # eq. 6.7's numerator and denominator are one complex dot product per cell
-    B = body.win_x - 1j * body.win_z
-    H = hand.win_x + 1j * hand.win_z
-    zz = np.empty(band.cells, dtype=complex)
-    off = band.offsets
-    for s in range(0, band.n, block_rows):
-        e = min(band.n, s + block_rows)
-        j0 = int(band.lo[s])
-        j1 = int(band.hi[s:e].max()) + 1
-        sub = B[s:e] @ H[j0:j1].T
-        rows, cols = band.cell_indices(s, e)
-        zz[off[s]:off[e]] = sub[rows - s, cols - j0]
-    rr = np.abs(zz)
-    zero = rr < 1e-300
-    rr[zero] = 1.0
-    cs = np.where(zero, 1.0, zz.real / rr)
-    sn = np.where(zero, 0.0, zz.imag / rr)
+    cs = np.empty(band.cells)
+    sn = np.empty(band.cells)
+    _theta_kernel(band.lo, band.hi, band.offsets, body.win_x, body.win_z, hand.win_x, hand.win_z, cs, sn)
     return cs, sn
+
+
+@numba.njit(cache=True, nogil=True, fastmath=True)
+def _theta_kernel(lo, hi, off, bx, bz, hx, hz, cs, sn):  # pragma: no cover - compiled
+    L = bx.shape[1]
+    for i in range(lo.shape[0]):
+        for j in range(lo[i], hi[i] + 1):
+            k = off[i] + j - lo[i]
+            nu = 0.0
+            de = 0.0
+            for q in range(L):
+                nu += bx[i, q] * hz[j, q] - bz[i, q] * hx[j, q]
+                de += bx[i, q] * hx[j, q] + bz[i, q] * hz[j, q]
+            r = np.sqrt(nu * nu + de * de)
+            if r > 1e-300:
+                cs[k] = de / r
+                sn[k] = nu / r
+            else:
+                cs[k] = 1.0
+                sn[k] = 0.0
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
 def _sgn(x, eps):  # pragma: no cover - compiled
-    if x >= eps:
-        return 1
-    if x <= -eps:
-        return -1
-    return 0
+    # branch-free: signs of real motion data are unpredictable for a branch predictor
+    return np.int64(x >= eps) - np.int64(x <= -eps)
 
 
 @numba.njit(cache=True, nogil=True)

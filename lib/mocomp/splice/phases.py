@@ -90,27 +90,39 @@ class PhaseLabels:
 
 def _runs(labels: np.ndarray) -> list[list]:
     change = np.nonzero(labels[1:] != labels[:-1])[0] + 1
-    starts = np.concatenate([[0], change])
-    stops = np.concatenate([change, [len(labels)]])
-    return [[labels[s], int(s), int(e)] for s, e in zip(starts, stops)]
+    starts = np.concatenate([[0], change]).tolist()
+    stops = np.concatenate([change, [len(labels)]]).tolist()
+    labs = labels[starts].tolist()
+    return [[l, s, e] for l, s, e in zip(labs, starts, stops)]
 
 
 def _merge_short(labels: np.ndarray, min_len: int) -> np.ndarray:
-    labels = labels.copy()
-    while True:
-        runs = _runs(labels)
-        if len(runs) == 1:
-            return labels
+    """Relabel the shortest run shorter than ``min_len`` with its longer
+    neighbour's label, join equal neighbours, repeat."""
+    runs = _runs(labels)
+    while len(runs) > 1:
         lens = [e - s for _, s, e in runs]
-        k = int(np.argmin(lens))
+        k = min(range(len(runs)), key=lens.__getitem__)
         if lens[k] >= min_len:
-            return labels
-        left = runs[k - 1] if k > 0 else None
-        right = runs[k + 1] if k + 1 < len(runs) else None
-        if right is None or (left is not None and (left[2] - left[1]) >= (right[2] - right[1])):
-            labels[runs[k][1]:runs[k][2]] = left[0]
+            break
+        if k + 1 == len(runs) or (k > 0 and lens[k - 1] >= lens[k + 1]):
+            runs[k - 1][2] = runs[k][2]
+            del runs[k]
+            k -= 1
         else:
-            labels[runs[k][1]:runs[k][2]] = right[0]
+            runs[k + 1][1] = runs[k][1]
+            del runs[k]
+        # join the merged run with an equal neighbour
+        if k + 1 < len(runs) and runs[k + 1][0] == runs[k][0]:
+            runs[k][2] = runs[k + 1][2]
+            del runs[k + 1]
+        if k > 0 and runs[k - 1][0] == runs[k][0]:
+            runs[k - 1][2] = runs[k][2]
+            del runs[k]
+    out = labels.copy()
+    for l, s0, e0 in runs:
+        out[s0:e0] = l
+    return out
 
 
 def motion_phases(hm: HandMarkers, *, marker: str = "hand", smooth: float = 0.2, hold_speed: float = 0.15,
