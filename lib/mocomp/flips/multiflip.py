@@ -34,7 +34,8 @@ from .preprocess import PreparedFlip, flight_L_stats, smooth_block
 from .reposition import FlightTrajectory, flight_trajectory
 from .retime import RetimePlan, plan_retime, sample_positions
 from .sequence import Sequence, build_sequence
-from .similarity import axis_quat
+from ..core.motion import slerp
+from .similarity import axis_quat, twist_angle
 from .smoothing import seam_corrections, split_root
 
 __all__ = ["PhysicsReport", "MultiFlipResult", "multiflip", "slerp_frames"]
@@ -291,6 +292,21 @@ def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None 
     rot[a + 1:rb] = smooth_block(P, src[a + 1:rb], _head(right, rb - a - 1), blk[nl:], b_blk[nl:])
     # each frame's rotation about L (copies j*phi, landing extra, spread join correction), on the left
     rot[:, 0] = quat_multiply(axis_quat(P.axis, seq.extra), rot[:, 0])
+    q_land = None
+    if not _whole_turns(seq.extra_total):
+        # an extra rotation that is not whole turns (e.g. a twist jump turned further): the ground
+        # phase after the landing is turned about the vertical, not about a tilted L, so it stays
+        # upright; the difference C = R_y R_L^-1 is spread over the flight frames after the join
+        q_L = axis_quat(P.axis, seq.extra_total)
+        up = np.array([0.0, 1.0, 0.0])
+        q_land = axis_quat(up, float(twist_angle(q_L, up)))
+        C = quat_multiply(q_land, quat_inverse(q_L))
+        j0, j1 = seq.landing_seam + 1, seq.landing
+        lam = np.clip((np.arange(j0, nseq) - j0 + 1) / max(j1 - j0 + 1, 1), 0.0, 1.0)
+        ident = np.zeros(4)
+        ident[3] = 1.0
+        rot[j0:, 0] = quat_multiply(slerp(np.broadcast_to(ident, (lam.size, 4)), np.broadcast_to(C, (lam.size, 4)),
+                                          lam), rot[j0:, 0])
     t2 = time.perf_counter()
     timings["smooth"] = t2 - t1
     # ---------------------------------------------------------------- retime
@@ -324,12 +340,10 @@ def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None 
     rp_seq = P.motion.root_positions[src]
     traj = flight_trajectory(com0, fit.a_x, fit.a_z, fit.a_y, kk, plan.vy_takeoff_new, plan.T_new)
     post = seq.landing + 1
-    extra = seq.extra_total
-    if abs(np.remainder(extra + np.pi, 2 * np.pi) - np.pi) < 1e-9:
+    if q_land is None:
         rp_seq[post:] += traj.end - com_land                         # eq. 5.16 (offset incl. height)
-    else:                                                           # e.g. a twist jump turned further
-        qx = axis_quat(P.axis, extra)
-        rp_seq[post:] = quat_apply(qx, rp_seq[post:] - com_land) + traj.end
+    else:                                                           # turned about the vertical
+        rp_seq[post:] = quat_apply(q_land, rp_seq[post:] - com_land) + traj.end
     root_out = rp_seq[i0] + al[:, None] * (rp_seq[i0 + 1] - rp_seq[i0])
     fl = np.flatnonzero((tau >= seq.takeoff - 1e-9) & (tau <= seq.landing + 1e-9))
     tf = (tau[fl] - seq.takeoff) / (kk * fps)
@@ -350,6 +364,10 @@ def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None 
                                 extra_rotation)
     return MultiFlipResult(motion=new, original=P.motion, prepared=P, sequence=seq, plan=plan, trajectory=traj,
                            seq_positions=tau, flight=flight_out, report=report, timings=timings, momentum=mom)
+
+
+def _whole_turns(angle: float) -> bool:
+    return abs(np.remainder(angle + np.pi, 2 * np.pi) - np.pi) < 1e-9
 
 
 def _tail(side, n):

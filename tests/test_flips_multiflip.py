@@ -1,0 +1,203 @@
+"""Acceptance of the multi-flip method (flips paper section 5; issue "Acrobatics I").
+
+Synthetic back/front/side flips -> 2, 3 and 4 flips: achieved rotation within 10 degrees of
+the request, upright landing (final root orientation within 10 degrees of the original's),
+|L| over the new flight within 5 % of its mean, COM exactly on the ballistic trajectory.
+Every real single flip -> a double flip landing upright whose |L| varies no more than
+1.5 x the original flight's (coefficient of variation and peak-to-peak).
+"""
+import json
+import warnings
+
+import numpy as np
+import pytest
+
+from mocomp import datasets
+from mocomp.dynamics import center_of_mass
+from mocomp.errors import NoFlightPhaseError, PhysicsError
+from mocomp.flips import FlightTooShortError, multiflip, prepare
+from mocomp.io.bvh import read_bvh, write_bvh
+
+from _flips_data import synthetic
+
+SYNTH = ["backflip", "frontflip", "sideflip"]
+
+
+@pytest.fixture(scope="module")
+def prepared():
+    return {name: prepare(synthetic(name).motion) for name in SYNTH}
+
+
+@pytest.mark.parametrize("name", SYNTH)
+@pytest.mark.parametrize("flips", [2, 3, 4])
+def test_synthetic_acceptance(prepared, name, flips):
+    P = prepared[name]
+    res = multiflip(P, flips=flips)
+    R = res.report
+    # the synthetic single flips turn exactly 360 deg: target = request
+    assert R.requested_rotation == 360 * flips
+    assert abs(R.achieved_rotation - R.requested_rotation) <= 10.0
+    assert abs(R.rotation_error) < 0.1
+    assert R.landing_orientation_error <= 10.0
+    assert R.L_variation_new <= 0.05, str(R)
+    assert R.L_direction_change < 2.0
+    # follows the parabola exactly (COM of the new motion with the estimated masses)
+    assert R.com_residual_max < 1e-9 and R.com_target_error < 1e-9
+    a, b = res.flight
+    com = center_of_mass(P.body, res.motion)[a:b]
+    tt = (np.arange(a, b) * R.k - res.sequence.takeoff) / (R.k * P.fps)
+    np.testing.assert_allclose(com, res.trajectory(tt), atol=1e-9)
+    assert res.trajectory.a_y == pytest.approx(-9.81 / 2, rel=1e-3)
+    # retiming: the paper's default k = 0.7 k*, L scales with k
+    assert R.k == pytest.approx(0.7 * R.k_star)
+    assert R.L_new / R.L_original == pytest.approx(R.k, rel=0.06)
+    # the new flight is longer and higher: T_new = T_seq / k
+    assert R.T_new == pytest.approx(R.T_sequenced / R.k)
+    assert R.T_new > R.T_original
+    # the result is a motion of the same skeleton and rate, the input untouched
+    assert res.motion.skeleton is P.motion.skeleton and res.motion.fps == P.fps
+    assert res.motion.n_frames > P.motion.n_frames
+
+
+def test_more_flips_take_more_copies_and_rotate_faster(prepared):
+    P = prepared["backflip"]
+    reps = [multiflip(P, flips=n).report for n in (2, 3, 4)]
+    assert reps[0].r < reps[1].r < reps[2].r
+    assert reps[0].k < reps[1].k < reps[2].k
+    assert reps[0].L_new < reps[1].L_new < reps[2].L_new
+
+
+def test_k_star_removes_the_linear_momentum_jumps(prepared):
+    P = prepared["backflip"]
+    d = multiflip(P, flips=2).report
+    s = multiflip(P, flips=2, k_ratio=1.0).report
+    assert abs(d.p_jump_takeoff_rel) > 0.5              # 0.7 k*: the vertical take-off velocity doubles
+    assert abs(s.p_jump_takeoff_rel) < 1e-9 and abs(s.p_jump_landing_rel) < 0.05
+    assert s.takeoff_angle_change < d.takeoff_angle_change
+    e = multiflip(P, flips=2, k=1.3).report
+    assert e.k == 1.3
+
+
+def test_height_change_moves_the_landing(prepared):
+    P = prepared["backflip"]
+    base = multiflip(P, flips=2)
+    low = multiflip(P, flips=2, height_change=-0.5)
+    assert low.report.height_change == -0.5
+    # the landing phase (after the flight) is 0.5 m lower than in the level double flip
+    np.testing.assert_allclose(low.motion.root_positions[-1, 1], base.motion.root_positions[-1, 1] - 0.5, atol=1e-9)
+    # landing lower leaves more time to fall: less speed-up is needed (App. B, eq. B.5)
+    R = low.report
+    assert R.k_star < base.report.k_star
+    v0 = P.fit.b_y
+    assert R.k_star == pytest.approx(np.sqrt(0.5 * R.gravity * R.T_sequenced / (v0 - R.dy / R.T_sequenced)))
+    assert low.report.com_target_error < 1e-9
+    with pytest.raises(PhysicsError, match="--height-change below"):
+        multiflip(P, flips=2, height_change=5.0)
+
+
+def test_report_json_timings_and_bvh_round_trip(prepared, tmp_path):
+    P = prepared["backflip"]
+    res = multiflip(P, flips=2)
+    d = json.loads(res.report.to_json(tmp_path / "r.json"))
+    for key in ("requested_rotation", "achieved_rotation", "r", "phi", "m", "n", "f", "g", "k", "k_star",
+                "L_variation_original", "L_variation_new", "com_residual_rms", "takeoff_angle_change",
+                "p_jump_takeoff", "p_jump_landing", "times_ms"):
+        assert key in d
+    for stage in ("sequence", "smooth", "retime", "reposition", "assemble", "runtime_total", "loop_search",
+                  "evaluate", "preprocess_total"):
+        assert d["times_ms"][stage] >= 0
+    assert d["times_ms"]["runtime_total"] == pytest.approx(
+        sum(d["times_ms"][s] for s in ("sequence", "smooth", "retime", "reposition", "assemble")))
+    assert "rotation about L" in str(res.report)
+    p = write_bvh(res.motion, tmp_path / "x.bvh")
+    back = read_bvh(p, scale=1.0)
+    np.testing.assert_allclose(back.positions, res.motion.positions, atol=1e-6)
+    # no evaluation: no report, same motion
+    quick = multiflip(P, flips=2, evaluate=False)
+    assert quick.report is None
+    np.testing.assert_allclose(quick.motion.root_positions, res.motion.root_positions)
+
+
+@pytest.mark.parametrize("name", SYNTH)
+def test_seam_smoothing_keeps_rotation_about_L_continuous(prepared, name):
+    """Eq. 5.14: only the part of the root orientation perpendicular to L is smoothed; the
+    rotation about L stays continuous through every seam (its rate changes no more
+    abruptly than in the original flight, after retiming)."""
+    from mocomp.flips.smoothing import split_root
+
+    P = prepared[name]
+    res = multiflip(P, flips=3)
+    th, _ = split_root(res.motion.rotations[:, 0], P.axis, ref=P.root_ref)
+    a, b = res.flight
+    s, e = P.flight
+    jerk_new = np.max(np.abs(np.diff(th[a:b], 2)))
+    jerk_old = np.max(np.abs(np.diff(P.theta[s:e], 2))) * res.plan.k ** 2
+    assert jerk_new <= 1.5 * jerk_old + 1e-4
+
+
+def test_twist_jump_extra_rotation():
+    """Fig. 5.7 of the dissertation: a 180 degree twist jump turned further (here +90)."""
+    r = synthetic("twist_jump", twist=180.0)
+    P = prepare(r.motion, loop_options={"min_angle": np.deg2rad(30)})
+    res = multiflip(P, flips=None, extra_rotation=np.deg2rad(90))
+    R = res.report
+    assert R.flips is None and R.requested_rotation is None
+    assert abs(R.rotation_error) < 1.0 and R.target_rotation == pytest.approx(R.original_rotation + 90)
+    # the landing is the original's, turned 90 degrees about the vertical, on the same floor
+    assert R.landing_orientation_error == pytest.approx(90.0, abs=1.0)
+    assert res.motion.root_positions[-1, 1] == pytest.approx(P.motion.root_positions[-1, 1], abs=1e-9)
+    assert R.com_target_error < 1e-9
+
+
+def test_bad_inputs():
+    # no flight phase: a clip that never leaves the ground
+    walk = synthetic("backflip").motion[:60]
+    with pytest.raises(NoFlightPhaseError, match="no flight phase"):
+        prepare(walk)
+    # a flight too short to estimate masses
+    m = synthetic("backflip").motion
+    with pytest.raises(FlightTooShortError, match="longer flight"):
+        prepare(m, flight=(150, 154))
+    with pytest.raises(ValueError, match="outside"):
+        prepare(m, flight=(300, 400))
+    P = prepare(m)
+    with pytest.raises(ValueError, match="flips must be an integer >= 2"):
+        multiflip(P, flips=1)
+    with pytest.raises(ValueError, match="either k or k_ratio"):
+        multiflip(P, flips=2, k=1.0, k_ratio=0.5)
+
+
+REAL_SINGLE_FLIPS = [
+    ("cmu_88_01_backflip", {}),
+    ("cmu_88_05_cartwheel_backflip", {}),
+    ("cmu_90_08_sideflip", {}),
+    ("mass_backflip", {"fix_timing": True}),     # 120 Hz header, really ~50 Hz (MANIFEST)
+    ("deepmimic_backflip", {}),                  # 16 Hz keys: spline-resampled to 120 Hz
+    ("deepmimic_sideflip", {}),
+]
+
+
+@pytest.mark.realdata
+@pytest.mark.parametrize("name, options", REAL_SINGLE_FLIPS)
+def test_every_real_single_flip_becomes_a_double(real_data_dir, name, options):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        P = prepare(name, **options)
+    R = multiflip(P, flips=2).report
+    assert R.landing_orientation_error <= 10.0, str(R)
+    assert abs(R.rotation_error) <= 10.0
+    assert R.L_std_new <= 1.5 * R.L_std_original, str(R)
+    assert R.L_range_new <= 1.5 * R.L_range_original, str(R)
+    assert R.com_target_error < 1e-9
+    assert 0.7 <= R.gravity_scale <= 1.45                          # timing right after the corrections
+
+
+@pytest.mark.realdata
+def test_mislabelled_clip_is_diagnosed_in_plain_words(real_data_dir):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        P = prepare("cmu_88_01_backflip", fps=120.0)                 # the header's wrong rate
+    import re
+
+    note = next(n for n in P.notes if "labelled 120 Hz" in n)
+    assert 50 <= float(re.search(r"fps=(\d+)", note).group(1)) <= 60     # really 60 Hz (MANIFEST)
