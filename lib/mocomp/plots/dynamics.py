@@ -32,8 +32,9 @@ def plot_momentum(result, airborne=None, title: str | None = None, fig=None):
         ax.legend(loc="upper right", fontsize=8, ncol=5)
     axes[-1].set_xlabel("time (s)")
     sm = f", Gaussian sigma {result.smooth_sigma:g} frames" if result.smooth_sigma else ""
-    axes[0].set_title((title + "\n" if title else "") + f"{result.total_mass:.0f} kg, {result.velocity_mode} velocities{sm}",
-                      fontsize=10)
+    order = getattr(result, "order", 2)
+    axes[0].set_title((title + "\n" if title else "") + f"{result.total_mass:.0f} kg, {result.velocity_mode.replace('_', ' ')} "
+                      f"velocities (order {order}){sm}", fontsize=10)
     fig.tight_layout()
     return fig
 
