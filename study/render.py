@@ -164,7 +164,7 @@ def _read_old_manifest(path: Path) -> dict[str, dict]:
 
 def _fmt(v):
     if isinstance(v, (float, np.floating)):
-        return float(v) if math.isfinite(v) else float("nan")
+        return float(v) + 0.0 if math.isfinite(v) else float("nan")  # + 0.0: no "-0" in the CSV
     return v
 
 
@@ -180,8 +180,8 @@ def render_stimulus_set(spec: StudySpec | str | Path, out_dir: str | Path, *, fo
     force: re-render even stimuli whose content hash is unchanged.
     skip_missing_data: drop bases whose real data are missing (``MOCOMP_DATA_DIR``
         unset) instead of failing; the report's notes say which.
-    only: render only these stimulus ids (the manifest still lists only them: use
-        for previews, not for a study).
+    only: render only these stimulus ids (previews); the manifest keeps the other
+        stimuli's rows that are still valid (same content hash, intact video).
     progress: show a tqdm bar over stimuli.
     """
     from tqdm.auto import tqdm
@@ -209,7 +209,6 @@ def render_stimulus_set(spec: StudySpec | str | Path, out_dir: str | Path, *, fo
         unknown = sorted(set(only) - known)
         if unknown:
             raise StudyDataError(f"--only names unknown stimulus id(s) {', '.join(unknown)}", src_path)
-        stimuli = [s for s in stimuli if s.stimulus_id in set(only)]
     if not stimuli:
         raise StudyDataError("no stimuli to render (all bases skipped?)", src_path)
 
@@ -238,6 +237,11 @@ def render_stimulus_set(spec: StudySpec | str | Path, out_dir: str | Path, *, fo
             reuse = (prev is not None and prev.get("content_hash") == ch and (out / vid_rel).is_file()
                      and (out / pos_rel).is_file() and (not fs_rel or (out / fs_rel).is_file())
                      and sha256_file(out / vid_rel) == prev.get("sha256"))
+            if only is not None and sid not in only and not reuse:
+                # a preview run keeps the valid rows of the full set; stale ones are left out
+                if prev is not None:
+                    notes.append(f"{sid}: out of date, left out of the manifest (not in --only)")
+                continue
             if reuse:
                 report.skipped.append(sid)
                 sha, n_frames, dur, rsec = prev["sha256"], int(prev["n_frames"]), float(prev["duration_s"]), \

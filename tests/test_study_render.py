@@ -296,6 +296,13 @@ def test_render_cli(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "2 stimuli" in out and "achieved vs nominal" in out
     assert len(pd.read_csv(tmp_path / "o" / "manifest.csv")) == 2
+    # the full run reuses the two previews; a later preview keeps the full manifest
+    from study.render import render_stimulus_set
+
+    rep = render_stimulus_set(_spec(tmp_path), tmp_path / "o", progress=False)
+    assert sorted(rep.skipped) == ["toy__none", "toy__takeoff_increase_30"] and len(rep.rendered) == 2
+    rep = render_stimulus_set(_spec(tmp_path), tmp_path / "o", progress=False, only=["toy__none"])
+    assert rep.rendered == [] and len(rep.manifest) == 4
     from mocomp.errors import StudyDataError
 
     args = parser.parse_args(["render", str(_spec(tmp_path)), "-o", str(tmp_path / "o"), "--only", "nope"])

@@ -39,7 +39,7 @@ from ..core.skeleton import Skeleton
 __all__ = [
     "configure_offscreen", "RenderStyle", "Camera", "fit_camera", "BoneCapsule", "bone_capsules",
     "MotionRenderer", "VideoResult", "write_video", "render_still", "render_filmstrip", "save_png",
-    "joint_matrices", "video_frame_times",
+    "joint_matrices", "video_frame_times", "same_skeleton",
 ]
 
 #: VTK render-window classes for headless rendering, by short name.
@@ -366,6 +366,15 @@ def _checker_texture(colors):
     return tex
 
 
+def same_skeleton(a: Skeleton, b: Skeleton) -> bool:
+    """Same joints, hierarchy, offsets and end sites (one character can draw both)."""
+    if a is b:
+        return True
+    return (a.names == b.names and np.array_equal(a.parents, b.parents) and np.allclose(a.offsets, b.offsets)
+            and len(a.end_sites) == len(b.end_sites)
+            and all(x.parent == y.parent and np.allclose(x.offset, y.offset) for x, y in zip(a.end_sites, b.end_sites)))
+
+
 def video_frame_times(duration: float, fps: float) -> np.ndarray:
     """Times ``0, 1/fps, ...`` up to ``duration`` (inclusive within 1e-9 s)."""
     n = int(np.floor(duration * fps + 1e-9)) + 1
@@ -503,7 +512,7 @@ class MotionRenderer:
 
     def frames(self, motion: Motion, character: int = 0, progress: bool | str = False) -> Iterator[np.ndarray]:
         """Images of every frame of ``motion`` in order (a generator)."""
-        if motion.skeleton is not self.skeleton and motion.skeleton != self.skeleton:
+        if not same_skeleton(motion.skeleton, self.skeleton):
             raise ValueError("motion's skeleton differs from the renderer's")
         M = joint_matrices(motion)
         it = range(M.shape[0])
@@ -701,7 +710,7 @@ def render_filmstrip(motions: Motion | Sequence[Motion], *, n_poses: int = 7, ti
         raise ValueError(f"{len(ms)} motions but {len(colors)} colours")
     sk = ms[0].skeleton
     for k, m in enumerate(ms[1:], 1):
-        if m.skeleton != sk:
+        if not same_skeleton(m.skeleton, sk):
             raise ValueError(f"motion {k} has a different skeleton from motion 0 (filmstrips draw one character)")
     poses = []  # (motion k, pose index, Motion of one frame)
     for k, m in enumerate(ms):
