@@ -40,8 +40,9 @@ def plot_band(result, ax=None, *, cost: bool = True, truth=None, title: str | No
     n, m = band.n, band.m
     if cost:
         dense = band.to_dense(result.local_cost).T  # (m, n): y = hand frame
+        lo_c, hi_c = np.nanpercentile(dense, [1, 98])  # robust colour range: a few huge costs must not flatten it
         im = ax.imshow(dense, origin="lower", aspect="auto", cmap=cmap, interpolation="nearest",
-                       extent=(-0.5, n - 0.5, -0.5, m - 0.5))
+                       extent=(-0.5, n - 0.5, -0.5, m - 0.5), vmin=lo_c, vmax=max(hi_c, lo_c + 1e-12))
         ax.set_facecolor("#eeeeee")
         if colorbar:
             ax.figure.colorbar(im, ax=ax, fraction=0.046, pad=0.04, label="local cost")
@@ -124,10 +125,9 @@ def plot_metric_comparison(sign_alignment, value_alignment, truth, body_markers=
         yb = body_markers.relative[:, 3, 1]
         yh = hand_markers.relative[:, 3, 1]
         ax.plot(np.arange(len(yb)), yb, label="body recording", color="C0")
-        ax.plot(np.asarray(truth), np.interp(np.asarray(truth), np.arange(len(yh)), yh), "--", color="C1", lw=1,
-                label="hand recording at the true frames")
-        ax.plot(np.arange(len(yh)), yh, color="C1", alpha=0.5, label="hand recording")
-        ax.set_xlabel("frame")
+        ax.plot(np.arange(len(yb)), np.interp(np.asarray(truth), np.arange(len(yh)), yh), "--", color="C1", lw=1,
+                label="hand recording, warped by the truth")
+        ax.set_xlabel("body frame")
         ax.set_ylabel("hand marker height above shoulder (m)")
         ax.set_title("same gesture, different amplitude and timing")
         ax.legend(fontsize=7)

@@ -126,7 +126,7 @@ def _merge_short(labels: np.ndarray, min_len: int) -> np.ndarray:
 
 
 def motion_phases(hm: HandMarkers, *, marker: str = "hand", smooth: float = 0.2, hold_speed: float = 0.15,
-                  stroke_acceleration: float = 0.6, split: float = 0.2, min_duration: float = 0.1,
+                  stroke_acceleration: float = 0.6, split: float = 0.2, min_duration: float = 0.2,
                   still_speed: float = 0.03, min_stroke_acceleration: float = 0.5) -> PhaseLabels:
     """Segment a hand-marker sequence into Table 6.1 phases.
 
