@@ -177,6 +177,7 @@ class RestoreResult:
             "gravity": self.fit.gravity, "takeoff_velocity": [self.fit.a_x, self.fit.b_y, self.fit.a_z],
             "direction": {"method": self.direction.method, "first_departure": self.direction.first_departure,
                           "evaluations": self.direction.evaluations,
+                          "roughness_deg": self.direction.roughness_deg,
                           "max_correction_deg": float(np.degrees(np.max(2 * np.arccos(np.clip(
                               np.abs(self.direction.corrections[:, 3]), 0, 1)))))},
             "retime": {"k": p.k, "k_star": p.k_star, "k_ratio": p.k_ratio, "T_seq": p.T_seq, "T_new": p.T_new,
@@ -302,6 +303,11 @@ def restore_momentum(body, original: Motion, edited: Motion, flight, *, k_ratio:
     target1 = L_const if reference == "constant" else L_orig
     d = correct_direction(body, edited, (a, b), L_star=target1, method=method, tol=tol)
     timings["direction"] = time.perf_counter() - t
+    if d.roughness_deg > 5.0:
+        notes.append(f"the direction corrections jitter from frame to frame (second difference up to "
+                     f"{d.roughness_deg:.1f} deg): eq. 5.21's two-step recurrence oscillates when limbs move fast "
+                     "relative to the frame rate; ease the edit in and out more slowly or resample the clip to "
+                     "a higher frame rate")
     # step 2
     t = time.perf_counter()
     if reference == "constant":

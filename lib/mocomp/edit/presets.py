@@ -45,7 +45,7 @@ def _unit(v):
     return v / np.linalg.norm(v)
 
 
-def preset_layers(motion: Motion, flight, name: str, margin: float = 0.15, ease: float = 0.2,
+def preset_layers(motion: Motion, flight, name: str, margin: float = 0.15, ease: float = 0.45,
                   up_side: str = "l") -> EditPlan:
     """Layers for preset ``name`` over the flight ``(start, stop)`` frames.
 
@@ -53,6 +53,12 @@ def preset_layers(motion: Motion, flight, name: str, margin: float = 0.15, ease:
     ends, easing in and out over ``ease`` (fraction of the edited span), so the
     take-off and the landing poses are untouched (eq. 5.19: L at the start of
     the flight stays L*). ``up_side`` picks which arm goes up for ``arms-twist``.
+
+    The default ease (0.45: the limbs take ~45% of the edited span to open and as
+    long to close) keeps limb speeds human. Much faster edits (e.g. straightening
+    the legs of a side flip within ~0.1 s) make the per-frame direction recurrence
+    of eq. 5.21 oscillate from frame to frame; :class:`~mocomp.edit.DirectionResult`
+    reports that as ``roughness_deg``.
     """
     if name not in PRESETS:
         raise ValueError(f"unknown edit preset {name!r}; choose one of {sorted(PRESETS)}")

@@ -279,6 +279,7 @@ class DirectionResult:
     method: ``"gauss-newton"`` or ``"bfgs"``.
     evaluations: number of ``L`` evaluations used.
     seconds: wall time (``solve_seconds``: the frame loop alone, without the evidence).
+    flight: the flight frames corrected.
     """
 
     motion: Motion
@@ -293,6 +294,7 @@ class DirectionResult:
     evaluations: int
     seconds: float
     solve_seconds: float = 0.0
+    flight: tuple[int, int] | None = None
 
     @property
     def max_error_before(self) -> float:
@@ -301,6 +303,27 @@ class DirectionResult:
     @property
     def max_error_after(self) -> float:
         return float(np.nanmax(self.error_after)) if np.any(np.isfinite(self.error_after)) else 0.0
+
+    @property
+    def max_rotation_deg(self) -> float:
+        """Largest correction applied to any frame (degrees)."""
+        return float(np.degrees(np.max(2 * np.arccos(np.clip(np.abs(self.corrections[:, 3]), 0.0, 1.0)))))
+
+    @property
+    def roughness_deg(self) -> float:
+        """Largest frame-to-frame change of the correction's per-frame increment (degrees): the
+        second difference of the corrections. Eq. 5.21 fixes frame ``f+1`` from frames ``f-1``
+        and ``f`` (a two-step recurrence), which can oscillate from frame to frame when limbs
+        move fast relative to the frame rate; a few degrees or more means visible jitter."""
+        from scipy.spatial.transform import Rotation
+
+        c = self.corrections if self.flight is None else self.corrections[self.flight[0]:self.flight[1]]
+        if c.shape[0] < 4:
+            return 0.0
+        inc = (Rotation.from_quat(c[1:]) * Rotation.from_quat(c[:-1]).inv()).as_rotvec()
+        if inc.shape[0] < 3:
+            return 0.0
+        return float(np.degrees(np.max(np.linalg.norm(inc[2:] - 2 * inc[1:-1] + inc[:-2], axis=1))))
 
 
 def _targets(L_star, L_before, a, b, n_frames) -> np.ndarray:
@@ -391,7 +414,7 @@ def correct_direction(body, motion: Motion, flight, L_star=None, method: str = "
         motion=out, corrections=corr, error_before=_nan_rows(direction_error, L_before, U),
         error_after=_nan_rows(direction_error, L_after, U), L_before=L_before, L_after=L_after,
         L_star=L_star_out, first_departure=first, method=method, evaluations=int(evals),
-        seconds=time.perf_counter() - t0, solve_seconds=solve_s)
+        seconds=time.perf_counter() - t0, solve_seconds=solve_s, flight=(a, b))
 
 
 def _bfgs_sweep(m, I_local, X, Q, t, U, a, b, tol, pivots):

@@ -1,0 +1,292 @@
+"""Restoring momentum after in-flight edits (issue 5, section 2; dissertation section 5.5).
+
+Ground truth: the embedded synthetic flips have exactly constant L over the flight
+(``result.L0``) and an exact COM parabola, with known masses (``result.body``).
+"""
+from __future__ import annotations
+
+import json
+from functools import lru_cache
+
+import numpy as np
+import pytest
+
+from mocomp import datasets
+from mocomp.dynamics import center_of_mass, momentum
+from mocomp.edit import (EditRangeError, apply_preset, correct_direction, correct_magnitude, restore_momentum)
+from mocomp.edit.restore import _FrameMomentum, flight_momentum, interior_L, segment_state
+from mocomp.errors import PhysicsError
+from mocomp.flips.mass import fit_ballistic
+
+
+@lru_cache(maxsize=None)
+def example(name):
+    return datasets.load_example(name)
+
+
+@lru_cache(maxsize=None)
+def edited(name, preset):
+    r = example(name)
+    return apply_preset(r.motion, r.flight, preset)
+
+
+@lru_cache(maxsize=None)
+def restored(name, preset):
+    r = example(name)
+    ed, _ = edited(name, preset)
+    return restore_momentum(r.body, r.motion, ed, r.flight, L_star=r.L0)
+
+
+# ------------------------------------------------------------------ the L model
+def test_compiled_momentum_equals_dynamics_momentum():
+    r = example("sideflip")
+    m = r.motion[100:220]
+    ours = interior_L(r.body, m)
+    ref = momentum(r.body, m).angular
+    assert np.all(np.isnan(ours[[0, -1]]))
+    np.testing.assert_allclose(ours[1:-1], ref[1:-1], rtol=1e-10, atol=1e-9)
+
+
+def test_frame_model_equals_momentum_at_identity_and_rotates_L():
+    """eq. 5.21's L(pose f-1, pose f, R pose f+1): at R = I it is the ordinary L_f; the
+    analytic Jacobian matches finite differences."""
+    r = example("backflip")
+    ed, _ = edited("backflip", "arms-twist")
+    X, Q = segment_state(r.body, ed)
+    f = 160
+    fm = _FrameMomentum(r.body.masses, r.body.inertias, X, Q, ed.times, f)
+    L0 = fm.L(np.array([0.0, 0.0, 0.0, 1.0]))
+    np.testing.assert_allclose(L0, momentum(r.body, ed).angular[f], rtol=1e-10)
+    from mocomp.edit.restore import _qexp, _qmul1
+
+    J = fm.jacobian(np.array([0.0, 0.0, 0.0, 1.0]))
+    h = 1e-6
+    Jn = np.column_stack([(fm.L(_qmul1(_qexp(h * e), [0, 0, 0, 1.0])) - L0) / h for e in np.eye(3)])
+    np.testing.assert_allclose(J, Jn, rtol=2e-2, atol=2e-2 * np.abs(Jn).max())
+
+
+# ------------------------------------------------------- synthetic acceptance
+CASES = [(n, p) for n in ("backflip", "frontflip", "sideflip") for p in ("straight-legs", "arms-twist")]
+
+
+@pytest.mark.parametrize("name,preset", CASES)
+def test_synthetic_acceptance(name, preset):
+    """Issue 5 acceptance: after step 1 the direction error < 0.01 rad on every flight frame,
+    after step 2 the magnitude error < 5%, after step 3 the COM follows the parabola."""
+    r = example(name)
+    res = restored(name, preset)
+    st = res.stages
+    assert st["edited"].max_magnitude > 0.2 or st["edited"].max_direction > 0.1   # the edit matters
+    assert st["original"].max_magnitude < 0.015                                  # truth is constant L
+    assert st["direction"].direction.size == r.flight[1] - r.flight[0] - 2
+    assert st["direction"].max_direction < 0.01
+    assert st["magnitude"].max_magnitude < 0.05
+    assert st["final"].max_magnitude < 0.05 and st["final"].max_direction < 0.01
+    # step 3: the output flight's COM is a parabola under the clip's gravity
+    a, b = res.flight_out
+    com = center_of_mass(r.body, res.motion)[a:b]
+    fit = fit_ballistic(com, res.motion.fps, a)
+    assert fit.max < 1e-9
+    assert fit.gravity == pytest.approx(r.g, rel=1e-6)
+    assert res.linear.com_residual < 1e-9
+    # continuity at take-off: the frame before the flight is the original's take-off pose
+    np.testing.assert_allclose(res.motion.root_positions[:a - 2], res.linear.motion.root_positions[:a - 2])
+
+
+def test_straight_legs_lengthen_and_slow_the_flight():
+    """Fig. 5.9: straightened legs raise inertia; the restored flight is longer and higher,
+    with a slower somersault (and k = k* keeps linear momentum continuous)."""
+    r = example("backflip")
+    res = restored("backflip", "straight-legs")
+    assert res.flight_duration("final") > 1.15 * res.flight_duration("original")
+    assert res.k == pytest.approx(res.k_star) and res.k > 1.0
+    assert abs(res.linear.plan.vy_takeoff_jump) < 1e-9
+    com0 = center_of_mass(r.body, r.motion)[slice(*r.flight)][:, 1].max()
+    com1 = center_of_mass(r.body, res.motion)[slice(*res.flight_out)][:, 1].max()
+    assert com1 > com0 + 0.05
+    # rotation rate: |L| is restored, so the mean angular speed about L falls
+    from mocomp.flips.smoothing import split_root
+
+    u = r.L0 / np.linalg.norm(r.L0)
+
+    def rate(m, fl):
+        th, _ = split_root(m.rotations[fl[0]:fl[1], 0], u)
+        return abs(th[-1] - th[0]) / ((fl[1] - 1 - fl[0]) / m.fps)
+
+    assert rate(res.motion, res.flight_out) < 0.9 * rate(r.motion, r.flight)
+
+
+def test_arms_twist_adds_a_twist_about_the_long_axis():
+    """Fig. 5.10: asymmetric arms tilt L in the body; keeping L fixed in the world turns the body
+    (step 1 rotates every frame after f*), so the landing orientation differs from the original's."""
+    res = restored("backflip", "arms-twist")
+    assert res.direction.first_departure is not None
+    f0 = res.direction.first_departure
+    assert np.allclose(res.direction.corrections[:f0 + 1], [0, 0, 0, 1])
+    assert res.direction.max_rotation_deg > 10.0
+    assert res.direction.roughness_deg < 5.0
+
+
+def test_k_ratio_scales_k_star_and_reports_velocity_jumps():
+    r = example("frontflip")
+    ed, _ = edited("frontflip", "arms-twist")
+    res = restore_momentum(r.body, r.motion, ed, r.flight, L_star=r.L0, k_ratio=0.7)
+    assert res.k == pytest.approx(0.7 * res.k_star)
+    assert res.linear.plan.vy_takeoff_jump > 0.3       # the flight is slower than the k-retimed take-off
+    assert res.stages["final"].max_magnitude < 0.05     # against 0.7 k* L*
+
+
+# ------------------------------------------------------------ invariants
+def test_unedited_constant_L_flight_needs_no_correction():
+    r = example("backflip")
+    res = restore_momentum(r.body, r.motion, r.motion, r.flight, L_star=r.L0)
+    assert res.edit_frames is None
+    assert res.direction.max_rotation_deg < 0.05
+    assert res.flight_duration("magnitude") == pytest.approx(res.flight_duration("original"), abs=1.01 / 120)
+    assert res.k == pytest.approx(1.0, abs=0.01)
+    n = min(res.motion.n_frames, r.motion.n_frames)
+    assert np.abs(res.motion.positions[:n] - r.motion.positions[:n]).max() < 0.03
+
+
+def test_both_direction_methods_agree():
+    r = example("backflip")
+    ed, _ = edited("backflip", "arms-twist")
+    gn = correct_direction(r.body, ed, r.flight, L_star=r.L0, method="gauss-newton")
+    bf = correct_direction(r.body, ed, r.flight, L_star=r.L0, method="bfgs")
+    assert gn.max_error_after < 1e-6 and bf.max_error_after < 1e-6
+    from mocomp.core.rotations import quat_angle, quat_inverse, quat_multiply
+
+    diff = np.degrees(quat_angle(quat_multiply(gn.corrections, quat_inverse(bf.corrections))))
+    assert diff.max() < 0.5
+    assert gn.max_rotation_deg > 5.0
+
+
+def test_direction_step_keeps_com_and_frames_before_the_edit():
+    r = example("sideflip")
+    ed, plan = edited("sideflip", "arms-twist")
+    # per-frame targets = the original's own L_f: the unedited frames need nothing
+    d = correct_direction(r.body, ed, r.flight, L_star=flight_momentum(r.body, r.motion, r.flight))
+    c0, c1 = center_of_mass(r.body, ed), center_of_mass(r.body, d.motion)
+    np.testing.assert_allclose(c1[:r.flight[1]], c0[:r.flight[1]], atol=1e-12)
+    f0 = d.first_departure
+    assert plan.start - 1 <= f0 <= plan.start + 2
+    np.testing.assert_array_equal(d.motion.rotations[:f0 + 1], ed.rotations[:f0 + 1])
+
+
+def test_magnitude_against_the_original_leaves_unedited_frames_alone():
+    """With the original as reference (conference paper's ratio |L_modif(f)| / |L(f)|),
+    frames before the edit keep ratio exactly 1 and their timing."""
+    r = example("frontflip")
+    ed, plan = edited("frontflip", "straight-legs")
+    mg = correct_magnitude(r.body, ed, r.flight, reference=r.motion)
+    before = mg.ratio_times < (plan.start - 1) / r.motion.fps
+    assert np.all(mg.ratio[before] == 1.0)
+    n = plan.start - 1
+    np.testing.assert_allclose(mg.source_times[:n], r.motion.times[:n], atol=1e-12)
+    assert mg.max_error_after < 0.05 < mg.max_error_before
+
+
+def test_original_reference_pipeline_on_synthetic():
+    r = example("sideflip")
+    ed, _ = edited("sideflip", "arms-twist")
+    res = restore_momentum(r.body, r.motion, ed, r.flight, reference="original")
+    assert res.stages["direction"].max_direction < 1e-6
+    assert res.stages["final"].max_magnitude < 0.05
+
+
+def test_raised_takeoff_clears_the_platform():
+    """App. B height change + Fig. 5.10: a dive from 1 m keeps every joint above the platform
+    top while over it; the COM still follows the parabola and lands at the original level."""
+    r = example("backflip")
+    ed, _ = edited("backflip", "straight-legs")
+    res = restore_momentum(r.body, r.motion, ed, r.flight, L_star=r.L0, takeoff_height=1.0)
+    pc = res.linear.platform
+    assert pc is not None and pc.clearance >= -1e-9
+    a, b = res.flight_out
+    m = res.motion
+    P = np.concatenate([m.positions, m.end_site_positions()], axis=1)[a:b]
+    over = (P @ pc.direction) <= pc.edge
+    assert np.all(P[..., 1][over] >= pc.top - 1e-6)
+    assert res.motion.root_positions[0, 1] == pytest.approx(r.motion.root_positions[0, 1] + 1.0)
+    assert res.linear.plan.dy < -0.9
+    assert res.linear.com_residual < 1e-9
+    # the landing stays at the original level
+    land0 = r.motion.positions[-1, :, 1].min()
+    land1 = res.motion.positions[-1, :, 1].min()
+    assert land1 == pytest.approx(land0, abs=1e-6)
+
+
+def test_report_is_json_and_has_curves(tmp_path):
+    res = restored("backflip", "arms-twist")
+    p = tmp_path / "r.json"
+    res.write_report(p)
+    d = json.loads(p.read_text())
+    assert set(d["curves"]) == {"original", "edited", "direction", "magnitude", "final"}
+    assert d["max_errors"]["direction"]["direction_rad"] < 0.01
+    assert "k = " in res.summary()
+
+
+def test_plot_helper_draws_every_figure():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from mocomp.plots.edit import plot_momentum_errors, plot_stick_filmstrip
+
+    res = restored("frontflip", "arms-twist")
+    for fig_name in ("5.4", "5.5", "3", "all"):
+        fig = plot_momentum_errors(res, figure=fig_name)
+        assert len(fig.axes) == (2 if fig_name == "all" else 1)
+    fig = plot_stick_filmstrip([res.original, res.motion], n_poses=4)
+    assert len(fig.axes) == 2
+    with pytest.raises(ValueError, match="figure must be"):
+        plot_momentum_errors(res, figure="9.9")
+
+
+# ------------------------------------------------------------- bad input
+def test_edit_outside_the_flight_is_refused_with_the_frames():
+    r = example("backflip")
+    rot = np.array(r.motion.rotations)
+    rot[r.flight[1] + 5, 5] = [0.0, 0.0, np.sin(0.2), np.cos(0.2)]
+    bad = r.motion.replace(rotations=rot)
+    with pytest.raises(EditRangeError, match=rf"changes frames {r.flight[1] + 5}-{r.flight[1] + 5}.*flight is frames"):
+        restore_momentum(r.body, r.motion, bad, r.flight)
+
+
+def test_bad_arguments():
+    r = example("backflip")
+    with pytest.raises(EditRangeError, match="outside"):
+        restore_momentum(r.body, r.motion, r.motion, (10, 10_000))
+    with pytest.raises(ValueError, match="reference"):
+        restore_momentum(r.body, r.motion, r.motion, r.flight, reference="mean")
+    with pytest.raises(ValueError, match="method"):
+        correct_direction(r.body, r.motion, r.flight, method="newton")
+    with pytest.raises(ValueError, match="exactly one"):
+        correct_magnitude(r.body, r.motion, r.flight)
+    with pytest.raises(EditRangeError, match="frames"):
+        restore_momentum(r.body, r.motion, r.motion[:-3], r.flight)
+
+
+def test_impossible_height_change_says_what_to_change():
+    r = example("jump")
+    with pytest.raises(PhysicsError, match=r"dy < v0\*T"):
+        restore_momentum(r.body, r.motion, r.motion, r.flight, takeoff_height=-3.0)
+
+
+# ------------------------------------------------------------- real flips
+REAL = ["cmu_88_01_backflip", "cmu_90_08_sideflip", "deepmimic_backflip", "cmu_88_05_cartwheel_backflip"]
+
+
+@pytest.mark.parametrize("name", REAL)
+@pytest.mark.parametrize("preset", ["straight-legs", "arms-twist"])
+def test_real_flips_errors_after_correction_within_the_clips_own_variation(real_data_dir, name, preset):
+    from mocomp.flips.preprocess import prepare_cached
+
+    p = prepare_cached(name, estimate=False)
+    ed, _ = apply_preset(p.motion, p.flight, preset)
+    res = restore_momentum(p.prior, p.motion, ed, p.flight)
+    own = res.stages["original"]
+    fin = res.stages["final"]
+    assert fin.max_direction <= max(own.max_direction, 1e-3)
+    assert fin.max_magnitude <= own.max_magnitude
+    assert res.stages["direction"].max_direction < 1e-5
+    assert res.linear.com_residual < 1e-9
