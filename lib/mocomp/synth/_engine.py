@@ -39,6 +39,9 @@ __all__ = ["G", "Key", "Design", "generate"]
 
 #: gravitational acceleration, m/s^2 (along -y)
 G = 9.81
+#: limits on the joint speeds the ground phases may demand at take-off and touchdown, rad/s
+MAX_HEEL_RATE = 40.0
+MAX_KNEE_RATE = 40.0
 
 
 @dataclass(frozen=True)
@@ -127,6 +130,9 @@ class _Body:
         self.J = skeleton.n_joints
         self.chains = (leg_chain(skeleton, "left"), leg_chain(skeleton, "right"))
         self.leg_idx = np.array([skeleton.index(n) for n in LEG_POSE_JOINTS])
+        # joints held at identity: the root (its rotation is the pelvis orientation) and the
+        # hip carriers LHipJoint/RHipJoint (the leg IK treats the pelvis as one rigid bone)
+        self.fixed = np.array([0] + [c.carrier for c in self.chains])
         self.is_leg = np.zeros(self.J, bool)
         self.is_leg[self.leg_idx] = True
         rest = skeleton.rest_positions(include_end_sites=False)
@@ -151,7 +157,7 @@ class _Body:
         R = quat_to_matrix(exp_quat(np.broadcast_to(upper_rv, (N, self.J, 3))))
         R = np.array(R)
         R[:, self.leg_idx] = leg_R
-        R[:, 0] = np.eye(3)
+        R[:, self.fixed] = np.eye(3)
         return R
 
 
@@ -263,7 +269,7 @@ def _momentum_map(B: _Body, R, phi_up, phidot_up, leg_R, K):
     Rloc = B.local_matrices(phi_up, leg_R[None])[0]
     w_up = np.einsum("jab,jb->ja", right_jacobian(phi_up), phidot_up)
     w_up[B.leg_idx] = 0.0
-    w_up[0] = 0.0
+    w_up[B.fixed] = 0.0
     W = np.zeros((n_in + 1, B.J, 3))
     W[0] = w_up
     for k in range(n_in):
@@ -402,8 +408,8 @@ class _Flight:
         f, df = bump_ramp(np.asarray(t) - self.t0, self.tau_c)
         phi[:, B.leg_idx] = lv + f[:, None, None] * c
         phidot[:, B.leg_idx] = lr + df[:, None, None] * c
-        phi[:, 0] = 0.0
-        phidot[:, 0] = 0.0
+        phi[:, B.fixed] = 0.0
+        phidot[:, B.fixed] = 0.0
         return phi, phidot
 
     def mass_properties(self, t, x):
@@ -617,16 +623,18 @@ def generate(design: Design, skeleton: Skeleton, body: BodyModel, fps: float = 1
     phi_up1, phidot_up1 = upper_track(np.array([t1]))
     A1, b1 = _momentum_map(B, R1, phi_up1[0], phidot_up1[0], land.leg_R, K1)
     kk = Kk1.mean(axis=0)
+    heel_rate1 = 0.0
     if heel1 > 0:
+        # heels come down at the rate giving the designed knee flexion rate, within a
+        # physiological range; a harder landing puts the rest on the knees
         heel_rate1 = float((d.landing_knee_rate - kk[:6] @ np.concatenate([v1, w1])) / kk[6])
-        if heel_rate1 > 0 or heel_rate1 < -60.0:
-            raise PhysicsError(f"touchdown needs a heel rate of {heel_rate1:.1f} rad/s (allowed -60..0); "
-                               "change the landing knee angle, heel angle or knee rate")
-    else:
-        heel_rate1 = 0.0
+        heel_rate1 = float(np.clip(heel_rate1, -MAX_HEEL_RATE, 0.0))
+    knee_rate1 = float(kk @ np.concatenate([v1, w1, [heel_rate1]]))
+    if not (-5.0 <= knee_rate1 <= MAX_KNEE_RATE):
+        raise PhysicsError(f"touchdown needs a knee flexion rate of {knee_rate1:.1f} rad/s (allowed -5..{MAX_KNEE_RATE:g}) "
+                           "with the heels at their limit; land from lower, with more knee flexion or a higher heel")
     after = A1 @ np.concatenate([v1, w1, [heel_rate1]]) + b1
     vcom_plus, L_plus = after[:3], after[3:]
-    knee_rate1 = float(kk @ np.concatenate([v1, w1, [heel_rate1]]))
 
     # ---- pre-flight ground phase: frames 0..i0
     fpre = np.arange(0, i0 + 1)
@@ -657,8 +665,8 @@ def generate(design: Design, skeleton: Skeleton, body: BodyModel, fps: float = 1
     # heel rise: flat, then up to the take-off angle and rate; the quintic from rest is
     # monotonic when (rate x duration) <= 2.5 x angle, so the rise lasts 2 angle / rate
     heel_rate = float(x0[6])
-    if heel_rate < 0 or heel_rate > 40.0:
-        raise PhysicsError(f"take-off needs a heel-rise rate of {heel_rate:.1f} rad/s (allowed 0..40); "
+    if heel_rate < 0 or heel_rate > MAX_HEEL_RATE:
+        raise PhysicsError(f"take-off needs a heel-rise rate of {heel_rate:.1f} rad/s (allowed 0..{MAX_HEEL_RATE:g}); "
                            "change the take-off knee angle, knee rate or jump height")
     rise = min(0.6 * (t0 - t_c), 2.0 * takeoff.heel / max(heel_rate, 1e-9))
     t_h = t0 - rise

@@ -105,13 +105,17 @@ class _Builder:
         mass_seq, style_seq = seq.spawn(2)
         self.style = np.random.default_rng(style_seq)
         self.sk = synthetic_skeleton(self.H)
+        # root and hip carriers stay at identity (see mocomp.synth._engine)
+        self.fixed = [self.sk.index(n) for n in ("Hips", "LHipJoint", "RHipJoint")]
         self.body = true_body(self.sk, p["mass"], p["table"], p["shape"], p["mass_factors"], p["mass_noise"],
                               np.random.default_rng(mass_seq))
 
     def pose(self, **kw):
         rv = pose(self.sk, **kw)
         if self.variation:
-            rv = rv + self.style.normal(0.0, math.radians(6.0) * self.variation, rv.shape)
+            noise = self.style.normal(0.0, math.radians(6.0) * self.variation, rv.shape)
+            noise[self.fixed] = 0.0
+            rv = rv + noise
         return rv
 
     def dur(self, seconds):
