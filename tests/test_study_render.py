@@ -203,11 +203,16 @@ def test_osmesa_backend_renders_the_same_picture(tmp_path):
 
 
 # ------------------------------------------------------- stimulus sets
-def _register_toy_examples():
-    from mocomp.datasets.examples import EXAMPLES, Example, register
+@pytest.fixture
+def toy_example(monkeypatch):
+    """A rigid tumbling flip as the embedded example ``_test_tumbling_flip`` (registered for
+    this test only, so other tests never see it)."""
+    import importlib
 
-    if "_test_tumbling_flip" in EXAMPLES:
-        return
+    from mocomp.datasets.examples import Example
+
+    ex_mod = importlib.import_module("mocomp.datasets.examples")  # the package's `examples` is a function
+
     sys.path.insert(0, str(Path(__file__).parent))
     from test_study_stimuli import tumbling_flip
 
@@ -215,11 +220,11 @@ def _register_toy_examples():
         def __init__(self):
             self.motion, self.body, self.flight = tumbling_flip(fps=60.0, n_stand=15, T=0.5, n_land=18)
 
-    register(Example("_test_tumbling_flip", "test only: rigid tumbling flip", Res))
+    monkeypatch.setitem(ex_mod.EXAMPLES, "_test_tumbling_flip",
+                        Example("_test_tumbling_flip", "test only: rigid tumbling flip", Res))
 
 
 def _spec(tmp_path, **render):
-    _register_toy_examples()
     data = {"study": {"name": "tiny"},
             "render": dict({"width": 64, "height": 48, "fps": 15, "filmstrip": True, "filmstrip_poses": 3},
                            **render),
@@ -232,7 +237,7 @@ def _spec(tmp_path, **render):
     return p
 
 
-def test_render_set_manifest_hashes_and_skipping(tmp_path):
+def test_render_set_manifest_hashes_and_skipping(tmp_path, toy_example):
     from study.render import EXTRA_COLUMNS, MANIFEST_COLUMNS, render_stimulus_set
 
     spec = _spec(tmp_path)
@@ -285,7 +290,7 @@ def test_render_set_manifest_hashes_and_skipping(tmp_path):
     assert len(rep4.rendered) == 4
 
 
-def test_render_cli(tmp_path, capsys):
+def test_render_cli(tmp_path, capsys, toy_example):
     from study.render_cli import register_render
 
     parser = argparse.ArgumentParser(prog="mocomp study")
@@ -310,13 +315,12 @@ def test_render_cli(tmp_path, capsys):
         args.func(args)
 
 
-def test_mocomp_study_render_command(tmp_path):
+def test_mocomp_study_render_command(tmp_path, toy_example):
     """Through the real ``mocomp`` entry point (once the ``study`` command exists)."""
     from mocomp.cli import COMMAND_MODULES, main
 
     if "study" not in COMMAND_MODULES:
         pytest.skip("the 'study' command is not registered yet")
-    _register_toy_examples()
     rc = main(["study", "render", str(_spec(tmp_path)), "-o", str(tmp_path / "o"), "--no-progress"])
     assert rc == 0 and (tmp_path / "o" / "manifest.csv").is_file()
     assert main(["study", "render", str(tmp_path / "missing.toml"), "-o", str(tmp_path / "o")]) == 2
