@@ -20,7 +20,7 @@ from ..core.motion import Motion, SourceInfo
 from ..core.rotations import euler_sequence
 from ..core.skeleton import EndSite, Skeleton
 from ..errors import MotionFormatError
-from .units import check_height, resolve_scale, standing_height
+from .units import HEIGHT_RANGE, check_height, resolve_scale, standing_height
 
 __all__ = ["read_bvh", "write_bvh", "parse_bvh", "format_bvh"]
 
@@ -306,13 +306,24 @@ def _parse(head: str, raw: bytes, start: int, path, scale, fps, height_check) ->
         tuple(EndSite(p, o, nm) for p, o, nm in end_sites),
     )
     step = max(1, n_frames // 64)  # the height estimate needs only a sample of frames
-    probe = Motion(sk_file, 1.0, root_pos[::step], rots[::step])
-    height_units = standing_height(probe)
-    s, reason = resolve_scale(scale, height_units)
-    sk = sk_file.scaled(s)
+
+    def motion_height() -> float:
+        return standing_height(Motion(sk_file, 1.0, root_pos[::step], rots[::step]))
+
     where = path or "<bvh text>"
-    if height_check:
-        check_height(height_units * s, where)
+    if scale is None or (isinstance(scale, str) and scale == "auto"):
+        height_units = motion_height()
+        s, reason = resolve_scale(scale, height_units)
+        if height_check:
+            check_height(height_units * s, where)
+    else:
+        s, reason = resolve_scale(scale, float("nan"))
+        # A given unit: the rest pose's height settles it when plausible (no FK needed);
+        # otherwise (e.g. the Bandai rigs' rest pose is not upright) the motion's own
+        # standing height decides whether to warn.
+        if height_check and not (HEIGHT_RANGE[0] <= sk_file.height() * s <= HEIGHT_RANGE[1]):
+            check_height(motion_height() * s, where)
+    sk = sk_file.scaled(s)
     header_fps = 1.0 / frame_time
     if fps is not None:
         notes.append(f"header says {header_fps:.6g} fps; caller set {fps:g} fps")
