@@ -36,7 +36,8 @@ from .retime import RetimePlan, plan_retime, sample_positions
 from .sequence import Sequence, build_sequence
 from ..core.motion import slerp
 from .similarity import axis_quat, twist_angle
-from .smoothing import seam_corrections, split_root
+from ._quat import qapply, qconj, qmul, qpow, slerp_rows
+from .smoothing import compose_root, ramp, shortest_arc, split_root
 
 __all__ = ["PhysicsReport", "MultiFlipResult", "multiflip", "slerp_frames"]
 
@@ -280,18 +281,28 @@ def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None 
             rot[a - w:a + 1] = left_blk
             hi = min(a + 2 + w, hi_u)
             rot[a + 1:hi] = right_blk[:hi - a - 1]
-    # landing seam f -> g+1 (pair f ~ g at f's instant); root split of the current (possibly
-    # loop-smoothed) frames, rotation about L untouched
+    # landing seam f -> g+1 (pair f ~ g at f's instant): half the mismatch on each side with the
+    # raised-cosine ramp (section 5.4.2.2); the root's part perpendicular to L only (eq. 5.14)
     a, g = seq.landing_seam, seq.join.g
     la, rb = max(a - w, 0), min(a + 2 + w, nseq)
     blk = rot[la:rb]
-    b_blk = quat_apply(quat_inverse(blk[:, 0]), P.axis)
-    left, right = seam_corrections(rot[a], P.rotations[g], b_blk[a - la], P.bdir[g], w, pair_at_left=True)
-    nl = a + 1 - la
-    rot[la:a + 1] = smooth_block(P, src[la:a + 1], _tail(left, nl), blk[:nl], b_blk[:nl])
-    rot[a + 1:rb] = smooth_block(P, src[a + 1:rb], _head(right, rb - a - 1), blk[nl:], b_blk[nl:])
+    idx = np.arange(la, rb)
+    left = idx <= a
+    wts = ramp(np.abs(idx - a), w)
+    ql, qr = rot[a], P.rotations[g]
+    sgn = np.where(np.einsum("ji,ji->j", ql, qr) < 0.0, -1.0, 1.0)[:, None]
+    mid = ql + sgn * qr
+    mid /= np.linalg.norm(mid, axis=-1, keepdims=True)       # slerp at 1/2
+    offs = np.where(left[:, None, None], qmul(qconj(ql), mid)[None], qmul(qconj(qr), mid)[None])
+    blk[:, 1:] = qmul(blk[:, 1:], qpow(offs[:, 1:], wts[:, None]))
+    bb = qapply(qconj(blk[:, 0]), P.axis)
+    bl, br = bb[a - la], P.bdir[g]
+    bm = bl + br
+    bm /= np.linalg.norm(bm)
+    arcs = np.where(left[:, None], shortest_arc(bl, bm)[None], shortest_arc(br, bm)[None])
+    blk[:, 0] = compose_root(P.theta[src[la:rb]], qapply(qpow(arcs, wts), bb), P.axis, P.root_ref)
     # each frame's rotation about L (copies j*phi, landing extra, spread join correction), on the left
-    rot[:, 0] = quat_multiply(axis_quat(P.axis, seq.extra), rot[:, 0])
+    rot[:, 0] = qmul(axis_quat(P.axis, seq.extra), rot[:, 0])
     q_land = None
     if not _whole_turns(seq.extra_total):
         # an extra rotation that is not whole turns (e.g. a twist jump turned further): the ground
@@ -333,7 +344,7 @@ def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None 
     tau = sample_positions(nseq, kk)
     i0 = np.minimum(np.floor(tau).astype(int), nseq - 2)
     al = tau - i0
-    rot_out = slerp_frames(rot[i0], rot[i0 + 1], al)
+    rot_out = slerp_rows(rot[i0], rot[i0 + 1], al)
     t3 = time.perf_counter()
     timings["retime"] = t3 - t2
     # ------------------------------------------------------------- reposition

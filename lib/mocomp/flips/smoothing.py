@@ -96,13 +96,15 @@ def shortest_arc(u: np.ndarray, v: np.ndarray) -> np.ndarray:
 def compose_root(theta: np.ndarray, b: np.ndarray, axis: np.ndarray, ref: np.ndarray | None = None) -> np.ndarray:
     """Inverse of :func:`split_root`: ``q = q_L(theta) q_P q_0`` with ``q_P`` the shortest
     arc from ``q_0 b`` to ``axis``."""
+    from ._quat import qapply, qmul
+
     a = np.asarray(axis, dtype=float)
     a = a / np.linalg.norm(a)
     b = np.asarray(b, dtype=float)
     b = b / np.linalg.norm(b, axis=-1, keepdims=True)
     if ref is None:
-        return quat_multiply(axis_quat(a, theta), shortest_arc(b, a))
-    return quat_multiply(quat_multiply(axis_quat(a, theta), shortest_arc(quat_apply(ref, b), a)), ref)
+        return qmul(axis_quat(a, theta), shortest_arc(b, a))
+    return qmul(qmul(axis_quat(a, theta), shortest_arc(qapply(np.asarray(ref, float), b), a)), ref)
 
 
 def ramp(d: np.ndarray, window: int) -> np.ndarray:

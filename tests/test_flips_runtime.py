@@ -1,0 +1,44 @@
+"""The run-time kernels agree with the core rotation functions (mocomp.flips._quat)."""
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from mocomp.core.motion import slerp
+from mocomp.core.rotations import quat_angle, quat_apply, quat_inverse, quat_multiply
+from mocomp.flips._quat import qapply, qconj, qmul, qpow, slerp_rows
+
+
+def ang(a, b):
+    return quat_angle(quat_multiply(a, quat_inverse(b)))
+
+
+def test_kernels_match_core():
+    a = Rotation.random(200, random_state=1).as_quat().reshape(20, 10, 4)
+    b = Rotation.random(200, random_state=2).as_quat().reshape(20, 10, 4)
+    np.testing.assert_allclose(qmul(a, b), quat_multiply(a, b), atol=1e-14)
+    np.testing.assert_allclose(qconj(a), quat_inverse(a))
+    v = np.random.default_rng(0).normal(size=(20, 10, 3))
+    np.testing.assert_allclose(qapply(a, v), quat_apply(a, v), atol=1e-13)
+    w = np.random.default_rng(1).uniform(0, 1, (20, 10))
+    ident = np.zeros_like(a)
+    ident[..., 3] = 1.0
+    assert ang(qpow(a, w), slerp(ident, a, w)).max() < 1e-10
+    # tiny rotations: qpow of (almost) the identity
+    tiny = np.array([[1e-14, 0, 0, 1.0]])
+    assert np.allclose(qpow(tiny, np.array([0.5])), [[5e-15, 0, 0, 1.0]])
+
+
+def test_slerp_rows_is_slerp_within_1e_4_rad():
+    rng = np.random.default_rng(3)
+    q0 = Rotation.random(300 * 8, random_state=4).as_quat().reshape(300, 8, 4)
+    for scale in (0.02, 0.1, 0.6, 2.0):                     # near pairs (nlerp) and far pairs (slerp)
+        d = Rotation.from_rotvec(rng.normal(scale=scale, size=(2400, 3))).as_quat().reshape(300, 8, 4)
+        q1 = quat_multiply(q0, d)
+        q1[::4] *= -1.0                                      # other hemisphere: the short way
+        t = rng.uniform(0, 1, 300)
+        ref = slerp(q0, q1, np.broadcast_to(t[:, None], (300, 8)))
+        out = slerp_rows(q0, q1, t)
+        assert ang(out, ref).max() < 1e-4
+        np.testing.assert_allclose(np.linalg.norm(out, axis=-1), 1.0, atol=1e-12)
+    # the end points are exact
+    np.testing.assert_allclose(ang(slerp_rows(q0, q1, np.zeros(300)), q0), 0, atol=1e-7)
+    np.testing.assert_allclose(ang(slerp_rows(q0, q1, np.ones(300)), q1), 0, atol=1e-7)
