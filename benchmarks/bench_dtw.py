@@ -82,7 +82,7 @@ def run(quick: bool) -> list[dict]:
     g = gesture_clip(7, 4)
     pair = make_splice_pair(g.motion, walk_clip(nb, skeleton=g.motion.skeleton), 7, n_body=nb)
     splice_motions(pair.body, pair.hand)  # warm-up
-    t_splice, sres = best_of(lambda _: splice_motions(pair.body, pair.hand), rep)
+    t_splice, sres = best_of(lambda _: splice_motions(pair.body, pair.hand), max(rep, 7))
     al = sres.alignments["right"]
     rows.append(result(
         f"two-stage splice {nb} body x {pair.hand.n_frames} hand frames", t_splice,

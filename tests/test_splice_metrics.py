@@ -200,3 +200,14 @@ def test_phases_known_profiles():
     traj[..., 0] += 0.2 * up[:, None]
     ph = motion_phases(HandMarkers(traj, fps, sh), stroke_acceleration=10.0)  # no stroke: unattainable threshold
     assert ph.sequence().replace("H", "") == "PR"
+
+
+@pytest.mark.parametrize("k,deriv", [(5, 0), (7, 1), (7, 2), (25, 1)])
+def test_savgol_equals_scipy_interp_mode(k, deriv):
+    from scipy.signal import savgol_filter
+
+    from mocomp.splice.metrics import savgol
+
+    x = np.random.default_rng(k).normal(size=(60, 4, 3))
+    np.testing.assert_allclose(savgol(x, k, deriv, 1 / 30), savgol_filter(x, k, 3, deriv, 1 / 30, axis=0, mode="interp"),
+                               rtol=1e-10, atol=1e-9)

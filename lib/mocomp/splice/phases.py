@@ -20,10 +20,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import savgol_filter
-
 from .markers import HandMarkers, MARKER_ROLES, require_frames
-from .metrics import smoothing_frames
+from .metrics import savgol, smoothing_frames
 
 __all__ = ["PHASE_NAMES", "Phase", "PhaseLabels", "motion_phases"]
 
@@ -151,25 +149,26 @@ def motion_phases(hm: HandMarkers, *, marker: str = "hand", smooth: float = 0.2,
     q = MARKER_ROLES.index(marker)
     r = hm.relative[:, q]
     dt = 1.0 / hm.fps
-    vel = savgol_filter(r, k, 3, deriv=1, delta=dt, axis=0, mode="interp")
+    vel = savgol(r, k, 1, dt)
     speed = np.linalg.norm(vel, axis=1)
     # "outwards" = away from the resting position: the median hand position
     # (relative to the shoulder) over the 10 % of frames where it is lowest
     low = r[:, 1] <= np.percentile(r[:, 1], 10)
     rest = np.median(r[low], axis=0)
-    dist = savgol_filter(np.linalg.norm(r - rest, axis=1), k, 3, mode="interp")
-    radial = savgol_filter(dist, k, 3, deriv=1, delta=dt, mode="interp")
-    acc_t = savgol_filter(speed, k, 3, deriv=1, delta=dt, mode="interp")
+    dist = savgol(np.linalg.norm(r - rest, axis=1), k)
+    radial = savgol(dist, k, 1, dt)
+    acc_t = savgol(speed, k, 1, dt)
     p95 = float(np.percentile(speed, 95))
     v_hold = max(hold_speed * p95, still_speed)
     a_stroke = max(stroke_acceleration * float(np.percentile(np.abs(acc_t), 95)), min_stroke_acceleration)
     T = len(speed)
     lab = np.full(T, "H", dtype="<U1")
     moving = speed >= v_hold
-    cuts = set(find_peaks(-speed, prominence=split * p95)[0].tolist()) if p95 > 0 else set()
+    cuts = find_peaks(-speed, prominence=split * p95)[0] if p95 > 0 else np.zeros(0, dtype=int)
     edges = np.diff(np.concatenate([[0], moving.astype(int), [0]]))
     for a0, b0 in zip(np.nonzero(edges == 1)[0], np.nonzero(edges == -1)[0]):
-        bounds = [a0] + sorted(c for c in cuts if a0 < c < b0) + [b0]
+        inside = cuts[np.searchsorted(cuts, a0, side="right"):np.searchsorted(cuts, b0, side="left")]
+        bounds = [a0, *inside.tolist(), b0]
         for a, b in zip(bounds[:-1], bounds[1:]):
             if np.max(np.abs(acc_t[a:b])) >= a_stroke:
                 lab[a:b] = "S"
