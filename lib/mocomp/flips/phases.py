@@ -2,20 +2,30 @@
 
 1. **Constraint method** (Liu & Popovic 2002): frames where at least one end
    effector (feet, toes, hands) is nearly still are candidates for the borders of
-   a ballistic phase; no ground level is assumed (multi-level scenes work). The
-   runs of frames with *no* still effector are the candidate flights.
-2. **Linear-momentum pattern.** In flight the linear momentum is constant in x and
-   z and falls linearly in y; at take-off it first dips and then rises sharply
-   (push-off), at landing it drops sharply and then recovers. So a candidate
-   is kept where the COM (computed with an average mass distribution, de Leva's
-   table by default) follows one ballistic trajectory, and its borders are moved
-   to where the COM leaves that trajectory: this is the momentum pattern checked
-   on its integral, the COM position, which has no finite-difference smearing
-   across the border. A limb that stays put for a few frames in mid-air (e.g. the
-   feet at the apex of a straight hop) splits a flight into candidates; they are
-   merged when the COM stays on one trajectory across the gap.
+   a ballistic phase; no ground level is assumed (multi-level scenes work; an
+   effector resting at its own lowest level also counts as planted). The runs of
+   frames with *no* planted effector are the candidate flights.
+2. **Linear-momentum pattern** (computed with an average mass distribution, de
+   Leva's table by default, as the paper does before masses are estimated). In
+   flight the vertical momentum falls on a line (slope ``-M g``) and the
+   horizontal momentum is constant; at take-off it first dips and then rises
+   sharply (push-off), at landing it drops sharply and then recovers. So within
+   each candidate (widened by ``border_window``) the take-off is placed at a peak
+   of the vertical COM velocity (the end of the sudden rise) and the landing at a
+   later trough (where the sudden drop begins), such that the velocity between
+   them falls on one line (R^2 >= ``min_r2``, slope ``-g s`` with ``s`` in
+   ``gravity_range``); the longest such span wins. The borders are then moved in to
+   where the vertical acceleration (3-point second difference of the COM, which
+   does not reach across a border) has dropped below ``-g/2``: the peak and the
+   trough are where the ground force equals the weight, mid-push.
+   A limb that stays put for a few frames in mid-air (e.g. the feet at the apex of
+   a straight hop) splits a flight into candidates; they are merged when the
+   vertical velocity keeps falling on one line across the gap.
 3. The longest ballistic interval is "the" flight; all are returned (several
    flights of one performer feed joint mass estimation).
+
+Validated on every synthetic jump (borders within 2 frames of the truth at 120 Hz)
+and on every real flip, twist and jump clip of the data set (``tests/test_flips_phases.py``).
 """
 from __future__ import annotations
 
