@@ -290,3 +290,20 @@ def test_real_flips_errors_after_correction_within_the_clips_own_variation(real_
     assert fin.max_magnitude <= own.max_magnitude
     assert res.stages["direction"].max_direction < 1e-5
     assert res.linear.com_residual < 1e-9
+
+
+def test_compiled_sampling_matches_motion_sample():
+    from mocomp.edit.restore import fast_sample, sampled_L
+
+    r = example("frontflip")
+    m = r.motion[100:200]
+    t = np.sort(np.random.default_rng(3).uniform(0, m.duration, 400))
+    t[:3] = [0.0, m.times[5], m.duration]
+    ref = m.sample(t)
+    ours = fast_sample(m, t)
+    np.testing.assert_allclose(ours.rotations, ref.rotations, atol=1e-14)
+    np.testing.assert_allclose(ours.root_positions, ref.root_positions, atol=1e-14)
+    np.testing.assert_array_equal(ours.rotations[1], m.rotations[5])
+    tf = 0.1 + np.arange(300) / 600.0
+    np.testing.assert_allclose(sampled_L(r.body, m, tf)[1:-1], interior_L(r.body, m.sample(tf, fps=600.0))[1:-1],
+                               rtol=1e-9, atol=1e-9)

@@ -374,3 +374,104 @@ def interior_momentum(m, I_local, X, Q, t):
         out[f, 1] = L1
         out[f, 2] = L2
     return out
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _slerp1(q0, q1, a, out):
+    """Slerp of two unit quaternions as :func:`mocomp.core.motion.slerp` (short way, normalised)."""
+    d = q0[0] * q1[0] + q0[1] * q1[1] + q0[2] * q1[2] + q0[3] * q1[3]
+    s = 1.0
+    if d < 0.0:
+        s = -1.0
+        d = -d
+    if d > 1.0:
+        d = 1.0
+    th = math.acos(d)
+    sn = math.sin(th)
+    if sn < 1e-9:
+        w0 = 1.0 - a
+        w1 = a
+    else:
+        w0 = math.sin((1.0 - a) * th) / sn
+        w1 = math.sin(a * th) / sn
+    w1 *= s
+    n = 0.0
+    for k in range(4):
+        out[k] = w0 * q0[k] + w1 * q1[k]
+        n += out[k] * out[k]
+    n = math.sqrt(n)
+    for k in range(4):
+        out[k] /= n
+
+
+@numba.njit(cache=True, nogil=True)
+def slerp_frames(rot, i0, i1, alpha):
+    """``(n, J, 4)`` local rotations at fractional frames: ``slerp(rot[i0], rot[i1], alpha)``
+    per joint, exact copies where ``alpha == 0`` (as :meth:`mocomp.core.Motion.sample`)."""
+    n = i0.shape[0]
+    J = rot.shape[1]
+    out = np.empty((n, J, 4))
+    for k in range(n):
+        a = alpha[k]
+        for j in range(J):
+            if a == 0.0:
+                for c in range(4):
+                    out[k, j, c] = rot[i0[k], j, c]
+            else:
+                _slerp1(rot[i0[k], j], rot[i1[k], j], a, out[k, j])
+    return out
+
+
+@numba.njit(cache=True, nogil=True)
+def sampled_segments(parents, offsets, root_pos, rot, i0, i1, alpha, seg_joint, local_coms):
+    """Segment COMs ``(n, S, 3)`` and orientations ``(n, S, 4)`` of the motion sampled at
+    fractional frames (root linear, joints slerped, then forward kinematics): the fused
+    equivalent of ``segment_state(body, motion.sample(times))`` without the intermediate arrays."""
+    n = i0.shape[0]
+    J = rot.shape[1]
+    S = seg_joint.shape[0]
+    X = np.empty((n, S, 3))
+    Q = np.empty((n, S, 4))
+    G = np.empty((J, 4))
+    P = np.empty((J, 3))
+    loc = np.empty(4)
+    for k in range(n):
+        a = alpha[k]
+        for j in range(J):
+            if a == 0.0:
+                for c in range(4):
+                    loc[c] = rot[i0[k], j, c]
+            else:
+                _slerp1(rot[i0[k], j], rot[i1[k], j], a, loc)
+            p = parents[j]
+            if p < 0:
+                for c in range(4):
+                    G[j, c] = loc[c]
+                for c in range(3):
+                    P[j, c] = (1.0 - a) * root_pos[i0[k], c] + a * root_pos[i1[k], c]
+            else:
+                g0, g1, g2, g3 = _qmul(G[p, 0], G[p, 1], G[p, 2], G[p, 3], loc[0], loc[1], loc[2], loc[3])
+                G[j, 0] = g0
+                G[j, 1] = g1
+                G[j, 2] = g2
+                G[j, 3] = g3
+                v = _qrot(G[p, 0], G[p, 1], G[p, 2], G[p, 3], offsets[j, 0], offsets[j, 1], offsets[j, 2])
+                for c in range(3):
+                    P[j, c] = P[p, c] + v[c]
+        for s in range(S):
+            j = seg_joint[s]
+            for c in range(4):
+                Q[k, s, c] = G[j, c]
+            v = _qrot(G[j, 0], G[j, 1], G[j, 2], G[j, 3], local_coms[s, 0], local_coms[s, 1], local_coms[s, 2])
+            for c in range(3):
+                X[k, s, c] = P[j, c] + v[c]
+    return X, Q
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _qrot(ux, uy, uz, w, vx, vy, vz):
+    """``q v q^-1`` as :func:`mocomp.core.rotations.quat_apply`: v + w t + u x t, t = 2 u x v."""
+    tx = 2.0 * (uy * vz - uz * vy)
+    ty = 2.0 * (uz * vx - ux * vz)
+    tz = 2.0 * (ux * vy - uy * vx)
+    return (vx + w * tx + uy * tz - uz * ty, vy + w * ty + uz * tx - ux * tz, vz + w * tz + ux * ty - uy * tx)

@@ -159,7 +159,9 @@ def correct_linear(body, motion: Motion, flight, fit: FlightFit, *, k: float | N
     kk = plan.k
     n_out = int(np.floor(motion.duration * fps / kk + 1e-9)) + 1
     src = np.minimum(np.arange(n_out) * kk / fps, motion.duration)
-    out = motion.sample(src)
+    from .restore import fast_sample
+
+    out = fast_sample(motion, src)
     ta, tl = a / fps, (b - 1) / fps
     tau_a = ta / kk
     eps = 1e-9

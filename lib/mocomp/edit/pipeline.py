@@ -30,7 +30,7 @@ from .linear import LinearResult, correct_linear
 from .restore import (DirectionResult, MagnitudeResult, correct_direction, correct_magnitude, direction_error,
                       flight_momentum, magnitude_error, validate_flight)
 
-__all__ = ["StageErrors", "RestoreResult", "restore_momentum", "changed_frames", "STAGES"]
+__all__ = ["StageErrors", "RestoreResult", "restore_momentum", "three_steps", "changed_frames", "STAGES"]
 
 #: evidence stages in order
 STAGES = ("original", "edited", "direction", "magnitude", "final")
@@ -285,7 +285,6 @@ def restore_momentum(body, original: Motion, edited: Motion, flight, *, k_ratio:
             f"the edit changes frames {changed[0]}-{changed[-1]}, but the flight is frames {a}-{b - 1}: edits "
             f"must lie strictly inside it (frames {a + 1}-{b - 2}), so that L at take-off stays the original's "
             "(eq. 5.19) and the landing is untouched; move or shorten the edit")
-    timings = {}
     ce = ComEvaluator(body)
     fps = original.fps
     if fit is None:
@@ -298,6 +297,33 @@ def restore_momentum(body, original: Motion, edited: Motion, flight, *, k_ratio:
     notes = []
     if edit_frames is None:
         notes.append("the edited motion equals the original: nothing to restore but the uniform retiming")
+    return three_steps(body, edited, (a, b), L_const, fit, original=original, original_flight=(a, b),
+                       L_orig=L_orig, reference=reference, method=method, tol=tol, oversample=oversample, k=k,
+                       k_ratio=k_ratio, takeoff_height=takeoff_height, platform=platform, clearance=clearance,
+                       gravity=gravity, polish=polish, notes=notes, edit_frames=edit_frames, com_eval=ce,
+                       t_start=t_all)
+
+
+def three_steps(body, edited: Motion, flight, L_const, fit: FlightFit, *, original: Motion,
+                original_flight, L_orig=None, reference: str = "constant", method: str = "gauss-newton",
+                tol: float = 1e-7, oversample: int = 8, k=None, k_ratio=None, takeoff_height: float = 0.0,
+                platform="auto", clearance: float = 0.0, gravity=None, polish: bool = True, notes=(),
+                edit_frames=None, com_eval=None, t_start=None) -> RestoreResult:
+    """Steps 1-3 (and the final direction sweep) on ``edited``'s flight with the constant target
+    ``L_const`` (or, with ``reference="original"``, ``original``'s per-frame ``L_orig`` on the same
+    frames); ``fit`` gives the take-off velocity and gravity for step 3. The ``original`` stage of
+    the evidence is ``original`` over ``original_flight`` against ``L_const`` (its own variation).
+    Used by :func:`restore_momentum` and :func:`mocomp.edit.join.join_flights`."""
+    t_all = time.perf_counter() if t_start is None else t_start
+    if k is None and k_ratio is None:
+        k_ratio = 1.0
+    a, b = int(flight[0]), int(flight[1])
+    notes = list(notes)
+    timings = {}
+    ce = com_eval if com_eval is not None else ComEvaluator(body)
+    L_const = np.asarray(L_const, dtype=float)
+    if L_orig is None:
+        L_orig = flight_momentum(body, original, original_flight)
     # step 1
     t = time.perf_counter()
     target1 = L_const if reference == "constant" else L_orig
@@ -323,7 +349,7 @@ def restore_momentum(body, original: Motion, edited: Motion, flight, *, k_ratio:
     timings["linear"] = time.perf_counter() - t
     # evidence
     t = time.perf_counter()
-    frame_t = original.times
+    frame_t = edited.times
     if reference == "constant":
         def dir_target(src):
             return np.broadcast_to(L_const, (np.size(src), 3))
@@ -346,7 +372,7 @@ def restore_momentum(body, original: Motion, edited: Motion, flight, *, k_ratio:
     ident = lambda f: frame_t[f]  # noqa: E731
     stages = {
         # the clip's own variation: the unedited flight against its own constant target
-        "original": _stage("original", body, original, (a, b), ident,
+        "original": _stage("original", body, original, tuple(original_flight), lambda f: original.times[f],
                            lambda src: np.broadcast_to(L_const, (np.size(src), 3)), L=L_orig),
         "edited": _stage("edited", body, edited, (a, b), ident, dir_target, L=d.L_before),
         "direction": _stage("direction", body, d.motion, (a, b), ident, dir_target, L=d.L_after),

@@ -51,6 +51,8 @@ __all__ = [
     "magnitude_error",
     "flight_momentum",
     "interior_L",
+    "sampled_L",
+    "fast_sample",
     "segment_state",
     "validate_flight",
 ]
@@ -94,6 +96,48 @@ def segment_state(body, motion: Motion) -> tuple[np.ndarray, np.ndarray]:
     Q = np.ascontiguousarray(G[:, body.segment_joint])
     X = np.ascontiguousarray(P[:, body.segment_joint] + quat_apply(Q, body.local_coms[None]))
     return X, Q
+
+
+def _frame_weights(motion: Motion, times) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(i0, i1, alpha)`` for sampling at ``times`` exactly as :meth:`Motion.sample` does
+    (times within 1e-9 frames of a frame snap to it; no clipping beyond rounding)."""
+    t = np.asarray(times, dtype=float).reshape(-1)
+    tol = 1e-9 * max(1.0, motion.duration)
+    if t.size == 0 or not np.all(np.isfinite(t)) or t.min() < -tol or t.max() > motion.duration + tol:
+        raise ValueError(f"sample times must be finite and lie in [0, {motion.duration:.6g}] s")
+    f = np.clip(t * motion.fps, 0.0, motion.n_frames - 1)
+    r = np.rint(f)
+    f = np.where(np.abs(f - r) <= 1e-9, r, f)
+    i0 = np.minimum(np.floor(f).astype(np.int64), motion.n_frames - 1)
+    i1 = np.minimum(i0 + 1, motion.n_frames - 1)
+    return i0, i1, f - i0
+
+
+def fast_sample(motion: Motion, times, fps: float | None = None) -> Motion:
+    """:meth:`Motion.sample` with the slerp compiled (same results to rounding)."""
+    from ._kernels import slerp_frames
+
+    i0, i1, a = _frame_weights(motion, times)
+    rp = (1 - a)[:, None] * motion.root_positions[i0] + a[:, None] * motion.root_positions[i1]
+    rot = slerp_frames(np.ascontiguousarray(motion.rotations), i0, i1, a)
+    return motion.replace(root_positions=rp, rotations=rot, fps=motion.fps if fps is None else fps)
+
+
+def sampled_L(body, motion: Motion, times) -> np.ndarray:
+    """``(n, 3)`` L (eq. 5.5, central differences on the sampled grid) of ``motion`` sampled at
+    ``times`` (slerped poses, as :meth:`Motion.sample`), rows 0 and n-1 NaN; compiled and fused
+    (no intermediate motion)."""
+    from ._kernels import interior_momentum, sampled_segments
+
+    i0, i1, a = _frame_weights(motion, times)
+    sk = motion.skeleton
+    X, Q = sampled_segments(np.asarray(sk.parents, dtype=np.int64), np.ascontiguousarray(sk.offsets, dtype=float),
+                            np.ascontiguousarray(motion.root_positions), np.ascontiguousarray(motion.rotations),
+                            i0, i1, a, np.asarray(body.segment_joint, dtype=np.int64),
+                            np.ascontiguousarray(body.local_coms, dtype=float))
+    return interior_momentum(np.ascontiguousarray(body.masses, dtype=float),
+                             np.ascontiguousarray(body.inertias, dtype=float), X, Q,
+                             np.asarray(times, dtype=float).reshape(-1))
 
 
 def interior_L(body, motion: Motion) -> np.ndarray:
@@ -372,14 +416,18 @@ def correct_direction(body, motion: Motion, flight, L_star=None, method: str = "
     check_compatible(body, motion)
     a, b = validate_flight(motion, flight)
     t0 = time.perf_counter()
-    L_before = flight_momentum(body, motion, (a, b))
-    U = _targets(L_star, L_before, a, b, motion.n_frames)
-    L_star_out = np.asarray(L_before[a + 1] if L_star is None else L_star, dtype=float)
+    from ._kernels import interior_momentum
+
     # the sweep reads frames a .. b-1 only
     sl = motion[a:b]
     X, Q = segment_state(body, sl)
     t = np.ascontiguousarray(sl.times, dtype=float)
     m = np.ascontiguousarray(body.masses, dtype=float)
+    I_loc = np.ascontiguousarray(body.inertias, dtype=float)
+    L_before = np.full((motion.n_frames, 3), np.nan)
+    L_before[a + 1:b - 1] = interior_momentum(m, I_loc, X, Q, t)[1:-1]
+    U = _targets(L_star, L_before, a, b, motion.n_frames)
+    L_star_out = np.asarray(L_before[a + 1] if L_star is None else L_star, dtype=float)
     M = m.sum()
     n = b - a
     pivots_fl = np.einsum("s,tsk->tk", m, X) / M  # each frame's COM: the rotation pivot
@@ -388,11 +436,10 @@ def correct_direction(body, motion: Motion, flight, L_star=None, method: str = "
     if method == "gauss-newton":
         from ._kernels import direction_sweep
 
-        corr_fl, evals, first, _ = direction_sweep(m, np.ascontiguousarray(body.inertias, dtype=float), X, Q, t,
-                                                   Uf, 0, n, float(tol), int(max_iter))
+        corr_fl, evals, first, _ = direction_sweep(m, I_loc, X, Q, t, Uf, 0, n, float(tol), int(max_iter))
         first = None if first < 0 else int(first) + a
     else:
-        corr_fl, evals, first = _bfgs_sweep(m, body.inertias, X, Q, t, Uf, 0, n, tol, pivots_fl)
+        corr_fl, evals, first, X, Q = _bfgs_sweep(m, body.inertias, X, Q, t, Uf, 0, n, tol, pivots_fl)
         first = None if first is None else int(first) + a
     corr = np.tile([0.0, 0.0, 0.0, 1.0], (motion.n_frames, 1))
     corr[a:b] = corr_fl
@@ -409,7 +456,9 @@ def correct_direction(body, motion: Motion, flight, L_star=None, method: str = "
         c = pivots_fl[-1]
         rp[b:] = c + quat_apply(current, motion.root_positions[b:] - c)
     out = motion.replace(root_positions=rp, rotations=rot)
-    L_after = flight_momentum(body, out, (a, b))
+    # the sweep left the corrected segment states of frames a .. b-1 in X, Q
+    L_after = np.full((motion.n_frames, 3), np.nan)
+    L_after[a + 1:b - 1] = interior_momentum(m, I_loc, X, Q, t)[1:-1]
     return DirectionResult(
         motion=out, corrections=corr, error_before=_nan_rows(direction_error, L_before, U),
         error_after=_nan_rows(direction_error, L_after, U), L_before=L_before, L_after=L_after,
@@ -466,7 +515,7 @@ def _bfgs_sweep(m, I_local, X, Q, t, U, a, b, tol, pivots):
         current /= np.linalg.norm(current)
         corr[f + 1] = current
     corr[b:] = current
-    return corr, evals, first
+    return corr, evals, first, X, Q
 
 
 # ---------------------------------------------------------------- step 2
@@ -547,9 +596,9 @@ def correct_magnitude(body, motion: Motion, flight, L_star=None, oversample: int
     n_fine = (b - 1 - a) * oversample + 1
     tf = ta + np.arange(n_fine) / fine_fps
     tf[-1] = tb
-    Lf = interior_L(body, motion.sample(tf, fps=fine_fps))
+    Lf = sampled_L(body, motion, tf)
     if reference is not None:
-        ref = np.linalg.norm(interior_L(body, reference.sample(tf, fps=fine_fps)), axis=1)
+        ref = np.linalg.norm(sampled_L(body, reference, tf), axis=1)
         # identical poses give identical L: keep ratio exactly 1 there (no spurious retiming)
         ref[0], ref[-1] = ref[1], ref[-2]
     else:
@@ -572,7 +621,10 @@ def correct_magnitude(body, motion: Motion, flight, L_star=None, oversample: int
     inside = (tau_out > ta) & (tau_out <= tau_f[-1])
     src[inside] = np.interp(tau_out[inside], tau_f, tf)
     src = np.clip(src, 0.0, motion.duration)
-    out = motion.sample(src)
+    # frames up to the take-off are the input's own (src = their times): copy them
+    tail = fast_sample(motion, src[a:])
+    out = motion.replace(root_positions=np.concatenate([motion.root_positions[:a], tail.root_positions]),
+                         rotations=np.concatenate([motion.rotations[:a], tail.rotations]))
     new_b = int(np.floor(tau_f[-1] * motion.fps + 1e-9)) + 1
     if L_before is None:
         L_before = flight_momentum(body, motion, (a, b))
