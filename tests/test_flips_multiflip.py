@@ -201,3 +201,30 @@ def test_mislabelled_clip_is_diagnosed_in_plain_words(real_data_dir):
 
     note = next(n for n in P.notes if "labelled 120 Hz" in n)
     assert 50 <= float(re.search(r"fps=(\d+)", note).group(1)) <= 60     # really 60 Hz (MANIFEST)
+
+
+def test_loop_seam_smoothing_is_computed_once_and_reused(prepared):
+    """Section 5.4.2.2: the seam correction between the last and first frame of the
+    self-looping sequence is computed once and pasted at every repetition (rotated about L)."""
+    from mocomp.flips._quat import qangle, qconj, qmul
+    from mocomp.flips.similarity import axis_quat
+
+    P = prepared["frontflip"]
+    P._cache.clear()
+    res = multiflip(P, flips=4, k=1.0)          # k = 1: output frames are the sequence frames
+    keys = [k for k in P._cache if k[0] == "loop_seam"]
+    assert len(keys) == 1
+    w = keys[0][1]
+    left, right = P.loop_seam(w)
+    seq = res.sequence
+    assert len(seq.loop_seams) >= 3
+    for a in seq.loop_seams:
+        j = seq.copy[a]
+        rot = axis_quat(P.axis, seq.extra[a - w:a + 1])
+        out = res.motion.rotations[a - w:a + 1]
+        np.testing.assert_allclose(out[:, 1:], left[:, 1:], atol=1e-12)
+        assert qangle(qmul(out[:, 0], qconj(qmul(rot, left[:, 0])))).max() < 1e-9
+        assert j == seq.copy[a - w]
+    # the inputs are untouched (read-only arrays)
+    with pytest.raises(ValueError):
+        P.rotations[0, 0, 0] = 1.0

@@ -29,11 +29,28 @@ def qconj(q: np.ndarray) -> np.ndarray:
     return out
 
 
+def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``a x b`` on the last axis (numpy's ``cross`` has a large per-call overhead)."""
+    ax, ay, az = a[..., 0], a[..., 1], a[..., 2]
+    bx, by, bz = b[..., 0], b[..., 1], b[..., 2]
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out[..., 0] = ay * bz - az * by
+    out[..., 1] = az * bx - ax * bz
+    out[..., 2] = ax * by - ay * bx
+    return out
+
+
 def qapply(q: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Rotate vectors ``v (..., 3)`` by ``q (..., 4)``."""
     u = q[..., :3]
-    t = 2.0 * np.cross(u, v)
-    return v + q[..., 3:4] * t + np.cross(u, t)
+    t = cross(u, v)
+    t *= 2.0
+    return v + q[..., 3:4] * t + cross(u, t)
+
+
+def qangle(q: np.ndarray) -> np.ndarray:
+    """Rotation angle in ``[0, pi]`` (sign-independent)."""
+    return 2.0 * np.arctan2(np.sqrt(np.einsum("...i,...i->...", q[..., :3], q[..., :3])), np.abs(q[..., 3]))
 
 
 def qpow(q: np.ndarray, w: np.ndarray) -> np.ndarray:

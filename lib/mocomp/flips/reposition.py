@@ -61,36 +61,39 @@ class ComEvaluator:
         depth = np.zeros(J, dtype=int)
         for j in range(1, J):
             depth[j] = depth[parents[j]] + 1
-        self.joints = np.flatnonzero(needed)               # joints whose rotation matters
-        pos = {j: i for i, j in enumerate(self.joints)}
+        # joints whose rotation matters, ordered by depth so each tree level is a contiguous block
+        needed_idx = np.flatnonzero(needed)
+        order = needed_idx[np.argsort(depth[needed_idx], kind="stable")]
+        self.joints = order
+        pos = {int(j): i for i, j in enumerate(order)}
         self._levels = []
-        for d in range(1, int(depth[self.joints].max()) + 1 if self.joints.size else 1):
-            js = [j for j in self.joints if depth[j] == d]
-            if js:
-                self._levels.append((np.array([pos[j] for j in js]),
-                                     np.array([pos[int(parents[j])] for j in js]),
-                                     np.array(js)))
-        self.u = u[self.joints]
+        d_of = depth[order]
+        for d in range(1, int(d_of.max()) + 1 if order.size else 1):
+            sel = np.flatnonzero(d_of == d)
+            if sel.size:
+                self._levels.append((slice(int(sel[0]), int(sel[-1]) + 1),
+                                     np.array([pos[int(parents[order[i]])] for i in sel])))
+        self.u = u[order]
         self.total_mass = M
 
     def relative(self, rotations: np.ndarray) -> np.ndarray:
         """``(T, 3)`` COM minus root position for local rotations ``(T, J, 4)`` (root = world orientation)."""
         q = np.asarray(rotations, dtype=float)
         T = q.shape[0]
-        n = self.joints.size
         # component-major (n, 4, T) so each operation runs on contiguous frame vectors
         L = np.ascontiguousarray(np.transpose(q[:, self.joints], (1, 2, 0)))
         G = np.empty_like(L)
         G[0] = L[0]
-        for idx, pidx, _ in self._levels:
+        for blk, pidx in self._levels:
             a = G[pidx]
-            b = L[idx]
+            b = L[blk]
             ax, ay, az, aw = a[:, 0], a[:, 1], a[:, 2], a[:, 3]
             bx, by, bz, bw = b[:, 0], b[:, 1], b[:, 2], b[:, 3]
-            G[idx, 0] = aw * bx + ax * bw + ay * bz - az * by
-            G[idx, 1] = aw * by - ax * bz + ay * bw + az * bx
-            G[idx, 2] = aw * bz + ax * by - ay * bx + az * bw
-            G[idx, 3] = aw * bw - ax * bx - ay * by - az * bz
+            g = G[blk]
+            g[:, 0] = aw * bx + ax * bw + ay * bz - az * by
+            g[:, 1] = aw * by - ax * bz + ay * bw + az * bx
+            g[:, 2] = aw * bz + ax * by - ay * bx + az * bw
+            g[:, 3] = aw * bw - ax * bx - ay * by - az * bz
         # rotate each constant u_j by G_j: v' = v + w t + u x t, t = 2 u x v
         ux, uy, uz, w = G[:, 0], G[:, 1], G[:, 2], G[:, 3]
         vx, vy, vz = (self.u[:, i:i + 1] for i in range(3))

@@ -77,9 +77,11 @@ def shortest_arc(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     """
     u = np.asarray(u, dtype=float)
     v = np.asarray(v, dtype=float)
+    from ._quat import cross
+
     u, v = np.broadcast_arrays(u, v)
     q = np.empty(u.shape[:-1] + (4,))
-    q[..., :3] = np.cross(u, v)
+    q[..., :3] = cross(u, v)
     q[..., 3] = 1.0 + np.sum(u * v, axis=-1)
     n = np.linalg.norm(q, axis=-1)
     bad = n < 1e-9
