@@ -42,3 +42,25 @@ def test_slerp_rows_is_slerp_within_1e_4_rad():
     # the end points are exact
     np.testing.assert_allclose(ang(slerp_rows(q0, q1, np.zeros(300)), q0), 0, atol=1e-7)
     np.testing.assert_allclose(ang(slerp_rows(q0, q1, np.ones(300)), q1), 0, atol=1e-7)
+
+
+def test_compiled_kernels_match_numpy():
+    from mocomp.flips import _kernels
+    from mocomp.flips.preprocess import prepare
+
+    if not _kernels.AVAILABLE:
+        import pytest
+        pytest.skip("numba not available")
+    rng = np.random.default_rng(7)
+    q0 = Rotation.random(120 * 9, random_state=5).as_quat().reshape(120, 9, 4)
+    for scale in (0.05, 1.0):
+        d = Rotation.from_rotvec(rng.normal(scale=scale, size=(1080, 3))).as_quat().reshape(120, 9, 4)
+        q1 = quat_multiply(q0, d)
+        q1[::3] *= -1
+        t = rng.uniform(0, 1, 120)
+        np.testing.assert_allclose(_kernels.slerp_rows_nb(q0, q1, t), slerp_rows(q0, q1, t), atol=1e-12)
+    from _flips_data import synthetic
+
+    P = prepare(synthetic("backflip").motion)
+    rot = P.rotations[100:180]
+    np.testing.assert_allclose(P.com_eval.relative(rot), P.com_eval.relative_numpy(rot), atol=1e-13)

@@ -36,6 +36,8 @@ from .retime import RetimePlan, plan_retime, sample_positions
 from .sequence import Sequence, build_sequence
 from ..core.motion import slerp
 from .similarity import axis_quat, twist_angle
+from ._kernels import AVAILABLE as KERNELS
+from ._kernels import slerp_rows_nb
 from ._quat import qapply, qconj, qmul, qpow, slerp_rows
 from .smoothing import compose_root, ramp, shortest_arc, split_root
 
@@ -344,7 +346,7 @@ def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None 
     tau = sample_positions(nseq, kk)
     i0 = np.minimum(np.floor(tau).astype(int), nseq - 2)
     al = tau - i0
-    rot_out = slerp_rows(rot[i0], rot[i0 + 1], al)
+    rot_out = (slerp_rows_nb if KERNELS else slerp_rows)(rot[i0], rot[i0 + 1], al)
     t3 = time.perf_counter()
     timings["retime"] = t3 - t2
     # ------------------------------------------------------------- reposition

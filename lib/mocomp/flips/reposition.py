@@ -75,9 +75,20 @@ class ComEvaluator:
                                      np.array([pos[int(parents[order[i]])] for i in sel])))
         self.u = u[order]
         self.total_mass = M
+        self._parent_pos = np.array([0] + [pos[int(parents[j])] for j in order[1:]], dtype=np.int64)
+        self._joints64 = np.ascontiguousarray(order, dtype=np.int64)
+        self._u = np.ascontiguousarray(self.u, dtype=np.float64)
 
     def relative(self, rotations: np.ndarray) -> np.ndarray:
         """``(T, 3)`` COM minus root position for local rotations ``(T, J, 4)`` (root = world orientation)."""
+        from ._kernels import AVAILABLE, com_relative_nb
+
+        if AVAILABLE:
+            return com_relative_nb(rotations, self._joints64, self._parent_pos, self._u)
+        return self.relative_numpy(rotations)
+
+    def relative_numpy(self, rotations: np.ndarray) -> np.ndarray:
+        """The vectorised numpy version of :meth:`relative` (reference; same result)."""
         q = np.asarray(rotations, dtype=float)
         T = q.shape[0]
         # component-major (n, 4, T) so each operation runs on contiguous frame vectors
