@@ -64,3 +64,23 @@ def test_compiled_kernels_match_numpy():
     P = prepare(synthetic("backflip").motion)
     rot = P.rotations[100:180]
     np.testing.assert_allclose(P.com_eval.relative(rot), P.com_eval.relative_numpy(rot), atol=1e-13)
+
+
+def test_multiflip_same_with_and_without_compiled_kernels(monkeypatch):
+    import sys
+
+    from mocomp.flips import _kernels, multiflip, prepare
+
+    if not _kernels.AVAILABLE:
+        import pytest
+        pytest.skip("numba not available")
+    from _flips_data import synthetic
+
+    P = prepare(synthetic("sideflip").motion)
+    fast = multiflip(P, flips=3, evaluate=False)
+    mod = sys.modules["mocomp.flips.multiflip"]
+    monkeypatch.setattr(mod, "KERNELS", False)
+    monkeypatch.setattr(_kernels, "AVAILABLE", False)
+    slow = multiflip(P, flips=3, evaluate=False)
+    assert ang(fast.motion.rotations, slow.motion.rotations).max() < 1e-9
+    np.testing.assert_allclose(fast.motion.root_positions, slow.motion.root_positions, atol=1e-9)

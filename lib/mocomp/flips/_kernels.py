@@ -24,7 +24,7 @@ try:
 except Exception:  # pragma: no cover - numba is a dependency; keep the library importable without it
     AVAILABLE = False
 
-__all__ = ["AVAILABLE", "slerp_rows_nb", "com_relative_nb"]
+__all__ = ["AVAILABLE", "slerp_rows_nb", "com_relative_nb", "seam_block_nb"]
 
 if AVAILABLE:
     @numba.njit(cache=True, nogil=True)
@@ -96,6 +96,70 @@ if AVAILABLE:
             out[t, 1] = sy
             out[t, 2] = sz
         return out
+
+
+if AVAILABLE:
+    @numba.njit(cache=True, nogil=True, inline="always")
+    def _qmul(ax, ay, az, aw, bx, by, bz, bw):
+        return (aw * bx + ax * bw + ay * bz - az * by, aw * by - ax * bz + ay * bw + az * bx,
+                aw * bz + ax * by - ay * bx + az * bw, aw * bw - ax * bx - ay * by - az * bz)
+
+    @numba.njit(cache=True, nogil=True, inline="always")
+    def _qpow(x, y, z, w, t):
+        if w < 0.0:
+            x, y, z, w = -x, -y, -z, -w
+        vn = math.sqrt(x * x + y * y + z * z)
+        if vn < 1e-12:
+            return x * t, y * t, z * t, 1.0
+        h = math.atan2(vn, w) * t
+        sc = math.sin(h) / vn
+        return x * sc, y * sc, z * sc, math.cos(h)
+
+    @numba.njit(cache=True, nogil=True, inline="always")
+    def _rot(x, y, z, w, vx, vy, vz):
+        tx = 2.0 * (y * vz - z * vy)
+        ty = 2.0 * (z * vx - x * vz)
+        tz = 2.0 * (x * vy - y * vx)
+        return (vx + w * tx + y * tz - z * ty, vy + w * ty + z * tx - x * tz, vz + w * tz + x * ty - y * tx)
+
+    @numba.njit(cache=True, nogil=True)
+    def _seam_block(blk, wts, left, off_l, off_r, arc_l, arc_r, theta, axis, ref):
+        n, J, _ = blk.shape
+        Lx, Ly, Lz = axis[0], axis[1], axis[2]
+        for i in range(n):
+            t = wts[i]
+            off = off_l if left[i] else off_r
+            for j in range(1, J):
+                px, py, pz, pw = _qpow(off[j, 0], off[j, 1], off[j, 2], off[j, 3], t)
+                x, y, z, w = _qmul(blk[i, j, 0], blk[i, j, 1], blk[i, j, 2], blk[i, j, 3], px, py, pz, pw)
+                blk[i, j, 0], blk[i, j, 1], blk[i, j, 2], blk[i, j, 3] = x, y, z, w
+            # root: b = q^-1 L (body frame), rotated by arc^t, recomposed q = q_L(theta) arc(ref b -> L) ref
+            qx, qy, qz, qw = blk[i, 0, 0], blk[i, 0, 1], blk[i, 0, 2], blk[i, 0, 3]
+            bx, by, bz = _rot(-qx, -qy, -qz, qw, Lx, Ly, Lz)
+            arc = arc_l if left[i] else arc_r
+            ax_, ay_, az_, aw_ = _qpow(arc[0], arc[1], arc[2], arc[3], t)
+            bx, by, bz = _rot(ax_, ay_, az_, aw_, bx, by, bz)
+            nb = 1.0 / math.sqrt(bx * bx + by * by + bz * bz)
+            bx, by, bz = _rot(ref[0], ref[1], ref[2], ref[3], bx * nb, by * nb, bz * nb)
+            # shortest arc from (bx, by, bz) to L
+            sx, sy, sz = by * Lz - bz * Ly, bz * Lx - bx * Lz, bx * Ly - by * Lx
+            sw = 1.0 + bx * Lx + by * Ly + bz * Lz
+            sn = math.sqrt(sx * sx + sy * sy + sz * sz + sw * sw)
+            sx, sy, sz, sw = sx / sn, sy / sn, sz / sn, sw / sn
+            h = 0.5 * theta[i]
+            c, s_ = math.cos(h), math.sin(h)
+            x, y, z, w = _qmul(s_ * Lx, s_ * Ly, s_ * Lz, c, sx, sy, sz, sw)
+            x, y, z, w = _qmul(x, y, z, w, ref[0], ref[1], ref[2], ref[3])
+            blk[i, 0, 0], blk[i, 0, 1], blk[i, 0, 2], blk[i, 0, 3] = x, y, z, w
+        return blk
+
+
+def seam_block_nb(blk, wts, left, off_l, off_r, arc_l, arc_r, theta, axis, ref):
+    """In-place seam smoothing of a block of frames (see :mod:`mocomp.flips.multiflip`)."""
+    return _seam_block(blk, np.ascontiguousarray(wts, dtype=np.float64), np.ascontiguousarray(left),
+                       np.ascontiguousarray(off_l), np.ascontiguousarray(off_r), np.ascontiguousarray(arc_l),
+                       np.ascontiguousarray(arc_r), np.ascontiguousarray(theta, dtype=np.float64),
+                       np.ascontiguousarray(axis, dtype=np.float64), np.ascontiguousarray(ref, dtype=np.float64))
 
 
 def slerp_rows_nb(q0: np.ndarray, q1: np.ndarray, a: np.ndarray, nlerp_below: float = 0.1) -> np.ndarray:

@@ -37,7 +37,7 @@ from .sequence import Sequence, build_sequence
 from ..core.motion import slerp
 from .similarity import axis_quat, twist_angle
 from ._kernels import AVAILABLE as KERNELS
-from ._kernels import slerp_rows_nb
+from ._kernels import seam_block_nb, slerp_rows_nb
 from ._quat import qapply, qconj, qmul, qpow, slerp_rows
 from .smoothing import compose_root, ramp, shortest_arc, split_root
 
@@ -295,14 +295,19 @@ def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None 
     sgn = np.where(np.einsum("ji,ji->j", ql, qr) < 0.0, -1.0, 1.0)[:, None]
     mid = ql + sgn * qr
     mid /= np.linalg.norm(mid, axis=-1, keepdims=True)       # slerp at 1/2
-    offs = np.where(left[:, None, None], qmul(qconj(ql), mid)[None], qmul(qconj(qr), mid)[None])
-    blk[:, 1:] = qmul(blk[:, 1:], qpow(offs[:, 1:], wts[:, None]))
-    bb = qapply(qconj(blk[:, 0]), P.axis)
-    bl, br = bb[a - la], P.bdir[g]
+    off_l, off_r = qmul(qconj(ql), mid), qmul(qconj(qr), mid)
+    bl, br = qapply(qconj(rot[a, 0]), P.axis), P.bdir[g]
     bm = bl + br
     bm /= np.linalg.norm(bm)
-    arcs = np.where(left[:, None], shortest_arc(bl, bm)[None], shortest_arc(br, bm)[None])
-    blk[:, 0] = compose_root(P.theta[src[la:rb]], qapply(qpow(arcs, wts), bb), P.axis, P.root_ref)
+    arc_l, arc_r = shortest_arc(bl, bm), shortest_arc(br, bm)
+    if KERNELS:
+        seam_block_nb(blk, wts, left, off_l, off_r, arc_l, arc_r, P.theta[src[la:rb]], P.axis, P.root_ref)
+    else:
+        offs = np.where(left[:, None, None], off_l[None], off_r[None])
+        blk[:, 1:] = qmul(blk[:, 1:], qpow(offs[:, 1:], wts[:, None]))
+        bb = qapply(qconj(blk[:, 0]), P.axis)
+        arcs = np.where(left[:, None], arc_l[None], arc_r[None])
+        blk[:, 0] = compose_root(P.theta[src[la:rb]], qapply(qpow(arcs, wts), bb), P.axis, P.root_ref)
     # each frame's rotation about L (copies j*phi, landing extra, spread join correction), on the left
     rot[:, 0] = qmul(axis_quat(P.axis, seq.extra), rot[:, 0])
     q_land = None
