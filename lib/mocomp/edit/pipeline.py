@@ -308,12 +308,13 @@ def three_steps(body, edited: Motion, flight, L_const, fit: FlightFit, *, origin
                 original_flight, L_orig=None, reference: str = "constant", method: str = "gauss-newton",
                 tol: float = 1e-7, oversample: int = 8, k=None, k_ratio=None, takeoff_height: float = 0.0,
                 platform="auto", clearance: float = 0.0, gravity=None, polish: bool = True, notes=(),
-                edit_frames=None, com_eval=None, t_start=None) -> RestoreResult:
+                edit_frames=None, com_eval=None, t_start=None, direction: bool = True) -> RestoreResult:
     """Steps 1-3 (and the final direction sweep) on ``edited``'s flight with the constant target
     ``L_const`` (or, with ``reference="original"``, ``original``'s per-frame ``L_orig`` on the same
     frames); ``fit`` gives the take-off velocity and gravity for step 3. The ``original`` stage of
     the evidence is ``original`` over ``original_flight`` against ``L_const`` (its own variation).
-    Used by :func:`restore_momentum` and :func:`mocomp.edit.join.join_flights`."""
+    ``direction=False`` skips step 1 and the final sweep (joins: section 5.2 adjusts a transition's
+    momentum by retiming only). Used by :func:`restore_momentum` and :func:`mocomp.edit.join.join_flights`."""
     t_all = time.perf_counter() if t_start is None else t_start
     if k is None and k_ratio is None:
         k_ratio = 1.0
@@ -327,7 +328,17 @@ def three_steps(body, edited: Motion, flight, L_const, fit: FlightFit, *, origin
     # step 1
     t = time.perf_counter()
     target1 = L_const if reference == "constant" else L_orig
-    d = correct_direction(body, edited, (a, b), L_star=target1, method=method, tol=tol)
+    if direction:
+        d = correct_direction(body, edited, (a, b), L_star=target1, method=method, tol=tol)
+    else:   # step 1 skipped: identity corrections, the evidence still measured
+        L_e = flight_momentum(body, edited, (a, b))
+        U = np.broadcast_to(target1, L_e.shape) if np.ndim(target1) == 1 else target1
+        err = direction_error(np.nan_to_num(L_e), U)
+        err[~np.all(np.isfinite(L_e), axis=1)] = np.nan
+        d = DirectionResult(motion=edited, corrections=np.tile([0.0, 0.0, 0.0, 1.0], (edited.n_frames, 1)),
+                            error_before=err, error_after=err, L_before=L_e, L_after=L_e,
+                            L_star=np.asarray(target1, dtype=float), first_departure=None, method="none",
+                            evaluations=0, seconds=0.0, flight=(a, b))
     timings["direction"] = time.perf_counter() - t
     if d.roughness_deg > 5.0:
         notes.append(f"the direction corrections jitter from frame to frame (second difference up to "
@@ -387,7 +398,7 @@ def three_steps(body, edited: Motion, flight, L_const, fit: FlightFit, *, origin
 
     final = lin.motion
     polish_res = None
-    if polish:
+    if polish and direction:
         # Resampling at in-between times (steps 2 and 3) moves the finite-difference L off its
         # direction by about the capture's own frame-to-frame noise; one more sweep of step 1
         # over the output flight (targets at the source times) removes that. Rotations about

@@ -1,0 +1,505 @@
+"""Joining two different flights in mid-air (flips paper section 6, Fig. 4c; dissertation
+section 5.6, Fig. 5.8: an aerial cartwheel joined with a forward flip).
+
+"The same algorithm can be easily modified to join two different motions during the jump
+phase. As long as the two motions have the same angular momentum direction, the
+magnitudes can be adjusted by retiming" (section 5.2); "the motions are retimed so that
+the angular momentums during the flight phase are equal in both of them" (section 6).
+
+:func:`join_flights` takes the take-off (and first part of the flight) of motion ``A``
+and the rest of the flight and the landing of motion ``B``:
+
+1. **Align the L directions.** ``B`` is turned about the vertical so that the horizontal
+   parts of the two flights' mean angular momenta point the same way. If the remaining
+   angle (the difference of the L elevations) exceeds ``align_tol_deg``, the full
+   alignment (shortest arc from ``L_B`` to ``L_A``) is applied too; it tilts ``B``'s
+   landing by that angle, so it is refused above ``max_tilt_deg`` (:class:`~mocomp.errors.JoinError`
+   with the measured directions). With ``upright=True`` the tilt is eased out over the
+   landing phase (the ground can exert the torque; the feet slide, and the slide is reported).
+2. **Match |L|** by uniform retiming (eq. 5.8): ``B`` is played ``|L_A| / |L_B|`` times
+   faster (``match="takeoff"``), or ``A`` is retimed to ``B`` (``"landing"``), or both to the
+   geometric mean (``"mean"``).
+3. **Transition** by the Acrobatics-I frame search: the pair ``(f, g)``, ``f`` in ``A``'s
+   flight and ``g`` in ``B``'s, minimising the similarity of App. A (eq. 5.12-5.13, frames
+   aligned about L), plus a penalty on the alignment angle ``phi`` about ``L``. ``A``'s
+   flight frames are turned about ``L`` by a ramp reaching ``phi`` at ``f`` (so the take-off
+   and ``B``'s landing keep their orientation), joint angles are blended over a window
+   around the seam and the root's remaining mismatch (perpendicular to ``L``) is split
+   between the two sides.
+4. **Retime and reposition the whole**: the joined flight goes through section 5.5's steps
+   (:func:`~mocomp.edit.pipeline.three_steps`) with the target ``L_A``: the magnitude of L is
+   restored across the transition by non-uniform retiming (step 1, the direction, only on
+   request: section 5.2 adjusts transitions by retiming), then uniform retiming by ``k*``
+   and COM repositioning onto the parabola from ``A``'s take-off, with an optional raised
+   take-off (App. B; ``takeoff_height``) and the platform clearance of Fig. 5.10.
+"""
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..core.motion import Motion, slerp
+from ..core.rotations import make_continuous, quat_apply, quat_inverse, quat_multiply
+from ..errors import JoinError
+from .pipeline import RestoreResult, three_steps
+from .restore import flight_momentum
+
+__all__ = ["JoinPart", "JoinResult", "join_flights", "load_part"]
+
+
+def _unit(v):
+    v = np.asarray(v, dtype=float)
+    return v / np.linalg.norm(v)
+
+
+def _axis_quat(axis, angle):
+    a = _unit(axis)
+    h = 0.5 * np.asarray(angle, dtype=float)
+    out = np.empty(np.shape(h) + (4,))
+    out[..., :3] = np.sin(h)[..., None] * a
+    out[..., 3] = np.cos(h)
+    return out
+
+
+def _shortest_arc(u, v):
+    u, v = _unit(u), _unit(v)
+    c = np.cross(u, v)
+    d = float(u @ v)
+    if d < -1 + 1e-12:
+        p = np.cross(u, [1.0, 0.0, 0.0])
+        if np.linalg.norm(p) < 1e-6:
+            p = np.cross(u, [0.0, 1.0, 0.0])
+        return np.append(_unit(p), 0.0)
+    return _unit(np.append(c, 1.0 + d))
+
+
+def _ramp(d, window):
+    """Raised cosine: 1 at distance 0, 0 from ``window + 1`` on."""
+    x = np.clip(np.asarray(d, dtype=float) / (window + 1.0), 0.0, 1.0)
+    return 0.5 * (1.0 + np.cos(np.pi * x))
+
+
+def _elevation_deg(L):
+    u = _unit(L)
+    return float(np.degrees(np.arcsin(np.clip(u[1], -1, 1))))
+
+
+def _azimuth_deg(L):
+    return float(np.degrees(np.arctan2(L[0], L[2])))
+
+
+@dataclass(frozen=True, eq=False)
+class JoinPart:
+    """One input of a join, as used.
+
+    Attributes
+    ----------
+    name: where it came from.
+    motion: the motion as used (resampled, aligned and retimed).
+    flight: ``(start, stop)`` of its flight in ``motion``.
+    L: ``(3,)`` kg m^2/s, mean angular momentum over the flight interior (after alignment/retiming).
+    L_input: ``(3,)`` the same before alignment and retiming.
+    rotation: ``(4,)`` quaternion applied to the whole motion (identity for the take-off part).
+    speed: uniform retiming factor applied (eq. 5.8; 1 = none).
+    notes: what was done to it.
+    """
+
+    name: str
+    motion: Motion
+    flight: tuple[int, int]
+    L: np.ndarray
+    L_input: np.ndarray
+    rotation: np.ndarray
+    speed: float
+    notes: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True, eq=False)
+class JoinResult:
+    """A joined flight and its evidence.
+
+    Attributes
+    ----------
+    motion: the final motion (after the three restoration steps).
+    joined: the assembled motion before restoration.
+    takeoff, landing: the two :class:`JoinPart`.
+    body: the body model used (both motions share one skeleton).
+    alignment: yaw (deg) about the vertical, residual angle after it, full-alignment tilt
+        (deg), the L elevations/azimuths before.
+    seam: ``f`` (take-off part frame), ``g`` (landing part frame), ``distance`` (eq. 5.13),
+        ``mean_angle_deg``, ``phi_deg`` (rotation about L spread over the take-off part),
+        ``window`` (frames), ``index`` (frame of the joined motion where ``B`` starts).
+    flight: ``(start, stop)`` of the joined flight before restoration.
+    restore: the :class:`~mocomp.edit.RestoreResult` of the three steps (its ``stages`` are the
+        per-frame errors; ``original`` is the take-off part's own flight).
+    landing_tilt_deg: tilt of the final landing relative to the landing part's (yaw-aligned)
+        landing, before the upright recovery; ``foot_slide`` (m) of the recovery when used.
+    timings: seconds.
+    """
+
+    motion: Motion
+    joined: Motion
+    takeoff: JoinPart
+    landing: JoinPart
+    body: object
+    alignment: dict
+    seam: dict
+    flight: tuple[int, int]
+    restore: RestoreResult
+    landing_tilt_deg: float
+    foot_slide: float | None
+    timings: dict
+    notes: tuple[str, ...] = field(default=())
+
+    def summary(self) -> str:
+        al, s = self.alignment, self.seam
+        lines = [
+            f"join: take-off of {self.takeoff.name} (flight {self.takeoff.flight[0]}-{self.takeoff.flight[1] - 1}) + "
+            f"landing of {self.landing.name} (flight {self.landing.flight[0]}-{self.landing.flight[1] - 1})",
+            f"L_A elevation {al['elevation_takeoff_deg']:.1f} deg, L_B {al['elevation_landing_deg']:.1f} deg; "
+            f"landing part turned {al['yaw_deg']:.1f} deg about the vertical, residual {al['residual_deg']:.1f} deg"
+            + (f", fully aligned (tilt {al['tilt_deg']:.1f} deg)" if al["full"] else ""),
+            f"|L|: {np.linalg.norm(self.takeoff.L_input):.2f} and {np.linalg.norm(self.landing.L_input):.2f} "
+            f"kg m^2/s; retimed x{self.takeoff.speed:.3f} and x{self.landing.speed:.3f} to "
+            f"{np.linalg.norm(self.takeoff.L):.2f}",
+            f"seam: frame {s['f']} of the take-off part ~ frame {s['g']} of the landing part, mean joint-angle "
+            f"mismatch {s['mean_angle_deg']:.1f} deg, phi {s['phi_deg']:.1f} deg about L, window {s['window']} frames",
+            f"landing tilt {self.landing_tilt_deg:.1f} deg"
+            + (f" (eased out after touchdown; feet slide {100 * self.foot_slide:.1f} cm)" if self.foot_slide is not None
+               else ""),
+            self.restore.summary(),
+        ]
+        lines += [f"note: {n}" for n in self.notes]
+        return "\n".join(lines)
+
+    def report(self, curves: bool = True) -> dict:
+        d = {"takeoff": {"name": self.takeoff.name, "flight": list(self.takeoff.flight),
+                         "L_input": self.takeoff.L_input.tolist(), "speed": self.takeoff.speed},
+             "landing": {"name": self.landing.name, "flight": list(self.landing.flight),
+                         "L_input": self.landing.L_input.tolist(), "speed": self.landing.speed,
+                         "rotation": self.landing.rotation.tolist()},
+             "alignment": self.alignment, "seam": self.seam, "joined_flight": list(self.flight),
+             "landing_tilt_deg": self.landing_tilt_deg, "foot_slide_m": self.foot_slide,
+             "timings_s": self.timings, "notes": list(self.notes), "restore": self.restore.report(curves)}
+        return json.loads(json.dumps(d, default=float))
+
+
+def load_part(source, fps: float | None = None, resample_fps: float = 120.0, min_fps: float = 50.0) -> tuple[Motion, str]:
+    """A motion from a :class:`Motion`, a file path or a clip/example name; key-framed clips
+    (below ``min_fps``, e.g. DeepMimic's 16 Hz keys) are spline-resampled to ``resample_fps``."""
+    if isinstance(source, Motion):
+        m, name = source, (source.source.path or "motion")
+    else:
+        from .. import datasets
+
+        m, name = datasets.load(source, fps=fps), str(source)
+    if m.fps < min_fps:
+        from ..flips.preprocess import spline_resample
+
+        m = spline_resample(m, resample_fps)
+    return m, name
+
+
+def _detect(motion, body, flight):
+    if flight is not None:
+        a, b = int(flight[0]), int(flight[1])
+        if not (0 <= a < b <= motion.n_frames and b - a >= 6):
+            raise JoinError(f"flight {flight} is not a usable flight of this {motion.n_frames}-frame motion "
+                            "(need at least 6 airborne frames)")
+        return a, b
+    from ..flips.phases import detect_flights
+
+    return detect_flights(motion, body).flight
+
+
+def _retimed(motion: Motion, flight, speed: float):
+    if abs(speed - 1.0) < 1e-12:
+        return motion, flight
+    m = motion.retime(speed)
+    a = int(np.ceil(flight[0] / speed - 1e-9))
+    b = int(np.floor((flight[1] - 1) / speed + 1e-9)) + 1
+    return m, (a, min(b, m.n_frames))
+
+
+def _mean_L(body, motion, flight):
+    L = flight_momentum(body, motion, flight)
+    return np.nanmean(L[flight[0] + 1:flight[1] - 1], axis=0)
+
+
+def join_flights(takeoff, landing, *, body=None, flights=(None, None), match: str = "takeoff",
+                 full_alignment: bool = True, align_tol_deg: float = 3.0, max_tilt_deg: float = 45.0,
+                 margin: float = 0.15, window_s: float = 0.1, phi_weight: float | None = None,
+                 max_phi_deg: float = 120.0, max_root_mismatch_deg: float = 120.0, takeoff_height: float = 0.0, k_ratio: float | None = None,
+                 k: float | None = None, upright: bool = True, recover_s: float = 0.3,
+                 direction_step: bool = False, polish: bool = True) -> JoinResult:
+    """Join the take-off of ``takeoff`` with the landing of ``landing`` in mid-flight (section 6).
+
+    Parameters
+    ----------
+    takeoff, landing: :class:`Motion`, file paths or clip names (same skeleton).
+    body: body model (default: the take-off clip's prior -- DeepMimic's own masses for
+        DeepMimic clips, de Leva's table otherwise; both motions share it).
+    flights: ``(start, stop)`` flights of the two inputs (default: detected, section 4.1).
+    match: which |L| both parts are retimed to: ``"takeoff"``, ``"landing"`` or ``"mean"``.
+    full_alignment, align_tol_deg, max_tilt_deg: step 1 (see the module docstring).
+    margin: fraction of each flight excluded at its ends from the frame search.
+    window_s: seam blending half-window, seconds.
+    phi_weight: weight of ``|phi|`` (rad) in the search (default: the similarity's root weight).
+    max_phi_deg: largest rotation about L the seam may need.
+    max_root_mismatch_deg: largest root orientation mismatch (perpendicular to L) at the seam.
+    takeoff_height, k_ratio, k: step 3 (App. B height change, retiming; default ``k = k*``).
+    upright: ease a landing tilt (full alignment, accumulated direction corrections) out over
+        ``recover_s`` seconds after touchdown, about the ground point under the COM.
+    direction_step: also run step 1 (direction of L, eq. 5.21) over the joined flight. Off by
+        default, as in the paper: the aligned flights share L's direction, and "although during the
+        transition the angular momentum will not be constant, we can adjust it by applying
+        non-uniform motion retiming" (section 5.2); the transition's brief direction change is
+        reported. Step 1 would turn the whole landing part to absorb it (a tilted landing).
+    polish: final direction sweep when ``direction_step`` (see :func:`~mocomp.edit.restore_momentum`).
+    """
+    t0 = time.perf_counter()
+    timings = {}
+    notes: list[str] = []
+    if match not in ("takeoff", "landing", "mean"):
+        raise ValueError(f"match must be 'takeoff', 'landing' or 'mean', got {match!r}")
+    mA, nameA = load_part(takeoff)
+    mB, nameB = load_part(landing)
+    if mA.skeleton.names != mB.skeleton.names or not np.allclose(mA.skeleton.offsets, mB.skeleton.offsets,
+                                                                   atol=1e-4):
+        raise JoinError(f"{nameA} and {nameB} have different skeletons ({mA.skeleton.n_joints} vs "
+                        f"{mB.skeleton.n_joints} joints); joining needs one body model: retarget first")
+    if mB.fps != mA.fps:
+        mB = mB.resample(mA.fps)
+        notes.append(f"{nameB} resampled to {mA.fps:g} Hz")
+    if body is None:
+        from ..flips.preprocess import clip_prior
+
+        body = clip_prior(mA)
+    flA = _detect(mA, body, flights[0])
+    flB = _detect(mB, body, flights[1])
+    LA0, LB0 = _mean_L(body, mA, flA), _mean_L(body, mB, flB)
+    for nm, L in ((nameA, LA0), (nameB, LB0)):
+        if not np.linalg.norm(L) > 1e-3:
+            raise JoinError(f"{nm}'s flight has no angular momentum (|L| = {np.linalg.norm(L):.2e}); there is no "
+                            "rotation to join")
+    timings["load"] = time.perf_counter() - t0
+    # ---------------------------------------------------------------- 1. align L directions
+    t = time.perf_counter()
+    hA, hB = np.array([LA0[0], LA0[2]]), np.array([LB0[0], LB0[2]])
+    yaw = 0.0
+    if np.linalg.norm(hA) > 0.1 * np.linalg.norm(LA0) and np.linalg.norm(hB) > 0.1 * np.linalg.norm(LB0):
+        yaw = float(np.arctan2(LA0[0], LA0[2]) - np.arctan2(LB0[0], LB0[2]))
+    q_yaw = _axis_quat([0.0, 1.0, 0.0], yaw)
+    LB1 = quat_apply(q_yaw, LB0)
+    resid = float(np.degrees(np.arccos(np.clip(_unit(LA0) @ _unit(LB1), -1, 1))))
+    q_B = q_yaw
+    tilt = 0.0
+    full = False
+    if resid > align_tol_deg:
+        if not full_alignment or resid > max_tilt_deg:
+            raise JoinError(
+                f"the flights' angular momentum directions cannot be aligned: L of {nameA} points "
+                f"{_elevation_deg(LA0):+.1f} deg above the horizontal (azimuth {_azimuth_deg(LA0):.0f} deg), L of "
+                f"{nameB} {_elevation_deg(LB0):+.1f} deg (azimuth {_azimuth_deg(LB0):.0f} deg); after turning "
+                f"{nameB} {np.degrees(yaw):.1f} deg about the vertical they still differ by {resid:.1f} deg, and the "
+                + (f"full alignment would tilt its landing by that much (limit max_tilt_deg = {max_tilt_deg:g})"
+                   if full_alignment else "full alignment is disabled")
+                + "; join flights that rotate about similar axes (e.g. a back flip with a side flip)")
+        q_full = _shortest_arc(LB1, LA0)
+        q_B = quat_multiply(q_full, q_yaw)
+        tilt, full = resid, True
+        notes.append(f"L directions differ by {resid:.1f} deg after the turn about the vertical: the landing part "
+                     f"is tilted by that much to align them (full alignment)")
+    comB = None
+    from ..flips.reposition import ComEvaluator
+
+    ce = ComEvaluator(body)
+    comB = ce(mB.root_positions[flB[0]:flB[0] + 1], mB.rotations[flB[0]:flB[0] + 1])[0]
+    mB_al = mB.rotated(q_B, center=comB)
+    LB = quat_apply(q_B, LB0)
+    timings["align"] = time.perf_counter() - t
+    # ---------------------------------------------------------------- 2. match |L| by retiming
+    t = time.perf_counter()
+    nA, nB = float(np.linalg.norm(LA0)), float(np.linalg.norm(LB))
+    target = {"takeoff": nA, "landing": nB, "mean": float(np.sqrt(nA * nB))}[match]
+    sA, sB = target / nA, target / nB
+    for nm, sp in ((nameA, sA), (nameB, sB)):
+        if not 0.25 <= sp <= 4.0:
+            raise JoinError(f"matching |L| would retime {nm} by x{sp:.2f} (|L| {nA:.1f} vs {nB:.1f} kg m^2/s); "
+                            "beyond x0.25-x4 finite-difference momentum is unreliable (eq. 5.8): join flights of "
+                            "comparable angular momentum or choose match='mean'")
+        if not 0.5 <= sp <= 2.0:
+            notes.append(f"{nm} is retimed by x{sp:.2f}: outside the x0.5-x2 range in which the paper found "
+                         "retiming errors below 20% (section 5.1)")
+    mA2, flA2 = _retimed(mA, flA, sA)
+    mB2, flB2 = _retimed(mB_al, flB, sB)
+    LA2, LB2 = _mean_L(body, mA2, flA2), _mean_L(body, mB2, flB2)
+    u = _unit(LA2)
+    timings["retime_parts"] = time.perf_counter() - t
+    # ---------------------------------------------------------------- 3. frame search
+    t = time.perf_counter()
+    from ..flips.similarity import frame_distance, similarity_weights, twist_angle
+
+    weights = similarity_weights(mA.skeleton)
+    rA = make_continuous(np.asarray(mA2.rotations), axis=0)
+    rB = make_continuous(np.asarray(mB2.rotations), axis=0)
+
+    def window(fl):
+        n = fl[1] - fl[0]
+        mg = max(2, int(np.ceil(margin * n)))
+        return np.arange(fl[0] + mg, fl[1] - 1 - mg)
+
+    fA, gB = window(flA2), window(flB2)
+    if fA.size == 0 or gB.size == 0:
+        raise JoinError(f"the flights are too short to search for a transition ({flA2[1] - flA2[0]} and "
+                        f"{flB2[1] - flB2[0]} frames after retiming)")
+    FA, GB = np.meshgrid(fA, gB, indexing="ij")
+    D, phi = frame_distance(rA[FA.ravel()], rB[GB.ravel()], u, weights)
+    # phi: eq. 5.12's alignment angle (wrapped); the exact twist difference of the roots about L
+    tw = twist_angle(quat_multiply(rB[GB.ravel(), 0], quat_inverse(rA[FA.ravel(), 0])), u)
+    tw = (tw + np.pi) % (2 * np.pi) - np.pi
+    pw = weights.root if phi_weight is None else float(phi_weight)
+    cost = D + pw * np.abs(tw)
+    ok = np.abs(tw) <= np.radians(max_phi_deg)
+    if not np.any(ok):
+        raise JoinError(f"no frame pair of the two flights is within {max_phi_deg:g} deg of rotation about L "
+                        f"(closest {np.degrees(np.abs(tw).min()):.0f} deg)")
+    cost = np.where(ok, cost, np.inf)
+    k_best = int(np.argmin(cost))
+    f, g = int(FA.ravel()[k_best]), int(GB.ravel()[k_best])
+    phi_f = float(tw[k_best])
+    wsum = weights.root + float(np.sum(weights.joints))
+    seam = {"f": f, "g": g, "distance": float(D[k_best]), "mean_angle_deg": float(np.degrees(D[k_best] / wsum)),
+            "phi_deg": float(np.degrees(phi_f)), "pairs": int(D.size)}
+    timings["search"] = time.perf_counter() - t
+    # ---------------------------------------------------------------- assemble + blend
+    t = time.perf_counter()
+    a0 = flA2[0]
+    rotA = np.array(rA[:f + 1])
+    rpA = np.array(mA2.root_positions[:f + 1])
+    # turn A's flight about L by a ramp reaching phi at f (about each frame's COM)
+    lam = np.clip((np.arange(f + 1) - a0) / max(f - a0, 1), 0.0, 1.0)
+    qr = _axis_quat(u, phi_f * lam)
+    comA = ce(rpA, rotA)
+    rotA[:, 0] = quat_multiply(qr, rotA[:, 0])
+    rpA = comA + quat_apply(qr, rpA - comA)
+    # B from g+1, translated so its COM continues A's with A's velocity at f
+    comB2 = ce(mB2.root_positions, mB2.rotations)
+    vA = (comA[f] - comA[f - 1]) * mA2.fps
+    shift = comA[f] + vA / mA2.fps - comB2[g + 1]
+    rotB = np.array(rB[g + 1:])
+    rpB = np.array(mB2.root_positions[g + 1:]) + shift
+    rot = np.concatenate([rotA, rotB])
+    rp = np.concatenate([rpA, rpB])
+    rot = make_continuous(rot, axis=0)
+    n_tot = rot.shape[0]
+    landing_idx = f + (flB2[1] - 1 - g)
+    fl_joined = (a0, landing_idx + 1)
+    w = max(1, int(round(window_s * mA2.fps)))
+    w = int(min(w, f - a0 - 2, flB2[1] - 3 - g))
+    w = max(w, 1)
+    seam["window"] = w
+    seam["index"] = f + 1
+    # Cross-fade by offsets over frames f-w .. f+1+w: the take-off side turns toward the
+    # landing side's pose by q^s and the landing side from the take-off side's by q^(s-1), with
+    # s rising smoothly 0 -> 1 across the window (1/2 at the seam), for every joint's local
+    # rotation and for the root about the frame's COM (its mismatch is perpendicular to L: the
+    # twist about L was matched above). Rates peak at the seam; nothing jumps.
+    ql, qrr = rotA[f], rB[g]
+    sgn = np.where(np.sum(ql * qrr, axis=-1) < 0, -1.0, 1.0)[:, None]
+    qrr = sgn * qrr
+    off_A = quat_multiply(quat_inverse(ql[1:]), qrr[1:])            # joints: A_f^-1 B_g
+    off_B = quat_inverse(off_A)
+    q_rel = quat_multiply(qrr[0], quat_inverse(ql[0]))              # root: B_g A_f^-1 (world)
+    q_rel_inv = quat_inverse(q_rel)
+    ident = np.zeros(4)
+    ident[3] = 1.0
+    span = 2 * w + 2
+    for i in range(max(0, f - w), min(n_tot, f + 2 + w)):
+        x = np.clip((i - (f - w) + 0.5) / span, 0.0, 1.0)
+        sig = x * x * (3 - 2 * x)
+        left = i <= f
+        frac_j = sig if left else 1.0 - sig
+        off = off_A if left else off_B
+        rot[i, 1:] = quat_multiply(rot[i, 1:], slerp(np.broadcast_to(ident, off.shape), off,
+                                                      np.full(off.shape[0], frac_j)))
+        qroot = slerp(ident[None], (q_rel if left else q_rel_inv)[None], np.array([frac_j]))[0]
+        c = ce(rp[i:i + 1], rot[i:i + 1])[0]
+        rot[i, 0] = quat_multiply(qroot, rot[i, 0])
+        rp[i] = c + quat_apply(qroot, rp[i] - c)
+    seam["root_mismatch_deg"] = float(np.degrees(2 * np.arccos(min(1.0, abs(q_rel[3])))))
+    if seam["root_mismatch_deg"] > max_root_mismatch_deg:
+        raise JoinError(
+            f"at the best transition (frame {f} of {nameA} ~ frame {g} of {nameB}) the bodies are oriented "
+            f"{seam['root_mismatch_deg']:.0f} deg apart about an axis perpendicular to L (limit "
+            f"max_root_mismatch_deg = {max_root_mismatch_deg:g}): the two flights rotate the body in opposite "
+            "senses (e.g. a forward and a backward somersault), so no smooth mid-air transition exists")
+    joined = mA2.replace(root_positions=rp, rotations=rot)
+    timings["assemble"] = time.perf_counter() - t
+    # ---------------------------------------------------------------- 4. restore the whole
+    t = time.perf_counter()
+    from ..flips.mass import fit_ballistic
+
+    fitA = fit_ballistic(ce(mA2.root_positions[flA2[0]:flA2[1]], mA2.rotations[flA2[0]:flA2[1]]), mA2.fps, flA2[0])
+    res = three_steps(body, joined, fl_joined, LA2, fitA, original=mA2, original_flight=flA2, k=k,
+                      k_ratio=k_ratio, takeoff_height=takeoff_height, polish=polish, com_eval=ce,
+                      direction=direction_step)
+    timings["restore"] = time.perf_counter() - t
+    # ---------------------------------------------------------------- landing tilt
+    out = res.motion
+    fa, fb = res.flight_out
+    # the landing part's own (yaw-aligned, untilted) landing orientation at its last airborne frame
+    q_ref = quat_multiply(q_yaw, mB.rotations[flB[1] - 1, 0])
+    q_now = out.rotations[fb - 1, 0]
+    up_ref = quat_apply(q_ref, quat_apply(quat_inverse(mB.rotations[flB[1] - 1, 0]),
+                                          np.array([0.0, 1.0, 0.0])))
+    # tilt: angle between the body's "world-up at B's landing" direction now and then
+    body_up = quat_apply(quat_inverse(q_ref), np.array([0.0, 1.0, 0.0]))
+    up_now = quat_apply(q_now, body_up)
+    tilt_land = float(np.degrees(np.arccos(np.clip(up_now[1], -1, 1))))
+    del up_ref
+    slide = None
+    if upright and tilt_land > 1.0 and fb < out.n_frames:
+        out, slide = _recover_upright(out, fb, up_now, recover_s, ce)
+        notes.append(f"the landing was tilted {tilt_land:.1f} deg; the tilt is eased out over {recover_s:g} s after "
+                     "touchdown (a torque from the ground; not a ballistic correction)")
+    timings["total"] = time.perf_counter() - t0
+    partA = JoinPart(nameA, mA2, flA2, LA2, LA0, np.array([0.0, 0.0, 0.0, 1.0]), sA)
+    partB = JoinPart(nameB, mB2, flB2, LB2, LB0, q_B, sB)
+    alignment = {"yaw_deg": float(np.degrees(yaw)), "residual_deg": resid, "tilt_deg": tilt, "full": full,
+                 "elevation_takeoff_deg": _elevation_deg(LA0), "elevation_landing_deg": _elevation_deg(LB0),
+                 "azimuth_takeoff_deg": _azimuth_deg(LA0), "azimuth_landing_deg": _azimuth_deg(LB0),
+                 "angle_after_deg": float(np.degrees(np.arccos(np.clip(_unit(LA2) @ _unit(LB2), -1, 1))))}
+    return JoinResult(motion=out, joined=joined, takeoff=partA, landing=partB, body=body, alignment=alignment,
+                      seam=seam, flight=fl_joined, restore=res, landing_tilt_deg=tilt_land, foot_slide=slide,
+                      timings=timings, notes=tuple(notes))
+
+
+def _recover_upright(motion: Motion, first_ground: int, up_now: np.ndarray, seconds: float, ce):
+    """Ease the landing tilt out after touchdown: frames from ``first_ground`` turn by a growing
+    fraction of the rotation taking ``up_now`` back to vertical, about the ground point under the
+    COM at touchdown. Returns the motion and the largest horizontal foot displacement caused (m)."""
+    fix = _shortest_arc(up_now, [0.0, 1.0, 0.0])
+    n = motion.n_frames - first_ground
+    m = max(1, int(round(seconds * motion.fps)))
+    s = np.clip(np.arange(1, n + 1) / m, 0.0, 1.0)
+    s = s * s * (3 - 2 * s)
+    ident = np.broadcast_to([0.0, 0.0, 0.0, 1.0], (n, 4))
+    q = slerp(ident, np.broadcast_to(fix, (n, 4)), s)
+    c = ce(motion.root_positions[first_ground:first_ground + 1], motion.rotations[first_ground:first_ground + 1])[0]
+    low = motion.positions[first_ground, :, 1].min()
+    pivot = np.array([c[0], low, c[2]])
+    rp = np.array(motion.root_positions)
+    rot = np.array(motion.rotations)
+    rp[first_ground:] = pivot + quat_apply(q, rp[first_ground:] - pivot)
+    rot[first_ground:, 0] = quat_multiply(q, rot[first_ground:, 0])
+    out = motion.replace(root_positions=rp, rotations=rot)
+    feet = [j for j, nm in enumerate(motion.skeleton.names) if any(k in nm.lower() for k in ("toe", "foot", "ankle"))]
+    slide = 0.0
+    if feet:
+        d = out.positions[first_ground:, feet] - motion.positions[first_ground:, feet]
+        slide = float(np.max(np.linalg.norm(d[..., [0, 2]], axis=-1)))
+    return out, slide
