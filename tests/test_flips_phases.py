@@ -11,7 +11,7 @@ from mocomp.flips.preprocess import clip_prior, spline_resample
 
 from _flips_data import spinning_motion, synthetic
 
-GENERATORS = ["backflip", "frontflip", "sideflip", "twist_jump", "straight_jump"]
+GENERATORS = ["backflip", "frontflip", "sideflip", "twist180", "twist360", "jump"]
 
 
 @pytest.mark.parametrize("name", GENERATORS)
