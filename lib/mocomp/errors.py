@@ -82,3 +82,12 @@ class AlignmentError(MocompError, ValueError):
 
 class ChecksumError(MocompError):
     """A downloaded or cached data file does not match its known size or SHA-256."""
+
+
+class JoinError(PhysicsError):
+    """Two flights cannot be joined: angular-momentum directions that cannot be aligned,
+    different skeletons, magnitudes too far apart to match by retiming, no transition."""
+
+
+class TwistRangeError(PhysicsError):
+    """A twist-jump target rotation lies outside the range reachable from the clip."""
