@@ -24,7 +24,7 @@ try:
 except Exception:  # pragma: no cover - numba is a dependency; keep the library importable without it
     AVAILABLE = False
 
-__all__ = ["AVAILABLE", "slerp_rows_nb", "com_relative_nb", "seam_block_nb"]
+__all__ = ["AVAILABLE", "slerp_rows_nb", "com_relative_nb", "seam_block_nb", "warmup"]
 
 if AVAILABLE:
     @numba.njit(cache=True, nogil=True)
@@ -172,3 +172,21 @@ def slerp_rows_nb(q0: np.ndarray, q1: np.ndarray, a: np.ndarray, nlerp_below: fl
 def com_relative_nb(q: np.ndarray, joints: np.ndarray, parent: np.ndarray, u: np.ndarray) -> np.ndarray:
     q = np.ascontiguousarray(q, dtype=np.float64)
     return _com_relative(q, joints, parent, u, np.empty((q.shape[0], 3)))
+
+
+_WARM = False
+
+
+def warmup() -> None:
+    """Load (or compile, the first time on a machine) the kernels, so that the first
+    run-time call is not charged for it; :func:`mocomp.flips.prepare` calls this."""
+    global _WARM
+    if not AVAILABLE or _WARM:
+        return
+    q = np.zeros((2, 2, 4))
+    q[..., 3] = 1.0
+    slerp_rows_nb(q, q, np.zeros(2))
+    com_relative_nb(q, np.arange(2, dtype=np.int64), np.zeros(2, dtype=np.int64), np.zeros((2, 3)))
+    seam_block_nb(q.copy(), np.zeros(2), np.array([True, False]), q[0], q[0], q[0, 0], q[0, 0], np.zeros(2),
+                  np.array([1.0, 0.0, 0.0]), q[0, 0])
+    _WARM = True

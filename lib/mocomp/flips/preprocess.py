@@ -303,6 +303,9 @@ def prepare(source, *, body: BodyModel | None = None, total_mass: float = 70.0, 
     timings["loop_search"] = time.perf_counter() - t
     t = time.perf_counter()
     com_eval = ComEvaluator(est)
+    from ._kernels import warmup
+
+    warmup()                              # compiled run-time kernels loaded now, not on the first run
     timings["setup"] = time.perf_counter() - t
     timings["total"] = time.perf_counter() - t0
     for arr in (rot, theta, bdir, axis, root_ref):
