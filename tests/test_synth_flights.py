@@ -18,7 +18,7 @@ from scipy.spatial.transform import Rotation
 
 from mocomp.dynamics import center_of_mass, momentum
 from mocomp.errors import PhysicsError
-from mocomp.synth import EXAMPLE_NAMES, backflip, make_example, sideflip, straight_jump, twist_jump
+from mocomp.synth import EXAMPLE_NAMES, backflip, frontflip, make_example, sideflip, straight_jump, twist_jump
 from mocomp.synth.bodies import SEGMENT_GROUPS
 
 GENS = {"backflip": backflip, "sideflip": sideflip, "jump": straight_jump,
@@ -310,6 +310,10 @@ def test_frame_rates_and_twist_sign():
 def test_bad_parameters_raise():
     with pytest.raises(ValueError, match="rotations"):
         backflip(rotations=0.0)
+    with pytest.raises(ValueError, match="whole number"):
+        frontflip(rotations=1.5)
+    with pytest.raises(ValueError, match="tuck >= 0.6"):
+        sideflip(tuck=0.3)
     with pytest.raises(ValueError, match="tuck"):
         backflip(tuck=1.5)
     with pytest.raises(ValueError, match="twist"):

@@ -142,11 +142,11 @@ class _Body:
         self.rest_ankle = [rest[c.ankle] - rest[0] for c in self.chains]
         self.toe_height = float(rest[self.chains[0].toe][1])   # toe joint above the sole
 
-    def legs(self, root_pos, root_R, toes, yaws, heels):
+    def legs(self, root_pos, root_R, toes, yaws, heels, max_reach: float = 0.9995):
         """Leg local rotation matrices ``(N, 8, 3, 3)`` and knee angles ``(N, 2)``."""
         Rs, knees = [], []
         for c, toe, yaw, heel in zip(self.chains, toes, yaws, heels):
-            lp = leg_ik(c, root_pos, root_R, toe, yaw, heel)
+            lp = leg_ik(c, root_pos, root_R, toe, yaw, heel, max_reach=max_reach)
             Rs.append(lp.R_local)
             knees.append(lp.knee_angle)
         return np.concatenate(Rs, axis=1), np.stack(knees, axis=1)
@@ -203,6 +203,12 @@ def _foot_reference(B: _Body, toes, yaw, ball: bool) -> np.ndarray:
     return np.mean(pts, axis=0)
 
 
+def _ankle(chain, toe, yaw, heel):
+    """Ankle position of a planted foot (see :mod:`mocomp.synth.legs`)."""
+    G_foot = quat_to_matrix(exp_quat(np.array([0.0, yaw, 0.0]))) @ quat_to_matrix(exp_quat(np.array([heel, 0, 0])))
+    return np.asarray(toe) - G_foot @ chain.toe_offset
+
+
 def _solve_stance(B: _Body, key: Key, q: np.ndarray, toes, yaw: float, travel_dir: np.ndarray,
                   ball_reference: bool, guess: np.ndarray) -> _Stance:
     """Pelvis position such that the mean knee flexion is ``key.knee`` and the COM's
@@ -213,25 +219,26 @@ def _solve_stance(B: _Body, key: Key, q: np.ndarray, toes, yaw: float, travel_di
     target = ref + key.lead * travel_dir
     knee_target = math.radians(key.knee)
 
-    def evaluate(p):
-        legR, knees = B.legs(p[None], R[None], toes, (yaw, yaw), (heel, heel))
+    def evaluate(p, max_reach):
+        legR, knees = B.legs(p[None], R[None], toes, (yaw, yaw), (heel, heel), max_reach=max_reach)
         Rloc = B.local_matrices(key.upper, legR)
         bf = body_frame(B.sk, B.body, Rloc)
         com = p + R @ bf.C[0]
         return legR[0], knees[0], com
 
     def residual(p):
-        try:
-            _, knees, com = evaluate(p)
-        except PhysicsError:
-            return np.array([10.0, 10.0, 10.0])
-        return np.array([knees.mean() - knee_target, com[0] - target[0], com[2] - target[2]])
+        # soft IK while searching: an over-stretched leg reads as a straight knee and the
+        # excess length as extra "negative flexion", so the residual stays continuous
+        _, knees, com = evaluate(p, np.inf)
+        over = [max(0.0, np.linalg.norm(p + R @ c.hip_offset - _ankle(c, t, yaw, heel)) - (c.l_thigh + c.l_shank))
+                for c, t in zip(B.chains, toes)]
+        return np.array([knees.mean() - 10.0 * np.mean(over) - knee_target, com[0] - target[0], com[2] - target[2]])
 
     sol = sp_root(residual, guess, method="hybr", options={"xtol": 1e-13})
     if not sol.success or np.max(np.abs(residual(sol.x))) > 1e-9:
         raise PhysicsError(f"cannot pose the performer with knee flexion {key.knee:.1f} deg and COM lead "
                            f"{key.lead:.3f} m ({sol.message}); choose a less extreme pose")
-    legR, knees, com = evaluate(sol.x)
+    legR, knees, com = evaluate(sol.x, 0.9995)
     return _Stance(sol.x, q, legR, knees, com, key.upper, toes, yaw, heel)
 
 
@@ -575,7 +582,8 @@ def generate(design: Design, skeleton: Skeleton, body: BodyModel, fps: float = 1
                        method="secant", xtol=1e-9, maxiter=40)
     k_sub = max(1, int(math.ceil(substep_rate / fps - 1e-9)))
     dt_f = 1.0 / (fps * k_sub)
-    L, r, acc = _newton(lambda L_: residual(L_, dt_c), lambda L_: residual(L_, dt_f), sol1.root * axis)
+    L, r, acc = _newton(lambda L_: residual(L_, dt_c), lambda L_: residual(L_, dt_f), sol1.root * axis,
+                        valid=lambda a: abs(a - theta_target) < 0.5 * math.pi)
     if np.linalg.norm(r) > 1e-8:
         raise PhysicsError(f"shooting for the angular momentum did not converge (landing error {np.linalg.norm(r):.2e} rad)")
     if abs(_twist_angle(takeoff.root_q, q1_target, axis, acc) - theta_target) > 1e-6:
@@ -764,51 +772,78 @@ def generate(design: Design, skeleton: Skeleton, body: BodyModel, fps: float = 1
                        evidence=evidence)
 
 
-def _newton(coarse, fine, L):
+def _fd_jacobian(fun, L, r):
+    """Forward-difference Jacobian ``(3, 3)`` of the landing residual at ``L`` (``r = fun(L)[0]``)."""
+    scale = max(1.0, float(np.linalg.norm(L)))
+    Jm = np.zeros((3, 3))
+    for k in range(3):
+        e = np.zeros(3)
+        e[k] = 1e-5 * scale
+        Jm[:, k] = (fun(L + e)[0] - r) / e[k]
+    return Jm
+
+
+def _descend(fun, L, r, jacobian, iters: int, tol: float, valid):
+    """Newton steps with a trust region and backtracking.
+
+    ``jacobian(L, r)`` gives the matrix for each step; a step is at most a quarter
+    of ``|L|`` (near-degenerate inertias make the Jacobian nearly singular) and is
+    accepted when the residual decreases and ``valid(accumulated angle)`` holds
+    (the flight keeps the requested number of turns).
+    """
+    acc = None
+    for _ in range(iters):
+        if np.linalg.norm(r) < tol:
+            break
+        step = np.linalg.solve(jacobian(L, r), r)
+        cap = 0.25 * max(1.0, float(np.linalg.norm(L)))
+        if np.linalg.norm(step) > cap:
+            step *= cap / np.linalg.norm(step)
+        t = 1.0
+        accepted = False
+        for _ in range(10):
+            r_new, acc_new = fun(L - t * step)
+            if np.linalg.norm(r_new) < np.linalg.norm(r) and valid(acc_new):
+                accepted = True
+                break
+            t *= 0.5
+        if not accepted:
+            break
+        L, r, acc = L - t * step, r_new, acc_new
+    return L, r, acc
+
+
+def _newton(coarse, fine, L, valid=lambda acc: True):
     """Solve ``residual(L) = 0`` (landing-orientation error, 3 components).
 
     Newton with a finite-difference Jacobian and backtracking on the cheap coarse
     grid (240 Hz RK4), then chord iterations (the last coarse Jacobian) with
-    backtracking on the fine grid. ``coarse``/``fine`` return ``(residual,
-    accumulated angle)``. Measured against ``scipy.optimize.root`` (MINPACK hybrd
-    on the coarse grid, hybrj with the coarse Jacobian on the fine grid), this
-    needs 2-3x fewer flight integrations (backflip 11 vs 33, sideflip 33 vs 59),
-    because the fine grid only ever evaluates residuals.
+    backtracking on the fine grid; if those stall (a sensitive flight, e.g. a
+    layout side somersault near the unstable intermediate principal axis, where
+    the coarse model is not close enough), Newton with fine-grid Jacobians.
+    ``coarse``/``fine`` return ``(residual, accumulated angle)``. Measured against
+    ``scipy.optimize.root`` (MINPACK hybrd on the coarse grid, hybrj with the
+    coarse Jacobian on the fine grid) this needs 2-3x fewer flight integrations
+    (backflip 11 vs 33, sideflip 33 vs 59): the fine grid mostly evaluates residuals.
     """
-    def jac(L, r):
-        scale = max(1.0, np.linalg.norm(L))
-        Jm = np.zeros((3, 3))
-        for k in range(3):
-            e = np.zeros(3)
-            e[k] = 1e-5 * scale
-            Jm[:, k] = (coarse(L + e)[0] - r) / e[k]
-        return Jm
+    last = {}
 
-    def descend(fun, L, r, Jm, iters, tol, refresh):
-        acc = None
-        for _ in range(iters):
-            if np.linalg.norm(r) < tol:
-                break
-            if refresh:
-                Jm = jac(L, r)
-            step = np.linalg.solve(Jm, r)
-            t = 1.0
-            for _ in range(8):
-                r_new, acc = fun(L - t * step)
-                if np.linalg.norm(r_new) < np.linalg.norm(r):
-                    break
-                t *= 0.5
-            L, r = L - t * step, r_new
-        return L, r, Jm, acc
+    def coarse_jac(L_, r_):
+        last["J"] = _fd_jacobian(coarse, L_, r_)
+        return last["J"]
 
     r, acc = coarse(L)
-    L, r, Jm, acc_c = descend(coarse, L, r, None, 12, 1e-11, True)
+    L, r, acc_c = _descend(coarse, L, r, coarse_jac, 20, 1e-11, valid)
     r, acc = fine(L)
-    if Jm is None and np.linalg.norm(r) >= 1e-12:
-        Jm = jac(L, coarse(L)[0])
-    L, r, _, acc_f = descend(fine, L, r, Jm, 12, 1e-12, False)
-    if acc_f is not None:
-        acc = acc_f
+    if np.linalg.norm(r) >= 1e-12:
+        J = last.get("J")
+        if J is None:
+            J = _fd_jacobian(coarse, L, coarse(L)[0])
+        L, r, acc_f = _descend(fine, L, r, lambda L_, r_: J, 8, 1e-12, valid)
+        acc = acc_f if acc_f is not None else acc
+    if np.linalg.norm(r) >= 1e-10:
+        L, r, acc_f = _descend(fine, L, r, lambda L_, r_: _fd_jacobian(fine, L_, r_), 12, 1e-12, valid)
+        acc = acc_f if acc_f is not None else acc
     return L, r, acc
 
 

@@ -39,9 +39,13 @@ Continuity at take-off and touchdown
 * **Touchdown** (``t1``, in general between frames): the pelvis position,
   orientation, velocity and angular velocity and the upper-body joints are
   continuous; the balls of the feet stop dead (foot velocity jumps to zero, as in
-  a real impact), the heels come down at the rate that gives the designed knee
-  flexion rate, so the leg joint rates, the COM velocity and ``L`` jump. The
-  jumps are reported in ``result.evidence.landing`` (``dp``, ``dL``).
+  a real impact) and the heels come down at the rate that gives the designed
+  knee flexion rate (at most 40 rad/s; a harder landing puts the rest on the
+  knees, and more than 40 rad/s there is refused), so the leg joint rates, the
+  COM velocity and ``L`` jump. The jumps are reported in
+  ``result.evidence.landing`` (``dp``, ``dL``). Keeping ``p`` and ``L``
+  continuous instead would need a jump of several rad/s in the pelvis rotation
+  (a visible jolt of the whole upper body), which real landings do not show.
 * Ground phases (stand, countermovement crouch, extension, absorption,
   recovery) are kinematic: pelvis paths are quintic Hermite pieces, legs come
   from closed-form IK with the toe joints fixed (foot skate at rounding level).
@@ -84,6 +88,14 @@ def _check(name, value, lo, hi):
     if not (np.isfinite(v) and lo <= v <= hi):
         raise ValueError(f"{name} must be in [{lo}, {hi}], got {value!r}")
     return v
+
+
+def _check_turns(rotations) -> int:
+    """Whole turns only: a somersault lands on the feet after 1, 2, ... turns."""
+    r = _check("rotations", rotations, 1.0, 4.0)
+    if r != round(r):
+        raise ValueError(f"rotations must be a whole number of turns (1..4) to land on the feet, got {rotations!r}")
+    return int(round(r))
 
 
 class _Builder:
@@ -159,7 +171,7 @@ def backflip(*, rotations: float = 1.0, tuck: float = 1.0, jump_height: float = 
 
     See the module docstring for the physics and the common parameters.
     """
-    rotations = _check("rotations", rotations, 0.25, 4.0)
+    rotations = _check_turns(rotations)
     b = _Builder("backflip", dict(rotations=rotations, tuck=tuck, jump_height=jump_height, travel=travel,
                                   takeoff_level=takeoff_level, landing_level=landing_level,
                                   **_common(height, mass, table, shape, mass_factors, mass_noise, variation, seed,
@@ -185,7 +197,7 @@ def frontflip(*, rotations: float = 1.0, tuck: float = 1.0, jump_height: float =
               variation: float = 0.0, seed: int = 0, fps: float = 120.0, substep_rate: float = 960.0) -> SynthResult:
     """Standing front somersault (tucked by default): ``rotations`` forward turns,
     travelling ``travel`` metres forwards. See the module docstring."""
-    rotations = _check("rotations", rotations, 0.25, 4.0)
+    rotations = _check_turns(rotations)
     b = _Builder("frontflip", dict(rotations=rotations, tuck=tuck, jump_height=jump_height, travel=travel,
                                    takeoff_level=takeoff_level, landing_level=landing_level,
                                    **_common(height, mass, table, shape, mass_factors, mass_noise, variation, seed,
@@ -210,10 +222,21 @@ def sideflip(*, rotations: float = 1.0, tuck: float = 1.0, jump_height: float = 
              table: str = "de_leva_male", shape: str = "ellipsoid", mass_factors=None, mass_noise: float = 0.0,
              variation: float = 0.0, seed: int = 0, fps: float = 120.0, substep_rate: float = 960.0) -> SynthResult:
     """Side somersault toward the performer's left (head leads to the left, about
-    the forward axis), travelling ``travel`` metres to the left. The body is not
-    symmetric about the rotation plane, so ``L0`` has small components off the
-    nominal axis; the shooting finds all three. See the module docstring."""
-    rotations = _check("rotations", rotations, 0.25, 4.0)
+    the forward axis), travelling ``travel`` metres to the left. See the module docstring.
+
+    The body is not symmetric about the rotation plane: raising the legs into the
+    tuck and lowering the arms make it counter-rotate about the left-right axis,
+    so ``L0`` leans off the nominal axis (about 16 deg for the full tuck); the
+    shooting finds all three components. ``tuck`` must be at least 0.6: a more
+    open body has two nearly equal largest principal moments (layout: 11.5 and
+    11.7 kg m^2 for the default performer) or rotates about its unstable
+    intermediate axis, and the landing orientation then depends too sensitively
+    on ``L0`` for the shooting.
+    """
+    rotations = _check_turns(rotations)
+    if _check("tuck", tuck, 0.0, 1.0) < 0.6:
+        raise ValueError(f"sideflip needs tuck >= 0.6 (got {tuck!r}): a more open side somersault rotates about a "
+                         "(nearly) intermediate principal axis and cannot be shot reliably")
     b = _Builder("sideflip", dict(rotations=rotations, tuck=tuck, jump_height=jump_height, travel=travel,
                                   takeoff_level=takeoff_level, landing_level=landing_level,
                                   **_common(height, mass, table, shape, mass_factors, mass_noise, variation, seed,
