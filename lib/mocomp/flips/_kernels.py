@@ -156,21 +156,28 @@ if AVAILABLE:
 
 def seam_block_nb(blk, wts, left, off_l, off_r, arc_l, arc_r, theta, axis, ref):
     """In-place seam smoothing of a block of frames (see :mod:`mocomp.flips.multiflip`)."""
-    return _seam_block(blk, np.ascontiguousarray(wts, dtype=np.float64), np.ascontiguousarray(left),
-                       np.ascontiguousarray(off_l), np.ascontiguousarray(off_r), np.ascontiguousarray(arc_l),
-                       np.ascontiguousarray(arc_r), np.ascontiguousarray(theta, dtype=np.float64),
-                       np.ascontiguousarray(axis, dtype=np.float64), np.ascontiguousarray(ref, dtype=np.float64))
+    def c(x, dtype=np.float64):        # small writable copies: one compiled signature (no read-only variants)
+        return np.array(x, dtype=dtype, copy=True, order="C")
+
+    return _seam_block(blk, c(wts), c(left, np.bool_), c(off_l), c(off_r), c(arc_l), c(arc_r), c(theta), c(axis),
+                       c(ref))
 
 
 def slerp_rows_nb(q0: np.ndarray, q1: np.ndarray, a: np.ndarray, nlerp_below: float = 0.1) -> np.ndarray:
     q0 = np.ascontiguousarray(q0, dtype=np.float64)
     q1 = np.ascontiguousarray(q1, dtype=np.float64)
+    if not q0.flags.writeable:
+        q0 = q0.copy()
+    if not q1.flags.writeable:
+        q1 = q1.copy()
     return _slerp_rows(q0, q1, np.ascontiguousarray(a, dtype=np.float64), math.cos(nlerp_below),
                        np.empty_like(q0))
 
 
 def com_relative_nb(q: np.ndarray, joints: np.ndarray, parent: np.ndarray, u: np.ndarray) -> np.ndarray:
     q = np.ascontiguousarray(q, dtype=np.float64)
+    if not q.flags.writeable:
+        q = q.copy()
     return _com_relative(q, joints, parent, u, np.empty((q.shape[0], 3)))
 
 
