@@ -298,7 +298,8 @@ def _momentum_map(B: _Body, R, phi_up, phidot_up, leg_R, K):
 def _rk4(q0, L, Iinv, hvec, dt, n_steps, last_dt, axis):
     """Integrate the root orientation with constant world angular momentum ``L``.
 
-    ``q' = 1/2 q (x) (w, 0)``, ``w = I_c^-1 (R(q)^T L - h)`` (body frame), with the
+    ``q' = 1/2 q (x) (w, 0)``, ``w = I_c^-1 (R(q)^T L - h)`` (body frame; dissertation
+    eq. 5.5 split into the root's and the joints' parts, see :mod:`._bodyframe`), with the
     composite inertia inverse ``Iinv`` and relative momentum ``hvec`` sampled on the
     half-step grid (``2 n_steps + 1`` points, then 2 more for the final partial step
     of length ``last_dt``). Pure-Python floats: a few microseconds per stage.
@@ -619,7 +620,7 @@ def generate(design: Design, skeleton: Skeleton, body: BodyModel, fps: float = 1
     p1 = com1_exact - R1 @ bf1.C[0]
     v1 = vcom1 - np.cross(w1, R1 @ bf1.C[0]) - R1 @ bf1.C_dot[0]
     Rl1 = quat_to_matrix(exp_quat(phi1[0]))
-    PL, GL = _world_fk(skeleton, p1, R1, Rl1)
+    PL, _ = _world_fk(skeleton, p1, R1, Rl1)
     toes1 = tuple(PL[c.toe] for c in B.chains)
     yaw1 = feet_yaw
     heel1 = land.heel
@@ -681,7 +682,7 @@ def generate(design: Design, skeleton: Skeleton, body: BodyModel, fps: float = 1
         raise PhysicsError("the heel would sink below the floor before take-off; raise the take-off heel angle")
     beta = np.maximum(beta, 0.0)
     R_pre = quat_to_matrix(q_pre)
-    legR_pre, knees_pre = B.legs(root_pre, R_pre, toes0, (0.0, 0.0), (beta, beta))
+    legR_pre, _ = B.legs(root_pre, R_pre, toes0, (0.0, 0.0), (beta, beta))
     up_pre, _ = upper_track(tp)
     Rloc_pre = B.local_matrices(up_pre, legR_pre)
 
@@ -709,7 +710,7 @@ def generate(design: Design, skeleton: Skeleton, body: BodyModel, fps: float = 1
         m_hd = tq < t_hd
         beta_post[m_hd] = quintic_hermite(tq[m_hd], t1, t_hd, heel1, heel_rate1, 0.0, 0.0, 0.0, 0.0)[0]
         beta_post = np.maximum(beta_post, 0.0)
-    legR_post, knees_post = B.legs(root_post, R_post, toes1, (yaw1, yaw1), (beta_post, beta_post))
+    legR_post, _ = B.legs(root_post, R_post, toes1, (yaw1, yaw1), (beta_post, beta_post))
     up_post, _ = upper_track(tq)
     Rloc_post = B.local_matrices(up_post, legR_post)
 
