@@ -403,34 +403,10 @@ def join_flights(takeoff, landing, *, body=None, flights=(None, None), match: st
     w = max(w, 1)
     seam["window"] = w
     seam["index"] = f + 1
-    # Cross-fade by offsets over frames f-w .. f+1+w: the take-off side turns toward the
-    # landing side's pose by q^s and the landing side from the take-off side's by q^(s-1), with
-    # s rising smoothly 0 -> 1 across the window (1/2 at the seam), for every joint's local
-    # rotation and for the root about the frame's COM (its mismatch is perpendicular to L: the
-    # twist about L was matched above). Rates peak at the seam; nothing jumps.
-    ql, qrr = rotA[f], rB[g]
-    sgn = np.where(np.sum(ql * qrr, axis=-1) < 0, -1.0, 1.0)[:, None]
-    qrr = sgn * qrr
-    off_A = quat_multiply(quat_inverse(ql[1:]), qrr[1:])            # joints: A_f^-1 B_g
-    off_B = quat_inverse(off_A)
-    q_rel = quat_multiply(qrr[0], quat_inverse(ql[0]))              # root: B_g A_f^-1 (world)
-    q_rel_inv = quat_inverse(q_rel)
-    ident = np.zeros(4)
-    ident[3] = 1.0
-    span = 2 * w + 2
-    for i in range(max(0, f - w), min(n_tot, f + 2 + w)):
-        x = np.clip((i - (f - w) + 0.5) / span, 0.0, 1.0)
-        sig = x * x * (3 - 2 * x)
-        left = i <= f
-        frac_j = sig if left else 1.0 - sig
-        off = off_A if left else off_B
-        rot[i, 1:] = quat_multiply(rot[i, 1:], slerp(np.broadcast_to(ident, off.shape), off,
-                                                      np.full(off.shape[0], frac_j)))
-        qroot = slerp(ident[None], (q_rel if left else q_rel_inv)[None], np.array([frac_j]))[0]
-        c = ce(rp[i:i + 1], rot[i:i + 1])[0]
-        rot[i, 0] = quat_multiply(qroot, rot[i, 0])
-        rp[i] = c + quat_apply(qroot, rp[i] - c)
-    seam["root_mismatch_deg"] = float(np.degrees(2 * np.arccos(min(1.0, abs(q_rel[3])))))
+    # cross-fade the matched pair (A_f ~ B_g) across the seam (joints and root, see .seams)
+    from .seams import crossfade
+
+    seam["root_mismatch_deg"] = crossfade(rot, rp, f, rotA[f], rB[g], w, ce)
     if seam["root_mismatch_deg"] > max_root_mismatch_deg:
         raise JoinError(
             f"at the best transition (frame {f} of {nameA} ~ frame {g} of {nameB}) the bodies are oriented "

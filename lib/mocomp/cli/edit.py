@@ -1,0 +1,101 @@
+"""``mocomp edit``: an in-flight edit (preset) restored to momentum conservation (flips paper
+section 5.5; dissertation section 5.5)."""
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+
+
+def _positive(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not (math.isfinite(v) and v > 0):
+        raise argparse.ArgumentTypeError(f"must be a positive number, got {text}")
+    return v
+
+
+def add_restore_args(p: argparse.ArgumentParser, k_default: str = "1 (k = k*)") -> None:
+    """Options of the final retiming/repositioning shared by ``edit`` and ``join``."""
+    k = p.add_mutually_exclusive_group()
+    k.add_argument("--k-ratio", type=_positive, default=None,
+                   help=f"uniform retiming factor as a fraction of k* (App. B; default {k_default})")
+    k.add_argument("--k", type=_positive, default=None, help="explicit uniform retiming factor (>1 = faster)")
+    p.add_argument("--takeoff-height", type=float, default=0.0, metavar="H",
+                   help="raise the take-off by H metres (a dive from a platform; the body is kept clear of it)")
+
+
+def check_output(path: str) -> Path:
+    out = Path(path)
+    if out.suffix.lower() != ".bvh":
+        raise ValueError(f"output {out} must be a .bvh file")
+    if not out.parent.is_dir():
+        raise FileNotFoundError(f"output folder {out.parent} does not exist")
+    return out
+
+
+def register(subparsers) -> None:
+    from ..edit.presets import PRESETS
+
+    p = subparsers.add_parser(
+        "edit", help="edit a flight (straight legs, asymmetric arms, ...) and restore momentum conservation",
+        description="Apply an in-flight edit preset to a jump or flip and restore momentum conservation "
+                    "(Majkowska & Faloutsos 2007, section 5.5): (1) the direction of L by rotating each frame "
+                    "(eq. 5.18-5.21), (2) its magnitude by non-uniform retiming (eq. 5.22), (3) uniform "
+                    "retiming and centre-of-mass repositioning onto the gravity parabola. Prints the per-step "
+                    "errors. Presets: " + "; ".join(f"{k}: {v}" for k, v in PRESETS.items()))
+    p.add_argument("input", metavar="INPUT", help="motion file (BVH, ASF/AMC, DeepMimic) or a clip/example name")
+    p.add_argument("--preset", required=True, choices=sorted(PRESETS), help="the edit")
+    p.add_argument("-o", "--output", required=True, metavar="OUT.bvh", help="restored motion (BVH)")
+    p.add_argument("--edited", metavar="EDITED.bvh", help="also write the edit before restoration")
+    p.add_argument("--report", metavar="report.json", help="write the report (numbers and per-frame curves)")
+    p.add_argument("--plot", metavar="PNG", help="draw the per-frame errors before/after each step")
+    p.add_argument("--reference", choices=("constant", "original"), default="constant",
+                   help="target: the original flight's mean L (eq. 5.19, default) or its L frame by frame")
+    p.add_argument("--method", choices=("gauss-newton", "bfgs"), default="gauss-newton",
+                   help="step 1 solver (bfgs: scipy's quasi-Newton, as the paper)")
+    add_restore_args(p)
+    p.add_argument("--up-side", choices=("l", "r"), default="l", help="arms-twist: which arm goes up")
+    p.add_argument("--fps", type=_positive, default=None, help="frame rate to use instead of the file's")
+    p.add_argument("--flight", type=int, nargs=2, metavar=("START", "STOP"), default=None,
+                   help="flight frames [START, STOP) instead of detecting them")
+    p.add_argument("--estimate-masses", action="store_true",
+                   help="estimate the mass distribution from the flight (eq. 5.1-5.2) instead of the table prior")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..edit import apply_preset, restore_momentum
+    from ..flips.preprocess import prepare
+    from ..io.bvh import write_bvh
+
+    out = check_output(args.output)
+    edited_out = check_output(args.edited) if args.edited else None
+    P = prepare(args.input, fps=args.fps, flight=tuple(args.flight) if args.flight else None,
+                estimate=args.estimate_masses, loop_options={"min_angle": 0.0})
+    body = P.body if args.estimate_masses else P.prior
+    edited, plan = apply_preset(P.motion, P.flight, args.preset, up_side=args.up_side)
+    res = restore_momentum(body, P.motion, edited, P.flight, k_ratio=args.k_ratio, k=args.k,
+                           reference=args.reference, method=args.method, takeoff_height=args.takeoff_height)
+    write_bvh(res.motion, out)
+    print(f"{P.name}: flight frames {P.flight[0]}-{P.flight[1] - 1} at {P.fps:g} Hz; preset {args.preset} on frames "
+          f"{plan.start}-{plan.stop - 1}")
+    print(res.summary())
+    print(f"wrote {out} ({res.motion.n_frames} frames at {res.motion.fps:g} Hz)")
+    if edited_out is not None:
+        write_bvh(edited, edited_out)
+        print(f"wrote {edited_out} (the edit before restoration)")
+    if args.report:
+        res.write_report(args.report)
+        print(f"wrote {args.report}")
+    if args.plot:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        from ..plots.edit import plot_momentum_errors
+
+        plot_momentum_errors(res, title=f"{P.name}: {args.preset}").savefig(args.plot, dpi=120)
+        print(f"wrote {args.plot}")
+    return 0

@@ -1,0 +1,53 @@
+"""``mocomp join A B``: the take-off of flight A joined in mid-air with the landing of flight B
+(flips paper section 6, Fig. 4c; dissertation Fig. 5.8)."""
+from __future__ import annotations
+
+import argparse
+import json
+
+
+def register(subparsers) -> None:
+    from .edit import add_restore_args
+
+    p = subparsers.add_parser(
+        "join", help="join the take-off of one flight with the landing of another in mid-air",
+        description="Join two ballistic motions of the same skeleton in mid-flight (Majkowska & Faloutsos "
+                    "2007, section 6): turn B so the angular momenta point the same way (about the vertical, "
+                    "and fully if needed, which tilts its landing), retime so |L| matches, find the most "
+                    "similar pair of flight frames (App. A), blend, then restore |L| by non-uniform retiming, "
+                    "retime by k* and reposition the centre of mass on the gravity parabola.")
+    p.add_argument("takeoff", metavar="A", help="motion whose take-off is used (file or clip name)")
+    p.add_argument("landing", metavar="B", help="motion whose landing is used (file or clip name)")
+    p.add_argument("-o", "--output", required=True, metavar="OUT.bvh", help="joined motion (BVH)")
+    p.add_argument("--report", metavar="report.json", help="write the report (alignment, seam, errors)")
+    p.add_argument("--match", choices=("takeoff", "landing", "mean"), default="takeoff",
+                   help="which |L| both parts are retimed to (default: A's)")
+    p.add_argument("--max-tilt", type=float, default=45.0, metavar="DEG",
+                   help="largest landing tilt accepted for a full alignment of L (default 45)")
+    p.add_argument("--no-full-alignment", action="store_true",
+                   help="refuse flights whose L differ after the turn about the vertical")
+    p.add_argument("--direction-step", action="store_true",
+                   help="also restore L's direction across the transition (eq. 5.21; turns the landing)")
+    p.add_argument("--no-upright", action="store_true", help="keep a tilted landing instead of easing it out")
+    add_restore_args(p)
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..edit.join import join_flights
+    from ..io.bvh import write_bvh
+    from .edit import check_output
+
+    out = check_output(args.output)
+    res = join_flights(args.takeoff, args.landing, match=args.match, full_alignment=not args.no_full_alignment,
+                       max_tilt_deg=args.max_tilt, k_ratio=args.k_ratio, k=args.k,
+                       takeoff_height=args.takeoff_height, upright=not args.no_upright,
+                       direction_step=args.direction_step)
+    write_bvh(res.motion, out)
+    print(res.summary())
+    print(f"wrote {out} ({res.motion.n_frames} frames at {res.motion.fps:g} Hz)")
+    if args.report:
+        with open(args.report, "w") as fh:
+            json.dump(res.report(), fh, indent=1)
+        print(f"wrote {args.report}")
+    return 0

@@ -1,0 +1,57 @@
+"""Seam blending for motions assembled from pieces of flights (joins, twist variation).
+
+At a seam between a left block (ending at frame ``last_left``) and a right block, the two
+sides' poses at the seam instant (``left_ref`` and ``right_ref``, a matched pair found by the
+similarity search of App. A) differ a little. :func:`crossfade` turns the left side toward the
+right side's pose by ``q^s`` and the right side from the left side's by ``q^(s-1)``, with ``s``
+rising smoothly (smoothstep) from 0 to 1 across ``2 w + 2`` frames centred on the seam: every
+joint's local rotation (as offsets, so each side keeps its own motion) and the root orientation
+about the frame's COM (world frame; after the search matched the rotation about L, its
+mismatch is perpendicular to L). Nothing jumps, and the blending rate peaks at the seam.
+This is the dissertation's "slerping joint angles over small windows" (section 5.4.2.2) in
+an offset form.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..core.motion import slerp
+from ..core.rotations import quat_apply, quat_inverse, quat_multiply
+
+__all__ = ["crossfade"]
+
+
+def crossfade(rot: np.ndarray, rp: np.ndarray, last_left: int, left_ref: np.ndarray, right_ref: np.ndarray,
+              window: int, com_eval) -> float:
+    """Blend the seam after frame ``last_left`` in place (``rot (T, J, 4)``, ``rp (T, 3)``).
+
+    ``left_ref`` / ``right_ref`` (``(J, 4)``, root first, as placed in the sequence) are the two
+    sides' poses at the same instant. ``com_eval`` gives each frame's COM (the root turns about it).
+    Returns the root mismatch, degrees.
+    """
+    T = rot.shape[0]
+    w = max(1, int(window))
+    ql = np.asarray(left_ref, dtype=float)
+    qr = np.asarray(right_ref, dtype=float)
+    sgn = np.where(np.sum(ql * qr, axis=-1) < 0, -1.0, 1.0)[:, None]
+    qr = sgn * qr
+    off_l = quat_multiply(quat_inverse(ql[1:]), qr[1:])        # joints, local: left -> right
+    off_r = quat_inverse(off_l)
+    q_rel = quat_multiply(qr[0], quat_inverse(ql[0]))          # root, world: left -> right
+    q_rel_inv = quat_inverse(q_rel)
+    ident = np.zeros(4)
+    ident[3] = 1.0
+    span = 2 * w + 2
+    lo, hi = max(0, last_left - w), min(T, last_left + 2 + w)
+    for i in range(lo, hi):
+        x = min(max((i - (last_left - w) + 0.5) / span, 0.0), 1.0)
+        sig = x * x * (3 - 2 * x)
+        left = i <= last_left
+        frac = sig if left else 1.0 - sig
+        off = off_l if left else off_r
+        rot[i, 1:] = quat_multiply(rot[i, 1:], slerp(np.broadcast_to(ident, off.shape), off, np.full(off.shape[0], frac)))
+        qroot = slerp(ident[None], (q_rel if left else q_rel_inv)[None], np.array([frac]))[0]
+        c = com_eval(rp[i:i + 1], rot[i:i + 1])[0]
+        rot[i, 0] = quat_multiply(qroot, rot[i, 0])
+        rp[i] = c + quat_apply(qroot, rp[i] - c)
+    return float(np.degrees(2 * np.arccos(min(1.0, abs(float(q_rel[3]))))))
