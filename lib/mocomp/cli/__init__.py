@@ -21,6 +21,7 @@ COMMAND_MODULES: list[str] = [
     "splice",
     "flips",
     "demo",
+    "edit", "join", "twist",
 ]
 
 
