@@ -1,0 +1,78 @@
+"""Twist jumps of other angles (issue 5, section 4; dissertation section 5.6, Fig. 5.7)."""
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+import pytest
+
+from mocomp.edit.twist import prepare_twist, reachable_range, twist_jump, twist_series
+from mocomp.errors import TwistRangeError
+
+
+@lru_cache(maxsize=None)
+def series(src, degrees):
+    return tuple(twist_series(src, degrees, prepared=prepare_twist(src)))
+
+
+def test_fig_5_7_series_from_a_180_degree_twist():
+    """210, 240, 270 from 180: angles met, and take-off speed, rotation rate and height grow
+    with the rotation (section 5.6)."""
+    rs = series("twist180", (210.0, 240.0, 270.0))
+    P = prepare_twist("twist180")
+    for r, d in zip(rs, (210.0, 240.0, 270.0)):
+        assert r.achieved_deg == pytest.approx(d, abs=1.5)
+        assert r.method == "repeat" and r.k > 1.0 and r.k == pytest.approx(r.k_star)
+        st = r.restore.stages["final"]
+        assert st.max_direction < 1e-5
+        assert st.rms_magnitude < 0.03 and st.max_magnitude < 0.10
+        assert r.restore.linear.com_residual < 1e-9
+        # lands upright: the body's vertical at the end matches the original's
+        up0 = _up(P.motion.rotations[-1, 0])
+        up1 = _up(r.motion.rotations[-1, 0])
+        assert np.degrees(np.arccos(np.clip(up0 @ up1, -1, 1))) < 5.0
+    orig = (rs[0].takeoff_speed_original, rs[0].angular_speed_original, rs[0].height_original)
+    for attr, o in zip(("takeoff_speed", "angular_speed", "height"), orig):
+        vals = [getattr(r, attr) for r in rs]
+        assert o < vals[0] < vals[1] < vals[2], attr
+
+
+def _up(q):
+    from mocomp.core.rotations import quat_apply
+
+    return quat_apply(np.asarray(q), np.array([0.0, 1.0, 0.0]))
+
+
+def test_less_rotation_by_cutting_a_fragment():
+    r = series("twist180", (150.0,))[0]
+    assert r.method == "cut"
+    assert r.achieved_deg == pytest.approx(150.0, abs=1.5)
+    assert r.k < 1.0 and r.takeoff_speed < r.takeoff_speed_original and r.height < r.height_original
+
+
+def test_reachable_range_and_out_of_range_targets():
+    P = prepare_twist("twist180")
+    lo, hi = reachable_range(P, 1.5)
+    assert lo < 179.0 < hi
+    with pytest.raises(TwistRangeError, match=r"outside the range reachable.*\d+-\d+ deg"):
+        twist_jump("twist180", hi + 100.0, prepared=P)
+    with pytest.raises(TwistRangeError, match="positive"):
+        twist_jump("twist180", -30.0, prepared=P)
+
+
+def test_unchanged_angle_is_the_original():
+    P = prepare_twist("twist360")
+    r = twist_jump("twist360", float(np.degrees(abs(P.total_rotation))), prepared=P)
+    assert r.method == "unchanged"
+    assert r.k == pytest.approx(1.0, abs=0.02)
+
+
+def test_real_hop_turn_270(real_data_dir):
+    rs = series("cmu_83_58_hopturn270", (240.0, 300.0, 330.0))
+    for r, d in zip(rs, (240.0, 300.0, 330.0)):
+        assert r.achieved_deg == pytest.approx(d, abs=1.5)
+        assert r.restore.stages["final"].max_direction < 1e-5
+        # |L| over the new flight varies less than the capture's own flight
+        assert r.restore.stages["final"].max_magnitude < r.restore.stages["original"].max_magnitude
+    assert rs[0].takeoff_speed < rs[1].takeoff_speed < rs[2].takeoff_speed
+    assert rs[0].height < rs[1].height < rs[2].height
