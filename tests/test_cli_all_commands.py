@@ -1,0 +1,114 @@
+"""Every registered ``mocomp`` command (and sub-command): ``--help`` works, and bad input
+prints exactly one line naming the problem and exits with status 2 (issue 2, section 5).
+
+The commands are discovered from the parser, so a command added to
+``COMMAND_MODULES`` is covered without editing this file: each positional
+argument gets a corrupt BVH file (or, for an output, a path in ``tmp_path``) and
+each required option a plausible value; commands without a file argument get an
+explicit bad value in ``NO_FILE_CASES``.
+"""
+from __future__ import annotations
+
+import argparse
+
+import pytest
+
+from mocomp.cli import COMMAND_MODULES, build_parser, main
+
+BAD_BVH = ("HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHANNELS 3 Xposition Yposition Zposition\n}\n"
+           "MOTION\nFrames: 2\nFrame Time: 0.01\n0 0 0\n0 zero 0\n")
+
+#: commands that take no input file: argv (after the command) with a bad value
+NO_FILE_CASES = {"demo": ["--flips", "0", "-o", "{tmp}/demo"]}
+
+
+def _sub_actions(parser: argparse.ArgumentParser):
+    return [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+
+
+def _leaves(parser, prefix=()):
+    """(command path, leaf parser) for every runnable (sub-)command."""
+    subs = _sub_actions(parser)
+    if not subs:
+        yield prefix, parser
+        return
+    for action in subs:
+        for name, p in action.choices.items():
+            yield from _leaves(p, prefix + (name,))
+
+
+LEAVES = dict(_leaves(build_parser()))
+
+
+def test_every_command_module_is_registered_and_discovered():
+    tops = {path[0] for path in LEAVES}
+    assert tops == set(COMMAND_MODULES)
+    assert {"info", "convert", "plot", "demo"} <= tops
+
+
+@pytest.mark.parametrize("path", sorted(LEAVES), ids=" ".join)
+def test_help(path, capsys):
+    with pytest.raises(SystemExit) as e:
+        main([*path, "--help"])
+    assert e.value.code == 0
+    out = capsys.readouterr().out
+    assert out.startswith(f"usage: mocomp {' '.join(path)}")
+    # the help describes the command, not just its usage line
+    assert len(out.splitlines()) > 4
+
+
+def _suffix(action) -> str:
+    """File suffix an output option asks for (from its metavar or help), '' for a folder."""
+    text = f"{action.metavar or ''} {action.help or ''}".lower()
+    for suffix in (".bvh", ".png", ".json"):
+        if suffix in text:
+            return suffix
+    return ""
+
+
+def _bad_argv(path, parser, tmp_path):
+    bad = tmp_path / "bad.bvh"
+    bad.write_text(BAD_BVH)
+    if path[0] in NO_FILE_CASES:
+        return [*path, *(a.format(tmp=tmp_path) for a in NO_FILE_CASES[path[0]])], None
+    argv, used_file = list(path), False
+    for a in parser._actions:
+        if isinstance(a, (argparse._HelpAction, argparse._VersionAction)):
+            continue
+        is_out = any(s in (a.dest or "").lower() for s in ("out", "output")) or a.metavar in ("OUT", "OUT.bvh")
+        if not a.option_strings:  # positional
+            n = a.nargs if isinstance(a.nargs, int) else 1
+            if is_out:
+                argv += [str(tmp_path / "out.bvh")] * n
+            else:
+                argv += [str(bad)] * n
+                used_file = True
+        elif a.required:
+            if a.choices:
+                value = [str(next(iter(a.choices)))]
+            elif is_out:
+                value = [str(tmp_path / ("out" + _suffix(a)))]
+            elif "manifest" in a.dest or "spec" in a.dest:
+                value, used_file = [str(bad)], True
+            elif "data" in a.dest:
+                value = [str(tmp_path / "data")]
+            else:
+                value = ["1"]
+            argv += [a.option_strings[-1], *value]
+    assert used_file, f"mocomp {' '.join(path)} takes no file: add a bad-input case to NO_FILE_CASES"
+    return argv, bad
+
+
+@pytest.mark.parametrize("path", sorted(LEAVES), ids=" ".join)
+def test_bad_input_prints_one_line_and_exits_2(path, tmp_path, capsys, monkeypatch):
+    monkeypatch.delenv("MOCOMP_DATA_DIR", raising=False)
+    argv, bad = _bad_argv(path, LEAVES[path], tmp_path)
+    assert main(argv) == 2, argv
+    cap = capsys.readouterr()
+    lines = cap.err.strip().splitlines()
+    assert len(lines) == 1, cap.err
+    assert lines[0].startswith(f"mocomp {path[0]}") and ": error: " in lines[0], lines[0]
+    if bad is not None:
+        assert bad.name in lines[0], lines[0]          # names the file
+    # nothing was written for a failed command
+    assert not [p.name for p in tmp_path.iterdir() if p.name.startswith("out")]
