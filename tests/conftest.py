@@ -6,10 +6,19 @@ import os
 from pathlib import Path
 
 import pytest
+from hypothesis import settings as hypothesis_settings
 
 from mocomp.datasets import data_dir
 
 IN_CI = os.environ.get("CI", "").lower() in ("1", "true", "yes")
+
+# Property tests (hypothesis): under CI the examples are derived from each test's
+# source (derandomize) and no example database is kept, so a CI run is
+# reproducible and cannot flake; locally they explore new random examples on
+# every run (HYPOTHESIS_PROFILE=ci reproduces CI).
+hypothesis_settings.register_profile("ci", derandomize=True, database=None, print_blob=True)
+hypothesis_settings.register_profile("dev", print_blob=True)
+hypothesis_settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci" if IN_CI else "dev"))
 
 
 @pytest.fixture(scope="session")

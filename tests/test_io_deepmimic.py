@@ -5,10 +5,13 @@ root rotation), BVH round trips, and bad input."""
 from __future__ import annotations
 
 import json
+import re
 import warnings
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, event, given, settings
+from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 from conftest import real_files
@@ -297,3 +300,65 @@ def test_real_deepmimic_round_trip(path, tmp_path, character):
     idx = [r.skeleton.index(n) for n in m.skeleton.names]
     assert np.abs(r.positions[:, idx] - m.positions).max() < 1e-6
     assert np.abs(r.end_site_positions() - m.end_site_positions()).max() < 1e-6
+
+
+# ------------------------------------------------------------------ property test
+_TOKEN = re.compile(r'-?\d+(?:\.\d+)?(?:[eE][-+]?\d+)?|"[^"]*"|[\[\]{},:]')
+_GARBAGE = ["NaN", "Infinity", "-Infinity", '"x"', "null", "[]", "{}", "1e999", "", ",", "]", "[", "0", "-1", "true"]
+
+
+@st.composite
+def mutated_deepmimic(draw):
+    """A valid motion or character file with 1-3 token replacements, truncations or line edits."""
+    which = draw(st.sampled_from(["motion", "character"]))
+    text = _PROPERTY_TEXTS[which]
+    for _ in range(draw(st.integers(1, 3))):
+        kind = draw(st.sampled_from(["token", "truncate", "delete", "duplicate"]))
+        toks = list(_TOKEN.finditer(text))
+        if kind == "token" and toks:
+            m = toks[draw(st.integers(0, len(toks) - 1))]
+            text = text[:m.start()] + draw(st.sampled_from(_GARBAGE)) + text[m.end():]
+        elif kind == "truncate":
+            text = text[:draw(st.integers(0, len(text)))]
+        else:
+            lines = text.split("\n")
+            i = draw(st.integers(0, len(lines) - 1))
+            lines[i:i + 1] = [] if kind == "delete" else [lines[i], lines[i]]
+            text = "\n".join(lines)
+    return which, text
+
+
+def _property_texts():
+    import tempfile
+    from pathlib import Path
+    with tempfile.TemporaryDirectory() as d:
+        char = small_character(Path(d))
+        return {"character": char.read_text(), "motion": write_motion(Path(d), motion_doc(T=4)).read_text(),
+                "parsed_character": read_deepmimic_character(char)}
+
+
+_PROPERTY_TEXTS = _property_texts()
+
+
+@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@given(mutated_deepmimic())
+def test_mutated_deepmimic_parses_or_raises_motion_format_error(tmp_path, case):
+    """Mutated DeepMimic motion/character JSON either loads or raises MotionFormatError, never another exception."""
+    which, text = case
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            if which == "motion":
+                m = parse_deepmimic(text, _PROPERTY_TEXTS["parsed_character"], path="m.txt")
+                assert np.all(np.isfinite(m.rotations)) and np.all(np.isfinite(m.root_positions))
+            else:
+                f = tmp_path / "c.txt"
+                f.write_text(text)
+                read_deepmimic_character(f)
+                body = read_deepmimic_body(f)
+                assert np.all(body.masses >= 0)
+        except MotionFormatError as e:
+            assert e.path is not None
+            event("MotionFormatError")
+            return
+    event("parsed")

@@ -43,3 +43,15 @@ def test_name_parser_strips_versions_and_extras():
     assert _name("dtw-python>=1.5") == "dtw-python"
     assert _name("jupyterlab_widgets>=3") == "jupyterlab-widgets"
     assert _name("foo[bar]==1; python_version<'4'") == "foo"
+
+
+def test_property_tests_are_derandomized_under_ci():
+    """CI runs the hypothesis tests reproducibly (conftest's 'ci' profile): no flaky CI."""
+    from hypothesis import settings
+
+    from conftest import IN_CI
+
+    ci = settings.get_profile("ci")
+    assert ci.derandomize and ci.database is None
+    if IN_CI:
+        assert settings.default.derandomize and settings.default.database is None
