@@ -420,28 +420,16 @@ def join_flights(takeoff, landing, *, body=None, flights=(None, None), match: st
     from ..flips.mass import fit_ballistic
 
     fitA = fit_ballistic(ce(mA2.root_positions[flA2[0]:flA2[1]], mA2.rotations[flA2[0]:flA2[1]]), mA2.fps, flA2[0])
+    # the intended landing: the joined motion's landing part without the full alignment's tilt
+    q_untilt = quat_multiply(q_yaw, quat_inverse(q_B))
     res = three_steps(body, joined, fl_joined, LA2, fitA, original=mA2, original_flight=flA2, k=k,
                       k_ratio=k_ratio, takeoff_height=takeoff_height, polish=polish, com_eval=ce,
-                      direction=direction_step)
+                      direction=direction_step, upright_ref=joined, upright_pre=q_untilt,
+                      recover_s=recover_s if upright else 0.0)
     timings["restore"] = time.perf_counter() - t
-    # ---------------------------------------------------------------- landing tilt
     out = res.motion
-    fa, fb = res.flight_out
-    # the landing part's own (yaw-aligned, untilted) landing orientation at its last airborne frame
-    q_ref = quat_multiply(q_yaw, mB.rotations[flB[1] - 1, 0])
-    q_now = out.rotations[fb - 1, 0]
-    up_ref = quat_apply(q_ref, quat_apply(quat_inverse(mB.rotations[flB[1] - 1, 0]),
-                                          np.array([0.0, 1.0, 0.0])))
-    # tilt: angle between the body's "world-up at B's landing" direction now and then
-    body_up = quat_apply(quat_inverse(q_ref), np.array([0.0, 1.0, 0.0]))
-    up_now = quat_apply(q_now, body_up)
-    tilt_land = float(np.degrees(np.arccos(np.clip(up_now[1], -1, 1))))
-    del up_ref
-    slide = None
-    if upright and tilt_land > 1.0 and fb < out.n_frames:
-        out, slide = _recover_upright(out, fb, up_now, recover_s, ce)
-        notes.append(f"the landing was tilted {tilt_land:.1f} deg; the tilt is eased out over {recover_s:g} s after "
-                     "touchdown (a torque from the ground; not a ballistic correction)")
+    tilt_land = res.landing_tilt_deg
+    slide = res.foot_slide
     timings["total"] = time.perf_counter() - t0
     partA = JoinPart(nameA, mA2, flA2, LA2, LA0, np.array([0.0, 0.0, 0.0, 1.0]), sA)
     partB = JoinPart(nameB, mB2, flB2, LB2, LB0, q_B, sB)
@@ -452,30 +440,3 @@ def join_flights(takeoff, landing, *, body=None, flights=(None, None), match: st
     return JoinResult(motion=out, joined=joined, takeoff=partA, landing=partB, body=body, alignment=alignment,
                       seam=seam, flight=fl_joined, restore=res, landing_tilt_deg=tilt_land, foot_slide=slide,
                       timings=timings, notes=tuple(notes))
-
-
-def _recover_upright(motion: Motion, first_ground: int, up_now: np.ndarray, seconds: float, ce):
-    """Ease the landing tilt out after touchdown: frames from ``first_ground`` turn by a growing
-    fraction of the rotation taking ``up_now`` back to vertical, about the ground point under the
-    COM at touchdown. Returns the motion and the largest horizontal foot displacement caused (m)."""
-    fix = _shortest_arc(up_now, [0.0, 1.0, 0.0])
-    n = motion.n_frames - first_ground
-    m = max(1, int(round(seconds * motion.fps)))
-    s = np.clip(np.arange(1, n + 1) / m, 0.0, 1.0)
-    s = s * s * (3 - 2 * s)
-    ident = np.broadcast_to([0.0, 0.0, 0.0, 1.0], (n, 4))
-    q = slerp(ident, np.broadcast_to(fix, (n, 4)), s)
-    c = ce(motion.root_positions[first_ground:first_ground + 1], motion.rotations[first_ground:first_ground + 1])[0]
-    low = motion.positions[first_ground, :, 1].min()
-    pivot = np.array([c[0], low, c[2]])
-    rp = np.array(motion.root_positions)
-    rot = np.array(motion.rotations)
-    rp[first_ground:] = pivot + quat_apply(q, rp[first_ground:] - pivot)
-    rot[first_ground:, 0] = quat_multiply(q, rot[first_ground:, 0])
-    out = motion.replace(root_positions=rp, rotations=rot)
-    feet = [j for j, nm in enumerate(motion.skeleton.names) if any(k in nm.lower() for k in ("toe", "foot", "ankle"))]
-    slide = 0.0
-    if feet:
-        d = out.positions[first_ground:, feet] - motion.positions[first_ground:, feet]
-        slide = float(np.max(np.linalg.norm(d[..., [0, 2]], axis=-1)))
-    return out, slide

@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.motion import Motion
+from ..core.rotations import quat_multiply
 from ..dynamics.com import check_compatible
 from ..flips.mass import FlightFit, fit_ballistic
 from ..flips.reposition import ComEvaluator
@@ -100,6 +101,8 @@ class RestoreResult:
     stages: :class:`StageErrors` per stage (:data:`STAGES`); ``final`` is the output.
     timings: seconds per step (``direction``, ``magnitude``, ``linear``, ``polish``, ``evidence``, ``total``).
     polish: the final direction sweep over the output flight (``None`` if disabled).
+    landing_tilt_deg: how far the corrections turned the landing off the vertical (degrees);
+    foot_slide: m, the feet's largest horizontal slide while it is eased back (``None``: no recovery).
     """
 
     motion: Motion
@@ -119,6 +122,8 @@ class RestoreResult:
     timings: dict
     notes: tuple[str, ...] = field(default=())
     polish: DirectionResult | None = None
+    landing_tilt_deg: float = 0.0
+    foot_slide: float | None = None
 
     @property
     def k(self) -> float:
@@ -160,6 +165,9 @@ class RestoreResult:
         if self.polish is not None:
             ang = np.degrees(np.max(2 * np.arccos(np.clip(np.abs(self.polish.corrections[:, 3]), 0, 1))))
             lines.append(f"final direction sweep: largest rotation {ang:.2f} deg")
+        if self.foot_slide is not None:
+            lines.append(f"landing tilt {self.landing_tilt_deg:.1f} deg eased out after touchdown (feet slide "
+                         f"{100 * self.foot_slide:.1f} cm)")
         lines.append("time: " + ", ".join(f"{k} {1e3 * v:.1f} ms" for k, v in self.timings.items()))
         lines += [f"note: {n}" for n in self.notes]
         return "\n".join(lines)
@@ -185,6 +193,7 @@ class RestoreResult:
                        "vy_takeoff_jump": p.vy_takeoff_jump, "vy_landing_jump": p.vy_landing_jump, "note": p.note},
             "polish_max_rotation_deg": None if self.polish is None else float(np.degrees(np.max(
                 2 * np.arccos(np.clip(np.abs(self.polish.corrections[:, 3]), 0, 1))))),
+            "landing_tilt_deg": self.landing_tilt_deg, "foot_slide_m": self.foot_slide,
             "com_parabola_residual_m": self.linear.com_residual,
             "takeoff_height_m": self.linear.takeoff_height,
             "platform": None if self.linear.platform is None else {
@@ -235,7 +244,8 @@ def restore_momentum(body, original: Motion, edited: Motion, flight, *, k_ratio:
                      k: float | None = None, reference: str = "constant", L_star=None,
                      method: str = "gauss-newton", takeoff_height: float = 0.0, platform: bool | str = "auto",
                      clearance: float = 0.0, gravity: float | None = None, oversample: int = 8,
-                     tol: float = 1e-7, fit: FlightFit | None = None, polish: bool = True) -> RestoreResult:
+                     tol: float = 1e-7, fit: FlightFit | None = None, polish: bool = True,
+                     upright: bool = True, recover_s: float = 0.3) -> RestoreResult:
     """Restore momentum conservation of an in-flight edit (section 5.5, all three steps).
 
     Parameters
@@ -265,6 +275,11 @@ def restore_momentum(body, original: Motion, edited: Motion, flight, *, k_ratio:
         finite-difference ``L`` off its direction by about the data's own frame-to-frame
         noise. The rotations are about each frame's COM, so the parabola stays exact; the
         frames after the landing turn rigidly with the last one (reported).
+    upright, recover_s: step 1 turns every frame after the edit, the landing too (that is how
+        asymmetric arms make a twist, Fig. 5.10). A standing landing tilted that way is eased back
+        to the original's vertical over ``recover_s`` seconds after touchdown (about the ground
+        point under the COM; a torque from the ground, not part of the ballistic correction; the
+        feet's slide is reported). The turn about the vertical is kept.
     """
     t_all = time.perf_counter()
     if k is None and k_ratio is None:
@@ -301,20 +316,25 @@ def restore_momentum(body, original: Motion, edited: Motion, flight, *, k_ratio:
                        L_orig=L_orig, reference=reference, method=method, tol=tol, oversample=oversample, k=k,
                        k_ratio=k_ratio, takeoff_height=takeoff_height, platform=platform, clearance=clearance,
                        gravity=gravity, polish=polish, notes=notes, edit_frames=edit_frames, com_eval=ce,
-                       t_start=t_all)
+                       t_start=t_all, upright_ref=edited if upright else None,
+                       recover_s=recover_s)
 
 
 def three_steps(body, edited: Motion, flight, L_const, fit: FlightFit, *, original: Motion,
                 original_flight, L_orig=None, reference: str = "constant", method: str = "gauss-newton",
                 tol: float = 1e-7, oversample: int = 8, k=None, k_ratio=None, takeoff_height: float = 0.0,
                 platform="auto", clearance: float = 0.0, gravity=None, polish: bool = True, notes=(),
-                edit_frames=None, com_eval=None, t_start=None, direction: bool = True) -> RestoreResult:
+                edit_frames=None, com_eval=None, t_start=None, direction: bool = True,
+                upright_ref: Motion | None = None, upright_pre=None, recover_s: float = 0.3) -> RestoreResult:
     """Steps 1-3 (and the final direction sweep) on ``edited``'s flight with the constant target
     ``L_const`` (or, with ``reference="original"``, ``original``'s per-frame ``L_orig`` on the same
     frames); ``fit`` gives the take-off velocity and gravity for step 3. The ``original`` stage of
     the evidence is ``original`` over ``original_flight`` against ``L_const`` (its own variation).
     ``direction=False`` skips step 1 and the final sweep (joins: section 5.2 adjusts a transition's
-    momentum by retiming only). Used by :func:`restore_momentum` and :func:`mocomp.edit.join.join_flights`."""
+    momentum by retiming only). ``upright_ref``: a motion on ``edited``'s frame times whose root
+    orientation (pre-multiplied by ``upright_pre``, if given) is the intended one; where the
+    corrections turned the output's landing off its vertical, the tilt is eased back over
+    ``recover_s`` seconds after touchdown (:func:`mocomp.edit.seams.recover_upright`). Used by :func:`restore_momentum` and :func:`mocomp.edit.join.join_flights`."""
     t_all = time.perf_counter() if t_start is None else t_start
     if k is None and k_ratio is None:
         k_ratio = 1.0
@@ -417,10 +437,28 @@ def three_steps(body, edited: Motion, flight, L_const, fit: FlightFit, *, origin
     stages["final"] = _stage("final", body, final, lin.flight, src3, mag_target, scale=lin.plan.k,
                              L=None if polish_res is None else polish_res.L_after)
     timings["evidence"] = time.perf_counter() - t
+    tilt, slide = 0.0, None
+    if upright_ref is not None:
+        from .seams import landing_tilt, recover_upright
+
+        fl_last = lin.flight[1] - 1
+        q_ref = upright_ref.sample([float(np.clip(src3(np.array([fl_last]))[0], 0.0, upright_ref.duration))]
+                                   ).rotations[0, 0]
+        if upright_pre is not None:
+            q_ref = quat_multiply(np.asarray(upright_pre, dtype=float), q_ref)
+        tilt, up_now = landing_tilt(q_ref, final.rotations[fl_last, 0])
+        if tilt > 1.0 and recover_s > 0 and lin.flight[1] < final.n_frames:
+            tr = time.perf_counter()
+            final, slide = recover_upright(final, lin.flight[1], up_now, recover_s, ce)
+            timings["upright"] = time.perf_counter() - tr
+            notes.append(f"the corrections turned the landing {tilt:.1f} deg off the vertical; it is eased back "
+                         f"upright over {recover_s:g} s after touchdown (a torque from the ground), the feet "
+                         f"sliding up to {100 * slide:.1f} cm")
     timings["total"] = time.perf_counter() - t_all
     if lin.plan.note:
         notes.append(lin.plan.note)
     return RestoreResult(motion=final, original=original, edited=edited, body=body, flight=(a, b),
                          flight_out=lin.flight, reference=reference, L_star=L_const, fit=fit,
                          edit_frames=edit_frames, direction=d, magnitude=mg, linear=lin, stages=stages,
-                         timings=timings, notes=tuple(notes), polish=polish_res)
+                         timings=timings, notes=tuple(notes), polish=polish_res, landing_tilt_deg=tilt,
+                         foot_slide=slide)

@@ -15,10 +15,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.motion import slerp
+from ..core.motion import Motion, slerp
 from ..core.rotations import quat_apply, quat_inverse, quat_multiply
 
-__all__ = ["crossfade"]
+__all__ = ["crossfade", "recover_upright", "landing_tilt"]
 
 
 def crossfade(rot: np.ndarray, rp: np.ndarray, last_left: int, left_ref: np.ndarray, right_ref: np.ndarray,
@@ -55,3 +55,53 @@ def crossfade(rot: np.ndarray, rp: np.ndarray, last_left: int, left_ref: np.ndar
         rot[i, 0] = quat_multiply(qroot, rot[i, 0])
         rp[i] = c + quat_apply(qroot, rp[i] - c)
     return float(np.degrees(2 * np.arccos(min(1.0, abs(float(q_rel[3]))))))
+
+
+def _shortest_arc(u, v):
+    u = u / np.linalg.norm(u)
+    v = v / np.linalg.norm(v)
+    d = float(u @ v)
+    if d < -1 + 1e-12:
+        p = np.cross(u, [1.0, 0.0, 0.0])
+        if np.linalg.norm(p) < 1e-6:
+            p = np.cross(u, [0.0, 1.0, 0.0])
+        return np.append(p / np.linalg.norm(p), 0.0)
+    q = np.append(np.cross(u, v), 1.0 + d)
+    return q / np.linalg.norm(q)
+
+
+def landing_tilt(q_ref: np.ndarray, q_now: np.ndarray) -> tuple[float, np.ndarray]:
+    """Tilt (degrees) of a landing whose root orientation is ``q_now`` where ``q_ref`` was
+    intended: the angle by which the body's direction that was vertical in ``q_ref`` is now
+    off the vertical (a turn about the vertical is not a tilt). Returns ``(tilt, up_now)``."""
+    up = np.array([0.0, 1.0, 0.0])
+    body_up = quat_apply(quat_inverse(np.asarray(q_ref, dtype=float)), up)
+    up_now = quat_apply(np.asarray(q_now, dtype=float), body_up)
+    return float(np.degrees(np.arccos(np.clip(up_now[1], -1.0, 1.0)))), up_now
+
+
+def recover_upright(motion: Motion, first_ground: int, up_now: np.ndarray, seconds: float, ce):
+    """Ease the landing tilt out after touchdown: frames from ``first_ground`` turn by a growing
+    fraction of the rotation taking ``up_now`` back to vertical, about the ground point under the
+    COM at touchdown. Returns the motion and the largest horizontal foot displacement caused (m)."""
+    fix = _shortest_arc(np.asarray(up_now, dtype=float), np.array([0.0, 1.0, 0.0]))
+    n = motion.n_frames - first_ground
+    m = max(1, int(round(seconds * motion.fps)))
+    s = np.clip(np.arange(1, n + 1) / m, 0.0, 1.0)
+    s = s * s * (3 - 2 * s)
+    ident = np.broadcast_to([0.0, 0.0, 0.0, 1.0], (n, 4))
+    q = slerp(ident, np.broadcast_to(fix, (n, 4)), s)
+    c = ce(motion.root_positions[first_ground:first_ground + 1], motion.rotations[first_ground:first_ground + 1])[0]
+    low = motion.positions[first_ground, :, 1].min()
+    pivot = np.array([c[0], low, c[2]])
+    rp = np.array(motion.root_positions)
+    rot = np.array(motion.rotations)
+    rp[first_ground:] = pivot + quat_apply(q, rp[first_ground:] - pivot)
+    rot[first_ground:, 0] = quat_multiply(q, rot[first_ground:, 0])
+    out = motion.replace(root_positions=rp, rotations=rot)
+    feet = [j for j, nm in enumerate(motion.skeleton.names) if any(k in nm.lower() for k in ("toe", "foot", "ankle"))]
+    slide = 0.0
+    if feet:
+        d = out.positions[first_ground:, feet] - motion.positions[first_ground:, feet]
+        slide = float(np.max(np.linalg.norm(d[..., [0, 2]], axis=-1)))
+    return out, slide

@@ -367,7 +367,8 @@ def _twist_once(source, degrees: float, *, k_ratio=None, k=None, max_k: float = 
     L_const = np.nanmean(L_orig[s + 1:e - 1], axis=0)
     try:
         res = three_steps(body, seq_motion, fl_seq, L_const, P.fit, original=P.motion, original_flight=(s, e),
-                          L_orig=L_orig, k=k, k_ratio=k_ratio, com_eval=ce, direction=direction_step)
+                          L_orig=L_orig, k=k, k_ratio=k_ratio, com_eval=ce, direction=direction_step,
+                          upright_ref=seq_motion)
     except PhysicsError as exc:
         raise TwistRangeError(f"{degrees:g} deg: {exc}") from exc
     timings["restore"] = time.perf_counter() - t

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["plot_momentum_errors", "plot_stick_filmstrip", "STAGE_LABELS"]
+__all__ = ["plot_momentum_errors", "plot_stick_filmstrip", "filmstrip_figure", "STAGE_LABELS"]
 
 STAGE_LABELS = {
     "original": "unedited original",
@@ -134,3 +134,39 @@ def plot_stick_filmstrip(motions, n_poses: int = 8, times=None, labels=None, col
         fig.suptitle(title, fontsize=10)
     fig.tight_layout()
     return fig
+
+
+def filmstrip_figure(motions, labels, n_poses: int = 7, renderer: str = "pyvista", tile=(180, 240),
+                     title: str | None = None, view=None):
+    """Rows of rendered poses (one row per motion, poses evenly spaced in time) as a matplotlib
+    figure: PyVista offscreen capsule renders (:func:`mocomp.plots.render3d.render_filmstrip`,
+    ``layout="tiles"``, one shared camera) or, with ``renderer="matplotlib"`` or when
+    offscreen rendering is unavailable, :func:`plot_stick_filmstrip`. Motions of different
+    durations are sampled at their own evenly spaced times."""
+    import matplotlib.pyplot as plt
+
+    if renderer == "pyvista":
+        try:
+            from .render3d import RenderStyle, render_filmstrip
+
+            rows = []
+            for m in motions:
+                rows.append(render_filmstrip([m], n_poses=n_poses, layout="tiles",
+                                             style=RenderStyle(width=int(tile[0]), height=int(tile[1]))))
+            w = max(r.shape[1] for r in rows)
+            rows = [np.pad(r, ((0, 0), (0, w - r.shape[1]), (0, 0)), constant_values=255) for r in rows]
+            fig = plt.figure(figsize=(min(16, w / 100), 0.01 * sum(r.shape[0] for r in rows) + 0.6))
+            axes = np.atleast_1d(fig.subplots(len(rows), 1))
+            for ax, img, lab in zip(axes, rows, labels):
+                ax.imshow(img)
+                ax.set_axis_off()
+                ax.set_title(lab, fontsize=9, loc="left")
+            if title:
+                fig.suptitle(title, fontsize=10)
+            fig.tight_layout()
+            return fig
+        except Exception as exc:  # no offscreen OpenGL here: fall back to stick figures
+            import warnings
+
+            warnings.warn(f"offscreen rendering failed ({exc}); drawing stick figures instead", stacklevel=2)
+    return plot_stick_filmstrip(motions, n_poses=n_poses, labels=labels, title=title, view=view)
