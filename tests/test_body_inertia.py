@@ -83,7 +83,8 @@ def test_inertia_for_masses(shape):
 
 
 def test_mjcf_loads_in_mujoco_with_same_mass_properties():
-    mujoco = pytest.importorskip("mujoco")
+    import mujoco
+
     body = BodyModel.from_skeleton(_stick_skeleton(), 70.0, shape="cuboid")
     model = mujoco.MjModel.from_xml_string(to_mjcf(body))
     sk = body.skeleton

@@ -136,7 +136,6 @@ def test_mismatched_skeleton_is_rejected(body):
 
 # ------------------------------------------------------------------ MuJoCo peer
 def _cross_check(body, motion, label):
-    pytest.importorskip("mujoco")
     from mocomp.dynamics.mujoco_check import mujoco_momentum
 
     ours = momentum(body, motion, velocity="kinematic")
@@ -173,13 +172,10 @@ def test_mujoco_cross_check_real_flip(real_data_dir):
 
 
 def test_mujoco_cross_check_synthetic_flip():
-    from mocomp.datasets import examples, load_example
+    from mocomp.datasets import load_example
 
-    if "backflip" not in examples():
-        pytest.skip("mocomp.synth has not registered the 'backflip' example yet")
     ex = load_example("backflip")
-    body = getattr(ex, "body", None) or BodyModel.from_skeleton(ex.motion.skeleton, 70.0)
-    _cross_check(body, ex.motion, "synthetic backflip (mocomp.synth, true masses)")
+    _cross_check(ex.body, ex.motion, "synthetic backflip (mocomp.synth, true masses)")
 
 
 def test_plot_momentum_draws_three_panels(body):

@@ -4,15 +4,12 @@ import pytest
 
 from mocomp.dynamics import airborne_intervals, center_of_mass, detect_contacts, momentum
 
-synth = pytest.importorskip("mocomp.synth")
-from mocomp.datasets import examples, load_example  # noqa: E402
+from mocomp.datasets import load_example
 
 NAMES = ["backflip", "frontflip", "sideflip", "twist180", "twist360", "jump"]
 
 
 def _example(name):
-    if name not in examples():
-        pytest.skip(f"mocomp.synth does not register {name!r}")
     return load_example(name)
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import warnings
 
+import ezc3d
 import numpy as np
 import pytest
 
@@ -11,7 +12,6 @@ from mocomp.errors import MotionFormatError
 from mocomp.io import UnitWarning, read_amc, read_c3d
 from mocomp.io.c3d import UP_AXIS_MAPS
 
-ezc3d = pytest.importorskip("ezc3d")
 
 
 def write_c3d(path, pts, labels, rate=100.0, units="mm", residuals=None, y_screen=None):
