@@ -41,7 +41,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..core.motion import Motion, slerp
+from ..core.motion import Motion
 from ..core.rotations import make_continuous, quat_apply, quat_inverse, quat_multiply
 from ..errors import JoinError
 from .pipeline import RestoreResult, three_steps
@@ -313,7 +313,6 @@ def join_flights(takeoff, landing, *, body=None, flights=(None, None), match: st
         tilt, full = resid, True
         notes.append(f"L directions differ by {resid:.1f} deg after the turn about the vertical: the landing part "
                      f"is tilted by that much to align them (full alignment)")
-    comB = None
     from ..flips.reposition import ComEvaluator
 
     ce = ComEvaluator(body)
@@ -395,7 +394,6 @@ def join_flights(takeoff, landing, *, body=None, flights=(None, None), match: st
     rot = np.concatenate([rotA, rotB])
     rp = np.concatenate([rpA, rpB])
     rot = make_continuous(rot, axis=0)
-    n_tot = rot.shape[0]
     landing_idx = f + (flB2[1] - 1 - g)
     fl_joined = (a0, landing_idx + 1)
     w = max(1, int(round(window_s * mA2.fps)))

@@ -26,11 +26,12 @@ from scipy.spatial.transform import Rotation
 
 from ..core.motion import Motion, slerp
 from ..core.rotations import quat_apply, quat_inverse, quat_multiply
+from ..errors import MocompError
 
 __all__ = ["ease_weights", "OffsetLayer", "TargetLayer", "AimLayer", "apply_layers", "EditRangeError"]
 
 
-class EditRangeError(ValueError):
+class EditRangeError(MocompError, ValueError):
     """An edit's frame range lies outside the motion (or outside the flight)."""
 
 

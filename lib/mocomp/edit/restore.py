@@ -39,7 +39,6 @@ from scipy.optimize import minimize
 from ..core.motion import Motion
 from ..core.rotations import quat_apply, quat_inverse, quat_multiply
 from ..dynamics.com import check_compatible
-from ..dynamics.momentum import momentum
 from .layers import EditRangeError
 
 __all__ = [
