@@ -386,3 +386,21 @@ def test_every_real_clip_loads_by_its_listed_name(path, real_names, real_data_di
     assert np.all(np.isfinite(m.positions))
     assert 1.2 < standing_height(m) < 2.4, "implausible body height: wrong unit?"
     assert m.fps in (16.0, 30.0, 60.0, 120.0) or m.source.format == "deepmimic"
+
+
+@pytest.mark.parametrize("name", ["backflip", "frontflip", "sideflip", "twist180", "twist360", "jump"])
+def test_every_embedded_example_lists_and_loads(name, monkeypatch):
+    """Issue 2 section 4 / issue 3 section 3: each named example is listed with a one-line
+    description and loads (without a data directory) as the generator's motion and truth."""
+    monkeypatch.delenv("MOCOMP_DATA_DIR", raising=False)
+    df = datasets.list()
+    row = df[df.name == name]
+    assert len(row) == 1 and row.iloc[0].kind == "example"
+    desc = row.iloc[0].description
+    assert desc and "\n" not in desc and len(desc) < 200
+    m = datasets.load(name)
+    truth = datasets.load_example(name)
+    assert isinstance(m, Motion) and m.skeleton.n_joints == 31 and m.fps == 120.0
+    np.testing.assert_array_equal(m.rotations, truth.motion.rotations)
+    a, b = truth.flight
+    assert 0 < a < b < m.n_frames and truth.body.total_mass == pytest.approx(70.0)
