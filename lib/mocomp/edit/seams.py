@@ -92,7 +92,7 @@ def recover_upright(motion: Motion, first_ground: int, up_now: np.ndarray, secon
     ident = np.broadcast_to([0.0, 0.0, 0.0, 1.0], (n, 4))
     q = slerp(ident, np.broadcast_to(fix, (n, 4)), s)
     c = ce(motion.root_positions[first_ground:first_ground + 1], motion.rotations[first_ground:first_ground + 1])[0]
-    low = motion.positions[first_ground, :, 1].min()
+    low = motion[first_ground:first_ground + 1].positions[0, :, 1].min()
     pivot = np.array([c[0], low, c[2]])
     rp = np.array(motion.root_positions)
     rot = np.array(motion.rotations)
@@ -102,6 +102,6 @@ def recover_upright(motion: Motion, first_ground: int, up_now: np.ndarray, secon
     feet = [j for j, nm in enumerate(motion.skeleton.names) if any(k in nm.lower() for k in ("toe", "foot", "ankle"))]
     slide = 0.0
     if feet:
-        d = out.positions[first_ground:, feet] - motion.positions[first_ground:, feet]
+        d = out[first_ground:].positions[:, feet] - motion[first_ground:].positions[:, feet]
         slide = float(np.max(np.linalg.norm(d[..., [0, 2]], axis=-1)))
     return out, slide
