@@ -20,9 +20,10 @@ observer presses the instructed button.
 Simulated observers answer through the same code path as people
 (:class:`study.controller.TrialController` over a :class:`study.session.Session`,
 writing the same CSV); only the source of the answer differs.
-:func:`fit_observer_model` estimates (threshold, slope per error type; bias;
-lapse) by maximum likelihood (statsmodels ``GenericLikelihoodModel``) with
-Wald CIs on the log / logit scales mapped back.
+:func:`fit_observer_model` (:mod:`study.observer_fit`) estimates (threshold,
+slope per error type; bias; lapse) by maximum likelihood, with
+profile-likelihood confidence intervals by default (Wald intervals are badly
+calibrated for this model, see that module) or a participant bootstrap.
 """
 from __future__ import annotations
 
@@ -31,7 +32,6 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from scipy.special import expit, logit
 from scipy.stats import norm
 
 from .controller import TrialController, TrialView, run_headless
@@ -137,122 +137,6 @@ def simulate_cohort(stimuli: StimulusSet, observers: list[Observer] | Observer, 
 
 
 # --------------------------------------------------------------------- fitting
-@dataclass
-class ObserverFit:
-    """Maximum-likelihood estimates of the observer model.
-
-    ``params``: one row per parameter (name, series, estimate, ci_low,
-    ci_high, se of the transformed parameter, transform). ``observer``: the
-    fitted :class:`Observer` (criterion per group collapsed to the first group
-    when ``criterion="group"``). ``loglike``, ``converged``, ``result`` (the
-    statsmodels result).
-    """
-
-    params: pd.DataFrame
-    observer: Observer
-    loglike: float
-    converged: bool
-    result: object
-
-    def value(self, name: str, series: str = "") -> float:
-        r = self.params[(self.params["name"] == name) & (self.params["series"] == series)]
-        return float(r["estimate"].iloc[0])
-
-    def contains(self, name: str, value: float, series: str = "") -> bool:
-        r = self.params[(self.params["name"] == name) & (self.params["series"] == series)].iloc[0]
-        return bool(r["ci_low"] <= value <= r["ci_high"])
-
-
-def fit_observer_model(data, *, level: str = "nominal_level", criterion: str = "shared", fit_lapse: bool = True,
-                       ci: float = 0.95) -> ObserverFit:
-    """Fit threshold and slope per error type, bias, and lapse to test trials (all participants pooled).
-
-    ``data``: a :class:`study.analysis.ResponseData` or a trials DataFrame.
-    ``criterion``: ``"shared"`` (one bias) or ``"group"`` (one per error group).
-    Thresholds and slopes are estimated on the log scale and the lapse on the
-    logit scale; their Wald CIs are mapped back (so they are asymmetric).
-    Assumes d' grows with the level (sign +1).
-    """
-    from statsmodels.base.model import GenericLikelihoodModel
-
-    trials = data.test if hasattr(data, "test") else data[data["kind"] == "test"]
-    if criterion not in ("shared", "group"):
-        raise ValueError("criterion must be 'shared' or 'group'")
-    agg = (trials.assign(x=trials[level].astype(float))
-           .groupby(["group", "perturbation", "direction", "x"])["incorrect"].agg(["sum", "size"]).reset_index())
-    pert = agg[agg["perturbation"] != "none"]
-    series = sorted({(p, d) for p, d in zip(pert["perturbation"], pert["direction"])})
-    groups = sorted(agg["group"].unique()) if criterion == "group" else ["(all)"]
-    s_idx = np.array([series.index((p, d)) if p != "none" else -1 for p, d in zip(agg["perturbation"], agg["direction"])])
-    g_idx = np.array([groups.index(g) if criterion == "group" else 0 for g in agg["group"]])
-    k = agg["sum"].to_numpy(float)
-    n = agg["size"].to_numpy(float)
-    x = agg["x"].to_numpy(float)
-    S, G = len(series), len(groups)
-    names = ([f"bias[{g}]" for g in groups] + [f"log_threshold[{p}/{d}]" for p, d in series]
-             + [f"log_slope[{p}/{d}]" for p, d in series] + (["logit_lapse"] if fit_lapse else []))
-
-    def probs(params):
-        b = params[:G][g_idx]
-        lt = params[G:G + S]
-        ls = params[G + S:G + 2 * S]
-        lam = expit(params[-1]) if fit_lapse else 0.0
-        dp = np.zeros_like(x)
-        m = s_idx >= 0
-        dp[m] = (np.maximum(x[m], 1e-300) / np.exp(lt[s_idx[m]])) ** np.exp(ls[s_idx[m]])
-        p = lam / 2 + (1 - lam) * norm.cdf(dp - b)
-        return np.clip(p, 1e-12, 1 - 1e-12)
-
-    class _Model(GenericLikelihoodModel):
-        def loglike(self, params):
-            p = probs(params)
-            return float(np.sum(k * np.log(p) + (n - k) * np.log1p(-p)))
-
-        def nloglikeobs(self, params):
-            p = probs(params)
-            return -(k * np.log(p) + (n - k) * np.log1p(-p))
-
-    # starting values: bias from the controls, threshold from the middle level, slope 1.5
-    ctl = agg["perturbation"] == "none"
-    f0 = (k[ctl].sum() + 0.5) / (n[ctl].sum() + 1)
-    start = [float(-norm.ppf(f0))] * G
-    for p, d in series:
-        xs = pert.loc[(pert["perturbation"] == p) & (pert["direction"] == d), "x"]
-        start.append(float(np.log(np.median(xs))))
-    start += [np.log(1.5)] * S
-    if fit_lapse:
-        start.append(float(logit(0.03)))
-    model = _Model(endog=k, exog=None, extra_params_names=names)
-    import warnings
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        res = model.fit(start_params=np.array(start), method="nm", maxiter=20000, disp=0)
-        res = model.fit(start_params=res.params, method="bfgs", maxiter=2000, disp=0)
-    est = np.asarray(res.params)
-    try:
-        se = np.sqrt(np.diag(np.asarray(res.cov_params())))
-    except Exception:  # pragma: no cover
-        se = np.full(len(est), np.nan)
-    zc = norm.ppf(0.5 + ci / 2)
-    rows = []
-    for i, nm in enumerate(names):
-        lo, hi = est[i] - zc * se[i], est[i] + zc * se[i]
-        if nm.startswith("bias"):
-            rows.append(dict(name="bias", series=nm[5:-1] if criterion == "group" else "", estimate=est[i],
-                             ci_low=lo, ci_high=hi, se=se[i], transform="identity"))
-        elif nm.startswith("log_threshold"):
-            rows.append(dict(name="threshold", series=nm[14:-1], estimate=np.exp(est[i]), ci_low=np.exp(lo),
-                             ci_high=np.exp(hi), se=se[i], transform="log"))
-        elif nm.startswith("log_slope"):
-            rows.append(dict(name="slope", series=nm[10:-1], estimate=np.exp(est[i]), ci_low=np.exp(lo),
-                             ci_high=np.exp(hi), se=se[i], transform="log"))
-        else:
-            rows.append(dict(name="lapse", series="", estimate=expit(est[i]), ci_low=expit(lo), ci_high=expit(hi),
-                             se=se[i], transform="logit"))
-    params = pd.DataFrame(rows)
-    psy = {s: Psychometric(threshold=float(np.exp(est[G + j])), slope=float(np.exp(est[G + S + j])))
-           for j, s in enumerate(series)}
-    obs = Observer(psychometric=psy, bias=float(est[0]), lapse=float(expit(est[-1])) if fit_lapse else 0.0)
-    conv = bool(res.mle_retvals.get("converged", True)) if hasattr(res, "mle_retvals") else True
-    return ObserverFit(params=params, observer=obs, loglike=float(res.llf), converged=conv, result=res)
+# The fit lives in study.observer_fit (likelihood, profile-likelihood / bootstrap CIs);
+# re-exported here, where the observer model is defined.
+from .observer_fit import ObserverFit, fit_observer_model  # noqa: E402
