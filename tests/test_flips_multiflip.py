@@ -78,6 +78,31 @@ def test_k_star_removes_the_linear_momentum_jumps(prepared):
     assert e.k == 1.3
 
 
+def test_linear_momentum_measured_on_the_motion(prepared):
+    """Measured on the output motion (not the plan): at k = k* the vertical COM velocity runs on
+    through take-off and landing; at the default 0.7 k* it jumps at take-off by (k*/k)^2 - 1 =
+    +104 % (level take-off and landing), and the report and its note say so."""
+    P = prepared["backflip"]
+
+    def jumps(res):
+        com = center_of_mass(P.body, res.motion)
+        v = np.diff(com[:, 1]) * P.fps            # v[i]: between output frames i and i+1
+        a, b = res.flight
+        dv = np.abs(np.diff(v))                   # change of velocity per frame
+        ref = np.median(dv[a + 2:b - 3])          # in flight: g / fps
+        return v[a] - v[a - 2], v[b - 1] - v[b - 3], ref, v[a - 2]
+
+    up, down, ref, v_ground = jumps(multiflip(P, flips=2, k_ratio=1.0))
+    assert abs(up) < 4 * ref and abs(down) < 6 * ref              # no more than a few frames of gravity
+    res = multiflip(P, flips=2)
+    up7, _, ref7, v_ground7 = jumps(res)
+    R = res.report
+    assert up7 / v_ground7 == pytest.approx((R.k_star / R.k) ** 2 - 1, abs=0.06)
+    assert R.p_jump_takeoff_rel == pytest.approx(1.0, abs=0.1)
+    assert any("jumps by +10" in n and "k = k*" in n for n in R.notes)
+    assert not any("jumps by" in n for n in multiflip(P, flips=2, k_ratio=1.0).report.notes)
+
+
 def test_height_change_moves_the_landing(prepared):
     P = prepared["backflip"]
     base = multiflip(P, flips=2)
@@ -203,18 +228,24 @@ def test_mislabelled_clip_is_diagnosed_in_plain_words(real_data_dir):
     assert 50 <= float(re.search(r"fps=(\d+)", note).group(1)) <= 60     # really 60 Hz (MANIFEST)
 
 
-def test_loop_seam_smoothing_is_computed_once_and_reused(prepared):
+def test_loop_seam_smoothing_is_computed_once_and_reused(prepared, monkeypatch):
     """Section 5.4.2.2: the seam correction between the last and first frame of the
-    self-looping sequence is computed once and pasted at every repetition (rotated about L)."""
+    self-looping sequence is computed once (in pre-processing) and pasted at every repetition
+    (rotated about L); so are its eq. 5.22 playback speeds."""
+    from mocomp.flips import preprocess
     from mocomp.flips._quat import qangle, qconj, qmul
     from mocomp.flips.similarity import axis_quat
 
     P = prepared["frontflip"]
-    P._cache.clear()
-    res = multiflip(P, flips=4, k=1.0)          # k = 1: output frames are the sequence frames
-    keys = [k for k in P._cache if k[0] == "loop_seam"]
-    assert len(keys) == 1
-    w = keys[0][1]
+    calls = []
+    real = preprocess.seam_corrections
+    monkeypatch.setattr(preprocess, "seam_corrections", lambda *a, **k: calls.append(1) or real(*a, **k))
+    keys = set(P._cache)
+    res = multiflip(P, flips=4, k=1.0, seam_retime=False)   # k = 1, uniform: output frames = sequence frames
+    multiflip(P, flips=3)
+    assert calls == [] and set(P._cache) == keys              # nothing recomputed at run time
+    w = P.default_window(False)
+    assert ("loop_seam", w) in P._cache
     left, right = P.loop_seam(w)
     seq = res.sequence
     assert len(seq.loop_seams) >= 3

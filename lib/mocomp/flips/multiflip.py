@@ -33,6 +33,7 @@ from ..errors import PhysicsError
 from .preprocess import PreparedFlip, flight_L_stats, smooth_block
 from .reposition import FlightTrajectory, flight_trajectory
 from .retime import RetimePlan, plan_retime, sample_positions
+from .seamtime import reference_levels, seam_speed, warp_time, warped_positions
 from .sequence import Sequence, build_sequence
 from ..core.motion import slerp
 from .similarity import axis_quat, twist_angle
@@ -99,6 +100,11 @@ class PhysicsReport:
     COM level of the new motion).
     ``times_ms``: per stage, ``runtime_total`` (sum of run-time stages),
     ``loop_search`` (pre-processing, cached), ``preprocess_total``, ``evaluate``.
+    Seams: ``seam_retimed`` (eq. 5.22 non-uniform retiming across the seams, section
+    5.4.2.2), ``seam_speed_min``/``seam_speed_max`` (the playback-speed range it used; 1 = none).
+    ``L_profile_deviation_max``/``_rms``: ``|L|`` of each new flight frame relative to ``k`` times the
+    original's ``|L|`` at the source frame it shows, minus 1 (0 = the edit left the momentum
+    profile as captured; seams, joins and the interpolation of retiming show up here).
     """
 
     flips: int | None
@@ -154,6 +160,11 @@ class PhysicsReport:
     dy: float
     times_ms: dict
     notes: tuple[str, ...] = ()
+    seam_retimed: bool = False
+    seam_speed_min: float = 1.0
+    seam_speed_max: float = 1.0
+    L_profile_deviation_max: float = float("nan")
+    L_profile_deviation_rms: float = float("nan")
 
     def to_dict(self) -> dict:
         d = dataclasses.asdict(self)
@@ -196,7 +207,8 @@ class PhysicsReport:
             f"{100 * self.L_variation_original:.1f}% -> {100 * self.L_variation_new:.1f}% of the mean at most (std "
             f"{100 * self.L_std_original:.1f}% -> {100 * self.L_std_new:.1f}%, peak to peak {100 * self.L_range_original:.1f}%"
             f" -> {100 * self.L_range_new:.1f}%), direction change "
-            f"{self.L_direction_change:.1f} deg",
+            f"{self.L_direction_change:.1f} deg; against k x the original's |L| at the frames shown: max "
+            f"{100 * self.L_profile_deviation_max:.1f}%, rms {100 * self.L_profile_deviation_rms:.1f}%",
             f"COM: residual about a ballistic fit rms {1e3 * self.com_residual_rms:.3f} mm, max "
             f"{1e3 * self.com_residual_max:.3f} mm; max distance to eq. 5.15/5.17 {1e3 * self.com_target_error:.2e} mm",
             f"take-off angle {self.takeoff_angle_original:.1f} -> {self.takeoff_angle_new:.1f} deg "
@@ -207,6 +219,9 @@ class PhysicsReport:
             f"height change {self.height_change:+.3f} m",
             "times (ms): " + ", ".join(f"{k} {v:.3f}" for k, v in t.items()),
         ]
+        if self.seam_retimed:
+            lines.insert(3, f"seams: |L| kept at the original's by non-uniform retiming (eq. 5.22), playback speed "
+                            f"{self.seam_speed_min:.2f}-{self.seam_speed_max:.2f}x over the seam windows")
         lines += [f"note: {n}" for n in self.notes]
         return "\n".join(lines)
 
@@ -227,6 +242,10 @@ class MultiFlipResult:
     flight: ``(start, stop)`` output frames on the new flight.
     report: the :class:`PhysicsReport` (``None`` when ``evaluate=False``).
     timings: seconds per run-time stage.
+    seq_times: ``(T_new,)`` warped sequence time (in original frames) of each output frame: ``i k``
+        (the uniform retiming acts on warped time, see :mod:`mocomp.flips.seamtime`).
+    takeoff_time: warped sequence time of the take-off frame (output time ``takeoff_time / (k fps)``).
+    speed: ``(T*,)`` eq. 5.22 playback speed per sequence frame (``None`` without seam retiming).
     """
 
     motion: Motion
@@ -240,6 +259,15 @@ class MultiFlipResult:
     report: PhysicsReport | None
     timings: dict
     momentum: object = field(default=None, repr=False)
+    seq_times: np.ndarray | None = field(default=None, repr=False)
+    takeoff_time: float | None = None
+    speed: np.ndarray | None = field(default=None, repr=False)
+
+    @property
+    def takeoff_seconds(self) -> float:
+        """Output time (s) of the take-off: ``takeoff_time / (k fps)``."""
+        t = self.sequence.takeoff if self.takeoff_time is None else self.takeoff_time
+        return float(t) / (self.plan.k * self.prepared.fps)
 
     @property
     def runtime_seconds(self) -> float:
@@ -248,7 +276,8 @@ class MultiFlipResult:
 
 def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None = None,
               k_ratio: float | None = None, height_change: float = 0.0, extra_rotation: float | None = None,
-              window: int | None = None, evaluate: bool = True, max_delta: float | None = None) -> MultiFlipResult:
+              window: int | None = None, evaluate: bool = True, max_delta: float | None = None,
+              seam_retime: bool = True) -> MultiFlipResult:
     """Turn a prepared single flip into a ``flips``-somersault jump (section 5).
 
     Parameters
@@ -262,6 +291,10 @@ def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None 
     window: seam smoothing half-window in frames (default ``prepared.default_window()``).
     evaluate: compute the physics report (momentum of the new motion; timed separately).
     max_delta: radians, largest rotation mismatch accepted at the landing join.
+    seam_retime: non-uniform retiming across the seams (eq. 5.22 as section 5.4.2.2 prescribes for
+        dissimilar adjoining frames; :mod:`mocomp.flips.seamtime`): frames whose ``|L|`` the seam
+        smoothing changed are played faster or slower so ``|L|`` follows the original's. ``False``
+        gives the plain uniform retiming by ``k``.
     """
     P = prepared
     fps = P.fps
@@ -275,7 +308,7 @@ def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None 
     src = seq.frames
     nseq = src.size
     rot = P.rotations[src]                                  # (nseq, J, 4) gathered copy, zero extra rotation
-    w = P.default_window() if window is None else int(window)
+    w = P.default_window(seam_retime) if window is None else int(window)
     hi_u = seq.landing_seam + 1                             # repetitions end here (exclusive)
     if seq.loop_seams:
         left_blk, right_blk = P.loop_seam(w)
@@ -319,19 +352,27 @@ def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None 
         up = np.array([0.0, 1.0, 0.0])
         q_land = axis_quat(up, float(twist_angle(q_L, up)))
         C = quat_multiply(q_land, quat_inverse(q_L))
-        j0, j1 = seq.landing_seam + 1, seq.landing
-        lam = np.clip((np.arange(j0, nseq) - j0 + 1) / max(j1 - j0 + 1, 1), 0.0, 1.0)
+        j0, j1 = seq.takeoff, seq.landing
+        lam = np.clip((np.arange(j0, nseq) - j0) / max(j1 - j0, 1), 0.0, 1.0)
         ident = np.zeros(4)
         ident[3] = 1.0
         rot[j0:, 0] = quat_multiply(slerp(np.broadcast_to(ident, (lam.size, 4)), np.broadcast_to(C, (lam.size, 4)),
                                           lam), rot[j0:, 0])
+    speed = _seam_speeds(P, seq, rot, w, hi_u, la, rb) if seam_retime else None
     t2 = time.perf_counter()
     timings["smooth"] = t2 - t1
     # ---------------------------------------------------------------- retime
     fit = P.fit
     s, e = P.flight
     T0 = (e - 1 - s) / fps
-    T_seq = (seq.landing - seq.takeoff) / fps
+    if speed is None:
+        W = None
+        W_to = float(seq.takeoff)
+        T_seq = (seq.landing - seq.takeoff) / fps
+    else:
+        W = warp_time(speed)
+        W_to = float(W[seq.takeoff])
+        T_seq = float(W[seq.landing] - W_to) / fps
     com0 = P.com[s]
     com_land = P.com[e - 1]
     dy = float(com_land[1] - com0[1] + height_change)
@@ -348,7 +389,11 @@ def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None 
             f"sequenced flight T = {T_seq:.3f} s); the clip already lands {dy - height_change:+.3f} m from its "
             f"take-off level, so use --height-change below {limit:.3f} m (or an explicit --k)") from None
     kk = plan.k
-    tau = sample_positions(nseq, kk)
+    if W is None:
+        tau = sample_positions(nseq, kk)
+        tw = tau
+    else:
+        tw, tau = warped_positions(W, kk)
     i0 = np.minimum(np.floor(tau).astype(int), nseq - 2)
     al = tau - i0
     rot_out = (slerp_rows_nb if KERNELS else slerp_rows)(rot[i0], rot[i0 + 1], al)
@@ -364,7 +409,7 @@ def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None 
         rp_seq[post:] = quat_apply(q_land, rp_seq[post:] - com_land) + traj.end
     root_out = rp_seq[i0] + al[:, None] * (rp_seq[i0 + 1] - rp_seq[i0])
     fl = np.flatnonzero((tau >= seq.takeoff - 1e-9) & (tau <= seq.landing + 1e-9))
-    tf = (tau[fl] - seq.takeoff) / (kk * fps)
+    tf = (tw[fl] - W_to) / (kk * fps)
     root_out[fl] = traj(tf) - P.com_eval.relative(rot_out[fl])
     t4 = time.perf_counter()
     timings["reposition"] = t4 - t3
@@ -379,9 +424,42 @@ def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None 
     report, mom = None, None
     if evaluate:
         report, mom = _evaluate(P, seq, plan, traj, new, flight_out, timings, height_change, dy, flips,
-                                extra_rotation)
+                                extra_rotation, W_to, speed, tau)
     return MultiFlipResult(motion=new, original=P.motion, prepared=P, sequence=seq, plan=plan, trajectory=traj,
-                           seq_positions=tau, flight=flight_out, report=report, timings=timings, momentum=mom)
+                           seq_positions=tau, flight=flight_out, report=report, timings=timings, momentum=mom,
+                           seq_times=tw, takeoff_time=W_to, speed=speed)
+
+
+def _seam_speeds(P: PreparedFlip, seq: Sequence, rot: np.ndarray, w: int, hi_u: int, la: int, rb: int) -> np.ndarray:
+    """``(nseq,)`` eq. 5.22 playback speeds (1 away from seams): the loop seam's profile, computed
+    once per clip (:meth:`PreparedFlip.loop_seam_speed`), pasted at every loop seam; the landing
+    seam's from the ``|L|`` of its smoothed frames (``rot``, final rotations at the sequence's
+    timing) against the original's (:mod:`mocomp.flips.seamtime`)."""
+    nseq = rot.shape[0]
+    speed = np.ones(nseq)
+    if seq.loop_seams:
+        sl, sr = P.loop_seam_speed(w)
+        for a in seq.loop_seams:
+            lo = a - w - 1
+            speed[max(lo, 0):a + 1] = sl[max(-lo, 0):]
+            hi = min(a + 3 + w, hi_u)
+            if hi > a + 1:
+                speed[a + 1:hi] = sr[:hi - a - 1]
+    # landing seam: frames la .. rb-1 were smoothed; their neighbours' central differences reach in
+    lo, hi = max(la - 2, 0), min(rb + 2, nseq)
+    if hi - lo >= 3:
+        L_new = P.momentum_evaluator.magnitude(rot[lo:hi], P.fps)
+        a, f, g = seq.landing_seam, seq.join.f, seq.join.g
+        L0 = P.L_magnitude
+        idx = np.arange(lo + 1, hi - 1)
+        src = seq.frames[idx]
+        left = idx <= a
+        lev_l, lev_r = float(L0[f]), float(L0[g])
+        mid = float(np.sqrt(lev_l * lev_r))
+        wts = ramp(np.abs(idx - a), w)
+        ref = np.where(left, reference_levels(L0[src], lev_l, mid, wts), reference_levels(L0[src], lev_r, mid, wts))
+        speed[idx] = seam_speed(L_new, ref)
+    return speed
 
 
 def _whole_turns(angle: float) -> bool:
@@ -404,7 +482,8 @@ def _ballistic_residual(com: np.ndarray, fps: float) -> tuple[float, float]:
 
 
 def _evaluate(P: PreparedFlip, seq: Sequence, plan: RetimePlan, traj: FlightTrajectory, new: Motion,
-              flight_out: tuple[int, int], timings: dict, height_change: float, dy: float, flips, extra_rotation):
+              flight_out: tuple[int, int], timings: dict, height_change: float, dy: float, flips, extra_rotation,
+              W_to: float | None = None, speeds: np.ndarray | None = None, tau: np.ndarray | None = None):
     from ..dynamics import momentum as compute_momentum
 
     t = time.perf_counter()
@@ -416,9 +495,16 @@ def _evaluate(P: PreparedFlip, seq: Sequence, plan: RetimePlan, traj: FlightTraj
     ia, ib = Ln["frames"]
     Ld = mom.angular[ia:ib].mean(axis=0)
     dir_change = float(np.degrees(np.arccos(np.clip(Ld @ P.axis / max(np.linalg.norm(Ld), 1e-12), -1, 1))))
+    # |L| against the original's at the source frame shown, times k (how far the editing moved it)
+    if tau is None:
+        tau = np.minimum(np.arange(new.n_frames) * plan.k, seq.n_frames - 1.0)
+    ii = np.arange(ia, ib)
+    src = seq.frames[np.clip(np.rint(tau[ii]).astype(int), 0, seq.n_frames - 1)]
+    prof = np.linalg.norm(mom.angular[ii], axis=1) / (plan.k * P.L_magnitude[src]) - 1.0
     com = mom.com[a:b]
     rms, mx = _ballistic_residual(com, fps)
-    tt = (np.arange(a, b) * plan.k - seq.takeoff) / (plan.k * fps)
+    W_to = float(seq.takeoff) if W_to is None else W_to
+    tt = (np.arange(a, b) * plan.k - W_to) / (plan.k * fps)
     target_err = float(np.max(np.linalg.norm(com - traj(tt), axis=1)))
     theta_new, _ = split_root(new.rotations[:, 0], P.axis, ref=P.root_ref)
     achieved = float(theta_new[-1] - theta_new[0])
@@ -441,8 +527,10 @@ def _evaluate(P: PreparedFlip, seq: Sequence, plan: RetimePlan, traj: FlightTraj
     if plan.note:
         notes.append(plan.note)
     if not P.loop.found:
-        notes.append("fallback (section 5.2): no self-looping fragment met the similarity threshold; copies "
-                     "were joined by wider smoothing and L is not constant across the joins")
+        notes.append("fallback (section 5.2): no self-looping fragment met the similarity threshold; the copies "
+                     "were joined automatically by smoothing over a wider window"
+                     + (" and |L| across the joins was adjusted by non-uniform retiming (eq. 5.22)"
+                        if speeds is not None else "; |L| is not constant across the joins"))
     req = 360.0 * flips if extra_rotation is None else None
     rep = PhysicsReport(
         flips=int(flips) if extra_rotation is None else None, requested_rotation=req,
@@ -464,5 +552,8 @@ def _evaluate(P: PreparedFlip, seq: Sequence, plan: RetimePlan, traj: FlightTraj
         p_jump_takeoff_rel=plan.vy_takeoff_jump / speed if speed > 0 else float("nan"),
         p_jump_landing_rel=plan.vy_landing_jump / speed if speed > 0 else float("nan"),
         landing_orientation_error=land_err, height_change=float(height_change), dy=dy, times_ms=times,
-        notes=tuple(notes))
+        notes=tuple(notes), seam_retimed=speeds is not None,
+        L_profile_deviation_max=float(np.max(np.abs(prof))), L_profile_deviation_rms=float(np.sqrt(np.mean(prof ** 2))),
+        seam_speed_min=float(speeds.min()) if speeds is not None else 1.0,
+        seam_speed_max=float(speeds.max()) if speeds is not None else 1.0)
     return rep, mom

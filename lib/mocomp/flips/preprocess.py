@@ -156,12 +156,10 @@ class PreparedFlip:
         """Radians of root rotation about ``axis`` from the first to the last frame."""
         return float(self.theta[-1] - self.theta[0])
 
-    def default_window(self) -> int:
-        """Seam smoothing half-window in frames: about 40 ms, within the loop period."""
-        w = max(1, int(round(0.04 * self.fps)))
-        if not self.loop.found:
-            w *= 2
-        return int(min(w, max(1, (self.loop.period - 2) // 2)))
+    def default_window(self, retime: bool = True) -> int:
+        """Seam smoothing half-window in frames (:meth:`best_window`): the smallest of about
+        40 ms x 1 .. 8 (within the loop period) whose loop seam disturbs ``L`` least."""
+        return self.best_window(retime)
 
     def loop_seam(self, window: int):
         """The loop seam correction ``f_{n-1} -> R(f_m)``, computed once and reused for every
@@ -176,6 +174,107 @@ class PreparedFlip:
                 (np.arange(n - 1 - w, n), np.arange(m, m + w + 1)),
                 seam_corrections(self.rotations[n], self.rotations[m], self.bdir[n], self.bdir[m], w,
                                  pair_at_left=False)))
+        return self._cache[key]
+
+    @property
+    def L_magnitude(self) -> np.ndarray:
+        """``(T,)`` ``|L|`` of the clip (estimated masses), frame by frame."""
+        key = "L_magnitude"
+        if key not in self._cache:
+            mag = np.linalg.norm(np.asarray(self.momentum.angular), axis=1)
+            mag.setflags(write=False)
+            self._cache[key] = mag
+        return self._cache[key]
+
+    @property
+    def momentum_evaluator(self):
+        """:class:`~mocomp.flips.seamtime.AngularMomentumEvaluator` of the estimated body (cached)."""
+        key = "L_eval"
+        if key not in self._cache:
+            from .seamtime import AngularMomentumEvaluator
+
+            self._cache[key] = AngularMomentumEvaluator(self.body)
+        return self._cache[key]
+
+    def _loop_seam_momentum(self, window: int) -> tuple[np.ndarray, np.ndarray]:
+        """``(L_new, L_ref)``, both ``(2w+4, 3)``: angular momentum of the smoothed loop seam at the
+        sequence's own timing (source frames ``n-2-w .. n-1`` then ``R(f_m) .. R(f_{m+w+1})``) and
+        the original's at those source frames (rotated with the copy), its level blended across
+        the seam like the poses (:func:`~mocomp.flips.seamtime.reference_levels`)."""
+        key = ("loop_seam_L", int(window))
+        if key not in self._cache:
+            from ._quat import qapply, qmul
+            from .seamtime import reference_levels
+            from .similarity import axis_quat
+            from .smoothing import ramp
+
+            m, n, w = self.loop.m, self.loop.n, int(window)
+            left_blk, right_blk = self.loop_seam(w)
+            q_phi = axis_quat(self.axis, self.loop.phi)
+            R = np.concatenate([self.rotations[n - 3 - w:n - 1 - w], left_blk, right_blk,
+                                self.rotations[m + w + 1:m + w + 3]])
+            R[w + 3:, 0] = qmul(q_phi, R[w + 3:, 0])
+            L_new = self.momentum_evaluator.angular(R, self.fps)
+            L0 = self.L_magnitude
+            Lv = np.asarray(self.momentum.angular)
+            src_l, src_r = np.arange(n - 2 - w, n), np.arange(m, m + w + 2)
+            mid = float(np.sqrt(L0[n] * L0[m]))
+            fl = reference_levels(np.ones(w + 2), L0[n], mid, ramp(np.arange(w + 2, 0, -1), w))
+            fr = reference_levels(np.ones(w + 2), L0[m], mid, ramp(np.arange(0, w + 2), w))
+            L_ref = np.concatenate([Lv[src_l] * fl[:, None],
+                                    qapply(np.broadcast_to(q_phi, (w + 2, 4)), Lv[src_r]) * fr[:, None]])
+            self._cache[key] = (L_new, L_ref)
+        return self._cache[key]
+
+    def loop_seam_speed(self, window: int) -> tuple[np.ndarray, np.ndarray]:
+        """Eq. 5.22 playback speeds across the loop seam ``f_{n-1} -> R(f_m)`` (section 5.4.2.2:
+        "resulting changes in momentum can be adjusted by non-uniform retiming"), computed once
+        and reused for every repetition like :meth:`loop_seam` (a rotation about ``L`` leaves
+        ``|L|`` unchanged): ``(left (w+2,), right (w+2,))`` for the sequence frames showing source
+        frames ``n-2-w .. n-1`` and ``m .. m+w+1`` (the smoothed window plus the neighbour whose
+        central difference reaches into it). See :mod:`mocomp.flips.seamtime`."""
+        key = ("loop_seam_speed", int(window))
+        if key not in self._cache:
+            from .seamtime import seam_speed
+
+            w = int(window)
+            L_new, L_ref = self._loop_seam_momentum(w)
+            sp = seam_speed(np.linalg.norm(L_new, axis=1), np.linalg.norm(L_ref, axis=1))
+            left, right = sp[:w + 2].copy(), sp[w + 2:].copy()
+            left.setflags(write=False)
+            right.setflags(write=False)
+            self._cache[key] = (left, right)
+        return self._cache[key]
+
+    def seam_disturbance(self, window: int, retime: bool = True) -> float:
+        """Largest change of the angular momentum vector the loop seam makes, over the flight's
+        mean ``|L|``: ``max |s L_new - L_ref| / |L|`` over the seam frames, with ``s`` the eq. 5.22
+        speeds when ``retime`` (which fix the magnitude, not the direction) else 1."""
+        L_new, L_ref = self._loop_seam_momentum(int(window))
+        s = np.ones(L_new.shape[0])
+        if retime:
+            left, right = self.loop_seam_speed(int(window))
+            s = np.concatenate([left, right])
+        dev = np.linalg.norm(s[:, None] * L_new - L_ref, axis=1)
+        return float(dev.max() / max(self.L_stats["mean"], 1e-12))
+
+    def seam_windows(self) -> list[int]:
+        """Candidate seam half-windows: about 40 ms times 1, 1.5, 2, 3, 4, 6, 8, within the loop period."""
+        w0 = max(1, int(round(0.04 * self.fps)))
+        wmax = max(1, (self.loop.period - 2) // 2)
+        return sorted({int(min(max(1, round(w0 * f)), wmax)) for f in (1, 1.5, 2, 3, 4, 6, 8)})
+
+    def best_window(self, retime: bool = True) -> int:
+        """The seam half-window that disturbs the angular momentum least (:meth:`seam_disturbance`
+        over :meth:`seam_windows`), preferring the smallest within 10 % of the best: section 5.4.2.2
+        smooths "over small windows"; how small is left open, and a twist jump's small ``|L|``
+        needs wider ones than a somersault. Computed once per clip."""
+        key = ("best_window", bool(retime))
+        if key not in self._cache:
+            ws = self.seam_windows()
+            d = np.array([self.seam_disturbance(w, retime) for w in ws])
+            ok = np.flatnonzero(d <= 1.1 * d.min() + 1e-3)
+            self._cache[key] = int(ws[int(ok[0])])
         return self._cache[key]
 
     def summary(self) -> str:
@@ -307,13 +406,20 @@ def prepare(source, *, body: BodyModel | None = None, total_mass: float = 70.0, 
 
     warmup()                              # compiled run-time kernels loaded now, not on the first run
     timings["setup"] = time.perf_counter() - t
-    timings["total"] = time.perf_counter() - t0
     for arr in (rot, theta, bdir, axis, root_ref):
         arr.setflags(write=False)
-    return PreparedFlip(motion=motion, name=name, prior=prior, body=est, detection=det, flight=fl, mass=mass,
+    prep = PreparedFlip(motion=motion, name=name, prior=prior, body=est, detection=det, flight=fl, mass=mass,
                         fit=fit, momentum=mom, axis=axis, L_stats=Ls, rotations=rot, theta=theta, bdir=bdir,
                         root_ref=root_ref, omegas=omegas, weights=weights, loop=loop, com_eval=com_eval, com=mom.com,
                         smooth_sigma=smooth_sigma, timings=timings, notes=tuple(notes))
+    t = time.perf_counter()
+    for retime in (True, False):          # the seam window and its smoothing / eq. 5.22 speeds, once per clip
+        w = prep.best_window(retime)
+        prep.loop_seam(w)
+        prep.loop_seam_speed(w)
+    timings["seam_windows"] = time.perf_counter() - t
+    timings["total"] = time.perf_counter() - t0
+    return prep
 
 
 _CACHE: dict = {}

@@ -14,16 +14,27 @@ to the landing level ``dy`` above the take-off level in the retimed time
 radicand is positive only for ``dy < v0 T`` (App. B's limit on raising the
 landing).
 
-**When k differs from k*** (the paper's default is ``k = 0.7 k*``: "higher jumps
-with slower rotations") the flight cannot both leave with ``k v0`` and land at the
-requested level after ``T / k``. Resolution chosen here: the flight keeps its
-duration ``T / k`` (so the rotation rate is ``k`` times the original) and both
-end levels, so its parabola is the ballistic one through the take-off and
-landing points, ``v0' = dy / T_new + g T_new / 2``; the take-off and landing
-phases keep their ``k``-retimed velocities, and the vertical velocity jumps by
-``v0' - k v0`` at take-off (and by the corresponding amount at landing). Those
-jumps are reported (they vanish at ``k = k*``); section 5.3 notes that small
-ones are not perceptible.
+**When k differs from k*** (the paper's default is ``k ~ 0.7 k*``: "higher jumps
+with slower rotations", section 5.3 / 5.4.3) the flight cannot both leave with ``k v0``
+and land at the requested level after ``T / k``. Eq. 5.17 as printed,
+``COM_y(t) = a_y t^2 + k b_y t + c_y`` over ``t = 0 .. T_new``, keeps the take-off velocity
+``k b_y`` but then ends at ``a_y (T/k)^2 + b_y T`` above ``c_y`` instead of at ``dy``: for
+``k < k*`` the COM would come down *below* the landing level (and eq. 5.16 offsets only x and
+z), and the apex ``(k b_y)^2 / 2g`` would be *lower* -- the opposite of the "higher jumps"
+the paper chose ``0.7 k*`` for. Keeping ``k b_y`` and letting the parabola set the flight
+time instead would need the flight played at a different rate from take-off and landing,
+against "one factor k" (and again a lower, faster jump). The one reading consistent with
+one ``k`` for all phases *and* with "higher jumps with slower rotations" is used here:
+the flight keeps its retimed duration ``T_new = T / k`` (so the rotation rate is ``k``
+times the original) and both end levels, so its parabola is the ballistic one through
+the take-off and landing points, ``v0' = dy / T_new + g T_new / 2`` (eq. 5.17 with ``k b_y``
+replaced by ``v0'``; the two agree at ``k = k*``). The take-off and landing phases keep
+their ``k``-retimed velocities, so the vertical velocity jumps by ``v0' - k v0`` at
+take-off and by the corresponding amount at landing. With level take-off and landing
+the jump is ``(k*/k)^2 - 1`` of ``k v0``: **+104 % at k = 0.7 k***, not small, although the
+paper calls such discontinuities imperceptible; it vanishes at ``k = k*`` (``k_ratio=1``,
+CLI ``--k-ratio 1``), which is continuous at take-off and, for ``dy = 0``, at landing.
+Both jumps are in :class:`RetimePlan` and the physics report.
 """
 from __future__ import annotations
 
@@ -124,6 +135,13 @@ def plan_retime(g: float, T_seq: float, v0: float, dy: float, v_land: float,
     T_new = T_seq / k
     vy_new = dy / T_new + 0.5 * g * T_new
     vy_land_new = vy_new - g * T_new
+    if np.isfinite(ks) and abs(k / ks - 1.0) > 1e-6 and not note:
+        kv0 = k * v0
+        rel = (vy_new - kv0) / abs(kv0) if abs(kv0) > 1e-12 else float("nan")
+        note = (f"k = {k / ks:.2f} k*: the flight keeps its retimed duration and both end levels, so it leaves "
+                f"at {vy_new:.2f} m/s vertically while the retimed take-off reaches {kv0:.2f} m/s: linear "
+                f"momentum jumps by {100 * rel:+.0f}% at take-off (and {vy_land_new - k * v_land:+.2f} m/s at "
+                f"landing); k = k* (k_ratio=1, --k-ratio 1) keeps it continuous")
     return RetimePlan(k=float(k), k_star=float(ks), k_ratio=float(k / ks) if np.isfinite(ks) else float("nan"),
                       g=float(g), T_seq=float(T_seq), T_new=float(T_new), v0=float(v0), dy=float(dy),
                       vy_takeoff_new=float(vy_new), vy_takeoff_jump=float(vy_new - k * v0),

@@ -35,7 +35,7 @@ def plot_momentum_comparison(result, fig=None, title: str | None = None):
     s, e = P.flight
     a, b = result.flight
     t0 = (np.arange(P.motion.n_frames) - s) / fps
-    t1 = np.arange(result.motion.n_frames) / fps - result.sequence.takeoff / (result.plan.k * fps)
+    t1 = np.arange(result.motion.n_frames) / fps - result.takeoff_seconds
     if fig is None:
         fig, axes = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
     else:

@@ -1,0 +1,284 @@
+"""Non-uniform retiming across seams (dissertation section 5.4.2.2, last paragraph, and the
+fallback of section 5.2, both with eq. 5.22 of section 5.5.2).
+
+Slerping joint angles over a seam window (eq. 5.14) makes the poses continuous but not
+the angular momentum: the blended joints move with velocities the performer never had
+while the root keeps its own rotation rate, so ``|L|`` dips or bulges over the window
+(on the CMU back flip 88_01 by 15-20 %; the root's perpendicular-part blend contributes
+almost nothing, the joints almost all of it). The dissertation prescribes the remedy:
+"if two adjoining frames are dissimilar, resulting changes in momentum can be adjusted
+by non-uniform retiming, the same way as in the case of motion modification" (5.4.2.2),
+and for clips without a self-looping fragment, transitions made "automatically by
+smoothing", whose momentum "we can adjust ... by applying non-uniform motion retiming"
+(5.2). Eq. 5.22 plays the frames at a local speed ``1 / ratio(f)``,
+
+    next_frame = last_frame + 1 / ratio(last_frame),   ratio(f) = |L_new(f)| / |L_ref(f)|,
+
+so a frame whose ``|L|`` fell by the seam is shown faster (velocities, and with them
+``L``, scale with the playback speed, eq. 5.8). Here:
+
+* ``L_new`` is the angular momentum of the smoothed frames at the sequence's own timing
+  (central differences, as :func:`mocomp.dynamics.momentum`; the root position does not
+  enter ``L`` about the COM, so only rotations are needed); ``L_ref`` is the original
+  clip's ``|L|`` at the same source frames, its level blended across the seam with the
+  same ramp as the poses (so a level step between the two sides is smoothed, not kept).
+  Only frames whose momentum the seam changed (the window and one neighbour each side,
+  reached by the central differences) get a speed other than 1; the unedited frames keep
+  the original's own timing.
+* speeds are clipped to ``[1/2, 2]``, the range in which the dissertation found retiming
+  by interpolation reliable (section 5.4.1);
+* the seam speed profile of the self-looping sequence is computed once and reused for
+  every repetition (as the seam smoothing itself: rotating a copy about ``L`` does not
+  change ``|L|``); the landing seam's is computed at run time on its few frames.
+
+The speed profile ``s(tau)`` over sequence frames defines a warped time ``W`` (in original
+frames) with ``dW/dtau = 1/s``; the uniform factor ``k`` of section 5.4.3 then acts on
+``W``: output frame ``i`` shows the sequence at ``W^-1(i k)``. With ``s = 1`` this is the
+plain uniform retiming.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..body.model import BodyModel
+
+__all__ = ["AngularMomentumEvaluator", "seam_speed", "reference_levels", "warp_time", "warped_positions",
+           "SPEED_BOUNDS"]
+
+#: playback-speed range of the non-uniform retiming (section 5.4.1: 1/2 <= n <= 2)
+SPEED_BOUNDS = (0.5, 2.0)
+
+try:
+    import numba
+
+    _NUMBA = True
+except Exception:  # pragma: no cover
+    _NUMBA = False
+
+
+def _log_np(q: np.ndarray) -> np.ndarray:
+    """Rotation vectors of unit quaternions ``(..., 4)`` (short way)."""
+    q = np.where(q[..., 3:4] < 0.0, -q, q)
+    v = q[..., :3]
+    vn = np.sqrt(np.einsum("...i,...i->...", v, v))
+    ang = 2.0 * np.arctan2(vn, q[..., 3])
+    scale = np.where(vn > 1e-12, ang / np.where(vn > 1e-12, vn, 1.0), 2.0)
+    return v * scale[..., None]
+
+
+class AngularMomentumEvaluator:
+    """``L`` about the whole-body COM (eq. 5.5) of a short block of frames, from local
+    rotations only, with the same finite differences as :func:`mocomp.dynamics.momentum`
+    (second-order central differences of segment COM positions and of segment world
+    rotations). Root translation does not enter ``L`` about the COM (a velocity shared by
+    all segments cancels: ``sum_i m_i (c_i - COM) = 0``), so the block is evaluated with the
+    root at the origin. Values are for the interior frames ``1 .. n-2``.
+    """
+
+    def __init__(self, body: BodyModel):
+        sk = body.skeleton
+        if not body.total_mass > 0:
+            raise ValueError("the body model has zero total mass")
+        self.parents = np.ascontiguousarray(sk.parents, dtype=np.int64)
+        self.offsets = np.ascontiguousarray(sk.offsets, dtype=np.float64)
+        self.seg_joint = np.ascontiguousarray(body.segment_joint, dtype=np.int64)
+        self.local_coms = np.ascontiguousarray(body.local_coms, dtype=np.float64)
+        self.masses = np.ascontiguousarray(body.masses, dtype=np.float64)
+        self.inertias = np.ascontiguousarray(body.inertias, dtype=np.float64)
+        self.total_mass = float(body.total_mass)
+
+    def angular(self, rotations: np.ndarray, fps: float) -> np.ndarray:
+        """``(n - 2, 3)`` kg m^2/s, ``L`` at frames ``1 .. n-2`` of ``rotations (n, J, 4)``."""
+        q = np.ascontiguousarray(rotations, dtype=np.float64)
+        if q.shape[0] < 3:
+            raise ValueError("angular momentum by central differences needs at least 3 frames")
+        if _NUMBA:
+            if not q.flags.writeable:
+                q = q.copy()
+            return _angular_nb(q, self.parents, self.offsets, self.seg_joint, self.local_coms, self.masses,
+                               self.inertias, float(fps), np.empty((q.shape[0] - 2, 3)))
+        return self.angular_numpy(q, fps)
+
+    def magnitude(self, rotations: np.ndarray, fps: float) -> np.ndarray:
+        """``(n - 2,)`` ``|L|`` at the interior frames."""
+        L = self.angular(rotations, fps)
+        return np.sqrt(np.einsum("ti,ti->t", L, L))
+
+    def angular_numpy(self, rotations: np.ndarray, fps: float) -> np.ndarray:
+        """The numpy version of :meth:`angular` (reference; same result)."""
+        from ._quat import cross, qapply, qconj, qmul
+
+        q = np.asarray(rotations, dtype=float)
+        n, J, _ = q.shape
+        G = np.empty_like(q)
+        P = np.zeros((n, J, 3))
+        G[:, 0] = q[:, 0]
+        for j in range(1, J):
+            p = self.parents[j]
+            G[:, j] = qmul(G[:, p], q[:, j])
+            P[:, j] = P[:, p] + qapply(G[:, p], np.broadcast_to(self.offsets[j], (n, 3)))
+        R = G[:, self.seg_joint]
+        c = P[:, self.seg_joint] + qapply(R, np.broadcast_to(self.local_coms, R.shape[:-1] + (3,)))
+        w = 0.5 * fps * (_log_np(qmul(R[2:], qconj(R[1:-1]))) + _log_np(qmul(R[1:-1], qconj(R[:-2]))))
+        v = 0.5 * fps * (c[2:] - c[:-2])
+        ci = c[1:-1]
+        Ri = R[1:-1]
+        com = np.einsum("s,tsk->tk", self.masses, ci) / self.total_mass
+        wb = qapply(qconj(Ri), w)
+        Iw = qapply(Ri, np.einsum("sij,tsj->tsi", self.inertias, wb))
+        return Iw.sum(axis=1) + np.einsum("s,tsk->tk", self.masses, cross(ci - com[:, None], v))
+
+
+if _NUMBA:
+    @numba.njit(cache=True, nogil=True)
+    def _angular_nb(q, parents, offsets, seg_joint, local_coms, masses, inertias, fps, out):
+        n, J, _ = q.shape
+        S = seg_joint.shape[0]
+        G = np.empty((J, 4))
+        P = np.empty((J, 3))
+        R = np.empty((n, S, 4))
+        C = np.empty((n, S, 3))
+        for t in range(n):
+            G[0, 0], G[0, 1], G[0, 2], G[0, 3] = q[t, 0, 0], q[t, 0, 1], q[t, 0, 2], q[t, 0, 3]
+            P[0, 0] = 0.0
+            P[0, 1] = 0.0
+            P[0, 2] = 0.0
+            for j in range(1, J):
+                p = parents[j]
+                ax, ay, az, aw = G[p, 0], G[p, 1], G[p, 2], G[p, 3]
+                bx, by, bz, bw = q[t, j, 0], q[t, j, 1], q[t, j, 2], q[t, j, 3]
+                G[j, 0] = aw * bx + ax * bw + ay * bz - az * by
+                G[j, 1] = aw * by - ax * bz + ay * bw + az * bx
+                G[j, 2] = aw * bz + ax * by - ay * bx + az * bw
+                G[j, 3] = aw * bw - ax * bx - ay * by - az * bz
+                vx, vy, vz = offsets[j, 0], offsets[j, 1], offsets[j, 2]
+                tx = 2.0 * (ay * vz - az * vy)
+                ty = 2.0 * (az * vx - ax * vz)
+                tz = 2.0 * (ax * vy - ay * vx)
+                P[j, 0] = P[p, 0] + vx + aw * tx + ay * tz - az * ty
+                P[j, 1] = P[p, 1] + vy + aw * ty + az * tx - ax * tz
+                P[j, 2] = P[p, 2] + vz + aw * tz + ax * ty - ay * tx
+            for s in range(S):
+                j = seg_joint[s]
+                x, y, z, w = G[j, 0], G[j, 1], G[j, 2], G[j, 3]
+                R[t, s, 0], R[t, s, 1], R[t, s, 2], R[t, s, 3] = x, y, z, w
+                vx, vy, vz = local_coms[s, 0], local_coms[s, 1], local_coms[s, 2]
+                tx = 2.0 * (y * vz - z * vy)
+                ty = 2.0 * (z * vx - x * vz)
+                tz = 2.0 * (x * vy - y * vx)
+                C[t, s, 0] = P[j, 0] + vx + w * tx + y * tz - z * ty
+                C[t, s, 1] = P[j, 1] + vy + w * ty + z * tx - x * tz
+                C[t, s, 2] = P[j, 2] + vz + w * tz + x * ty - y * tx
+        M = 0.0
+        for s in range(S):
+            M += masses[s]
+        h = 0.5 * fps
+        for t in range(1, n - 1):
+            cx = 0.0
+            cy = 0.0
+            cz = 0.0
+            for s in range(S):
+                cx += masses[s] * C[t, s, 0]
+                cy += masses[s] * C[t, s, 1]
+                cz += masses[s] * C[t, s, 2]
+            cx /= M
+            cy /= M
+            cz /= M
+            Lx = 0.0
+            Ly = 0.0
+            Lz = 0.0
+            for s in range(S):
+                # world angular velocity: mean of the two one-step rotation vectors
+                wx = 0.0
+                wy = 0.0
+                wz = 0.0
+                for a, b in ((t, t + 1), (t - 1, t)):
+                    # d = R_b R_a^-1
+                    bx, by, bz, bw = R[b, s, 0], R[b, s, 1], R[b, s, 2], R[b, s, 3]
+                    ax, ay, az, aw = -R[a, s, 0], -R[a, s, 1], -R[a, s, 2], R[a, s, 3]
+                    dx = bw * ax + bx * aw + by * az - bz * ay
+                    dy = bw * ay - bx * az + by * aw + bz * ax
+                    dz = bw * az + bx * ay - by * ax + bz * aw
+                    dw = bw * aw - bx * ax - by * ay - bz * az
+                    if dw < 0.0:
+                        dx, dy, dz, dw = -dx, -dy, -dz, -dw
+                    vn = math.sqrt(dx * dx + dy * dy + dz * dz)
+                    sc = 2.0 * math.atan2(vn, dw) / vn if vn > 1e-12 else 2.0
+                    wx += dx * sc
+                    wy += dy * sc
+                    wz += dz * sc
+                wx *= h
+                wy *= h
+                wz *= h
+                # R I R^T w: to the body frame, times I, back
+                x, y, z, w = R[t, s, 0], R[t, s, 1], R[t, s, 2], R[t, s, 3]
+                tx = 2.0 * (-y * wz + z * wy)
+                ty = 2.0 * (-z * wx + x * wz)
+                tz = 2.0 * (-x * wy + y * wx)
+                bx = wx + w * tx - y * tz + z * ty
+                by = wy + w * ty - z * tx + x * tz
+                bz = wz + w * tz - x * ty + y * tx
+                ix = inertias[s, 0, 0] * bx + inertias[s, 0, 1] * by + inertias[s, 0, 2] * bz
+                iy = inertias[s, 1, 0] * bx + inertias[s, 1, 1] * by + inertias[s, 1, 2] * bz
+                iz = inertias[s, 2, 0] * bx + inertias[s, 2, 1] * by + inertias[s, 2, 2] * bz
+                tx = 2.0 * (y * iz - z * iy)
+                ty = 2.0 * (z * ix - x * iz)
+                tz = 2.0 * (x * iy - y * ix)
+                Lx += ix + w * tx + y * tz - z * ty
+                Ly += iy + w * ty + z * tx - x * tz
+                Lz += iz + w * tz + x * ty - y * tx
+                # m (c - COM) x v
+                m = masses[s]
+                rx, ry, rz = C[t, s, 0] - cx, C[t, s, 1] - cy, C[t, s, 2] - cz
+                vx = h * (C[t + 1, s, 0] - C[t - 1, s, 0])
+                vy = h * (C[t + 1, s, 1] - C[t - 1, s, 1])
+                vz = h * (C[t + 1, s, 2] - C[t - 1, s, 2])
+                Lx += m * (ry * vz - rz * vy)
+                Ly += m * (rz * vx - rx * vz)
+                Lz += m * (rx * vy - ry * vx)
+            out[t - 1, 0] = Lx
+            out[t - 1, 1] = Ly
+            out[t - 1, 2] = Lz
+        return out
+
+
+def seam_speed(L_new: np.ndarray, L_ref: np.ndarray, bounds: tuple[float, float] = SPEED_BOUNDS) -> np.ndarray:
+    """Eq. 5.22's local playback speed ``1 / ratio = |L_ref| / |L_new|``, clipped to ``bounds``."""
+    L_new = np.asarray(L_new, dtype=float)
+    L_ref = np.asarray(L_ref, dtype=float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = np.where(L_new > 1e-9 * np.maximum(L_ref, 1e-12), L_ref / L_new, bounds[1])
+    return np.clip(s, bounds[0], bounds[1])
+
+
+def warp_time(speed: np.ndarray) -> np.ndarray:
+    """``(n,)`` warped time ``W`` (in original frames) of sequence frames ``0 .. n-1`` played at
+    local speeds ``speed (n,)``: ``dW/dtau = 1 / s``, the time between frames ``i`` and ``i+1``
+    being the mean of ``1/s`` at its ends (all ones: ``W = tau``)."""
+    inv = 1.0 / np.asarray(speed, dtype=float)
+    W = np.empty(inv.size)
+    W[0] = 0.0
+    np.cumsum(0.5 * (inv[:-1] + inv[1:]), out=W[1:])
+    return W
+
+
+def warped_positions(W: np.ndarray, k: float) -> tuple[np.ndarray, np.ndarray]:
+    """Output frames of the retiming by ``k`` on warped time ``W``: ``(times, tau)`` where output
+    frame ``i`` is at warped time ``i k`` (original frames) and shows sequence position
+    ``tau = W^-1(i k)``; the last output frame is at or before the sequence's end."""
+    n_out = int(math.floor(W[-1] / k + 1e-9)) + 1
+    tw = np.arange(n_out) * k
+    tw = np.minimum(tw, W[-1])
+    return tw, np.interp(tw, W, np.arange(W.size, dtype=float))
+
+
+def reference_levels(L_src: np.ndarray, level_side: float, level_mid: float, weights: np.ndarray) -> np.ndarray:
+    """Reference ``|L|`` of one side of a seam: the original ``|L|`` of its source frames, its level
+    moved from this side's level at the seam (``level_side``) toward the seam's middle level
+    (``level_mid``, geometric mean of the two sides) with the pose ramp ``weights``, so a level
+    step between the two sides is smoothed like the poses rather than kept."""
+    if not level_side > 0:
+        return np.asarray(L_src, dtype=float)
+    return np.asarray(L_src, dtype=float) * (level_mid / level_side) ** np.asarray(weights, dtype=float)
