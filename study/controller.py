@@ -133,12 +133,15 @@ class TrialController:
         return None if self._shown is None else self._shown[0]
 
     def respond(self, response: str, *, input: str, rt_s: float | None = None,
-                client_rt_s: float | None = None, trial_index: int | None = None) -> dict | None:
+                client_rt_s: float | None = None, trial_index: int | None = None, must_watch: bool = False,
+                watched_to_end: bool | None = None) -> dict | None:
         """Record the answer to the trial on screen; returns the written row.
 
         Returns None (and writes nothing) when no trial is on screen, or when
         ``trial_index`` is given and is not the trial on screen: the second
-        click of a double click, or a stale event from an old screen.
+        click of a double click, or a stale event from an old screen; also when
+        ``must_watch`` is enforced and the video has not ended yet
+        (``watched_to_end`` false), logged as ``response_before_video_end``.
         """
         if self._shown is None or (trial_index is not None and int(trial_index) != self._shown[0]):
             self.session.log_event("response_ignored", response=response, input=input, trial_index=trial_index,
@@ -147,8 +150,13 @@ class TrialController:
         idx, t0, shown_utc = self._shown
         if rt_s is None:
             rt_s = self.clock() - t0
+        if must_watch and not watched_to_end:
+            self.session.log_event("response_before_video_end", response=response, input=input,
+                                   trial_index=idx)
+            return None
         row = self.session.append_response(idx, response, input=input, rt_s=rt_s, shown_utc=shown_utc,
-                                           client_rt_s=client_rt_s)
+                                           client_rt_s=client_rt_s, must_watch=must_watch,
+                                           watched_to_end=watched_to_end)
         self._shown = None
         return row
 

@@ -24,7 +24,9 @@ exactly that, with choices the paper leaves open made explicit in
   one after the other;
 * optional counterbalancing of the group order (balanced Latin square by
   participant number, or random), practice trials, instructed-response
-  attention checks, and breaks every N trials.
+  attention checks, and breaks every N trials;
+* "must watch first" (default on): no answer before the video has played to its
+  end once per presentation (enforced by the app, recorded per response).
 
 All randomness comes from one per-participant seed, recorded in the plan.
 """
@@ -71,6 +73,12 @@ class DesignConfig:
         (the screen tells the participant which button to press).
     break_every: a break screen before every ``break_every``-th trial of the test
         phase (None: no breaks).
+    must_watch: the response buttons and keys (and an example's "Next") stay
+        disabled until the video of the current presentation has played to its
+        end at least once (default, as labs expect). The app enforces it when its
+        browser script reports the video's ``ended`` event; each response row
+        records whether it was enforced (``must_watch``) and whether the video had
+        ended (``watched_to_end``).
     """
 
     n_repeats: int = 2
@@ -84,6 +92,7 @@ class DesignConfig:
     n_practice: int = 0
     n_attention: int = 0
     break_every: int | None = None
+    must_watch: bool = True
 
     def __post_init__(self):
         def bad(msg):
@@ -112,6 +121,8 @@ class DesignConfig:
             bad(f"examples must be 'unperturbed', 'none' or a list of stimulus ids, got {self.examples!r}")
         if int(self.n_practice) < 0 or int(self.n_attention) < 0:
             bad("n_practice and n_attention must be >= 0")
+        if not isinstance(self.must_watch, bool):
+            bad(f"must_watch must be true or false, got {self.must_watch!r}")
         if self.break_every is not None and int(self.break_every) < 1:
             bad(f"break_every must be >= 1 or None, got {self.break_every}")
 

@@ -13,6 +13,16 @@ before the next screen is built. Buttons are disabled as soon as a click
 arrives and the controller ignores a second answer to the same trial, so
 double clicks and key repeats cannot duplicate a row.
 
+"Must watch first" (``DesignConfig.must_watch``, default on): on a trial the
+response buttons and keys, and on an example the "Next" button, stay disabled
+until the browser reports that the video of this presentation has played to
+its end (the script forwards the video's ``ended`` event to the kernel, which
+enables them, and ignores any earlier answer). The script announces itself
+when the page loads; without it (a front end that does not run it) the rule
+cannot be enforced, the buttons work at once and each row says so
+(``must_watch`` = 0, ``watched_to_end`` empty). With ``loop_video`` the
+script restarts the video at its end, so every play-through is reported.
+
 Keys and browser timing come from a small script (installed once per page):
 ``C``/``I`` (configurable) press the visible response button, Space/Enter
 the visible "Next"/"Continue" button; a capture-phase listener writes the
@@ -76,6 +86,36 @@ _JS = r"""
   document.addEventListener("loadedmetadata", function (e) {
     var v = e.target;
     if (v && v.tagName === "VIDEO") { v.muted = true; onset = null; var p = v.play(); if (p && p.catch) { p.catch(function () {}); } }
+  }, true);
+  function send(sel, obj) {
+    var box = document.querySelector(sel + " input");
+    if (!box) { return false; }
+    box.value = JSON.stringify(obj);
+    box.dispatchEvent(new Event("input", {bubbles: true}));
+    return true;
+  }
+  function trialOf(el) {
+    var box = el && el.closest ? el.closest("[class*='mocomp-trial-']") : null;
+    var m = box ? /mocomp-trial-(\d+)/.exec(box.className) : null;
+    return m ? parseInt(m[1], 10) : null;
+  }
+  // tell the kernel that this script runs (it then enforces "must watch first")
+  var tries = 0, hello = setInterval(function () {
+    if (send(".mocomp-media", {event: "ready", t: Date.now()}) || ++tries > 200) { clearInterval(hello); }
+  }, 100);
+  var ends = {};
+  document.addEventListener("ended", function (e) {
+    var v = e.target;
+    if (!v || v.tagName !== "VIDEO") { return; }
+    var tr = trialOf(v);
+    ends[tr] = (ends[tr] || 0) + 1;
+    send(".mocomp-media", {event: "ended", trial: tr, n: ends[tr], t: Date.now()});
+    var box = v.closest ? v.closest(".mocomp-loop") : null;
+    if (box) { v.currentTime = 0; var p = v.play(); if (p && p.catch) { p.catch(function () {}); } }
+  }, true);
+  document.addEventListener("error", function (e) {
+    var v = e.target;
+    if (v && v.tagName === "VIDEO") { send(".mocomp-media", {event: "error", trial: trialOf(v), t: Date.now()}); }
   }, true);
   document.addEventListener("click", function (e) {
     var b = e.target && e.target.closest ? e.target.closest(".mocomp-btn-correct, .mocomp-btn-incorrect") : null;
@@ -160,10 +200,17 @@ class StudyApp:
         self._body = W.VBox([], layout=W.Layout(min_height="360px"))
         self._timing = W.Text(value="", continuous_update=True, layout=W.Layout(display="none"))
         self._timing.add_class("mocomp-timing")
+        self._media = W.Text(value="", continuous_update=True, layout=W.Layout(display="none"))
+        self._media.add_class("mocomp-media")
+        self._media.observe(self._on_media, names="value")
+        self._client_ok = False  # the browser script has announced itself
+        self._presenting: int | None = None  # trial_index of the video on screen
+        self._ended: set[int] = set()  # presentations (trial indices) whose video has ended on this screen
+        self._locked: list[W.Button] = []  # buttons waiting for the end of the video
         js = _JS.replace("%KC%", self.cfg.key_correct.lower()).replace("%KI%", self.cfg.key_incorrect.lower())
         b64 = base64.b64encode(js.encode()).decode()
         self._script = W.HTML(f'<img src="data:," alt="" style="display:none" onerror="eval(atob(\'{b64}\'))">')
-        self.widget = W.VBox([self._title, self._header, self._body, self._timing, self._script])
+        self.widget = W.VBox([self._title, self._header, self._body, self._timing, self._media, self._script])
         self.widget.add_class("mocomp-app")
         self._buttons: list[W.Button] = []
         self._video: W.Video | None = None
@@ -195,6 +242,40 @@ class StudyApp:
     @property
     def session(self) -> Session | None:
         return None if self.controller is None else self.controller.session
+
+    @property
+    def must_watch(self) -> bool:
+        """The design asks for "must watch first" (see the module docstring)."""
+        if self.session is None:
+            return False
+        return bool(self.session.plan.meta.get("design", {}).get("must_watch", True))
+
+    @property
+    def enforcing(self) -> bool:
+        """"Must watch first" is required and the browser script can report the video's end."""
+        return self.must_watch and self._client_ok
+
+    def _on_media(self, change) -> None:
+        try:
+            msg = json.loads(change["new"]) if change["new"] else None
+        except ValueError:
+            return
+        if not isinstance(msg, dict):
+            return
+        ev = msg.get("event")
+        if ev == "ready":
+            self._client_ok = True
+            return
+        trial = msg.get("trial")
+        if trial is None or trial != self._presenting:
+            return  # a late event of an earlier screen
+        if ev == "error" and self.session is not None and not self.session.closed:
+            self.session.log_event("video_error", trial_index=trial)
+        if ev == "ended" and trial not in self._ended:
+            self._ended.add(int(trial))
+            for b in self._locked:
+                b.disabled = False
+            self._locked = []
 
     def _set(self, name: str, children: list) -> None:
         """Show a new screen; buttons of older screens stop working (stale or double clicks)."""
@@ -311,13 +392,25 @@ class StudyApp:
         self._example_i = 0
         self._next_example() if self._examples else self._next_trial()
 
-    def _video_widget(self, view: TrialView) -> W.Widget:
-        v = W.Video(value=_video_bytes(view.video), format="mp4", autoplay=True, loop=self.cfg.loop_video,
-                    controls=False, width=self.cfg.video_width)
+    def _video_widget(self, view: TrialView, locked: list[W.Button] = ()) -> W.Widget:
+        """The video of one presentation; with "must watch first" enforced, ``locked`` buttons
+        start disabled and are enabled when the browser reports the video's end."""
+        script_loops = self.cfg.loop_video and self._client_ok  # the script restarts it and reports each end
+        v = W.Video(value=_video_bytes(view.video), format="mp4", autoplay=True,
+                    loop=self.cfg.loop_video and not script_loops, controls=False, width=self.cfg.video_width)
         self._video = v
+        self._presenting = view.trial_index
+        self._ended = set()
+        self._locked = []
+        if self.enforcing:
+            for b in locked:
+                b.disabled = True
+            self._locked = list(locked)
         box = W.Box([v])
         box.add_class(f"mocomp-trial-{view.trial_index}")
         box.add_class("mocomp-stimulus")
+        if script_loops:
+            box.add_class("mocomp-loop")
         return box
 
     def _next_example(self) -> None:
@@ -328,12 +421,15 @@ class StudyApp:
         text = self.texts.example.format(n=self._example_i + 1, total=len(self._examples))
 
         def done():
+            if self.enforcing and view.trial_index not in self._ended:
+                self.session.log_event("example_skipped_before_video_end", trial_index=view.trial_index)
+                return
             self.controller.example_viewed(view)
             self._example_i += 1
             self._next_example()
 
-        self._set("example", [W.HTML(text), self._video_widget(view),
-                              self._button("Next", "mocomp-btn-next", "primary", done)])
+        nxt = self._button("Next", "mocomp-btn-next", "primary", done)
+        self._set("example", [W.HTML(text), self._video_widget(view, [nxt]), nxt])
 
     def _show_welcome_back(self) -> None:
         c = self.controller
@@ -376,7 +472,8 @@ class StudyApp:
                       f"{self.cfg.key_incorrect.upper()} = incorrect</span>")
         self._update_progress()
         self._timing.value = ""
-        self._set("trial", [W.HTML(prompt), self._video_widget(view), W.HBox([bc, bi]), hint])
+        video = self._video_widget(view, [bc, bi])
+        self._set("trial", [W.HTML(prompt), video, W.HBox([bc, bi]), hint])
         c.show()
 
     def _answer(self, response: str, trial_index: int) -> None:
@@ -396,8 +493,13 @@ class StudyApp:
             via = "key" if t.get("input") == "key" else "button"
             client_rt = t.get("rt")
         self._timing.value = ""
-        row = c.respond(response, input=via, client_rt_s=client_rt, trial_index=trial_index)
+        enforced = self.enforcing
+        watched = (trial_index in self._ended) if self._client_ok else None
+        row = c.respond(response, input=via, client_rt_s=client_rt, trial_index=trial_index, must_watch=enforced,
+                        watched_to_end=watched)
         if row is None:
+            if enforced and not watched:  # too early (logged): the buttons wait for the end of the video
+                self._locked = list(self._buttons)
             return
         self._next_trial()
 

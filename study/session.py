@@ -58,8 +58,8 @@ from .stimulus_set import StimulusSet
 RESPONSE_COLUMNS: tuple[str, ...] = (
     "participant_id", "session_id", "stimulus_set_id", "plan_sha256", "seed", "trial_index", "kind",
     "group", "repetition", "stimulus_id", "condition", "perturbation", "direction", "nominal_level",
-    "achieved_error", "base_clip", "expected_response", "response", "rated_correct", "input", "rt_s",
-    "client_rt_s", "shown_utc", "responded_utc",
+    "achieved_error", "base_clip", "expected_response", "response", "rated_correct", "input", "must_watch",
+    "watched_to_end", "rt_s", "client_rt_s", "shown_utc", "responded_utc",
 )
 RESPONSES = ("correct", "incorrect")
 _ID_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$")
@@ -406,8 +406,13 @@ class Session:
         return self.plan.trials.iloc[int(trial_index)].to_dict()
 
     def append_response(self, trial_index: int, response: str, *, input: str, rt_s: float,
-                        shown_utc: str, client_rt_s: float | None = None) -> dict:
+                        shown_utc: str, client_rt_s: float | None = None, must_watch: bool = False,
+                        watched_to_end: bool | None = None) -> dict:
         """Append one response row and ``fsync`` it; returns the row as written.
+
+        ``must_watch``: the answer was locked until the video had ended (enforced);
+        ``watched_to_end``: the front end reported the end of the video before the
+        answer (None: unknown, e.g. a simulated observer or no browser script).
 
         Only the next unanswered response trial may be answered (anything else
         is a programming error, raised as ValueError, and nothing is written).
@@ -419,6 +424,8 @@ class Session:
             raise ValueError(f"trial {trial_index} is not the next unanswered trial ({want})")
         if response not in RESPONSES:
             raise ValueError(f"response must be one of {RESPONSES}, got {response!r}")
+        if must_watch and not watched_to_end:
+            raise ValueError(f"trial {trial_index}: an enforced must-watch answer needs the video to have ended")
         t = self.trial(trial_index)
         srow = self.stimuli.row(t["stimulus_id"])
         row = dict(participant_id=self.participant_id, session_id=self.session_id,
@@ -428,7 +435,9 @@ class Session:
                    perturbation=t["perturbation"], direction=t["direction"],
                    nominal_level=float(t["nominal_level"]), achieved_error=float(srow["achieved_error"]),
                    base_clip=t["base_clip"], expected_response=t["expected_response"], response=response,
-                   rated_correct=int(response == "correct"), input=str(input), rt_s=round(float(rt_s), 4),
+                   rated_correct=int(response == "correct"), input=str(input), must_watch=int(bool(must_watch)),
+                   watched_to_end="" if watched_to_end is None else int(bool(watched_to_end)),
+                   rt_s=round(float(rt_s), 4),
                    client_rt_s="" if client_rt_s is None else round(float(client_rt_s), 4),
                    shown_utc=shown_utc, responded_utc=utc_now())
         data = _format_row([row[c] for c in RESPONSE_COLUMNS])

@@ -48,6 +48,9 @@ def register_run(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--break-every", type=int, default=None, help="break screen every N test trials")
     p.add_argument("--practice", type=int, default=None, help="number of practice trials")
     p.add_argument("--attention-checks", type=int, default=None, help="number of attention-check trials")
+    p.add_argument("--no-must-watch", action="store_true",
+                   help="allow answers before the video has played to its end (default: buttons and keys "
+                        "stay disabled until it has, once per presentation)")
     p.add_argument("--texts", metavar="JSON", help="participant-facing texts (JSON file, fields of HarnessTexts)")
     p.add_argument("--lock-timeout", type=float, default=None, metavar="S",
                    help="seconds a new window waits for a session held by another window (default 15)")
@@ -61,7 +64,7 @@ def _design_dict(args) -> dict | None:
     if args.design:
         d = json.loads(Path(args.design).read_text())
     for key, val in (("break_every", args.break_every), ("n_practice", args.practice),
-                     ("n_attention", args.attention_checks)):
+                     ("n_attention", args.attention_checks), ("must_watch", False if args.no_must_watch else None)):
         if val is not None:
             d[key] = val
     if not d:

@@ -4,6 +4,9 @@ participant app served by Voila (``mocomp study run``) on 127.0.0.1.
 1. A scripted participant completes a short session (consent, info, examples,
    trials by button and by key, a break, an attention check); the CSV holds
    exactly the expected rows, in plan order, with the scripted answers.
+   "Must watch first" (the default): an answer key pressed while the video still
+   plays does nothing; every row says the rule was enforced and the video had
+   ended, and the browser's response time is never shorter than the video.
 2. A second window on the same session is refused (session lock).
 3. The server is killed (SIGKILL, kernel included) in the middle of a session,
    restarted, the page reopened: the app resumes at the first unanswered
@@ -72,7 +75,9 @@ def browser():
 def stimuli(tmp_path_factory):
     from study.placeholders import make_placeholder_set
 
-    return make_placeholder_set(tmp_path_factory.mktemp("stimuli"), LEVELS, base_clips=("flip",), n_frames=8)
+    # 0.9 s videos: long enough to press a key while one still plays
+    return make_placeholder_set(tmp_path_factory.mktemp("stimuli"), LEVELS, base_clips=("flip",), n_frames=9,
+                                fps=10.0)
 
 
 def _free_port() -> int:
@@ -220,8 +225,12 @@ def _current_trial(page) -> int:
         const m = /mocomp-trial-(\\d+)/.exec(el.className); if (m) return parseInt(m[1]); } return -1; }""")
 
 
-def _answer_trials(page, n: int, answers: list, log: list) -> None:
-    """Answer ``n`` trials (taking breaks); answers[i] = (response, 'button'|'key')."""
+def _answer_trials(page, n: int, answers: list, log: list, early: bool = False) -> None:
+    """Answer ``n`` trials (taking breaks); answers[i] = (response, 'button'|'key').
+
+    ``early``: on the first trial, press an answer key at once, while the video still
+    plays ("must watch first": nothing may happen).
+    """
     done = 0
     while done < n:
         page.wait_for_selector(".mocomp-screen-trial, .mocomp-screen-break, .mocomp-screen-end")
@@ -232,6 +241,12 @@ def _answer_trials(page, n: int, answers: list, log: list) -> None:
             continue
         if page.query_selector(".mocomp-screen-end"):
             raise AssertionError("session ended early")
+        if early and done == 0:
+            idx = _current_trial(page)
+            assert page.query_selector(".mocomp-screen-trial .mocomp-btn-correct[disabled]")  # locked at first
+            page.keyboard.press("i")
+            page.wait_for_timeout(150)
+            assert _current_trial(page) == idx  # still the same trial: the key did nothing
         page.wait_for_selector(".mocomp-screen-trial .mocomp-btn-correct:not([disabled])")
         idx = _current_trial(page)
         attention = page.query_selector("text=Attention check") is not None
@@ -271,7 +286,7 @@ def test_complete_session_then_second_window_refused(browser, stimuli, tmp_path)
         _intro(page)
         _examples(page)
         log: list = []
-        _answer_trials(page, n, _script(n), log)
+        _answer_trials(page, n, _script(n), log, early=True)
         page.wait_for_selector(".mocomp-screen-end")
         rows = _wait_rows(folder / "responses.csv", n)
         assert len(rows) == n
@@ -283,8 +298,11 @@ def test_complete_session_then_second_window_refused(browser, stimuli, tmp_path)
         assert log.count("break") == 2  # break_every=4 over 11 response trials
         rts = [float(r["rt_s"]) for r in rows]
         assert all(0 < t < 60 for t in rts)
-        client = [r["client_rt_s"] for r in rows if r["client_rt_s"] != ""]
+        client = [float(r["client_rt_s"]) for r in rows if r["client_rt_s"] != ""]
         assert len(client) >= n - 2  # the browser's clock: video onset -> click
+        # must watch first: enforced on every trial, and no answer before the end of the video
+        assert {r["must_watch"] for r in rows} == {"1"} and {r["watched_to_end"] for r in rows} == {"1"}
+        assert min(client) >= 0.9 - 0.1, client
         att = [r for r in rows if r["kind"] == "attention"]
         assert len(att) == 1 and att[0]["response"] == att[0]["expected_response"]
         info = json.loads((folder / "participant.json").read_text())
@@ -365,6 +383,7 @@ def test_kill_server_mid_session_and_resume(browser, stimuli, tmp_path):
         ev = [json.loads(x) for x in (folder / "events.jsonl").read_text().splitlines()]
         names = [e["event"] for e in ev]
         assert "stale_lock_recovered" in names and "resumed" in names and names[-1] == "finished"
+        assert {r["must_watch"] for r in rows} == {"1"}  # also after the restart
         resumed = next(e for e in ev if e["event"] == "resumed")
         assert resumed["n_answered"] == k
         page.close()

@@ -26,6 +26,9 @@ def test_study_commands(tmp_path, capsys):
                  "--data", str(tmp_path / "d"), "--break-every", "3", "--print-config"]) == 0
     cfg = json.loads(capsys.readouterr().out)
     assert cfg["design"] == {"break_every": 3} and cfg["participant_id"] == "P1"
+    assert main(["study", "run", "--participant", "P1", "--session", "S1", "--manifest", str(stim.path),
+                 "--data", str(tmp_path / "d"), "--no-must-watch", "--print-config"]) == 0
+    assert json.loads(capsys.readouterr().out)["design"] == {"must_watch": False}
     assert main(["study", "run", "--participant", "../P1", "--session", "S1", "--manifest", str(stim.path),
                  "--data", str(tmp_path / "d"), "--print-config"]) == 2
     assert "not valid" in capsys.readouterr().err

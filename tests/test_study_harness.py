@@ -139,3 +139,65 @@ def test_configuration_from_environment(stimuli, tmp_path):
     app.close()
     bad = StudyApp(tmp_path / "missing.csv", tmp_path, "P5", "S1")
     assert bad.screen_name == "error" and "not found" in bad.error
+
+
+def _media(app, **msg):
+    """What the browser script sends: the page is ready, a video ended, ..."""
+    app._media.value = json.dumps({**msg, "t": len(app._media.value)})
+
+
+def test_must_watch_first(stimuli, tmp_path):
+    """With the browser script present, answers wait for the end of the video (per presentation)."""
+    app = StudyApp(stimuli, tmp_path, "P6", "S1", design=DesignConfig(n_attention=0))
+    assert app.must_watch and not app.enforcing  # default on, not yet enforceable (no script)
+    _media(app, event="ready")
+    assert app.enforcing
+    _click(app, "mocomp-btn-next")
+    _find(app.widget, "mocomp-consent-check")[0].value = True
+    _click(app, "mocomp-btn-consent")
+    _click(app, "mocomp-btn-info")
+    _click(app, "mocomp-btn-next")
+    # examples: "Next" is locked until the example's video ended
+    while app.screen_name == "example":
+        (nxt,) = _find(app.widget, "mocomp-btn-next")
+        assert nxt.disabled
+        idx = app._presenting
+        nxt.click()  # (a forced click, e.g. a stale event): refused
+        assert app.screen_name == "example" and app._presenting == idx
+        _media(app, event="ended", trial=idx, n=1)
+        assert not nxt.disabled
+        nxt.click()
+    folder = tmp_path / "P6" / "S1"
+    n_rows = 0
+    for k in range(3):
+        assert app.screen_name == "trial"
+        idx = app.controller.current().trial_index
+        bc, bi = _find(app.widget, "mocomp-btn-correct")[0], _find(app.widget, "mocomp-btn-incorrect")[0]
+        assert bc.disabled and bi.disabled
+        bc.click()  # too early: nothing written, logged
+        assert len(pd.read_csv(folder / "responses.csv")) == n_rows
+        _media(app, event="ended", trial=idx - 1, n=1)  # an old screen's event: ignored
+        assert bc.disabled
+        _media(app, event="ended", trial=idx, n=1)
+        assert not bc.disabled and not bi.disabled
+        bi.click()
+        n_rows += 1
+        rows = pd.read_csv(folder / "responses.csv", keep_default_na=False)
+        assert len(rows) == n_rows and rows["trial_index"].iloc[-1] == idx
+    assert (rows["must_watch"] == 1).all() and (rows["watched_to_end"] == 1).all()
+    ev = [json.loads(x)["event"] for x in (folder / "events.jsonl").read_text().splitlines()]
+    assert ev.count("response_before_video_end") == 3 and "example_skipped_before_video_end" in ev
+    assert app.session.plan.meta["design"]["must_watch"] is True
+    app.close()
+    # a page without the script cannot enforce it: answers go through and the rows say so
+    again = StudyApp(stimuli, tmp_path, "P6", "S1")
+    _click(again, "mocomp-btn-next")
+    _click(again, "mocomp-btn-correct")
+    again.close()
+    last = pd.read_csv(folder / "responses.csv", keep_default_na=False).iloc[-1]
+    assert last["must_watch"] == 0 and last["watched_to_end"] == ""
+    # switched off in the design
+    off = StudyApp(stimuli, tmp_path, "P7", "S1", design=DesignConfig(must_watch=False))
+    _media(off, event="ready")
+    assert not off.enforcing
+    off.close()
