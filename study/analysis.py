@@ -20,8 +20,9 @@ Pipeline (what ``mocomp study analyze RESPONSES_DIR -o REPORT_DIR`` runs, via
    participants (as the paper computed it from mean ratings), with a
    participant-level (cluster) bootstrap CI.
 4. :func:`participant_dprimes`: d' per participant, per condition and per
-   error type (levels pooled), with percentile bootstrap CIs from resampling
-   that participant's trials within each cell (seeded).
+   error type (levels pooled), with a parametric bootstrap CI at the corrected
+   rates (seeded; never zero-width when a cell's rate is 0 or 1, undefined
+   without a correction; see that function).
 5. :func:`fit_psychometric_glms`: per error type, a binomial GLM (probit or
    logit link, statsmodels) of P("incorrect") on the error level, the group's
    unperturbed motions at level 0. For the probit link the slope is d' per
@@ -311,11 +312,19 @@ def participant_dprimes(data: ResponseData | pd.DataFrame, *, by: str = "conditi
     ``by="condition"``: one d' per participant and condition;
     ``by="series"``: per participant and error type (perturbation x direction),
     pooling the levels (more trials per cell, so tighter CIs).
-    The bootstrap resamples the participant's trials within each cell (the
-    perturbed cell and its control cell independently), which for 0/1 answers
-    is exactly a binomial draw at the observed rate; a cell whose observed rate
-    is 0 or 1 therefore has a degenerate (zero-width) interval, flagged in
-    ``ci_degenerate``. Seeded by ``seed``.
+
+    The interval is a parametric bootstrap of the *corrected* rates: the hits
+    and false alarms are redrawn as binomial counts at the rates d' was
+    computed from (log-linear ``(k + 0.5) / (n + 1)``, or ``1/(2N)`` at 0 and
+    1), each draw corrected the same way, and the 2.5/97.5 % quantiles taken
+    (seeded by ``seed``). Resampling the trials themselves (a draw at the
+    *observed* rate) would give a zero-width interval whenever a participant
+    answered all perturbed trials "incorrect" or no control "incorrect", which
+    is common with a handful of trials per cell, and it under-covers (about 87 %
+    for 6 signal and 12 control trials in our simulations, against 92-96 % for
+    the corrected-rate bootstrap). With ``correction="none"`` a rate of 0 or 1
+    makes d' infinite: its interval is undefined (NaN) and ``ci_note`` says so.
+    ``ci_degenerate`` flags intervals of zero width (none with a correction).
     """
     if by not in ("condition", "series"):
         raise ValueError("by must be 'condition' or 'series'")
@@ -334,17 +343,24 @@ def participant_dprimes(data: ResponseData | pd.DataFrame, *, by: str = "conditi
             k, n = int(sub["incorrect"].sum()), len(sub)
             kf, nf = int(ctl["incorrect"].sum()), len(ctl)
             d = dprime_counts(k, n, kf, nf, correction)
-            kb = rng.binomial(n, k / n, size=n_boot)
-            fb = rng.binomial(nf, kf / nf, size=n_boot)
-            db = dprime_counts(kb, n, fb, nf, correction).dprime
-            a = (1 - ci) / 2
-            lo, hi = np.quantile(db, [a, 1 - a])
+            kb = rng.binomial(n, float(d.hit_used), size=n_boot)
+            fb = rng.binomial(nf, float(d.fa_used), size=n_boot)
+            note = ""
+            if correction == "none" and (k in (0, n) or kf in (0, nf)):
+                lo = hi = np.nan
+                note = "undefined: a rate of 0 or 1 without a correction (d' is infinite)"
+            else:
+                with np.errstate(divide="ignore"):
+                    db = dprime_counts(kb, n, fb, nf, correction).dprime
+                a = (1 - ci) / 2
+                # order statistics (no interpolation): draws can be +-inf without a correction
+                lo, hi = np.quantile(db, [a, 1 - a], method="inverted_cdf")
             row = dict(participant_id=p, group=g, perturbation=key[1], direction=key[2],
                        level=float(key[3]) if by == "condition" else np.nan,
                        n_signal=n, hits=k, n_control=nf, false_alarms=kf, control_source=src,
                        hit_rate=k / n, fa_rate=kf / nf, dprime=float(d.dprime), ceiling=float(d.ceiling),
                        correction=correction, ci_low=lo, ci_high=hi, ci_degenerate=bool(hi - lo < 1e-12),
-                       n_boot=n_boot)
+                       ci_note=note, n_boot=n_boot)
             row["condition"] = (condition_label(key[1], key[2], key[3]) if by == "condition"
                                 else f"{key[1]}/{key[2]}")
             out.append(row)
@@ -646,8 +662,9 @@ def report_markdown(res: AnalysisResult) -> str:
         f"{'same error group' if s['control'] == 'group' else 'all groups pooled'}); correction: "
         f"**{s['correction']}**; ceiling (largest attainable d') {ceil.min():.2f}-{ceil.max():.2f} "
         f"for these trial counts.",
-        f"- CIs: {s['n_boot']} bootstrap resamples (participants for the group d', trials within participant "
-        f"for individual d'), seed {s['seed']}.",
+        f"- CIs: {s['n_boot']} bootstrap resamples, seed {s['seed']}: participants resampled for the group d'; "
+        f"for individual d' binomial redraws at the corrected rates (so a rate of 0 or 1 still gets an "
+        f"interval).",
         f"- psychometric: binomial GLM, {s['link']} link, regressor `{s['level_column']}`.",
         "- mixed model: logistic GLMM, random intercept per participant, maximum likelihood by adaptive "
         "Gauss-Hermite quadrature (study.glmm; as lme4 glmer nAGQ); cross-checks: statsmodels "

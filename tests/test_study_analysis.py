@@ -132,6 +132,43 @@ def test_participant_dprimes_known_counts(tmp_path):
     assert r1["ci_low"] < r1["dprime"] < r1["ci_high"] and not r1["ci_degenerate"]
 
 
+def test_participant_dprime_interval_at_rates_of_zero_and_one(tmp_path):
+    """A participant who calls every perturbed motion incorrect (P2, take-off 20 %) still gets an
+    honest interval; without a correction the interval is undefined and says why."""
+    _known_dataset(tmp_path)
+    data = load_responses(tmp_path)
+    r = participant_dprimes(data, n_boot=400, seed=1).set_index(["participant_id", "condition"])
+    p2 = r.loc[("P2", "takeoff/increase/20")]
+    assert p2["hit_rate"] == 1.0 and not p2["ci_degenerate"]
+    assert p2["ci_low"] < p2["dprime"] <= p2["ci_high"] and p2["ci_high"] - p2["ci_low"] > 0.5
+    none = participant_dprimes(data, n_boot=50, correction="none").set_index(["participant_id", "condition"])
+    q = none.loc[("P2", "takeoff/increase/20")]
+    assert np.isinf(q["dprime"]) and np.isnan(q["ci_low"]) and "undefined" in q["ci_note"]
+    assert none.loc[("P1", "am_abrupt/increase/25"), "ci_note"] == ""
+
+
+def test_participant_dprime_intervals_cover_the_truth():
+    """400 simulated participants with 6 perturbed and 12 control trials each (many rates of 0
+    or 1): the 95% intervals cover the true d' = 1 at about the nominal rate."""
+    rng = np.random.default_rng(4)
+    d_true, f = 1.0, 0.3
+    h = norm.cdf(d_true + norm.ppf(f))
+    rows = []
+    for i in range(400):
+        k, kf = rng.binomial(6, h), rng.binomial(12, f)
+        for j in range(6):
+            rows.append(("P%03d" % i, "takeoff", "increase", 20.0, int(j < k)))
+        for j in range(12):
+            rows.append(("P%03d" % i, "none", "none", 0.0, int(j < kf)))
+    df = pd.DataFrame(rows, columns=["participant_id", "perturbation", "direction", "nominal_level", "incorrect"])
+    df = df.assign(kind="test", group="takeoff")
+    r = participant_dprimes(df, n_boot=400, seed=2)
+    assert ((r["hits"] == 6) | (r["false_alarms"] == 0)).mean() > 0.1  # extremes are common here
+    assert not r["ci_degenerate"].any()
+    cover = ((r["ci_low"] <= d_true) & (d_true <= r["ci_high"])).mean()
+    assert 0.91 <= cover <= 0.99, cover
+
+
 def test_schema_errors_are_clear(tmp_path):
     _known_dataset(tmp_path)
     # missing column
