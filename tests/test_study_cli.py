@@ -34,3 +34,13 @@ def test_study_commands(tmp_path, capsys):
     assert "not valid" in capsys.readouterr().err
     assert main(["study", "run", "--participant", "P1", "--session", "S1", "--manifest", str(tmp_path / "m.csv"),
                  "--data", str(tmp_path / "d"), "--print-config"]) == 2
+
+
+def test_package_docstring_lists_every_module():
+    from pathlib import Path
+
+    import study
+
+    mods = sorted(p.stem for p in Path(study.__file__).parent.glob("*.py") if p.stem != "__init__")
+    missing = [m for m in mods if f":mod:`study.{m}`" not in study.__doc__]
+    assert not missing, missing
