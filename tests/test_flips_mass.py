@@ -132,3 +132,61 @@ def test_joint_estimation_over_ten_real_hops(real_data_dir):
     assert len(est.fits) == 10
     assert all(0.9 < f.scale < 1.12 for f in est.fits)
     assert est.momentum_deviation <= est.prior_momentum_deviation
+
+
+def _fit(s, start=0, n=40, se=0.0):
+    """A FlightFit with gravity scale ``s`` (only the fields the diagnosis reads matter)."""
+    from mocomp.flips.mass import G, FlightFit
+
+    return FlightFit(start, start + n, 0.0, 0.0, -s * G / 2, 2.0, 1.0, 0.0, 0.0, s * G, s, 0.0, 0.0, se)
+
+
+def test_timing_diagnosis_combines_flights():
+    from mocomp.flips.mass import diagnose_timing
+
+    one = diagnose_timing([_fit(4.0)], 120.0, 1.75, turns=[1.0])          # a single flip, stamped 2x too fast
+    many = diagnose_timing([_fit(4.0, 100 * i) for i in range(4)], 120.0, 1.75, turns=[1.0, 0.05, 0.05, 0.05])
+    for d in (one, many):
+        assert d.implied_fps == pytest.approx(60.0) and not d.consistent and d.suggested == 60.0
+        assert d.implied_interval[0] < 60.0 < d.implied_interval[1]
+        assert "labelled 120 Hz" in d.text and "fps=60" in d.text
+    # the hops pin the rate down: a narrower interval than the flip alone
+    assert np.ptp(many.implied_interval) < 0.5 * np.ptp(one.implied_interval)
+    assert one.candidates[0] == 60.0 and 50.0 in one.candidates and "cannot tell them apart" in one.text
+    assert many.candidates == (60.0,) and "the one common capture rate" in many.text
+    # flights that disagree beyond their errors widen the interval (random effects)
+    split = diagnose_timing([_fit(3.2, 0), _fit(5.0, 100)], 120.0, 1.75, turns=[0.05, 0.05])
+    agree = diagnose_timing([_fit(4.0, 0), _fit(4.0, 100)], 120.0, 1.75, turns=[0.05, 0.05])
+    assert split.tau > 0 and agree.tau == 0
+    assert np.ptp(np.log(split.scale_interval)) > np.ptp(np.log(agree.scale_interval))
+    # right rate: consistent, nothing suggested
+    ok = diagnose_timing([_fit(1.02)], 120.0, 1.75)
+    assert ok.consistent and ok.suggested is None and "consistent with 9.81" in ok.text
+    # a rate between the common ones: said so, no relabelling
+    odd = diagnose_timing([_fit(s) for s in (2.0, 2.02, 1.98)], 120.0, 1.75)
+    assert odd.suggested is None and not odd.consistent and "no common capture rate" in odd.text
+    assert "length unit" in diagnose_timing([_fit(30.0)], 120.0, 50.0).text
+
+
+@pytest.mark.realdata
+@pytest.mark.parametrize("name, truth", [("cmu_88_01_backflip", 60.0), ("cmu_88_05_cartwheel_backflip", 60.0),
+                                         ("cmu_90_08_sideflip", 60.0), ("twists/cmu_83_58_hopturn270.bvh", 120.0),
+                                         ("jumps/01_01.bvh", 120.0)])
+def test_timing_diagnosis_on_real_clips_read_at_120_hz(real_data_dir, name, truth):
+    """Every clip read at its header's 120 Hz: the true rate is among the consistent common
+    rates; the 60 Hz captures are told to reload at 60 Hz, the 120 Hz ones left alone. All the
+    clip's flights count (hops beside the flip)."""
+    from mocomp.flips.preprocess import clip_timing
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        m = datasets.load(name, fps=120.0)
+    prior = clip_prior(m)
+    d = detect_flights(m, prior)
+    t = clip_timing(estimate_masses(prior, m, d.intervals).body, m, d.intervals)
+    assert truth in t.candidates, t.text
+    assert t.implied_interval[0] <= truth <= t.implied_interval[1]
+    if truth == 120.0:
+        assert t.consistent and t.suggested is None and "look right" in t.text
+    else:
+        assert not t.consistent and t.suggested == 60.0 and "labelled 120 Hz" in t.text and "fps=60" in t.text

@@ -225,7 +225,8 @@ def test_mislabelled_clip_is_diagnosed_in_plain_words(real_data_dir):
     import re
 
     note = next(n for n in P.notes if "labelled 120 Hz" in n)
-    assert 50 <= float(re.search(r"fps=(\d+)", note).group(1)) <= 60     # really 60 Hz (MANIFEST)
+    assert float(re.search(r"fps=(\d+)", note).group(1)) == 60          # really 60 Hz (MANIFEST)
+    assert P.timing.suggested == 60.0 and "2 flights" in P.timing.text     # the hop after the flip counts
 
 
 def test_loop_seam_smoothing_is_computed_once_and_reused(prepared, monkeypatch):

@@ -16,10 +16,11 @@ sequencing (:mod:`.sequence`, eq. 5.10-5.11), seam smoothing (:mod:`.smoothing`,
 retiming (:mod:`.retime`, App. B), repositioning (:mod:`.reposition`, eq. 5.15-5.17).
 """
 from .looping import SelfLoop, find_self_loop
-from .mass import FlightFit, FlightTooShortError, MassEstimate, diagnose_gravity, estimate_masses, fit_ballistic
+from .mass import (FlightFit, FlightTooShortError, MassEstimate, TimingDiagnosis, diagnose_gravity, diagnose_timing,
+                   estimate_masses, fit_ballistic)
 from .multiflip import MultiFlipResult, PhysicsReport, multiflip
 from .phases import FlightDetection, detect_flights
-from .preprocess import PreparedFlip, clip_prior, prepare, prepare_cached, spline_resample
+from .preprocess import PreparedFlip, clip_prior, clip_timing, prepare, prepare_cached, spline_resample
 from .retime import RetimePlan, k_star, plan_retime
 from .sequence import Sequence, build_sequence, loop_count
 from .similarity import SimilarityWeights, frame_distance, similarity_weights
@@ -29,7 +30,7 @@ __all__ = [
     "detect_flights", "FlightDetection", "estimate_masses", "MassEstimate", "FlightFit", "fit_ballistic",
     "diagnose_gravity", "FlightTooShortError", "find_self_loop", "SelfLoop", "build_sequence", "Sequence",
     "loop_count", "k_star", "plan_retime", "RetimePlan", "similarity_weights", "SimilarityWeights",
-    "frame_distance", "clip_prior", "spline_resample",
+    "frame_distance", "clip_prior", "spline_resample", "diagnose_timing", "TimingDiagnosis", "clip_timing",
 ]
 
 

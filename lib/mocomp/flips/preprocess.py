@@ -29,7 +29,8 @@ from .similarity import SimilarityWeights, local_angular_velocities, similarity_
 from .smoothing import (apply_direction_offsets, apply_rotation_offsets, compose_root, root_reference,
                         seam_corrections, split_root)
 
-__all__ = ["PreparedFlip", "prepare", "prepare_cached", "clip_prior", "spline_resample", "flight_L_stats"]
+__all__ = ["PreparedFlip", "prepare", "prepare_cached", "clip_prior", "spline_resample", "flight_L_stats",
+           "clip_timing"]
 
 
 def spline_resample(motion: Motion, fps: float) -> Motion:
@@ -120,6 +121,7 @@ class PreparedFlip:
     com_eval: fast exact COM for the estimated body; com: ``(T, 3)`` COM of ``motion``.
     smooth_sigma: momentum pre-smoothing (frames) used here and in the report.
     timings: seconds per pre-processing step.
+    timing: :class:`~mocomp.flips.mass.TimingDiagnosis` over all the clip's flights (frame-rate check).
     """
 
     motion: Motion
@@ -146,6 +148,7 @@ class PreparedFlip:
     timings: dict
     notes: tuple[str, ...] = ()
     _cache: dict = field(default_factory=dict, repr=False)
+    timing: object = None
 
     @property
     def fps(self) -> float:
@@ -281,8 +284,9 @@ class PreparedFlip:
         s, e = self.flight
         lines = [f"{self.name}: {self.motion.n_frames} frames at {self.fps:g} Hz; flight frames {s}-{e - 1} "
                  f"({(e - s) / self.fps:.3f} s), rotation about L in the clip {np.degrees(self.total_rotation):.0f} deg",
-                 f"  gravity {self.fit.gravity:.2f} m/s^2 (s = {self.fit.scale:.2f}); "
-                 + (self.mass.diagnosis if self.mass else diagnose_gravity(self.fit.scale, self.fps)),
+                 f"  gravity {self.fit.gravity:.2f} m/s^2 in this flight (s = {self.fit.scale:.2f}); timing over "
+                 f"the clip's flights: "
+                 + (self.timing.text if self.timing is not None else diagnose_gravity(self.fit.scale, self.fps)),
                  f"  |L| {self.L_stats['mean']:.2f} kg m^2/s over the flight, variation {100 * self.L_stats['variation']:.1f}%",
                  f"  self-loop m={self.loop.m} n={self.loop.n} phi={np.degrees(self.loop.phi):.0f} deg, "
                  f"mean mismatch {self.loop.mean_angle_deg:.1f} deg" + ("" if self.loop.found else " (fallback)")]
@@ -293,6 +297,24 @@ class PreparedFlip:
                          + (f"({100 * red:.0f}% reduction)" if np.isfinite(red) else "(already ballistic with the prior)"))
         lines += [f"  note: {n}" for n in self.notes]
         return "\n".join(lines)
+
+
+def clip_timing(body: BodyModel, motion: Motion, flights, flight: tuple[int, int] | None = None,
+                min_frames: int = 6):
+    """:func:`~mocomp.flips.mass.diagnose_timing` over every flight of a clip (``flights``, plus
+    ``flight`` if it is not among them; flights under ``min_frames`` frames are skipped), the
+    COM computed with ``body``: one flip gives a wide interval, several flights of the clip
+    (hops before and after) narrow it."""
+    from .mass import diagnose_timing, flight_turns
+
+    fls = [(int(a), int(b)) for a, b in flights]
+    if flight is not None and tuple(flight) not in fls:
+        fls.append((int(flight[0]), int(flight[1])))
+    fls = [f for f in fls if f[1] - f[0] >= min_frames] or fls
+    com = ComEvaluator(body)(motion.root_positions, motion.rotations)
+    fls = [f for f in sorted(fls) if f[1] - f[0] >= 4]
+    fits = [fit_ballistic(com[a:b], motion.fps, a) for a, b in fls]
+    return diagnose_timing(fits, motion.fps, motion.skeleton.height(), turns=flight_turns(motion, fls))
 
 
 def _load(source, fps):
@@ -359,22 +381,20 @@ def prepare(source, *, body: BodyModel | None = None, total_mass: float = 70.0, 
             mass = estimate_masses(prior, motion, flights, W=W)
             est = mass.body
             fit = next(f for f in mass.fits if (f.start, f.stop) == fl)
-            diagnosis = mass.diagnosis
         else:
             mass, est = None, prior
             from ..dynamics import center_of_mass
 
             fit = fit_ballistic(center_of_mass(prior, motion)[fl[0]:fl[1]], motion.fps, fl[0])
-            diagnosis = diagnose_gravity(fit.scale, motion.fps, motion.skeleton.height())
+        timing = clip_timing(est, motion, det.intervals, fl)
         timings["mass"] = time.perf_counter() - t
-        if attempt == 0 and fix_timing and "labelled" in diagnosis:
-            new_fps = float(diagnosis.split("fps=")[1].split(" ")[0])
-            notes.append(f"frame rate relabelled {motion.fps:g} -> {new_fps:g} Hz: {diagnosis}")
-            motion = motion.with_fps(new_fps)
+        if attempt == 0 and fix_timing and timing.suggested is not None:
+            notes.append(f"frame rate relabelled {motion.fps:g} -> {timing.suggested:g} Hz: {timing.text}")
+            motion = motion.with_fps(timing.suggested)
             continue
         break
-    if "labelled" in diagnosis and not fix_timing:
-        notes.append(diagnosis)
+    if not timing.consistent and not fix_timing:
+        notes.append(timing.text)
     t = time.perf_counter()
     from ..dynamics import momentum as compute_momentum
 
@@ -411,7 +431,7 @@ def prepare(source, *, body: BodyModel | None = None, total_mass: float = 70.0, 
     prep = PreparedFlip(motion=motion, name=name, prior=prior, body=est, detection=det, flight=fl, mass=mass,
                         fit=fit, momentum=mom, axis=axis, L_stats=Ls, rotations=rot, theta=theta, bdir=bdir,
                         root_ref=root_ref, omegas=omegas, weights=weights, loop=loop, com_eval=com_eval, com=mom.com,
-                        smooth_sigma=smooth_sigma, timings=timings, notes=tuple(notes))
+                        smooth_sigma=smooth_sigma, timings=timings, notes=tuple(notes), timing=timing)
     t = time.perf_counter()
     for retime in (True, False):          # the seam window and its smoothing / eq. 5.22 speeds, once per clip
         w = prep.best_window(retime)
