@@ -619,7 +619,8 @@ def write_report(res: AnalysisResult, out_dir: str | Path, figures: bool = True)
 
     cols = [c for c in ["participant_id", "session_id", "trial_index", "kind", "group", "stimulus_id", "base_clip",
                         "perturbation", "direction", "nominal_level", "achieved_error", "condition", "repetition",
-                        "response", "incorrect", "rt_s", "client_rt_s", "stimulus_set_id"]
+                        "expected_response", "response", "incorrect", "input", "must_watch", "watched_to_end", "rt_s",
+                        "client_rt_s", "stimulus_set_id", "source_file", "source_line"]
             if c in res.data.trials.columns]
     save("trials.csv", res.data.trials[cols])
     save("conditions.csv", res.conditions)

@@ -76,9 +76,15 @@ the base motion's centre of mass (COM) at original time ``s``.
 
 What is *not* preserved (and is reported as evidence): the COM velocity jumps
 at take-off and landing when ``v != v0`` (the linear-momentum discontinuity that
-any retimed flight or changed take-off angle carries; the paper's
-:math:`k^*` retiming of take-off/landing, App. B, would hide it but also alter
-the ground phases, which the study holds fixed).
+any retimed flight or changed take-off angle carries: ``|v - v0|`` at take-off
+and ``|(v - g T' y) - (v0 - g T y)|`` at touchdown, manifest columns
+``takeoff_dv_added_ms`` / ``landing_dv_added_ms``), and the rotation speed, which
+drops by the factor ``r(T')`` at touchdown where the captured landing resumes.
+The paper's :math:`k^*` retiming of take-off/landing (App. B) would hide the
+linear jump but also alter the ground phases, which the study holds fixed (the
+paper's study retimed "during the flight phase" only; section 5.3 notes that
+small linear-momentum discontinuities are not perceptible). What a participant
+sees, with the numbers of the paper design: ``stimuli/README.md``.
 """
 from __future__ import annotations
 

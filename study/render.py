@@ -65,7 +65,8 @@ except ImportError:  # pragma: no cover - only while that module does not exist
 EXTRA_COLUMNS = (
     "achieved_signed_pct", "L_error_pct", "velocity_error_pct", "takeoff_angle_deg", "takeoff_angle_change_deg",
     "takeoff_speed_ms", "speed_ratio", "flight_s", "base_flight_s", "apex_m", "landing_shift_m",
-    "takeoff_dv_ms", "landing_dv_ms", "L_direction_change_deg", "com_capture_dev_m", "fps", "n_frames", "width", "height",
+    "takeoff_dv_ms", "landing_dv_ms", "takeoff_dv_added_ms", "landing_dv_added_ms", "landing_rate",
+    "L_direction_change_deg", "com_capture_dev_m", "fps", "n_frames", "width", "height",
     "filmstrip", "content_hash", "base_source", "render_s",
 )
 

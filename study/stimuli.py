@@ -261,6 +261,9 @@ class Stimulus:
         return self.rebuild.motion
 
 
+_Y3 = np.array([0.0, 1.0, 0.0])
+
+
 def _flight_velocity(com: np.ndarray, fps: float, a: int, b: int, gravity: float) -> np.ndarray:
     """Take-off velocity of the ballistic flight through the COM at the first (``a``) and
     last (``b - 1``) airborne frames: ``(c_b - c_a) / T + g T / 2 y``.
@@ -284,7 +287,12 @@ def measure_stimulus(rb: FlightRebuild, control: FlightRebuild, body, *, L_contr
     ``flight_s``, ``base_flight_s``, ``apex_m`` (COM rise above take-off),
     ``landing_shift_m``, ``takeoff_dv_ms`` / ``landing_dv_ms`` (COM velocity jump
     between the ground phase and the flight parabola) and
-    ``L_direction_change_deg`` (largest angle between ``L`` and the control's
+    ``takeoff_dv_added_ms`` / ``landing_dv_added_ms`` (the part of those jumps the
+    perturbation adds: the change of the ideal flight's velocity at take-off and at
+    touchdown against the control; the ground phases are the control's, so this is
+    the discontinuity a participant sees on top of the capture's own), ``landing_rate``
+    (retiming rate at the last airborne frame: the body's rotation slows by this
+    factor at touchdown), ``L_direction_change_deg`` (largest angle between ``L`` and the control's
     ``L`` at the same original time), ``com_capture_dev_m`` (how far the base
     flight's COM is from a ballistic parabola). Velocities are those of the
     ballistic flight through the stimulus' COM at its first and last airborne
@@ -356,6 +364,10 @@ def measure_stimulus(rb: FlightRebuild, control: FlightRebuild, body, *, L_contr
         "landing_shift_m": float(np.linalg.norm(rb.landing_shift)),
         "takeoff_dv_ms": float(np.linalg.norm(v - v_before)),
         "landing_dv_ms": float(np.linalg.norm(v_after - v_land)),
+        "takeoff_dv_added_ms": float(np.linalg.norm(rb.velocity - control.velocity)),
+        "landing_dv_added_ms": float(np.linalg.norm((rb.velocity - g * Tn * _Y3) -
+                                                    (control.velocity - g * control.warp.new_T * _Y3))),
+        "landing_rate": float(rb.rate[rb.flight[1] - 1]),
         "L_direction_change_deg": L_dir,
         "com_capture_dev_m": float(rb.capture_deviation),
     }
