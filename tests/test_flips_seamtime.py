@@ -121,3 +121,31 @@ def test_real_seams_follow_the_original_momentum(real_data_dir):
     assert fixed.L_std_new < fixed.L_std_original
     mom = momentum(P.body, P.motion)
     np.testing.assert_allclose(P.L_magnitude, np.linalg.norm(mom.angular, axis=1))
+
+
+def test_fallback_without_self_loop_says_so():
+    """Section 5.2: no pair meets the similarity threshold -> the best pair is joined by smoothing,
+    |L| across the transitions adjusted by non-uniform retiming; the report says which."""
+    m = synthetic("sideflip").motion
+    P = prepare(m, loop_options={"max_mean_angle": 0.1})
+    assert not P.loop.found and "section 5.2" in P.loop.note
+    R = multiflip(P, flips=2).report
+    assert not R.loop_found and R.seam_retimed
+    fb = [n for n in R.notes if n.startswith("fallback (section 5.2)")]
+    assert len(fb) == 1 and "smoothing" in fb[0] and "non-uniform retiming (eq. 5.22)" in fb[0]
+    assert sum("section 5.2" in n for n in R.notes) == 1
+    off = multiflip(P, flips=2, seam_retime=False).report
+    assert any("seam retiming is off" in n for n in off.notes)
+    assert abs(R.rotation_error) < 1.0 and R.L_variation_new < 0.05
+
+
+@pytest.mark.realdata
+@pytest.mark.parametrize("name", ["cmu_90_08_sideflip", "deepmimic_backflip", "deepmimic_sideflip"])
+def test_real_fallbacks_are_reported(real_data_dir, name):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        P = prepare(name)
+    R = multiflip(P, flips=2).report
+    assert not R.loop_found
+    assert any(n.startswith("fallback (section 5.2)") and "eq. 5.22" in n for n in R.notes)
+    assert R.seam_retimed and R.L_std_new < R.L_std_original

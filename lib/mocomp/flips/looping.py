@@ -13,7 +13,9 @@ multi-flip needs about ``extra / phi`` seams, so this minimises the total seam
 discontinuity for a given extra rotation. A pair "exists" when its mean
 weighted joint-angle difference is below ``max_mean_angle`` degrees; otherwise
 the best pair is still returned with ``found=False`` and the caller falls back
-(section 5.2: join by smoothing, and say so).
+(section 5.2: "the transition between any two chosen frames ... automatically by
+smoothing", its momentum adjusted "by applying non-uniform motion retiming as described
+in Section 5.5"; :mod:`mocomp.flips.seamtime`), and says so.
 """
 from __future__ import annotations
 
@@ -131,8 +133,9 @@ def find_self_loop(rotations: np.ndarray, theta: np.ndarray, flight: tuple[int, 
     if not found:
         note = (f"no self-looping pair: the most similar pair (frames {mi[best]}, {ni[best]}, "
                 f"{np.degrees(phi[best]):.0f} deg apart) differs by {mean_deg[best]:.1f} deg on average "
-                f"(threshold {max_mean_angle:.1f}); falling back to section 5.2: the copies are joined by "
-                "smoothing over a wider window, and L is not constant across those transitions")
+                f"(threshold {max_mean_angle:.1f}); falling back to section 5.2: the copies are joined "
+                "automatically by smoothing, and the change of |L| across those transitions is adjusted by "
+                "non-uniform retiming (eq. 5.22)")
     return SelfLoop(m=int(mi[best]), n=int(ni[best]), phi=float(phi[best]), phi_aligned=float(phi_al[best]),
                     distance=float(D[best]), mean_angle_deg=float(mean_deg[best]), found=found,
                     n_pairs=int(D.size), candidates=cands, seconds=time.perf_counter() - t0, note=note)

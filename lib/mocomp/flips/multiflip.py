@@ -424,7 +424,7 @@ def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None 
     report, mom = None, None
     if evaluate:
         report, mom = _evaluate(P, seq, plan, traj, new, flight_out, timings, height_change, dy, flips,
-                                extra_rotation, W_to, speed, tau)
+                                extra_rotation, W_to, speed, tau, w)
     return MultiFlipResult(motion=new, original=P.motion, prepared=P, sequence=seq, plan=plan, trajectory=traj,
                            seq_positions=tau, flight=flight_out, report=report, timings=timings, momentum=mom,
                            seq_times=tw, takeoff_time=W_to, speed=speed)
@@ -483,7 +483,8 @@ def _ballistic_residual(com: np.ndarray, fps: float) -> tuple[float, float]:
 
 def _evaluate(P: PreparedFlip, seq: Sequence, plan: RetimePlan, traj: FlightTrajectory, new: Motion,
               flight_out: tuple[int, int], timings: dict, height_change: float, dy: float, flips, extra_rotation,
-              W_to: float | None = None, speeds: np.ndarray | None = None, tau: np.ndarray | None = None):
+              W_to: float | None = None, speeds: np.ndarray | None = None, tau: np.ndarray | None = None,
+              window: int | None = None):
     from ..dynamics import momentum as compute_momentum
 
     t = time.perf_counter()
@@ -527,10 +528,11 @@ def _evaluate(P: PreparedFlip, seq: Sequence, plan: RetimePlan, traj: FlightTraj
     if plan.note:
         notes.append(plan.note)
     if not P.loop.found:
-        notes.append("fallback (section 5.2): no self-looping fragment met the similarity threshold; the copies "
-                     "were joined automatically by smoothing over a wider window"
+        notes = [n for n in notes if n != P.loop.note]
+        notes.append(f"fallback (section 5.2): {P.loop.note.split(';')[0]}; the copies were joined automatically by "
+                     f"smoothing ({window} frames each side)"
                      + (" and |L| across the joins was adjusted by non-uniform retiming (eq. 5.22)"
-                        if speeds is not None else "; |L| is not constant across the joins"))
+                        if speeds is not None else "; seam retiming is off, so |L| is not constant across the joins"))
     req = 360.0 * flips if extra_rotation is None else None
     rep = PhysicsReport(
         flips=int(flips) if extra_rotation is None else None, requested_rotation=req,
