@@ -110,6 +110,24 @@ def test_jump_and_roll_dive_is_found(real_data_dir):
     d = detect_flights(m, clip_prior(m))
     f = d.flights[d.longest]
     assert 0.35 <= f.n_frames / m.fps <= 0.6 and 9.3 <= f.gravity <= 10.3
+    # the two jumps are kept; short "flights" in the rolls (gravity 4-5 m/s^2) are not free flight:
+    # one clip has one frame rate, so its flights must share one gravity
+    assert len(d.flights) == 2 and all(9.3 <= g.gravity <= 10.3 for g in d.flights)
+    assert sum("disagrees with the clip's other flights" in r[2] for r in d.rejected) == 2
+    assert len(detect_flights(m, clip_prior(m), agree_factor=None).flights) == 4
+
+
+@pytest.mark.realdata
+@pytest.mark.parametrize("name, flights", [("kicks_punches/deepmimic_spinkick.txt", [(33, 56)]),
+                                           ("kicks_punches/sfu_0017_WushuKicks001.bvh", [(1891, 1941), (2084, 2124)])])
+def test_airborne_kicks_are_found(real_data_dir, name, flights):
+    """The jumping kicks of the data set (MANIFEST: spin kick flight 0.40 s; wushu airborne kicks
+    at frames ~1891-1941 and ~2084-2124 by its 'every joint 5 cm up' rule)."""
+    m = datasets.load(name)
+    d = detect_flights(m, clip_prior(m))
+    assert len(d.flights) == len(flights)
+    for f, (a, b) in zip(d.flights, flights):
+        assert abs(f.start - a) <= 5 and abs(f.stop - b) <= 5 and 9.3 <= f.gravity <= 10.3
 
 
 @pytest.mark.realdata

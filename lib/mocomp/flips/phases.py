@@ -141,7 +141,7 @@ def detect_flights(motion, prior: BodyModel | None = None, still_speed: float = 
                    min_flight: float = 0.08, max_gap: float = 0.15, border_window: float = 0.1,
                    v_tol: float = 0.3, min_r2: float = 0.8, rest_height: float = 0.03,
                    gravity_range: tuple[float, float] = (0.35, 40.0), effectors=None,
-                   com: np.ndarray | None = None) -> FlightDetection:
+                   com: np.ndarray | None = None, agree_factor: float | None = 1.6) -> FlightDetection:
     """Ballistic intervals of ``motion`` (section 4.1).
 
     Parameters
@@ -167,6 +167,10 @@ def detect_flights(motion, prior: BodyModel | None = None, still_speed: float = 
     effectors: ``{name: (joint name or index, local offset (3,))}``; default feet, toes and
         hands (:func:`mocomp.dynamics.contacts.default_effectors`).
     com: precomputed ``(T, 3)`` COM (skips ``prior``).
+    agree_factor: with three or more flights, a flight whose fitted gravity differs from the
+        clip's frame-weighted median by more than this factor is rejected (the flights of one clip
+        share its frame rate and units, so a gravity far off means the interval is not free
+        flight); ``None`` keeps every flight.
     """
     from ..dynamics import center_of_mass, central_difference, gaussian_smooth, second_difference
     from ..dynamics.contacts import default_effectors, effector_positions, label_intervals
@@ -229,6 +233,23 @@ def detect_flights(motion, prior: BodyModel | None = None, still_speed: float = 
         flights.append(fit)
     order = np.argsort([f.start for f in flights])
     flights = [flights[i] for i in order]
+    if len(flights) >= 3 and agree_factor:
+        # one clip has one frame rate and one length unit, so its flights share one gravity:
+        # a flight whose fitted gravity is off the clip's (frame-weighted median) by more than
+        # ``agree_factor`` is not free flight (a roll, a slide, a hand-supported phase)
+        ls = np.log([f.scale for f in flights])
+        wts = np.array([f.n_frames for f in flights], dtype=float)
+        o = np.argsort(ls)
+        c = np.cumsum(wts[o])
+        ref = float(ls[o][np.searchsorted(c, 0.5 * c[-1])])
+        keep = []
+        for f, v in zip(flights, ls):
+            if abs(v - ref) > np.log(agree_factor):
+                rejected.append((f.start, f.stop, f"fitted gravity {f.gravity:.2f} m/s^2 disagrees with the clip's other "
+                                                  f"flights ({G * np.exp(ref):.2f} m/s^2) by more than {agree_factor:g}x"))
+            else:
+                keep.append(f)
+        flights = keep
     longest = int(np.argmax([f.n_frames for f in flights])) if flights else None
     return FlightDetection(flights=tuple(flights), longest=longest, candidates=tuple(cands), support=support,
                            effectors=names, still_speed=float(still_speed), com=com, rejected=tuple(rejected),
