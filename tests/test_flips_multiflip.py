@@ -59,6 +59,19 @@ def test_synthetic_acceptance(prepared, name, flips):
     assert res.motion.n_frames > P.motion.n_frames
 
 
+@pytest.mark.parametrize("flips", [2, 3])
+def test_root_is_continuous_through_take_off_and_landing(prepared, flips):
+    """No pop: output frames between the last flight frame and the first ground frame interpolate
+    two repositioned roots (before the fix the double flip's root jumped 0.34 m right after landing)."""
+    P = prepared["backflip"]
+    res = multiflip(P, flips=flips)
+    r = res.motion.root_positions
+    a, b = res.flight
+    step = np.linalg.norm(np.diff(r, axis=0), axis=1)
+    typical = np.median(step[a:b])
+    assert step[a - 3:a + 3].max() < 2.5 * typical and step[b - 3:b + 3].max() < 2.5 * typical
+
+
 def test_more_flips_take_more_copies_and_rotate_faster(prepared):
     P = prepared["backflip"]
     reps = [multiflip(P, flips=n).report for n in (2, 3, 4)]
@@ -118,6 +131,39 @@ def test_height_change_moves_the_landing(prepared):
     assert low.report.com_target_error < 1e-9
     with pytest.raises(PhysicsError, match="--height-change below"):
         multiflip(P, flips=2, height_change=5.0)
+
+
+def test_takeoff_height_change_is_the_landing_change_seen_from_above(prepared):
+    """App. B: y_start^new and y_end^new enter k* only through their difference, and the take-off
+    level is the parabola's c_y: raising the take-off by h is lowering the landing by h, seen
+    from h higher up."""
+    P = prepared["backflip"]
+    up = multiflip(P, flips=2, takeoff_height_change=0.4)
+    down = multiflip(P, flips=2, height_change=-0.4)
+    assert up.report.k_star == pytest.approx(down.report.k_star, rel=1e-12)
+    assert up.report.takeoff_height_change == 0.4 and up.report.dy == pytest.approx(down.report.dy)
+    np.testing.assert_allclose(up.motion.root_positions, down.motion.root_positions + [0.0, 0.4, 0.0], atol=1e-9)
+    np.testing.assert_allclose(up.motion.rotations, down.motion.rotations, atol=1e-12)
+    # the landing stays on the original floor, the take-off is 0.4 m up
+    assert up.motion.root_positions[-1, 1] == pytest.approx(P.motion.root_positions[-1, 1], abs=1e-9)
+    assert up.motion.root_positions[0, 1] == pytest.approx(P.motion.root_positions[0, 1] + 0.4, abs=1e-9)
+    assert up.report.com_target_error < 1e-9
+
+
+def test_levels_can_remove_the_need_for_retiming(prepared):
+    """App. B: "we can even eliminate the need for retiming by appropriately changing the take-off
+    and landing levels" so that k* = 1: the double flip keeps the original's speed and lands lower."""
+    from mocomp.flips import landing_change_for_k
+
+    P = prepared["backflip"]
+    h = landing_change_for_k(P, 2, k=1.0)
+    assert h < -0.5                                   # a double flip at the original speed needs a platform
+    R = multiflip(P, flips=2, height_change=h, k_ratio=1.0).report
+    assert R.k_star == pytest.approx(1.0, abs=1e-9) and R.k == pytest.approx(1.0, abs=1e-9)
+    assert abs(R.p_jump_takeoff_rel) < 1e-9
+    assert R.L_new == pytest.approx(R.L_original, rel=0.03)      # k = 1: the original rotation speed
+    h2 = landing_change_for_k(P, 2, k=1.2)
+    assert multiflip(P, flips=2, height_change=h2, k_ratio=1.0).report.k == pytest.approx(1.2, abs=1e-9)
 
 
 def test_report_json_timings_and_bvh_round_trip(prepared, tmp_path):

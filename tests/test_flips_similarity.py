@@ -110,3 +110,22 @@ def test_axis_quat_matches_scipy():
     axis = np.array([0.0, 0.6, 0.8])
     q = axis_quat(axis, np.array([0.3, -2.0]))
     np.testing.assert_allclose(q, Rotation.from_rotvec(np.outer([0.3, -2.0], axis)).as_quat(), atol=1e-12)
+
+
+def test_velocity_variant_in_the_loop_search_thresholds_the_pose_part():
+    """With the conference paper's angular-velocity term the pairs are ranked by the full
+    distance, but "similar" (eq. 5.9's threshold, degrees) is judged on the pose part."""
+    from mocomp.flips import prepare
+
+    from _flips_data import synthetic
+
+    m = synthetic("sideflip").motion
+    P0 = prepare(m)
+    Pv = prepare(m, velocity_weight=0.05)
+    assert Pv.loop.found and Pv.omegas is not None
+    D_pose, _ = frame_distance(Pv.rotations[Pv.loop.m], Pv.rotations[Pv.loop.n], Pv.axis,
+                               similarity_weights(m.skeleton))
+    wsum = Pv.weights.root + Pv.weights.joints.sum()
+    assert Pv.loop.mean_angle_deg == pytest.approx(np.degrees(D_pose / wsum))
+    assert Pv.loop.distance > D_pose                       # the velocity term is in the ranking distance
+    assert abs(Pv.loop.period - P0.loop.period) <= 6

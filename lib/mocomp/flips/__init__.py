@@ -18,7 +18,7 @@ retiming (:mod:`.retime`, App. B), repositioning (:mod:`.reposition`, eq. 5.15-5
 from .looping import SelfLoop, find_self_loop
 from .mass import (FlightFit, FlightTooShortError, MassEstimate, TimingDiagnosis, diagnose_gravity, diagnose_timing,
                    estimate_masses, fit_ballistic)
-from .multiflip import MultiFlipResult, PhysicsReport, multiflip
+from .multiflip import MultiFlipResult, PhysicsReport, landing_change_for_k, multiflip
 from .phases import FlightDetection, detect_flights
 from .preprocess import PreparedFlip, clip_prior, clip_timing, prepare, prepare_cached, spline_resample
 from .retime import RetimePlan, k_star, plan_retime
@@ -27,6 +27,7 @@ from .similarity import SimilarityWeights, frame_distance, similarity_weights
 
 __all__ = [
     "prepare", "prepare_cached", "PreparedFlip", "multiflip", "MultiFlipResult", "PhysicsReport", "demo",
+    "landing_change_for_k",
     "detect_flights", "FlightDetection", "estimate_masses", "MassEstimate", "FlightFit", "fit_ballistic",
     "diagnose_gravity", "FlightTooShortError", "find_self_loop", "SelfLoop", "build_sequence", "Sequence",
     "loop_count", "k_star", "plan_retime", "RetimePlan", "similarity_weights", "SimilarityWeights",

@@ -40,9 +40,10 @@ class SelfLoop:
     phi: radians, rotation about ``L`` gained per repetition, ``theta(n) - theta(m)``
         (the root twist about ``L``, so the rotation stays exactly continuous).
     phi_aligned: radians, eq. 5.12's alignment angle for the pair (unwrapped next to ``phi``).
-    distance: eq. 5.13 distance ``D(R(f_m, phi), f_n)`` (weighted radians).
-    mean_angle_deg: ``distance`` divided by the sum of weights, in degrees (a
-        readable "average joint-angle mismatch").
+    distance: eq. 5.13 distance ``D(R(f_m, phi), f_n)`` (weighted radians; with the conference
+        paper's angular-velocity term when the weights have one).
+    mean_angle_deg: the pose part of ``distance`` divided by the sum of weights, in degrees (a
+        readable "average joint-angle mismatch"; the similarity threshold applies to it).
     found: ``True`` when a pair met the similarity threshold; ``False`` means the
         fallback of section 5.2 (join the best pair by wider smoothing).
     n_pairs: number of pairs scored.
@@ -122,7 +123,14 @@ def find_self_loop(rotations: np.ndarray, theta: np.ndarray, flight: tuple[int, 
     phi_al = phi + ((phi_al - phi + np.pi) % (2 * np.pi) - np.pi)
     cost = D / phi
     wsum = weights.root + float(np.sum(weights.joints))
-    mean_deg = np.degrees(D / wsum)
+    if weights.velocity_weight > 0:
+        # the threshold is on the pose mismatch (degrees); the velocity term only ranks the pairs
+        import dataclasses
+
+        D_pose, _ = frame_distance(rot[mi], rot[ni], axis, dataclasses.replace(weights, velocity_weight=0.0))
+    else:
+        D_pose = D
+    mean_deg = np.degrees(D_pose / wsum)
     good = mean_deg <= max_mean_angle
     found = bool(np.any(good))
     pool = np.flatnonzero(good) if found else np.arange(D.size)

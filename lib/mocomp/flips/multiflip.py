@@ -42,7 +42,7 @@ from ._kernels import seam_block_nb, slerp_rows_nb
 from ._quat import qapply, qconj, qmul, qpow, slerp_rows
 from .smoothing import compose_root, ramp, shortest_arc, split_root
 
-__all__ = ["PhysicsReport", "MultiFlipResult", "multiflip", "slerp_frames"]
+__all__ = ["PhysicsReport", "MultiFlipResult", "multiflip", "slerp_frames", "landing_change_for_k"]
 
 RUNTIME_STAGES = ("sequence", "smooth", "retime", "reposition", "assemble")
 
@@ -96,8 +96,8 @@ class PhysicsReport:
     (elevation of the COM velocity). Linear momentum jumps (kg m/s): ``p_jump_takeoff``,
     ``p_jump_landing``, and relative to ``M |v|`` at take-off: ``p_jump_takeoff_rel``,
     ``p_jump_landing_rel``. Landing: ``landing_orientation_error`` (final root orientation
-    vs the original's final one). ``height_change`` (m), ``dy`` (m, landing minus take-off
-    COM level of the new motion).
+    vs the original's final one). ``height_change`` (m, landing level change),
+    ``takeoff_height_change`` (m), ``dy`` (m, landing minus take-off COM level of the new motion).
     ``times_ms``: per stage, ``runtime_total`` (sum of run-time stages),
     ``loop_search`` (pre-processing, cached), ``preprocess_total``, ``evaluate``.
     Seams: ``seam_retimed`` (eq. 5.22 non-uniform retiming across the seams, section
@@ -165,6 +165,7 @@ class PhysicsReport:
     seam_speed_max: float = 1.0
     L_profile_deviation_max: float = float("nan")
     L_profile_deviation_rms: float = float("nan")
+    takeoff_height_change: float = 0.0
 
     def to_dict(self) -> dict:
         d = dataclasses.asdict(self)
@@ -216,7 +217,8 @@ class PhysicsReport:
             f"kg m/s ({100 * self.p_jump_takeoff_rel:+.1f}%), at landing {self.p_jump_landing:+.2f} "
             f"({100 * self.p_jump_landing_rel:+.1f}%)",
             f"landing: final root orientation differs from the original's by {self.landing_orientation_error:.2f} deg; "
-            f"height change {self.height_change:+.3f} m",
+            f"height change {self.height_change:+.3f} m at landing, {self.takeoff_height_change:+.3f} m at take-off "
+            f"(landing {self.dy:+.3f} m from the take-off level)",
             "times (ms): " + ", ".join(f"{k} {v:.3f}" for k, v in t.items()),
         ]
         if self.seam_retimed:
@@ -277,7 +279,7 @@ class MultiFlipResult:
 def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None = None,
               k_ratio: float | None = None, height_change: float = 0.0, extra_rotation: float | None = None,
               window: int | None = None, evaluate: bool = True, max_delta: float | None = None,
-              seam_retime: bool = True) -> MultiFlipResult:
+              seam_retime: bool = True, takeoff_height_change: float = 0.0) -> MultiFlipResult:
     """Turn a prepared single flip into a ``flips``-somersault jump (section 5).
 
     Parameters
@@ -287,7 +289,12 @@ def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None 
     k: explicit retiming factor (``> 1`` faster); default ``k_ratio * k*`` with ``k_ratio = 0.7``
         (section 5.3). Give one of ``k`` and ``k_ratio``.
     height_change: m, landing level change (negative = land lower, e.g. off a platform);
-        App. B: must stay below ``v0 T``.
+        App. B: the landing may rise above the take-off by less than ``v0 T``.
+    takeoff_height_change: m, take-off level change (App. B's ``y_start^new``: the ground phase
+        before the flight and the parabola's ``c_y`` move by it; positive = take off from higher up,
+        e.g. a platform). ``dy^new = dy + height_change - takeoff_height_change`` enters k*.
+        :func:`landing_change_for_k` gives the landing change for which ``k* = k`` (App. B: with
+        ``k = 1`` no retiming is needed).
     window: seam smoothing half-window in frames (default ``prepared.default_window()``).
     evaluate: compute the physics report (momentum of the new motion; timed separately).
     max_delta: radians, largest rotation mismatch accepted at the landing join.
@@ -375,19 +382,22 @@ def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None 
         T_seq = float(W[seq.landing] - W_to) / fps
     com0 = P.com[s]
     com_land = P.com[e - 1]
-    dy = float(com_land[1] - com0[1] + height_change)
+    h0 = float(takeoff_height_change)
+    dy = float(com_land[1] - com0[1] + height_change - h0)
     v_land = fit.b_y + 2.0 * fit.a_y * T0
     try:
         plan = plan_retime(fit.gravity, T_seq, fit.b_y, dy, v_land, k=k, k_ratio=k_ratio)
     except PhysicsError as exc:
         if "radicand" not in str(exc):
             raise
-        limit = fit.b_y * T_seq - (dy - height_change)
+        own = dy - height_change + h0
+        limit = fit.b_y * T_seq - own + h0
         raise PhysicsError(
-            f"impossible height change {height_change:+.3f} m for a {flips}-flip from this clip: k* (App. B) needs "
-            f"the landing less than v0*T = {fit.b_y * T_seq:.3f} m above the take-off (v0 = {fit.b_y:.3f} m/s, "
-            f"sequenced flight T = {T_seq:.3f} s); the clip already lands {dy - height_change:+.3f} m from its "
-            f"take-off level, so use --height-change below {limit:.3f} m (or an explicit --k)") from None
+            f"impossible height change (landing {height_change:+.3f} m, take-off {h0:+.3f} m) for a {flips}-flip from "
+            f"this clip: k* (App. B) needs the landing less than v0*T = {fit.b_y * T_seq:.3f} m above the take-off "
+            f"(v0 = {fit.b_y:.3f} m/s, sequenced flight T = {T_seq:.3f} s); the clip already lands {own:+.3f} m from "
+            f"its take-off level, so use --height-change below {limit:.3f} m (or raise the take-off with "
+            f"--takeoff-height-change, or give an explicit --k)") from None
     kk = plan.k
     if W is None:
         tau = sample_positions(nseq, kk)
@@ -401,12 +411,18 @@ def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None 
     timings["retime"] = t3 - t2
     # ------------------------------------------------------------- reposition
     rp_seq = P.motion.root_positions[src]
+    if h0:                                                          # App. B: the take-off level y_start^new
+        com0 = com0 + np.array([0.0, h0, 0.0])
+        rp_seq[:seq.takeoff + 1, 1] += h0
     traj = flight_trajectory(com0, fit.a_x, fit.a_z, fit.a_y, kk, plan.vy_takeoff_new, plan.T_new)
     post = seq.landing + 1
     if q_land is None:
         rp_seq[post:] += traj.end - com_land                         # eq. 5.16 (offset incl. height)
     else:                                                           # turned about the vertical
         rp_seq[post:] = quat_apply(q_land, rp_seq[post:] - com_land) + traj.end
+    # the last flight frame where the parabola ends, so output frames between it and the first
+    # ground frame interpolate between two repositioned roots
+    rp_seq[seq.landing] = traj.end - P.com_eval.relative(rot[seq.landing:seq.landing + 1])[0]
     root_out = rp_seq[i0] + al[:, None] * (rp_seq[i0 + 1] - rp_seq[i0])
     fl = np.flatnonzero((tau >= seq.takeoff - 1e-9) & (tau <= seq.landing + 1e-9))
     tf = (tw[fl] - W_to) / (kk * fps)
@@ -424,10 +440,24 @@ def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None 
     report, mom = None, None
     if evaluate:
         report, mom = _evaluate(P, seq, plan, traj, new, flight_out, timings, height_change, dy, flips,
-                                extra_rotation, W_to, speed, tau, w)
+                                extra_rotation, W_to, speed, tau, w, h0)
     return MultiFlipResult(motion=new, original=P.motion, prepared=P, sequence=seq, plan=plan, trajectory=traj,
                            seq_positions=tau, flight=flight_out, report=report, timings=timings, momentum=mom,
                            seq_times=tw, takeoff_time=W_to, speed=speed)
+
+
+def landing_change_for_k(prepared: PreparedFlip, flips: int | None = 2, k: float = 1.0, *,
+                         takeoff_height_change: float = 0.0, **options) -> float:
+    """App. B: the landing-level change (m, for ``height_change``) that makes ``k* = k``, from
+    ``k*^2 = (g T / 2) / (v0 - dy / T)``: ``dy = T (v0 - g T / (2 k^2))``. With ``k = 1`` "we can
+    even eliminate the need for retiming by appropriately changing the take-off and landing
+    levels": the multi-flip keeps the original's speed and lands that much lower (a platform).
+    ``options`` are :func:`multiflip`'s (sequencing and seam retiming fix ``T``)."""
+    if not (np.isfinite(k) and k > 0):
+        raise ValueError(f"k must be positive, got {k!r}")
+    res = multiflip(prepared, flips, k=1.0, evaluate=False, takeoff_height_change=takeoff_height_change, **options)
+    T, v0, g = res.plan.T_seq, res.plan.v0, res.plan.g
+    return float(T * (v0 - g * T / (2.0 * k * k)) - res.plan.dy)
 
 
 def _seam_speeds(P: PreparedFlip, seq: Sequence, rot: np.ndarray, w: int, hi_u: int, la: int, rb: int) -> np.ndarray:
@@ -484,7 +514,7 @@ def _ballistic_residual(com: np.ndarray, fps: float) -> tuple[float, float]:
 def _evaluate(P: PreparedFlip, seq: Sequence, plan: RetimePlan, traj: FlightTrajectory, new: Motion,
               flight_out: tuple[int, int], timings: dict, height_change: float, dy: float, flips, extra_rotation,
               W_to: float | None = None, speeds: np.ndarray | None = None, tau: np.ndarray | None = None,
-              window: int | None = None):
+              window: int | None = None, takeoff_height_change: float = 0.0):
     from ..dynamics import momentum as compute_momentum
 
     t = time.perf_counter()
@@ -556,6 +586,7 @@ def _evaluate(P: PreparedFlip, seq: Sequence, plan: RetimePlan, traj: FlightTraj
         landing_orientation_error=land_err, height_change=float(height_change), dy=dy, times_ms=times,
         notes=tuple(notes), seam_retimed=speeds is not None,
         L_profile_deviation_max=float(np.max(np.abs(prof))), L_profile_deviation_rms=float(np.sqrt(np.mean(prof ** 2))),
+        takeoff_height_change=float(takeoff_height_change),
         seam_speed_min=float(speeds.min()) if speeds is not None else 1.0,
         seam_speed_max=float(speeds.max()) if speeds is not None else 1.0)
     return rep, mom
