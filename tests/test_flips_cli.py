@@ -28,6 +28,15 @@ def test_cli_explicit_k_and_height_change(tmp_path, capsys):
     assert d["k"] == 1.2 and d["height_change"] == -0.3 and d["flips"] == 3
 
 
+def test_cli_levels_shape_joint_flights_and_k_star(tmp_path):
+    rep = tmp_path / "r.json"
+    assert main(["flips", "backflip", "--k-ratio", "1", "--takeoff-height-change", "0.3", "--shape", "cuboid",
+                 "--joint-flights", "--no-seam-retime", "-o", str(tmp_path / "t.bvh"), "--report", str(rep)]) == 0
+    d = json.loads(rep.read_text())
+    assert d["takeoff_height_change"] == 0.3 and d["k"] == pytest.approx(d["k_star"])
+    assert abs(d["p_jump_takeoff_rel"]) < 1e-9 and d["seam_retimed"] is False
+
+
 @pytest.mark.parametrize("argv, message", [
     (["flips", "backflip", "--flips", "1"], "at least 2"),
     (["flips", "backflip", "--height-change", "6"], "--height-change below"),

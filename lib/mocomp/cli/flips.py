@@ -20,6 +20,8 @@ def register(subparsers) -> None:
     k.add_argument("--k", type=float, default=None, help="explicit retiming factor (>1 = faster)")
     p.add_argument("--height-change", type=float, default=0.0, metavar="DY",
                    help="change of the landing level in metres (negative = land lower)")
+    p.add_argument("--takeoff-height-change", type=float, default=0.0, metavar="DY0",
+                   help="change of the take-off level in metres (positive = take off from higher up; App. B)")
     p.add_argument("-o", "--output", required=True, metavar="OUT.bvh", help="where to write the new motion (BVH)")
     p.add_argument("--report", metavar="report.json", help="also write the physics report as JSON")
     p.add_argument("--fps", type=float, default=None, help="frame rate to use instead of the file's")
@@ -29,6 +31,12 @@ def register(subparsers) -> None:
                    help="flight frames [START, STOP) instead of detecting them")
     p.add_argument("--total-mass", type=float, default=70.0, help="body mass in kg for the prior (default 70)")
     p.add_argument("--no-mass-estimate", action="store_true", help="keep the table's mass distribution")
+    p.add_argument("--joint-flights", action="store_true",
+                   help="estimate the masses from every flight of the clip jointly (e.g. hops beside the flip)")
+    p.add_argument("--shape", choices=("ellipsoid", "cuboid"), default="ellipsoid",
+                   help="segment solids for the inertias (flips paper: ellipsoids; dissertation eq. 5.3: cuboids)")
+    p.add_argument("--no-seam-retime", action="store_true",
+                   help="uniform retiming only (no eq. 5.22 non-uniform retiming across the seams)")
     p.add_argument("--filmstrip", metavar="PNG", help="also draw the original and the result side by side")
     p.set_defaults(func=run)
 
@@ -44,8 +52,10 @@ def run(args: argparse.Namespace) -> int:
     if args.k_ratio is not None and not (math.isfinite(args.k_ratio) and args.k_ratio > 0):
         raise ValueError(f"--k-ratio must be a positive number, got {args.k_ratio}")
     prep = prepare(args.input, fps=args.fps, fix_timing=args.fix_timing, total_mass=args.total_mass,
-                   flight=tuple(args.flight) if args.flight else None, estimate=not args.no_mass_estimate)
-    res = multiflip(prep, flips=args.flips, k=args.k, k_ratio=args.k_ratio, height_change=args.height_change)
+                   flight=tuple(args.flight) if args.flight else None, estimate=not args.no_mass_estimate,
+                   joint_flights=args.joint_flights, shape=args.shape)
+    res = multiflip(prep, flips=args.flips, k=args.k, k_ratio=args.k_ratio, height_change=args.height_change,
+                    takeoff_height_change=args.takeoff_height_change, seam_retime=not args.no_seam_retime)
     out = write_bvh(res.motion, args.output)
     print(prep.summary())
     print(res.report)
