@@ -172,7 +172,7 @@ def load_responses(path: str | Path, *, allow_mixed_sets: bool = False) -> Respo
         by = allr.groupby("stimulus_set_id")["source_file"].unique()
         desc = "; ".join(f"{s}: {len(v)} file(s), e.g. {v[0]}" for s, v in by.items())
         raise StudyDataError(f"responses come from {len(sets)} different stimulus sets ({desc}); analyse them "
-                             "separately or pass allow_mixed_sets=True", path, column="stimulus_set_id")
+                             "separately, or pass --allow-mixed-sets (allow_mixed_sets=True)", path, column="stimulus_set_id")
     allr["incorrect"] = (allr["response"] == "incorrect").astype(int)
     allr["condition"] = [condition_label(p, d, lv) for p, d, lv in
                          zip(allr["perturbation"], allr["direction"], allr["nominal_level"])]
@@ -655,8 +655,10 @@ def report_markdown(res: AnalysisResult) -> str:
     ceil = c.loc[c["perturbation"] != "none", "ceiling"]
     lines = [
         "# Perception study: analysis report", "",
-        f"- participants: {s['n_participants']} ({len(s['excluded_participants'])} excluded by the attention "
-        f"criterion {s['min_attention']}); test trials: {s['n_test_trials']}; files: {s['n_files']}"
+        f"- participants: {s['n_participants']} "
+        + (f"({len(s['excluded_participants'])} excluded: attention-check pass rate below {s['min_attention']})"
+           if s["min_attention"] is not None else "(no attention-check exclusion)")
+        + f"; test trials: {s['n_test_trials']}; files: {s['n_files']}"
         + (f" ({len(s['skipped_files'])} header-only skipped)" if s["skipped_files"] else ""),
         f"- stimulus set(s): {', '.join(s['stimulus_set_ids'])}",
         f"- d' = z(H) - z(F), H = P(\"incorrect\" | perturbed), F = P(\"incorrect\" | unperturbed, "
@@ -682,6 +684,12 @@ def report_markdown(res: AnalysisResult) -> str:
     for _, r in res.psychometric.iterrows():
         lines.append(f"| {r['perturbation']}/{r['direction']} | {r['slope']:.4f} ± {r['slope_se']:.4f} | "
                      f"{r['threshold']:.1f} | [{r['threshold_ci_low']:.1f}, {r['threshold_ci_high']:.1f}] |")
+    if len(res.mixed):
+        lines += ["", "## Mixed model (log odds ratio of \"incorrect\" against the group's unperturbed motions)", "",
+                  "| group | term | estimate | 95% CI | p |", "|---|---|---|---|---|"]
+        for _, r in res.mixed.iterrows():
+            lines.append(f"| {r['group']} | {r['term']} | {r['estimate']:.2f} | [{r['ci_low']:.2f}, {r['ci_high']:.2f}] | "
+                         + ("" if pd.isna(r["p"]) else f"{r['p']:.3g}") + " |")
     if len(res.attention):
         lines += ["", f"Attention checks: mean pass rate {res.attention['pass_rate'].mean():.2f}."]
     lines += ["", "Files: conditions.csv (tidy, one row per condition), trials.csv, participants_*.csv, "

@@ -88,11 +88,14 @@ def fit_logit_glmm(X: np.ndarray, k: np.ndarray, n: np.ndarray, group: np.ndarra
         start = np.r_[np.zeros(F), np.log(0.5)]
         start[0] = np.log(p0 / (1 - p0)) if np.allclose(X[:, 0], 1) else 0.0
     bounds = [(None, None)] * F + [(np.log(1e-4), np.log(20.0))]
-    res = minimize(negll, np.asarray(start, float), method="L-BFGS-B", bounds=bounds,
-                   options=dict(maxiter=2000, ftol=1e-12, gtol=1e-7))
     from statsmodels.tools.numdiff import approx_hess2
+    from threadpoolctl import threadpool_limits
 
-    H = approx_hess2(res.x, negll)
+    # many tiny BLAS calls: threads only add synchronisation (much slower on a loaded machine)
+    with threadpool_limits(limits=1, user_api="blas"):
+        res = minimize(negll, np.asarray(start, float), method="L-BFGS-B", bounds=bounds,
+                       options=dict(maxiter=2000, ftol=1e-12, gtol=1e-7))
+        H = approx_hess2(res.x, negll)
     try:
         cov = np.linalg.inv(H)
         se = np.sqrt(np.where(np.diag(cov) > 0, np.diag(cov), np.nan))
