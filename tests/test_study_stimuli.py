@@ -190,6 +190,18 @@ def test_angular_momentum_error_known_answer(toy, kind, direction, level):
     assert -2 * np.polyfit(t, Cb[fa:fb, 1], 2)[0] == pytest.approx(G, rel=1e-9)
     assert meas["takeoff_angle_change_deg"] == pytest.approx(0.0, abs=0.01)
     assert meas["flight_s"] == pytest.approx(rb.warp.new_T)
+    # the velocity jump the perturbation adds at take-off: the whole take-off velocity is scaled,
+    # v = kappa v0, and the motion shows exactly that jump against the control (same ground phase)
+    v, v0 = rb.velocity, control.velocity
+    assert meas["takeoff_dv_added_ms"] == pytest.approx(np.linalg.norm(v - v0))
+    kappa = v[1] / v0[1]
+    assert np.allclose(v, kappa * v0) and (kappa < 1) == (e > 0)  # faster rotation, shorter and lower flight
+    a = flight[0]
+    jump = (C[fa + 1] - C[fa]) * m.fps - (C0[a + 1] - C0[a]) * m.fps
+    assert np.linalg.norm(jump - (v - v0)) < 0.05
+    land = (v - G * rb.warp.new_T * np.array([0, 1.0, 0])) - (v0 - G * rb.warp.T * np.array([0, 1.0, 0]))
+    assert meas["landing_dv_added_ms"] == pytest.approx(np.linalg.norm(land))
+    assert meas["landing_rate"] == pytest.approx(1 + e, abs=0.02 * abs(e) + 1e-9)
 
 
 @pytest.mark.parametrize("direction,level", [("increase", 0.1), ("increase", 0.4), ("decrease", 0.3)])
@@ -208,6 +220,10 @@ def test_takeoff_angle_error_known_answer(toy, direction, level):
     expect = np.degrees(np.arctan2(v0[1], abs(v0[0]) * (1 + e))) - np.degrees(np.arctan2(v0[1], abs(v0[0])))
     assert meas["takeoff_angle_change_deg"] == pytest.approx(expect, abs=1e-6)
     assert meas["landing_shift_m"] == pytest.approx(abs(e * v0[0]) * rb.warp.T, rel=1e-9)
+    # the added velocity jump is the horizontal change e v_h, at take-off and at touchdown alike
+    assert meas["takeoff_dv_added_ms"] == pytest.approx(abs(e * v0[0]), rel=1e-9)
+    assert meas["landing_dv_added_ms"] == pytest.approx(abs(e * v0[0]), rel=1e-9)
+    assert meas["landing_rate"] == 1.0
 
 
 def test_takeoff_needs_horizontal_travel():
