@@ -75,3 +75,36 @@ def test_discover_only_and_main_json(runner, tmp_path, monkeypatch, capsys):
     assert doc["quick"] is True and doc["results"][0]["passed"] is True and doc["machine"]["cpus"] >= 1
     assert runner.main([]) == 1
     assert "FAIL" in capsys.readouterr().out
+
+
+def test_benchmark_docs_from_json(tmp_path):
+    """scripts/write_benchmark_docs.py: the Markdown table is generated from the JSON alone."""
+    spec = importlib.util.spec_from_file_location("bench_docs", ROOT / "scripts" / "write_benchmark_docs.py")
+    docs = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(docs)
+    doc = {"created": "2026-01-01T00:00:00+00:00", "quick": False, "data_dir": "set",
+           "machine": {"cpus": 2, "python": "3.11", "numpy": "2.0", "platform": "linux", "processor": "x86_64",
+                       "load_before": [3.5, 3.2, 3.1], "load_after": [3.0, 3.1, 3.1]},
+           "results": [
+               {"module": "fk", "name": "fk 31j", "ours_s": 0.0105, "peer": "bvhio | x", "peer_s": 1.81,
+                "ratio": 172.4, "goal": "ours_s <= 0.05", "note": "max diff 6.6e-07 m", "passed": True},
+               {"module": "io", "name": "AMC read", "ours_s": 0.071, "peer": None, "peer_s": None, "ratio": None,
+                "goal": None, "note": None, "passed": None},
+               {"module": "x", "name": "slow", "ours_s": 2e-5, "peer": None, "peer_s": None, "ratio": None,
+                "goal": "ours_s <= 1e-6", "note": None, "passed": False},
+               {"module": "bad", "name": "bad", "ours_s": None, "peer": None, "peer_s": None, "ratio": None,
+                "goal": None, "note": None, "passed": False, "error": "RuntimeError: boom"}]}
+    md = docs.render_markdown(doc)
+    lines = md.splitlines()
+    table = [ln for ln in lines if ln.startswith("| ") and not ln.startswith(("| module", "| ---"))]
+    assert len(table) == 4
+    assert table[0] == ("| fk | fk 31j | 10.5 ms | bvhio \\| x | 1.81 s | 172.4x | ours_s <= 0.05 | PASS |")
+    assert "| 20 µs |" in table[2] and table[2].endswith("| FAIL |") and table[3].endswith("| ERROR |")
+    assert "Goals: 1 of 3 pass." in md and "before the run 3.50 / 3.20 / 3.10" in md
+    assert "- **bad**: RuntimeError: boom" in md
+    src = tmp_path / "in.json"
+    src.write_text(json.dumps(doc))
+    out = tmp_path / "docs"
+    assert docs.main(["--from-json", str(src), "--out", str(out)]) == 1   # a goal fails
+    assert (out / "benchmarks.md").read_text() == md
+    assert json.loads((out / "benchmarks.json").read_text()) == doc
