@@ -329,7 +329,7 @@ def _load(source, fps):
 def prepare(source, *, body: BodyModel | None = None, total_mass: float = 70.0, table: str = "de_leva_male",
             shape: str = "ellipsoid", fps: float | None = None, fix_timing: bool = False,
             min_fps: float = 50.0, resample_fps: float = 120.0, flight: tuple[int, int] | None = None,
-            estimate: bool = True, joint_flights: bool = False, W: float = 3e-4,
+            estimate: bool = True, joint_flights: bool = False, W: float = 1e-2,
             smooth_sigma: float | None = None, weight_overrides: dict | None = None,
             velocity_weight: float = 0.0, loop_options: dict | None = None) -> PreparedFlip:
     """Pre-process a single-flip clip (sections 4.1-4.3 and the self-looping search).
