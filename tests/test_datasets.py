@@ -4,6 +4,7 @@ from __future__ import annotations
 import hashlib
 import http.server
 import json
+import re
 import threading
 import types
 import warnings
@@ -68,7 +69,7 @@ def fake_data_dir(tmp_path, monkeypatch):
     cmu = UNITS["cmu"]
     write_bvh(small_motion(tpose=True), root / "flips" / "cmu_88_07_testflip.bvh", scale=cmu)
     f = write_bvh(small_motion(seed=1), root / "jumps" / "01_01.bvh", scale=cmu)
-    f.write_text(f.read_text().replace("Frame Time: 0.0083333333", "Frame Time: .0083333"))  # as cgspeed writes it
+    f.write_text(re.sub(r"Frame Time: \S+", "Frame Time: .0083333", f.read_text()))  # as cgspeed writes it
     (root / "jumps" / "01_01.amc").write_text(":FULLY-SPECIFIED\n:DEGREES\n1\nroot 0 0 0 0 0 0\n")
     write_bvh(small_motion(seed=2), root / "jumps" / "sfu_0005_Hop001.bvh", scale=0.0254)
     (root / "jumps" / "deepmimic_hop.txt").write_text('{"Loop": "none", "Frames": [[0.1, 0, 1, 0, 1, 0, 0, 0]]}')

@@ -539,7 +539,9 @@ def format_bvh(motion: Motion, scale: float = 1.0, precision: int = 8, channels=
     data = np.column_stack(cols) if cols else np.zeros((T, 0))
     out.append("MOTION")
     out.append(f"Frames: {T}")
-    out.append(f"Frame Time: {1.0 / motion.fps:.10f}")
+    # shortest exact repr: reading it back gives the frame rate to the last bit or so
+    # (a fixed 10 decimals turned 120 fps into 120.00000048)
+    out.append(f"Frame Time: {float(1.0 / motion.fps)!r}")
     out.extend(_fmt(data, precision))
     return "\n".join(out) + "\n"
 
