@@ -354,7 +354,8 @@ def diagnose_timing(fits, fps: float, height: float | None = None, level: float 
             if len(cands) == 1:
                 text += f"; the one common capture rate in that interval is {suggested:g} Hz"
             else:
-                text += (f"; the common capture rates {_rates(sorted(cands))} Hz are all consistent with the flights "
+                text += (f"; the common capture rates {_rates(sorted(cands))} Hz are "
+                         f"{'both' if len(cands) == 2 else 'all'} consistent with the flights "
                          f"(they cannot tell them apart), {suggested:g} Hz is the nearest")
             text += f": reload it with fps={suggested:g} (CLI: --fps {suggested:g})"
         else:

@@ -139,9 +139,10 @@ def plan_retime(g: float, T_seq: float, v0: float, dy: float, v_land: float,
         kv0 = k * v0
         rel = (vy_new - kv0) / abs(kv0) if abs(kv0) > 1e-12 else float("nan")
         note = (f"k = {k / ks:.2f} k*: the flight keeps its retimed duration and both end levels, so it leaves "
-                f"at {vy_new:.2f} m/s vertically while the retimed take-off reaches {kv0:.2f} m/s: linear "
-                f"momentum jumps by {100 * rel:+.0f}% at take-off (and {vy_land_new - k * v_land:+.2f} m/s at "
-                f"landing); k = k* (k_ratio=1, --k-ratio 1) keeps it continuous")
+                f"at {vy_new:.2f} m/s vertically while the retimed take-off reaches {kv0:.2f} m/s: the vertical "
+                f"linear momentum jumps by {100 * rel:+.0f}% at take-off (and the vertical velocity by "
+                f"{vy_land_new - k * v_land:+.2f} m/s at landing); k = k* (k_ratio=1, --k-ratio 1) keeps it "
+                f"continuous")
     return RetimePlan(k=float(k), k_star=float(ks), k_ratio=float(k / ks) if np.isfinite(ks) else float("nan"),
                       g=float(g), T_seq=float(T_seq), T_new=float(T_new), v0=float(v0), dy=float(dy),
                       vy_takeoff_new=float(vy_new), vy_takeoff_jump=float(vy_new - k * v0),
