@@ -1,5 +1,6 @@
 """The run-time kernels agree with the core rotation functions (mocomp.flips._quat)."""
 import numpy as np
+import pytest
 from scipy.spatial.transform import Rotation
 
 from mocomp.core.motion import slerp
@@ -84,3 +85,26 @@ def test_multiflip_same_with_and_without_compiled_kernels(monkeypatch):
     slow = multiflip(P, flips=3, evaluate=False)
     assert ang(fast.motion.rotations, slow.motion.rotations).max() < 1e-9
     np.testing.assert_allclose(fast.motion.root_positions, slow.motion.root_positions, atol=1e-9)
+
+
+def test_compiled_frame_distance_matches_numpy():
+    """The landing search's compiled eq. 5.12-5.13 equals :func:`frame_distance` (random pairs,
+    including opposite quaternion signs)."""
+    from mocomp.flips import prepare
+    from mocomp.flips._kernels import AVAILABLE, frame_distance_nb
+    from mocomp.flips.similarity import frame_distance
+
+    from _flips_data import synthetic
+
+    if not AVAILABLE:
+        pytest.skip("numba not importable")
+    P = prepare(synthetic("sideflip").motion)
+    rng = np.random.default_rng(0)
+    i, j = rng.integers(0, P.motion.n_frames, (2, 300))
+    r2 = np.array(P.rotations[j])
+    r2[::3] *= -1.0
+    D1, p1 = frame_distance(P.rotations[i], r2, P.axis, P.weights)
+    D2, p2 = frame_distance_nb(P.rotations[i], r2, P.axis, P.weights)
+    np.testing.assert_allclose(D2, D1, atol=1e-12)
+    np.testing.assert_allclose(np.angle(np.exp(1j * (p2 - p1))), 0.0, atol=1e-12)
+    assert D1.max() > 0.5                       # the pairs are not trivially similar

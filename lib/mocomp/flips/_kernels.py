@@ -24,7 +24,7 @@ try:
 except Exception:  # pragma: no cover - numba is a dependency; keep the library importable without it
     AVAILABLE = False
 
-__all__ = ["AVAILABLE", "slerp_rows_nb", "com_relative_nb", "seam_block_nb", "warmup"]
+__all__ = ["AVAILABLE", "slerp_rows_nb", "com_relative_nb", "seam_block_nb", "frame_distance_nb", "warmup"]
 
 if AVAILABLE:
     @numba.njit(cache=True, nogil=True)
@@ -154,6 +154,53 @@ if AVAILABLE:
         return blk
 
 
+if AVAILABLE:
+    @numba.njit(cache=True, nogil=True)
+    def _frame_distance(r1, r2, axis, wr, nz, wj, out_d, out_phi):
+        N = r1.shape[0]
+        ax, ay, az = axis[0], axis[1], axis[2]
+        for p in range(N):
+            # eq. 5.12: twist about the axis of q_r2 q_r1^-1, wrapped to (-pi, pi]
+            x, y, z, w = _qmul(r2[p, 0, 0], r2[p, 0, 1], r2[p, 0, 2], r2[p, 0, 3],
+                               -r1[p, 0, 0], -r1[p, 0, 1], -r1[p, 0, 2], r1[p, 0, 3])
+            phi = 2.0 * math.atan2(x * ax + y * ay + z * az, w)
+            phi = (phi + math.pi) % (2.0 * math.pi) - math.pi
+            h = 0.5 * phi
+            c, s_ = math.cos(h), math.sin(h)
+            # aligned root q_phi q_r1, then the angle of q_r2 aligned^-1
+            bx, by, bz, bw = _qmul(s_ * ax, s_ * ay, s_ * az, c, r1[p, 0, 0], r1[p, 0, 1], r1[p, 0, 2], r1[p, 0, 3])
+            x, y, z, w = _qmul(r2[p, 0, 0], r2[p, 0, 1], r2[p, 0, 2], r2[p, 0, 3], -bx, -by, -bz, bw)
+            d = wr * 2.0 * math.atan2(math.sqrt(x * x + y * y + z * z), abs(w))
+            # eq. 5.13: weighted joint-angle differences
+            for k in range(nz.shape[0]):
+                j = nz[k]
+                x, y, z, w = _qmul(r2[p, j, 0], r2[p, j, 1], r2[p, j, 2], r2[p, j, 3],
+                                   -r1[p, j, 0], -r1[p, j, 1], -r1[p, j, 2], r1[p, j, 3])
+                d += wj[k] * 2.0 * math.atan2(math.sqrt(x * x + y * y + z * z), abs(w))
+            out_d[p] = d
+            out_phi[p] = phi
+        return out_d
+
+
+def frame_distance_nb(rot1: np.ndarray, rot2: np.ndarray, axis: np.ndarray, weights) -> tuple[np.ndarray, np.ndarray]:
+    """Compiled :func:`mocomp.flips.similarity.frame_distance` for ``(N, J, 4)`` frame pairs without the
+    velocity term: ``(D (N,), phi (N,))`` (same results to rounding, tested)."""
+    r1 = np.ascontiguousarray(rot1, dtype=np.float64)
+    r2 = np.ascontiguousarray(rot2, dtype=np.float64)
+    if not r1.flags.writeable:
+        r1 = r1.copy()
+    if not r2.flags.writeable:
+        r2 = r2.copy()
+    nz = np.flatnonzero(weights.joints).astype(np.int64)
+    wj = np.ascontiguousarray(weights.joints[nz], dtype=np.float64)
+    a = np.asarray(axis, dtype=np.float64)
+    a = np.ascontiguousarray(a / np.linalg.norm(a))
+    N = r1.shape[0]
+    phi = np.empty(N)
+    D = _frame_distance(r1, r2, a, float(weights.root), nz, wj, np.empty(N), phi)
+    return D, phi
+
+
 def seam_block_nb(blk, wts, left, off_l, off_r, arc_l, arc_r, theta, axis, ref):
     """In-place seam smoothing of a block of frames (see :mod:`mocomp.flips.multiflip`)."""
     def c(x, dtype=np.float64):        # small writable copies: one compiled signature (no read-only variants)
@@ -196,4 +243,12 @@ def warmup() -> None:
     com_relative_nb(q, np.arange(2, dtype=np.int64), np.zeros(2, dtype=np.int64), np.zeros((2, 3)))
     seam_block_nb(q.copy(), np.zeros(2), np.array([True, False]), q[0], q[0], q[0, 0], q[0, 0], np.zeros(2),
                   np.array([1.0, 0.0, 0.0]), q[0, 0])
+    _frame_distance(q, q, np.array([1.0, 0.0, 0.0]), 1.0, np.arange(2, dtype=np.int64), np.ones(2), np.empty(2),
+                    np.empty(2))
+    from ..flips.seamtime import _NUMBA, _angular_nb
+
+    if _NUMBA:
+        _angular_nb(np.concatenate([q, q[:1]]), np.array([-1, 0], dtype=np.int64), np.zeros((2, 3)),
+                    np.arange(2, dtype=np.int64), np.zeros((2, 3)), np.ones(2), np.tile(np.eye(3), (2, 1, 1)), 1.0,
+                    np.empty((1, 3)))
     _WARM = True

@@ -33,7 +33,7 @@ from ..errors import PhysicsError
 from .preprocess import PreparedFlip, flight_L_stats, smooth_block
 from .reposition import FlightTrajectory, flight_trajectory
 from .retime import RetimePlan, plan_retime, sample_positions
-from .seamtime import reference_levels, seam_speed, warp_time, warped_positions
+from .seamtime import seam_speed, warp_time, warped_positions
 from .sequence import Sequence, build_sequence
 from ..core.motion import slerp
 from .similarity import axis_quat, twist_angle
@@ -486,8 +486,10 @@ def _seam_speeds(P: PreparedFlip, seq: Sequence, rot: np.ndarray, w: int, hi_u: 
         left = idx <= a
         lev_l, lev_r = float(L0[f]), float(L0[g])
         mid = float(np.sqrt(lev_l * lev_r))
-        wts = ramp(np.abs(idx - a), w)
-        ref = np.where(left, reference_levels(L0[src], lev_l, mid, wts), reference_levels(L0[src], lev_r, mid, wts))
+        if lev_l > 0 and lev_r > 0:          # reference_levels on each side, in one go
+            ref = L0[src] * np.where(left, mid / lev_l, mid / lev_r) ** ramp(np.abs(idx - a), w)
+        else:
+            ref = L0[src]
         speed[idx] = seam_speed(L_new, ref)
     return speed
 

@@ -245,12 +245,13 @@ if _NUMBA:
 
 
 def seam_speed(L_new: np.ndarray, L_ref: np.ndarray, bounds: tuple[float, float] = SPEED_BOUNDS) -> np.ndarray:
-    """Eq. 5.22's local playback speed ``1 / ratio = |L_ref| / |L_new|``, clipped to ``bounds``."""
+    """Eq. 5.22's local playback speed ``1 / ratio = |L_ref| / |L_new|``, clipped to ``bounds``
+    (a vanishing ``|L_new|`` gets the upper bound)."""
     L_new = np.asarray(L_new, dtype=float)
     L_ref = np.asarray(L_ref, dtype=float)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        s = np.where(L_new > 1e-9 * np.maximum(L_ref, 1e-12), L_ref / L_new, bounds[1])
-    return np.clip(s, bounds[0], bounds[1])
+    s = L_ref / np.maximum(L_new, 1e-300)
+    s[L_new <= 1e-9 * np.maximum(L_ref, 1e-12)] = bounds[1]
+    return np.clip(s, bounds[0], bounds[1], out=s)
 
 
 def warp_time(speed: np.ndarray) -> np.ndarray:

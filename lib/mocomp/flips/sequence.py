@@ -155,7 +155,12 @@ def find_landing(rotations: np.ndarray, theta: np.ndarray, flight: tuple[int, in
     om1 = om2 = None
     if weights.velocity_weight > 0:
         om1, om2 = omegas[src[ui]], omegas[g[gi]]
-    D, _ = frame_distance(rot[src[ui]], rot[g[gi]], axis, weights, om1, om2)
+    if weights.velocity_weight > 0:
+        D, _ = frame_distance(rot[src[ui]], rot[g[gi]], axis, weights, om1, om2)
+    else:
+        from ._kernels import AVAILABLE, frame_distance_nb
+
+        D = (frame_distance_nb if AVAILABLE else frame_distance)(rot[src[ui]], rot[g[gi]], axis, weights)[0]
     k = int(np.argmin(D + 1e-6 * np.abs(diff[gi, ui])))
     return LandingJoin(u=int(ui[k]), f=int(src[ui[k]]), copy=int(cp[ui[k]]), g=int(g[gi[k]]),
                        distance=float(D[k]), delta=float(diff[gi[k], ui[k]]), n_pairs=int(D.size))
