@@ -55,6 +55,12 @@ def test_warp_is_uniform_retiming_at_unit_speed():
 def test_seam_speed_is_eq_5_22_clipped():
     s = seam_speed([10.0, 5.0, 40.0, 0.0], [10.0, 10.0, 10.0, 10.0])
     np.testing.assert_allclose(s, [1.0, 2.0, 0.5, SPEED_BOUNDS[1]])
+    # vectors: least-squares speed; equal to the magnitude ratio when the directions agree, blind to a
+    # spurious perpendicular part (which retiming cannot remove)
+    a = np.array([[0.0, 8.0, 0.0], [0.0, 8.0, 6.0]])
+    ref = np.array([[0.0, 10.0, 0.0], [0.0, 10.0, 0.0]])
+    np.testing.assert_allclose(seam_speed(a, ref), [1.25, 0.8])
+    np.testing.assert_allclose(seam_speed(a[:1], ref[:1]), seam_speed([8.0], [10.0]))
     # the reference level moves toward the middle with the pose ramp weights
     np.testing.assert_allclose(reference_levels([4.0, 4.0], 4.0, 6.0, np.array([0.0, 1.0])), [4.0, 6.0])
 

@@ -354,7 +354,9 @@ def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None 
     if not _whole_turns(seq.extra_total):
         # an extra rotation that is not whole turns (e.g. a twist jump turned further): the ground
         # phase after the landing is turned about the vertical, not about a tilted L, so it stays
-        # upright; the difference C = R_y R_L^-1 is spread over the flight frames after the join
+        # upright; the difference C = R_y R_L^-1 is spread linearly over the whole flight (a constant
+        # extra angular velocity, the smallest one that does it: L stays constant in flight but tilts;
+        # spread over the frames after the landing join only it tripled |L| there)
         q_L = axis_quat(P.axis, seq.extra_total)
         up = np.array([0.0, 1.0, 0.0])
         q_land = axis_quat(up, float(twist_angle(q_L, up)))
@@ -365,6 +367,7 @@ def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None 
         ident[3] = 1.0
         rot[j0:, 0] = quat_multiply(slerp(np.broadcast_to(ident, (lam.size, 4)), np.broadcast_to(C, (lam.size, 4)),
                                           lam), rot[j0:, 0])
+    upright_tilt = float(np.degrees(quat_angle(C))) if q_land is not None else 0.0
     speed = _seam_speeds(P, seq, rot, w, hi_u, la, rb) if seam_retime else None
     t2 = time.perf_counter()
     timings["smooth"] = t2 - t1
@@ -440,7 +443,7 @@ def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None 
     report, mom = None, None
     if evaluate:
         report, mom = _evaluate(P, seq, plan, traj, new, flight_out, timings, height_change, dy, flips,
-                                extra_rotation, W_to, speed, tau, w, h0)
+                                extra_rotation, W_to, speed, tau, w, h0, upright_tilt)
     return MultiFlipResult(motion=new, original=P.motion, prepared=P, sequence=seq, plan=plan, trajectory=traj,
                            seq_positions=tau, flight=flight_out, report=report, timings=timings, momentum=mom,
                            seq_times=tw, takeoff_time=W_to, speed=speed)
@@ -478,7 +481,7 @@ def _seam_speeds(P: PreparedFlip, seq: Sequence, rot: np.ndarray, w: int, hi_u: 
     # landing seam: frames la .. rb-1 were smoothed; their neighbours' central differences reach in
     lo, hi = max(la - 2, 0), min(rb + 2, nseq)
     if hi - lo >= 3:
-        L_new = P.momentum_evaluator.magnitude(rot[lo:hi], P.fps)
+        L_new = P.momentum_evaluator.angular(rot[lo:hi], P.fps)
         a, f, g = seq.landing_seam, seq.join.f, seq.join.g
         L0 = P.L_magnitude
         idx = np.arange(lo + 1, hi - 1)
@@ -486,10 +489,10 @@ def _seam_speeds(P: PreparedFlip, seq: Sequence, rot: np.ndarray, w: int, hi_u: 
         left = idx <= a
         lev_l, lev_r = float(L0[f]), float(L0[g])
         mid = float(np.sqrt(lev_l * lev_r))
-        if lev_l > 0 and lev_r > 0:          # reference_levels on each side, in one go
-            ref = L0[src] * np.where(left, mid / lev_l, mid / lev_r) ** ramp(np.abs(idx - a), w)
-        else:
-            ref = L0[src]
+        # the original's L at the frames shown, turned with them about L, its level blended across the seam
+        ref = qapply(axis_quat(P.axis, seq.extra[idx]), np.asarray(P.momentum.angular)[src])
+        if lev_l > 0 and lev_r > 0:
+            ref *= (np.where(left, mid / lev_l, mid / lev_r) ** ramp(np.abs(idx - a), w))[:, None]
         speed[idx] = seam_speed(L_new, ref)
     return speed
 
@@ -516,7 +519,7 @@ def _ballistic_residual(com: np.ndarray, fps: float) -> tuple[float, float]:
 def _evaluate(P: PreparedFlip, seq: Sequence, plan: RetimePlan, traj: FlightTrajectory, new: Motion,
               flight_out: tuple[int, int], timings: dict, height_change: float, dy: float, flips, extra_rotation,
               W_to: float | None = None, speeds: np.ndarray | None = None, tau: np.ndarray | None = None,
-              window: int | None = None, takeoff_height_change: float = 0.0):
+              window: int | None = None, takeoff_height_change: float = 0.0, upright_tilt: float = 0.0):
     from ..dynamics import momentum as compute_momentum
 
     t = time.perf_counter()
@@ -559,6 +562,10 @@ def _evaluate(P: PreparedFlip, seq: Sequence, plan: RetimePlan, traj: FlightTraj
     notes = list(seq.notes) + list(P.notes)
     if plan.note:
         notes.append(plan.note)
+    if upright_tilt > 0.05:
+        notes.append(f"the extra rotation is not whole turns and L is {np.degrees(np.arccos(min(abs(P.axis[1]), 1.0))):.1f} "
+                     f"deg from the vertical: to land upright the body is turned a further {upright_tilt:.1f} deg, "
+                     "spread evenly over the flight, which tilts L (see the direction change)")
     if not P.loop.found:
         notes = [n for n in notes if n != P.loop.note]
         notes.append(f"fallback (section 5.2): {P.loop.note.split(';')[0]}; the copies were joined automatically by "

@@ -242,7 +242,7 @@ class PreparedFlip:
 
             w = int(window)
             L_new, L_ref = self._loop_seam_momentum(w)
-            sp = seam_speed(np.linalg.norm(L_new, axis=1), np.linalg.norm(L_ref, axis=1))
+            sp = seam_speed(L_new, L_ref)
             left, right = sp[:w + 2].copy(), sp[w + 2:].copy()
             left.setflags(write=False)
             right.setflags(write=False)

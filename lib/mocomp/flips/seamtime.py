@@ -15,7 +15,12 @@ smoothing", whose momentum "we can adjust ... by applying non-uniform motion ret
     next_frame = last_frame + 1 / ratio(last_frame),   ratio(f) = |L_new(f)| / |L_ref(f)|,
 
 so a frame whose ``|L|`` fell by the seam is shown faster (velocities, and with them
-``L``, scale with the playback speed, eq. 5.8). Here:
+``L``, scale with the playback speed, eq. 5.8). Section 5.5 corrects the direction of ``L``
+first (eq. 5.21) so that only the magnitude is left to retiming; seams are not
+direction-corrected here, so the speed is the least-squares one, ``s = L_new . L_ref /
+|L_new|^2`` (:func:`seam_speed`), which is eq. 5.22's ratio when the seam left the direction
+alone and does not distort the genuine rotation to offset a spurious perpendicular part when
+it did not (a root-tilt blend in a twist jump). Here:
 
 * ``L_new`` is the angular momentum of the smoothed frames at the sequence's own timing
   (central differences, as :func:`mocomp.dynamics.momentum`; the root position does not
@@ -245,12 +250,26 @@ if _NUMBA:
 
 
 def seam_speed(L_new: np.ndarray, L_ref: np.ndarray, bounds: tuple[float, float] = SPEED_BOUNDS) -> np.ndarray:
-    """Eq. 5.22's local playback speed ``1 / ratio = |L_ref| / |L_new|``, clipped to ``bounds``
-    (a vanishing ``|L_new|`` gets the upper bound)."""
+    """Eq. 5.22's local playback speed, clipped to ``bounds``.
+
+    With magnitudes ``(n,)``: ``1 / ratio = |L_ref| / |L_new|`` as printed. With vectors
+    ``(n, 3)``: the speed ``s`` that brings ``s L_new`` closest to ``L_ref`` (least squares,
+    ``s = L_new . L_ref / |L_new|^2``). The two agree when the seam left the direction of ``L``
+    alone, which section 5.5 arranges by correcting the direction first (eq. 5.21); where a seam
+    also tilts ``L`` (a root-tilt blend in a twist jump, whose ``|L|`` is small) the magnitude
+    ratio would speed up or slow down the genuine rotation to compensate for the spurious
+    perpendicular part, the projection does not. A vanishing ``L_new`` gets the upper bound."""
     L_new = np.asarray(L_new, dtype=float)
     L_ref = np.asarray(L_ref, dtype=float)
-    s = L_ref / np.maximum(L_new, 1e-300)
-    s[L_new <= 1e-9 * np.maximum(L_ref, 1e-12)] = bounds[1]
+    if L_new.ndim == 2:
+        nn = np.einsum("ij,ij->i", L_new, L_new)
+        num = np.einsum("ij,ij->i", L_new, L_ref)
+        ref2 = np.einsum("ij,ij->i", L_ref, L_ref)
+        s = num / np.maximum(nn, 1e-300)
+        s[nn <= 1e-18 * np.maximum(ref2, 1e-24)] = bounds[1]
+    else:
+        s = L_ref / np.maximum(L_new, 1e-300)
+        s[L_new <= 1e-9 * np.maximum(L_ref, 1e-12)] = bounds[1]
     return np.clip(s, bounds[0], bounds[1], out=s)
 
 
