@@ -12,8 +12,10 @@ Pre-processing (:func:`prepare`, :class:`PreparedFlip`): ballistic phase detecti
 (:mod:`.phases`, section 4.1), mass distribution (:mod:`.mass`, eq. 5.1-5.2), inertias and
 momentum (eq. 5.4-5.5), the angular-momentum direction and the self-looping search
 (:mod:`.looping`, eq. 5.9). Run time (:func:`multiflip`, :class:`MultiFlipResult`):
-sequencing (:mod:`.sequence`, eq. 5.10-5.11), seam smoothing (:mod:`.smoothing`, eq. 5.14),
-retiming (:mod:`.retime`, App. B), repositioning (:mod:`.reposition`, eq. 5.15-5.17).
+sequencing (:mod:`.sequence`, eq. 5.10-5.11), seam smoothing (:mod:`.smoothing`, eq. 5.14) and
+non-uniform retiming across the seams (:mod:`.seamtime`, eq. 5.22 as section 5.4.2.2 prescribes),
+retiming (:mod:`.retime`, App. B), repositioning (:mod:`.reposition`, eq. 5.15-5.17). The frame
+rate is checked from the fitted gravity of every flight of the clip (:func:`diagnose_timing`).
 """
 from .looping import SelfLoop, find_self_loop
 from .mass import (FlightFit, FlightTooShortError, MassEstimate, TimingDiagnosis, diagnose_gravity, diagnose_timing,

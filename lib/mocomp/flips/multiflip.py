@@ -7,9 +7,11 @@ dissertation section 5.4), with a physics report.
    cached self-looping fragment;
 2. **smooth** -- root rotation about ``L`` plus the rotated copies' extra turn, the
    loop seam correction computed once in pre-processing and pasted at every seam,
-   the landing seam (eq. 5.14, :mod:`.smoothing`);
-3. **retime** -- one factor ``k`` for take-off, flight and landing (App. B, :mod:`.retime`);
-   slerp of every joint at the retimed instants;
+   the landing seam (eq. 5.14, :mod:`.smoothing`); then the eq. 5.22 playback speeds
+   across the seams (section 5.4.2.2's non-uniform retiming, :mod:`.seamtime`: the loop
+   seam's cached per clip, the landing seam's from the angular momentum of its frames);
+3. **retime** -- one factor ``k`` for take-off, flight and landing (App. B, :mod:`.retime`)
+   on the seam-warped time; slerp of every joint at the retimed instants;
 4. **reposition** -- flight frames translated so the exact COM (estimated masses) follows
    eq. 5.15/5.17; landing frames offset by eq. 5.16 (:mod:`.reposition`);
 5. **assemble** -- the new :class:`~mocomp.core.Motion`.
