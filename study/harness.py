@@ -104,14 +104,26 @@ _JS = r"""
     if (send(".mocomp-media", {event: "ready", t: Date.now()}) || ++tries > 200) { clearInterval(hello); }
   }, 100);
   var ends = {};
-  document.addEventListener("ended", function (e) {
-    var v = e.target;
-    if (!v || v.tagName !== "VIDEO") { return; }
+  function play(v) { var p = v.play(); if (p && p.catch) { p.catch(function () {}); } }
+  function reachedEnd(v) {  // once per play-through, from "ended" or (if that is lost) the last timeupdate
+    if (v.__mocompAtEnd) { return; }
+    v.__mocompAtEnd = true;
     var tr = trialOf(v);
     ends[tr] = (ends[tr] || 0) + 1;
     send(".mocomp-media", {event: "ended", trial: tr, n: ends[tr], t: Date.now()});
     var box = v.closest ? v.closest(".mocomp-loop") : null;
-    if (box) { v.currentTime = 0; var p = v.play(); if (p && p.catch) { p.catch(function () {}); } }
+    if (box) { v.currentTime = 0; play(v); }
+  }
+  function isVideo(e) { return e.target && e.target.tagName === "VIDEO"; }
+  document.addEventListener("ended", function (e) { if (isVideo(e)) { reachedEnd(e.target); } }, true);
+  document.addEventListener("timeupdate", function (e) {
+    var v = e.target;
+    if (isVideo(e) && v.duration && isFinite(v.duration) && v.currentTime >= v.duration - 0.01) { reachedEnd(v); }
+  }, true);
+  document.addEventListener("seeked", function (e) { if (isVideo(e) && e.target.currentTime < 0.05) { e.target.__mocompAtEnd = false; } }, true);
+  document.addEventListener("canplay", function (e) {  // autoplay that did not start: start it
+    var v = e.target;
+    if (isVideo(e) && v.paused && !v.ended && !v.__mocompAtEnd) { v.muted = true; play(v); }
   }, true);
   document.addEventListener("error", function (e) {
     var v = e.target;
@@ -206,7 +218,9 @@ class StudyApp:
         self._client_ok = False  # the browser script has announced itself
         self._presenting: int | None = None  # trial_index of the video on screen
         self._ended: set[int] = set()  # presentations (trial indices) whose video has ended on this screen
+        self._failed: set[int] = set()  # presentations whose video the browser could not play
         self._locked: list[W.Button] = []  # buttons waiting for the end of the video
+        self._enforced_now = False  # "must watch first" enforced for the presentation on screen
         js = _JS.replace("%KC%", self.cfg.key_correct.lower()).replace("%KI%", self.cfg.key_incorrect.lower())
         b64 = base64.b64encode(js.encode()).decode()
         self._script = W.HTML(f'<img src="data:," alt="" style="display:none" onerror="eval(atob(\'{b64}\'))">')
@@ -264,13 +278,21 @@ class StudyApp:
             return
         ev = msg.get("event")
         if ev == "ready":
-            self._client_ok = True
+            if not self._client_ok:
+                self._client_ok = True
+                self.widget.add_class("mocomp-client-ready")  # (the browser test waits for this)
             return
         trial = msg.get("trial")
         if trial is None or trial != self._presenting:
             return  # a late event of an earlier screen
-        if ev == "error" and self.session is not None and not self.session.closed:
-            self.session.log_event("video_error", trial_index=trial)
+        if ev == "error" and trial not in self._failed:
+            # the video cannot be shown: never leave the participant stuck; the row says it was not watched
+            self._failed.add(int(trial))
+            if self.session is not None and not self.session.closed:
+                self.session.log_event("video_error", trial_index=trial)
+            for b in self._locked:
+                b.disabled = False
+            self._locked = []
         if ev == "ended" and trial not in self._ended:
             self._ended.add(int(trial))
             for b in self._locked:
@@ -401,8 +423,11 @@ class StudyApp:
         self._video = v
         self._presenting = view.trial_index
         self._ended = set()
+        self._failed = set()
         self._locked = []
-        if self.enforcing:
+        # decided once per presentation: one shown before the script announced itself stays unenforced
+        self._enforced_now = self.enforcing
+        if self._enforced_now:
             for b in locked:
                 b.disabled = True
             self._locked = list(locked)
@@ -421,7 +446,7 @@ class StudyApp:
         text = self.texts.example.format(n=self._example_i + 1, total=len(self._examples))
 
         def done():
-            if self.enforcing and view.trial_index not in self._ended:
+            if self._enforced_now and view.trial_index not in self._ended | self._failed:
                 self.session.log_event("example_skipped_before_video_end", trial_index=view.trial_index)
                 return
             self.controller.example_viewed(view)
@@ -493,7 +518,7 @@ class StudyApp:
             via = "key" if t.get("input") == "key" else "button"
             client_rt = t.get("rt")
         self._timing.value = ""
-        enforced = self.enforcing
+        enforced = self._enforced_now and trial_index not in self._failed
         watched = (trial_index in self._ended) if self._client_ok else None
         row = c.respond(response, input=via, client_rt_s=client_rt, trial_index=trial_index, must_watch=enforced,
                         watched_to_end=watched)

@@ -197,7 +197,8 @@ def _wait_rows(path: Path, n: int, timeout: float = 20.0) -> list[dict]:
 
 def _open(page, url):
     page.goto(url, timeout=90_000, wait_until="domcontentloaded")
-    page.wait_for_selector(".mocomp-app", timeout=90_000)
+    # the kernel has heard from the page's script ("must watch first" can be enforced)
+    page.wait_for_selector(".mocomp-app.mocomp-client-ready", timeout=90_000)
 
 
 def _intro(page, age="23"):

@@ -193,11 +193,38 @@ def test_must_watch_first(stimuli, tmp_path):
     again = StudyApp(stimuli, tmp_path, "P6", "S1")
     _click(again, "mocomp-btn-next")
     _click(again, "mocomp-btn-correct")
+    # a presentation shown before the script announced itself stays unenforced (decided per presentation)
+    _media(again, event="ready")
+    assert again.enforcing and "mocomp-client-ready" in again.widget._dom_classes
+    _click(again, "mocomp-btn-incorrect")
     again.close()
-    last = pd.read_csv(folder / "responses.csv", keep_default_na=False).iloc[-1]
-    assert last["must_watch"] == 0 and last["watched_to_end"] == ""
+    rows = pd.read_csv(folder / "responses.csv", keep_default_na=False)
+    assert list(rows["must_watch"].iloc[-2:]) == [0, 0]
+    assert list(rows["watched_to_end"].astype(str).iloc[-2:]) == ["", "0"]
     # switched off in the design
     off = StudyApp(stimuli, tmp_path, "P7", "S1", design=DesignConfig(must_watch=False))
     _media(off, event="ready")
     assert not off.enforcing
     off.close()
+
+
+def test_must_watch_video_error_never_blocks(stimuli, tmp_path):
+    """A video the browser cannot play unlocks the answer; the row says it was not watched."""
+    app = StudyApp(stimuli, tmp_path, "P8", "S1", design=DesignConfig(examples="none"))
+    _media(app, event="ready")
+    _click(app, "mocomp-btn-next")
+    _find(app.widget, "mocomp-consent-check")[0].value = True
+    _click(app, "mocomp-btn-consent")
+    _click(app, "mocomp-btn-info")
+    _click(app, "mocomp-btn-next")
+    idx = app.controller.current().trial_index
+    (bc,) = _find(app.widget, "mocomp-btn-correct")
+    assert bc.disabled
+    _media(app, event="error", trial=idx)
+    assert not bc.disabled
+    bc.click()
+    app.close()
+    folder = tmp_path / "P8" / "S1"
+    row = pd.read_csv(folder / "responses.csv", keep_default_na=False).iloc[0]
+    assert row["must_watch"] == 0 and row["watched_to_end"] == 0
+    assert "video_error" in (folder / "events.jsonl").read_text()
