@@ -124,7 +124,7 @@ def _read_one(path: Path) -> pd.DataFrame | None:
     if "rated_correct" in df.columns:
         rc = (df["response"] == "correct").astype(int).astype(str)
         bad(df["rated_correct"] != rc, "rated_correct", lambda v: f"{v!r} disagrees with the response column")
-    for col in ("achieved_error", "rt_s", "client_rt_s", "repetition"):
+    for col in ("achieved_error", "rt_s", "client_rt_s", "client_rt_end_s", "repetition"):
         if col in df.columns:
             df[col] = pd.to_numeric(df[col].replace("", np.nan), errors="coerce")
     if "expected_response" not in df.columns:
@@ -620,7 +620,7 @@ def write_report(res: AnalysisResult, out_dir: str | Path, figures: bool = True)
     cols = [c for c in ["participant_id", "session_id", "trial_index", "kind", "group", "stimulus_id", "base_clip",
                         "perturbation", "direction", "nominal_level", "achieved_error", "condition", "repetition",
                         "expected_response", "response", "incorrect", "input", "must_watch", "watched_to_end", "rt_s",
-                        "client_rt_s", "stimulus_set_id", "source_file", "source_line"]
+                        "client_rt_s", "client_rt_end_s", "stimulus_set_id", "source_file", "source_line"]
             if c in res.data.trials.columns]
     save("trials.csv", res.data.trials[cols])
     save("conditions.csv", res.conditions)

@@ -134,7 +134,7 @@ class TrialController:
 
     def respond(self, response: str, *, input: str, rt_s: float | None = None,
                 client_rt_s: float | None = None, trial_index: int | None = None, must_watch: bool = False,
-                watched_to_end: bool | None = None) -> dict | None:
+                watched_to_end: bool | None = None, client_rt_end_s: float | None = None) -> dict | None:
         """Record the answer to the trial on screen; returns the written row.
 
         Returns None (and writes nothing) when no trial is on screen, or when
@@ -156,7 +156,7 @@ class TrialController:
             return None
         row = self.session.append_response(idx, response, input=input, rt_s=rt_s, shown_utc=shown_utc,
                                            client_rt_s=client_rt_s, must_watch=must_watch,
-                                           watched_to_end=watched_to_end)
+                                           watched_to_end=watched_to_end, client_rt_end_s=client_rt_end_s)
         self._shown = None
         return row
 

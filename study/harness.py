@@ -26,7 +26,8 @@ script restarts the video at its end, so every play-through is reported.
 Keys and browser timing come from a small script (installed once per page):
 ``C``/``I`` (configurable) press the visible response button, Space/Enter
 the visible "Next"/"Continue" button; a capture-phase listener writes the
-time from the video's ``playing`` event to the click (``client_rt_s``) and
+time from the video's ``playing`` event to the click (``client_rt_s``), the
+time from the end of its first play-through to the click (``client_rt_end_s``) and
 the input device into a hidden text widget just before the click reaches the
 kernel. Without the script (e.g. a front end that does not run it) buttons
 still work and ``client_rt_s`` stays empty.
@@ -61,7 +62,7 @@ _JS = r"""
   if (window.__mocompHarness) { return; }
   window.__mocompHarness = true;
   var KC = "%KC%", KI = "%KI%";
-  var onset = null;
+  var onset = null, endAt = null;
   function visible(el) { return el && el.offsetParent !== null && !el.disabled; }
   function first(sel) {
     var els = document.querySelectorAll(sel);
@@ -85,7 +86,7 @@ _JS = r"""
   }, true);
   document.addEventListener("loadedmetadata", function (e) {
     var v = e.target;
-    if (v && v.tagName === "VIDEO") { v.muted = true; onset = null; var p = v.play(); if (p && p.catch) { p.catch(function () {}); } }
+    if (v && v.tagName === "VIDEO") { v.muted = true; onset = null; endAt = null; var p = v.play(); if (p && p.catch) { p.catch(function () {}); } }
   }, true);
   function send(sel, obj) {
     var box = document.querySelector(sel + " input");
@@ -108,6 +109,7 @@ _JS = r"""
   function reachedEnd(v) {  // once per play-through, from "ended" or (if that is lost) the last timeupdate
     if (v.__mocompAtEnd) { return; }
     v.__mocompAtEnd = true;
+    if (endAt === null) { endAt = performance.now(); }
     var tr = trialOf(v);
     ends[tr] = (ends[tr] || 0) + 1;
     send(".mocomp-media", {event: "ended", trial: tr, n: ends[tr], t: Date.now()});
@@ -141,8 +143,9 @@ _JS = r"""
       var m = /mocomp-trial-(\d+)/.exec(els[i].className);
       if (m && els[i].offsetParent !== null) { trial = parseInt(m[1], 10); break; }
     }
-    box.value = JSON.stringify({trial: trial, rt: onset === null ? null : (performance.now() - onset) / 1000,
-                                input: via, t: Date.now()});
+    var now = performance.now();
+    box.value = JSON.stringify({trial: trial, rt: onset === null ? null : (now - onset) / 1000,
+                                rt_end: endAt === null ? null : (now - endAt) / 1000, input: via, t: Date.now()});
     box.dispatchEvent(new Event("input", {bubbles: true}));
   }, true);
 })();
@@ -509,7 +512,7 @@ class StudyApp:
             return
         for b in self._buttons:
             b.disabled = True
-        client_rt, via = None, "button"
+        client_rt, client_rt_end, via = None, None, "button"
         try:
             t = json.loads(self._timing.value) if self._timing.value else None
         except ValueError:
@@ -517,11 +520,12 @@ class StudyApp:
         if t and t.get("trial") == trial_index:
             via = "key" if t.get("input") == "key" else "button"
             client_rt = t.get("rt")
+            client_rt_end = t.get("rt_end")
         self._timing.value = ""
         enforced = self._enforced_now and trial_index not in self._failed
         watched = (trial_index in self._ended) if self._client_ok else None
-        row = c.respond(response, input=via, client_rt_s=client_rt, trial_index=trial_index, must_watch=enforced,
-                        watched_to_end=watched)
+        row = c.respond(response, input=via, client_rt_s=client_rt, client_rt_end_s=client_rt_end,
+                        trial_index=trial_index, must_watch=enforced, watched_to_end=watched)
         if row is None:
             if enforced and not watched:  # too early (logged): the buttons wait for the end of the video
                 self._locked = list(self._buttons)

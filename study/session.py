@@ -59,7 +59,7 @@ RESPONSE_COLUMNS: tuple[str, ...] = (
     "participant_id", "session_id", "stimulus_set_id", "plan_sha256", "seed", "trial_index", "kind",
     "group", "repetition", "stimulus_id", "condition", "perturbation", "direction", "nominal_level",
     "achieved_error", "base_clip", "expected_response", "response", "rated_correct", "input", "must_watch",
-    "watched_to_end", "rt_s", "client_rt_s", "shown_utc", "responded_utc",
+    "watched_to_end", "rt_s", "client_rt_s", "client_rt_end_s", "shown_utc", "responded_utc",
 )
 RESPONSES = ("correct", "incorrect")
 _ID_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$")
@@ -407,7 +407,7 @@ class Session:
 
     def append_response(self, trial_index: int, response: str, *, input: str, rt_s: float,
                         shown_utc: str, client_rt_s: float | None = None, must_watch: bool = False,
-                        watched_to_end: bool | None = None) -> dict:
+                        watched_to_end: bool | None = None, client_rt_end_s: float | None = None) -> dict:
         """Append one response row and ``fsync`` it; returns the row as written.
 
         ``must_watch``: the answer was locked until the video had ended (enforced);
@@ -439,6 +439,7 @@ class Session:
                    watched_to_end="" if watched_to_end is None else int(bool(watched_to_end)),
                    rt_s=round(float(rt_s), 4),
                    client_rt_s="" if client_rt_s is None else round(float(client_rt_s), 4),
+                   client_rt_end_s="" if client_rt_end_s is None else round(float(client_rt_end_s), 4),
                    shown_utc=shown_utc, responded_utc=utc_now())
         data = _format_row([row[c] for c in RESPONSE_COLUMNS])
         n = os.write(self._fd, data)

@@ -304,6 +304,9 @@ def test_complete_session_then_second_window_refused(browser, stimuli, tmp_path)
         # must watch first: enforced on every trial, and no answer before the end of the video
         assert {r["must_watch"] for r in rows} == {"1"} and {r["watched_to_end"] for r in rows} == {"1"}
         assert min(client) >= 0.9 - 0.1, client
+        after_end = [float(r["client_rt_end_s"]) for r in rows if r["client_rt_end_s"] != ""]
+        assert len(after_end) == len(client) and min(after_end) >= 0
+        assert all(c - e >= 0.8 for c, e in zip(client, after_end))  # onset -> end covers the 0.9 s video
         att = [r for r in rows if r["kind"] == "attention"]
         assert len(att) == 1 and att[0]["response"] == att[0]["expected_response"]
         info = json.loads((folder / "participant.json").read_text())
