@@ -25,7 +25,8 @@ Pipeline (what ``mocomp study analyze RESPONSES_DIR -o REPORT_DIR`` runs, via
    without a correction; see that function).
 5. :func:`fit_psychometric_glms`: per error type, a binomial GLM (probit or
    logit link, statsmodels) of P("incorrect") on the error level, the group's
-   unperturbed motions at level 0. For the probit link the slope is d' per
+   unperturbed motions at level 0, with participant-clustered (sandwich) SEs
+   from 8 participants on. For the probit link the slope is d' per
    unit level (d'(x) = b x), so the *threshold* (level where d' = 1) is 1/b
    with a CI mapped from the Wald CI of b (unbounded when that CI contains 0).
 6. :func:`fit_mixed_model`: per error group, a mixed-effects logistic model
@@ -389,7 +390,8 @@ def _series_data(test: pd.DataFrame, pert: str, direction: str, level: str, cont
 
 
 def fit_psychometric_glms(data: ResponseData | pd.DataFrame, *, link: str = "probit", level: str = "nominal_level",
-                          control: str = "group", ci: float = 0.95) -> pd.DataFrame:
+                          control: str = "group", ci: float = 0.95, se: str = "auto",
+                          min_clusters: int = 8) -> pd.DataFrame:
     """Binomial GLM P("incorrect") = F(a + b x) per error type, x the error level (controls at 0).
 
     ``link``: ``"probit"`` (F = standard normal CDF; b is d' per unit level,
@@ -399,13 +401,29 @@ def fit_psychometric_glms(data: ResponseData | pd.DataFrame, *, link: str = "pro
     series: intercept, slope, their SEs, CI of the slope, threshold with CI
     (from the slope's Wald CI; NaN bound where that CI includes 0), the level
     where P = 0.5 (``pse``), deviance, df, and n.
+
+    The GLM pools every participant's answers. ``se``: ``"cluster"`` gives
+    cluster-robust (sandwich) standard errors with participants as clusters,
+    honest when participants differ in criterion or sensitivity (the model
+    SEs assume independent trials and are then too small); ``"model"`` the
+    usual binomial SEs; ``"auto"`` (default) uses ``"cluster"`` with at least
+    ``min_clusters`` participants (with fewer the sandwich is itself unreliable).
+    The column ``se_type`` says which; the point estimates are the same.
     """
     import statsmodels.api as sm
 
     if link not in ("probit", "logit"):
         raise ValueError("link must be 'probit' or 'logit'")
+    if se not in ("auto", "cluster", "model"):
+        raise ValueError("se must be 'auto', 'cluster' or 'model'")
     test = data.test if isinstance(data, ResponseData) else data[data["kind"] == "test"]
     pert = test[test["perturbation"] != "none"]
+    if "participant_id" not in test.columns:
+        test = test.assign(participant_id="(all)")
+    n_parts = test["participant_id"].nunique()
+    se_type = ("cluster" if n_parts >= min_clusters else "model") if se == "auto" else se
+    if se_type == "cluster" and n_parts < 2:
+        raise ValueError("cluster-robust SEs need at least 2 participants")
     zc = norm.ppf(0.5 + ci / 2)
     out = []
     for (p, dr), _ in pert.groupby(SERIES, sort=True):
@@ -413,12 +431,22 @@ def fit_psychometric_glms(data: ResponseData | pd.DataFrame, *, link: str = "pro
         agg = d.groupby("x")["incorrect"].agg(["sum", "size"]).reset_index()
         endog = np.column_stack([agg["sum"], agg["size"] - agg["sum"]])
         X = sm.add_constant(agg["x"].to_numpy(float))
-        fam = sm.families.Binomial(link=sm.families.links.Probit() if link == "probit" else sm.families.links.Logit())
+        def fam():  # a fresh family per model (statsmodels' Binomial keeps the trial counts of its model)
+            return sm.families.Binomial(link=sm.families.links.Probit() if link == "probit" else sm.families.links.Logit())
+
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            res = sm.GLM(endog, X, family=fam).fit()
+            res = sm.GLM(endog, X, family=fam()).fit()
+            cov = np.asarray(res.cov_params())
+            if se_type == "cluster":  # same estimates from participant x level counts, sandwich by participant
+                pa = d.groupby(["participant_id", "x"])["incorrect"].agg(["sum", "size"]).reset_index()
+                rc = sm.GLM(np.column_stack([pa["sum"], pa["size"] - pa["sum"]]),
+                            sm.add_constant(pa["x"].to_numpy(float), has_constant="add"), family=fam()).fit(
+                    start_params=res.params, cov_type="cluster",
+                    cov_kwds={"groups": pd.factorize(pa["participant_id"])[0]})
+                cov = np.asarray(rc.cov_params())
         a, b = res.params
-        sa, sb = res.bse
+        sa, sb = np.sqrt(np.diag(cov))
         blo, bhi = b - zc * sb, b + zc * sb
         thr = 1.0 / b if b > 0 else np.nan
         if blo > 0:
@@ -432,7 +460,7 @@ def fit_psychometric_glms(data: ResponseData | pd.DataFrame, *, link: str = "pro
                         threshold=thr, threshold_ci_low=tlo, threshold_ci_high=thi,
                         pse=(-a / b if b != 0 else np.nan), deviance=res.deviance, df_resid=res.df_resid,
                         n_trials=int(agg["size"].sum()), n_levels=len(agg), converged=bool(res.converged),
-                        cov_ab=float(res.cov_params()[0, 1])))
+                        cov_ab=float(cov[0, 1]), se_type=se_type, n_participants=int(d["participant_id"].nunique())))
     return pd.DataFrame(out)
 
 
@@ -668,7 +696,9 @@ def report_markdown(res: AnalysisResult) -> str:
         f"- CIs: {s['n_boot']} bootstrap resamples, seed {s['seed']}: participants resampled for the group d'; "
         f"for individual d' binomial redraws at the corrected rates (so a rate of 0 or 1 still gets an "
         f"interval).",
-        f"- psychometric: binomial GLM, {s['link']} link, regressor `{s['level_column']}`.",
+        f"- psychometric: binomial GLM, {s['link']} link, regressor `{s['level_column']}`; SEs "
+        + ("clustered by participant" if len(res.psychometric) and (res.psychometric["se_type"] == "cluster").all()
+           else "binomial (fewer than 8 participants: no clustering)") + ".",
         "- mixed model: logistic GLMM, random intercept per participant, maximum likelihood by adaptive "
         "Gauss-Hermite quadrature (study.glmm; as lme4 glmer nAGQ); cross-checks: statsmodels "
         "BinomialBayesMixedGLM (variational Bayes) and GEE (exchangeable, robust SE) in mixed_model.csv.", "",

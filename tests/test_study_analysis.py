@@ -286,3 +286,33 @@ def test_analyze_writes_report(tmp_path):
     mm = fit_mixed_model(res.data, cross_checks=False)
     assert set(mm["group"]) == {"angular_momentum", "takeoff"}
     assert mm["method"].str.contains("Gauss-Hermite").all()
+
+
+def test_psychometric_glm_cluster_robust_ses():
+    """Participants who differ in criterion: the pooled GLM's binomial SEs are too small; the
+    participant-clustered ones grow, the estimates stay. With identical participants both agree."""
+    rng = np.random.default_rng(8)
+
+    def cohort(spread):
+        rows = []
+        for i in range(20):
+            c = rng.normal(0.5, spread)
+            for lv in (0, 10, 20, 30, 40):
+                p = norm.cdf(0.05 * lv - c)
+                for _ in range(30):
+                    rows.append(dict(participant_id=f"P{i}", kind="test", group="takeoff",
+                                     perturbation="none" if lv == 0 else "takeoff",
+                                     direction="none" if lv == 0 else "increase", nominal_level=float(lv),
+                                     incorrect=int(rng.random() < p)))
+        return pd.DataFrame(rows)
+
+    het = cohort(0.8)
+    cl = fit_psychometric_glms(het).iloc[0]
+    md = fit_psychometric_glms(het, se="model").iloc[0]
+    assert cl["se_type"] == "cluster" and md["se_type"] == "model"
+    assert cl["slope"] == pytest.approx(md["slope"]) and cl["intercept"] == pytest.approx(md["intercept"])
+    assert cl["intercept_se"] > 2 * md["intercept_se"]
+    hom = cohort(0.0)
+    r = fit_psychometric_glms(hom).iloc[0], fit_psychometric_glms(hom, se="model").iloc[0]
+    assert r[0]["intercept_se"] == pytest.approx(r[1]["intercept_se"], rel=0.35)
+    assert fit_psychometric_glms(het.assign(participant_id="P1")).iloc[0]["se_type"] == "model"  # one cluster

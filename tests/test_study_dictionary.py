@@ -34,7 +34,7 @@ def _bullet_columns(md: str, file: str) -> list[str]:
     text = m.group(1).split(":", 1)[1]
     text = re.sub(r"`(--[a-z-]+|[a-z]+ == \"[a-z]+\"|incorrect ~ [^`]*)`", "", text)  # options, formulas
     names = re.findall(r"`([A-Za-z_0-9]+)`", text)
-    values = {"group", "pooled", "probit", "logit", "Intercept"}  # values quoted in the text, not columns
+    values = {"group", "pooled", "probit", "logit", "Intercept", "cluster", "model"}  # values quoted in the text, not columns
     return [n for n in names if n not in values or n == "group"]
 
 
