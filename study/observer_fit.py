@@ -306,7 +306,11 @@ def _profile_limits(L, th_hat, f_hat, j, bounds, se_j, ci) -> tuple[float, float
             prev, val = v, rv
             step *= 1.6
         if found is None:
-            notes.append(f"{'lower' if side < 0 else 'upper'} limit not bounded by the data")
+            which = "lower" if side < 0 else "upper"
+            if L.fit_lapse and j == L.dim - 1:  # the lapse rate's own range [0, max_lapse]
+                notes.append(f"{which} limit at the bound lapse = {bound:g}")
+            else:
+                notes.append(f"{which} limit not bounded by the data")
             limits.append(bound)
         else:
             limits.append(found)

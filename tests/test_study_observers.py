@@ -142,6 +142,11 @@ def test_observer_fit_bootstrap_and_wald_options(cohort):
                                atol=0.08)
     with pytest.raises(ValueError, match="ci_method"):
         fit_observer_model(data, ci_method="bayes")
+    # one criterion per error group (the generating bias is shared: both intervals hold it)
+    grp = fit_observer_model(data, criterion="group").params
+    b = grp[grp["name"] == "bias"]
+    assert list(b["series"]) == ["angular_momentum", "takeoff"]
+    assert ((b["ci_low"] <= OBSERVER.bias) & (OBSERVER.bias <= b["ci_high"])).all()
 
 
 def test_probit_glm_recovers_a_linear_observer(tmp_path):
