@@ -167,6 +167,8 @@ class HarnessTexts:
                          "motions</b> as a reference. Then, for each motion, answer whether it looks "
                          "physically <b>correct</b> or <b>incorrect</b>. Each motion may appear more than "
                          "once. There are no time limits, but please answer after the motion has played.</p>")
+    must_watch: str = ("<p>Each motion plays once; the answer buttons become active when it has played to its "
+                       "end.</p>")
     example: str = "<p><b>Example {n} of {total}</b>: a physically correct motion.</p>"
     question: str = "<p>Is this motion physically correct?</p>"
     attention: str = ("<p style='color:#b00'><b>Attention check:</b> whatever you see, please press "
@@ -410,7 +412,8 @@ class StudyApp:
     def _show_instructions(self) -> None:
         keys = (f"<p>Keys: <b>{self.cfg.key_correct.upper()}</b> = correct, "
                 f"<b>{self.cfg.key_incorrect.upper()}</b> = incorrect; Space = continue.</p>")
-        self._set("instructions", [W.HTML(self.texts.instructions + keys),
+        extra = self.texts.must_watch if self.must_watch else ""
+        self._set("instructions", [W.HTML(self.texts.instructions + extra + keys),
                                    self._button("Start", "mocomp-btn-next", "primary", self._start)])
 
     def _start(self) -> None:
