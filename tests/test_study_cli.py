@@ -22,6 +22,18 @@ def test_study_commands(tmp_path, capsys):
     # bad input: one line, exit 2
     assert main(["study", "analyze", str(tmp_path / "nope"), "-o", str(tmp_path / "r2")]) == 2
     assert "not found" in capsys.readouterr().err
+    src = next((tmp_path / "data").rglob("responses.csv"))
+    for name, text, msg in (
+            ("missing", "\n".join(",".join(x.split(",")[:9] + x.split(",")[10:]) for x in src.read_text().splitlines()),
+             "missing column(s) stimulus_id"),
+            ("dup", src.read_text() + src.read_text().splitlines()[3] + "\n", "duplicate trial"),
+            ("empty", "", "empty CSV")):
+        bad = tmp_path / name / "P" / "S" / "responses.csv"
+        bad.parent.mkdir(parents=True)
+        bad.write_text(text)
+        assert main(["study", "analyze", str(tmp_path / name), "-o", str(tmp_path / "r3")]) == 2
+        err = capsys.readouterr().err
+        assert msg in err and str(bad) in err and len(err.strip().splitlines()) == 1, err
     assert main(["study", "run", "--participant", "P1", "--session", "S1", "--manifest", str(stim.path),
                  "--data", str(tmp_path / "d"), "--break-every", "3", "--print-config"]) == 0
     cfg = json.loads(capsys.readouterr().out)
