@@ -39,15 +39,56 @@ def test_ground_truth_pair_is_what_it_says():
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_synthetic_pair_alignment_error(seed):
-    """Data-free ground truth (procedural gestures on a procedural walk, warp
-    0.4-2.7x, amplitude 0.5-1.5x, 1 deg noise): a few frames at most. Holds
-    are static by construction, so their alignment is only weakly determined;
-    the error over moving frames is smaller."""
+    """Acceptance on the data-free ground truth (procedural gestures on a
+    procedural walk, warp 0.4-2.7x, amplitude 0.5-1.5x, 0.25 deg rotation
+    noise = about 2.4 mm marker jitter, ten times the real clips'): mean
+    error at most 2 frames at 30 Hz without user points. The taut frame map
+    (least-distorting near-optimal alignment) beats the paper's literal
+    row-median map, whose staircases inside phases and holds cost frames."""
     pair = synthetic_pair(seed)
-    al = align_hands(*_markers(pair))
-    e = al.error(pair.truth)
-    assert e["mean"] < 3.5
-    assert e["median"] < 2.5
+    hb, hh = _markers(pair)
+    e = align_hands(hb, hh).error(pair.truth)
+    assert e["mean"] <= 2.0
+    assert e["median"] <= 1.5
+    literal = align_hands(hb, hh, frame_map="median").error(pair.truth)
+    assert e["mean"] < literal["mean"]
+
+
+def test_alignment_survives_heavy_noise():
+    """Stress test: 1 degree of rotation noise (about 9 mm marker jitter, 40x
+    the real clips). Before the taut frame map this gave 2.5 frames."""
+    errs = []
+    for seed in range(4):
+        pair = synthetic_pair(seed, noise_deg=1.0)
+        errs.append(align_hands(*_markers(pair)).error(pair.truth)["mean"])
+    assert np.mean(errs) <= 2.0, errs
+
+
+def test_marker_jitter_of_the_ground_truth_is_calibrated():
+    """The default noise gives millimetre jitter (raw optical marker level),
+    the noise-free pair none to speak of: the estimator sees what was put in."""
+    from mocomp.splice.metrics import marker_jitter
+
+    noisy = marker_jitter(virtual_hand_markers(synthetic_pair(0).body).positions)
+    clean = marker_jitter(virtual_hand_markers(synthetic_pair(0, noise_deg=0.0).body).positions)
+    assert 1.5e-3 < noisy < 3.5e-3
+    assert clean < 2e-4
+
+
+@pytest.mark.parametrize("amplitude", [(0.5, 1.5), (1.0, 2.0)])
+def test_sign_metric_beats_values_on_synthetic_ground_truth(amplitude):
+    """Figure 6.4 on the data-free pairs: the first (phase-matching) pass with
+    the signs of the derivatives is more accurate than with their values, for
+    the issue's 0.5-1.5x amplitude change and a cramped hand capture (body
+    1-2x wider). (At 1 degree of noise the sign metric loses this edge; see
+    the notebook.)"""
+    sign, value = [], []
+    for seed in range(4):
+        pair = synthetic_pair(seed, amplitude=amplitude)
+        hb, hh = _markers(pair)
+        sign.append(np.abs(align_hands(hb, hh, refine=False).stage1_map - pair.truth).mean())
+        value.append(np.abs(align_hands(hb, hh, refine=False, metric="values").stage1_map - pair.truth).mean())
+    assert np.mean(sign) < 0.8 * np.mean(value), (sign, value)
 
 
 @pytest.mark.realdata
@@ -86,17 +127,19 @@ def test_sign_metric_beats_values_when_amplitudes_differ(real_data_dir):
     assert np.mean(sign) < 0.5 * np.mean(value), (sign, value)
 
 
-def test_user_points_fix_the_ambiguous_case():
+@pytest.mark.parametrize("seed", range(6))
+def test_user_points_fix_the_ambiguous_case(seed):
     """Identical gesture cycles; the body leaves the last one out. Without
     points the alignment skips a wrong cycle; two matching points fix it."""
-    for seed in (0, 2):
-        pair = ambiguous_pair(seed)
-        hb, hh = _markers(pair)
-        auto = align_hands(hb, hh)
-        fixed = align_hands(hb, hh, points=pair.points)
-        assert auto.error(pair.truth)["mean"] > 5.0
-        assert fixed.error(pair.truth)["mean"] <= 2.0
-        np.testing.assert_array_equal(fixed.point_residuals(), 0.0)  # exact points are honoured after both passes
+    pair = ambiguous_pair(seed)
+    hb, hh = _markers(pair)
+    auto = align_hands(hb, hh)
+    fixed = align_hands(hb, hh, points=pair.points)
+    assert auto.error(pair.truth)["mean"] > 5.0
+    assert fixed.error(pair.truth)["mean"] <= 2.0
+    np.testing.assert_array_equal(fixed.point_residuals(), 0.0)  # exact points are honoured after both passes
+    for p in fixed.points:
+        assert fixed.hand_frame[p.x] == pytest.approx(p.y, abs=1e-6)
 
 
 def test_points_with_tolerance_are_honoured():
@@ -106,6 +149,7 @@ def test_points_with_tolerance_are_honoured():
     y = int(pair.truth[x]) + 25  # deliberately off the truth
     al = align_hands(hb, hh, points=[MatchPoint(x, y, 3)])
     assert np.all(np.abs(al.matches(x) - y) <= 3)
+    assert abs(al.hand_frame[x] - y) <= 3 + 1e-9
     assert al.points2 and al.points2[0].x == x
 
 
@@ -122,7 +166,8 @@ def test_remap_and_compose():
 
 
 @pytest.mark.parametrize("cfg", [dict(theta="trunk"), dict(theta="none"), dict(refine=False), dict(metric="values"),
-                                 dict(refine_step_cost=0.0)])
+                                 dict(refine_step_cost=0.0), dict(frame_map="median"),
+                                 dict(frame_map="median", refine=False), dict(tie_tolerance=0.0)])
 def test_variants_run_and_stay_close(cfg):
     pair = synthetic_pair(1)
     al = align_hands(*_markers(pair), **cfg)
@@ -141,6 +186,10 @@ def test_bad_input():
         align_hands(hb, HandMarkers(hh.positions, hh.fps, hh.shoulder), theta="trunk")
     with pytest.raises(AlignmentError, match="positive fraction"):
         SpliceConfig(phase_width=0)
+    with pytest.raises(ValueError, match="frame_map"):
+        SpliceConfig(frame_map="mean")
+    with pytest.raises(AlignmentError, match="tie_tolerance"):
+        SpliceConfig(tie_tolerance=-0.1)
     with pytest.raises(AlignmentError, match="out of order"):
         align_hands(hb, hh, points=[(100, 50), (90, 60)])
     g = gesture_clip(0, 1)

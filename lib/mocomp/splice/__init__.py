@@ -11,6 +11,8 @@ Layers, bottom up:
 * :mod:`~mocomp.splice.metrics`: the sign metric (eq. 6.6-6.7), its
   value-based foil, the hand-angle metric (eq. 6.8-6.9).
 * :mod:`~mocomp.splice.phases`: Table 6.1 phase labels.
+* :mod:`~mocomp.splice.warpmap`: the tube of near-optimal alignments and the
+  least-distorting (taut-string) frame map through it.
 * :mod:`~mocomp.splice.align`: the two-stage alignment.
 * :mod:`~mocomp.splice.merge` / :mod:`~mocomp.splice.pipeline`: median merge,
   blending, the spliced motion (:func:`splice_motions`, :func:`splice_markers`).
@@ -22,6 +24,7 @@ from .dtw import DTWResult, dtw, dtw_band_costs
 from .markers import HandMarkers, hand_markers_from_markers, virtual_hand_markers
 from .phases import PhaseLabels, motion_phases
 from .pipeline import SpliceResult, splice_markers, splice_motions
+from .warpmap import frame_map, near_optimal_tube, rasterize_map, taut_string, through_costs
 
 __all__ = [
     "Band", "MatchPoint", "full_band", "slanted_band", "matching_band", "corridor_band", "parse_match",
@@ -30,4 +33,5 @@ __all__ = [
     "PhaseLabels", "motion_phases",
     "SpliceConfig", "Alignment", "align_hands", "alignment_error",
     "SpliceResult", "splice_motions", "splice_markers",
+    "through_costs", "near_optimal_tube", "taut_string", "frame_map", "rasterize_map",
 ]

@@ -11,9 +11,21 @@
    frame numbers that need to be matched correspond to frames in the aligned
    motion").
 
-The final correspondence composes both paths: body frame ``i`` matches the
-hand frames that the first pass matched to the warped frames the second pass
-matched to ``i``.
+Frame maps (``SpliceConfig.frame_map``):
+
+* ``"taut"`` (default): after each pass the map is the least-distorting one
+  among the near-optimal alignments (:mod:`~mocomp.splice.warpmap`): within
+  a phase the sign metric cannot tell frames apart (Figure 6.5 c), and in a
+  hold no metric can, so instead of the arbitrary member of the tie that the
+  backtracking returns (an L-shaped staircase) we take the straight line
+  through the tube of alignments whose cost is within ``tie_tolerance`` of the
+  optimum. The hand is warped by this map for the second pass, and the final
+  map is the second pass's taut map composed with the first's.
+* ``"median"``: the paper taken literally: each pass's map is the median of
+  the frames its optimal path matches to each body frame, and the final
+  correspondence composes both paths (body frame ``i`` matches the hand
+  frames that the first pass matched to the warped frames the second pass
+  matched to ``i``).
 """
 from __future__ import annotations
 
@@ -26,6 +38,7 @@ from ..errors import AlignmentError
 from .bands import MatchPoint, as_points, matching_band
 from .dtw import DTWResult, dtw_band_costs, path_row_median, warp_values
 from .markers import HandMarkers
+from .warpmap import frame_map as taut_frame_map, rasterize_map
 from .metrics import ArmFeatures, angle_band_costs, arm_features, sign_band_costs, value_band_costs
 
 __all__ = ["SpliceConfig", "Alignment", "align_hands", "remap_points", "compose_paths", "alignment_error"]
@@ -48,6 +61,13 @@ class SpliceConfig:
     smooth: Savitzky-Golay window for the derivatives, seconds.
     dead_zone: sign dead zone relative to each derivative's 95th percentile.
     refine: run the second (eq. 6.9) pass.
+    refine_step_cost: radians added to every cell of the second pass (a cost
+        per matched pair, so the path does not wander where the hand angle is flat).
+    frame_map: ``"taut"`` (least-distorting near-optimal map, see the module
+        docstring) or ``"median"`` (the optimal paths' row medians, the paper's).
+    tie_tolerance: relative cost margin of the near-optimal tube (``"taut"``):
+        alignments costing at most ``(1 + tie_tolerance)`` times the optimum
+        count as equally good.
     """
 
     phase_width: float = 0.30
@@ -60,6 +80,8 @@ class SpliceConfig:
     dead_zone: float = 0.05
     refine: bool = True
     refine_step_cost: float = 0.05
+    frame_map: str = "taut"
+    tie_tolerance: float = 0.005
 
     def __post_init__(self):
         for name in ("phase_width", "refine_width"):
@@ -70,6 +92,12 @@ class SpliceConfig:
             raise ValueError(f"theta must be 'window', 'trunk' or 'none', got {self.theta!r}")
         if self.metric not in ("sign", "values"):
             raise ValueError(f"metric must be 'sign' or 'values', got {self.metric!r}")
+        if self.frame_map not in ("taut", "median"):
+            raise ValueError(f"frame_map must be 'taut' or 'median', got {self.frame_map!r}")
+        if not (np.isfinite(self.tie_tolerance) and self.tie_tolerance >= 0):
+            raise AlignmentError(f"tie_tolerance must be a non-negative fraction, got {self.tie_tolerance!r}")
+        if not (np.isfinite(self.refine_step_cost) and self.refine_step_cost >= 0):
+            raise AlignmentError(f"refine_step_cost must be >= 0 radians, got {self.refine_step_cost!r}")
 
 
 @dataclass(frozen=True, eq=False)
@@ -81,9 +109,14 @@ class Alignment:
     n, m: lengths.
     pass1: the phase-matching DTW (``n x m``).
     pass2: the refinement DTW (``n x n``: body vs. the hand warped by pass 1), or ``None``.
-    stage1_map: ``(n,)`` hand frame (median) matched to each body frame by pass 1.
-    hand_frame: ``(n,)`` final hand frame (median of the matched frames) per body frame.
-    path: ``(K, 2)`` composed monotone correspondence ``(body frame, hand frame)``.
+    stage1_map: ``(n,)`` hand frame (fractional) matched to each body frame by pass 1.
+    hand_frame: ``(n,)`` final hand frame (fractional) per body frame.
+    path: ``(K, 2)`` monotone integer correspondence ``(body frame, hand frame)``:
+        the composed optimal paths (``"median"``) or the final map rasterised
+        (``"taut"``, :func:`~mocomp.splice.warpmap.rasterize_map`); the median
+        merge uses it.
+    tubes: per pass (``"pass1"``, ``"pass2"``) the near-optimal tube ``(lo, hi)``
+        the taut map runs through (``"taut"`` only).
     points: user matching points (body frame, hand frame).
     points2: the same re-mapped for pass 2 (body frame, warped-hand frame).
     config: the :class:`SpliceConfig` used.
@@ -104,6 +137,7 @@ class Alignment:
     body_features: ArmFeatures = field(repr=False)
     hand_features: ArmFeatures = field(repr=False)
     timings: dict = field(default_factory=dict)
+    tubes: dict = field(default_factory=dict, repr=False)
 
     def matches(self, i: int) -> np.ndarray:
         """Hand frames matched to body frame ``i``."""
@@ -199,8 +233,13 @@ def align_hands(body: HandMarkers, hand: HandMarkers, points=(), config: SpliceC
         c1 = value_band_costs(fb, fh, band1, cfg.theta, cfg.value_tau)
     tc = time.perf_counter()
     r1 = dtw_band_costs(band1, c1, cost_seconds=tc - t1)
+    taut = cfg.frame_map == "taut"
+    tubes = {}
+    if taut:
+        map1, tubes["pass1"] = taut_frame_map(r1, cfg.tie_tolerance)
+    else:
+        map1 = r1.row_median()
     t2 = time.perf_counter()
-    map1 = r1.row_median()
     r2 = None
     pts2: tuple[MatchPoint, ...] = ()
     if cfg.refine and n >= 3:
@@ -211,15 +250,28 @@ def align_hands(body: HandMarkers, hand: HandMarkers, points=(), config: SpliceC
         ts = time.perf_counter()
         c2 = angle_band_costs(fb.forearm, fb.hand, f2, h2, band2) + cfg.refine_step_cost
         r2 = dtw_band_costs(band2, c2, cost_seconds=time.perf_counter() - ts)
-        path = compose_paths(r2.path, r1.path, n)
+        if taut:
+            map2, tubes["pass2"] = taut_frame_map(r2, cfg.tie_tolerance)
+            final = np.interp(map2, np.arange(n), map1)
+        else:
+            path = compose_paths(r2.path, r1.path, n)
     else:
+        final = map1
         path = r1.path
+    if taut:
+        # a matching point's row keeps to its window y +- T (the map does; the
+        # rasterised time cell of a steep map could reach past it)
+        lo_b, hi_b = np.zeros(n, dtype=np.int64), np.full(n, m - 1, dtype=np.int64)
+        for p in pts:
+            lo_b[p.x], hi_b[p.x] = max(p.y - p.tol, 0), min(p.y + p.tol, m - 1)
+        path = rasterize_map(final, m, lo_b, hi_b)
+    elif r2 is not None:
+        final = path_row_median(path, n)
     t3 = time.perf_counter()
-    final = path_row_median(path, n)
     for a in (map1, final, path):
         a.setflags(write=False)
     return Alignment(
         n=n, m=m, pass1=r1, pass2=r2, stage1_map=map1, hand_frame=final, path=path,
         points=pts, points2=pts2, config=cfg, body_features=fb, hand_features=fh,
-        timings={"features": t1 - t0, "pass1": t2 - t1, "pass2": t3 - t2, "total": t3 - t0},
+        timings={"features": t1 - t0, "pass1": t2 - t1, "pass2": t3 - t2, "total": t3 - t0}, tubes=tubes,
     )

@@ -7,8 +7,12 @@ averaging process can produce small discontinuities in the hand motion, as a
 final step, we blend discontinuities over a window of frames."
 
 * :func:`median_frames` takes, per body frame, the component-wise median over
-  the matched hand frames (markers; for skeleton data the joint quaternions,
-  hemisphere-aligned and renormalised).
+  the matched hand frames (markers; for skeleton data :func:`median_rotations`,
+  the joint quaternions hemisphere-aligned and renormalised). A body frame
+  matched to a single hand frame takes that frame or, given the fractional
+  frame map, the hand motion at that fractional frame (linear interpolation /
+  slerp): with a smooth map (:mod:`~mocomp.splice.warpmap`) a slower hand
+  performance is then played back smoothly instead of frame by frame.
 * :func:`blend_discontinuities` finds the body frames where the matched hand
   time jumps or stalls relative to its local rate, and blends a smoothed
   version of the merged signal in over a raised-cosine window around each.
@@ -20,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.ndimage import gaussian_filter1d, median_filter
 
+from ..core.motion import slerp
 from ..core.rotations import make_continuous
 from ..errors import AlignmentError
 
@@ -35,29 +40,60 @@ def _row_ranges(path: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
     return starts, stops
 
 
-def median_frames(values: np.ndarray, path: np.ndarray, n: int) -> np.ndarray:
+def _single_frames(frame, m: int, n: int):
+    """Fractional hand frame of the single-match rows (``None``: the matched frame itself)."""
+    if frame is None:
+        return None
+    f = np.asarray(frame, dtype=float)
+    if f.shape != (n,):
+        raise AlignmentError(f"frame map must have {n} entries, got {f.shape}")
+    if not np.all(np.isfinite(f)) or f.min() < 0 or f.max() > m - 1:
+        raise AlignmentError(f"frame map must lie in [0, {m - 1}]")
+    return f
+
+
+def median_frames(values: np.ndarray, path: np.ndarray, n: int, frame: np.ndarray | None = None) -> np.ndarray:
     """``(n, ...)``: for each body frame the component-wise median of
-    ``values (m, ...)`` over the hand frames the path matches to it."""
+    ``values (m, ...)`` over the hand frames the path matches to it.
+
+    With ``frame (n,)`` (the fractional hand frame of each body frame), a
+    body frame matched to a single hand frame takes ``values`` linearly
+    interpolated at ``frame`` instead."""
     values = np.asarray(values, dtype=float)
     path = np.asarray(path)
     starts, stops = _row_ranges(path, n)
-    out = values[path[starts, 1]].copy()
+    f = _single_frames(frame, values.shape[0], n)
+    if f is None:
+        out = values[path[starts, 1]].copy()
+    else:
+        from .dtw import warp_values
+
+        out = warp_values(values, f)
     multi = np.nonzero(stops - starts > 1)[0]
     for i in multi:
         out[i] = np.median(values[path[starts[i]:stops[i], 1]], axis=0)
     return out
 
 
-def median_rotations(quats: np.ndarray, path: np.ndarray, n: int) -> np.ndarray:
+def median_rotations(quats: np.ndarray, path: np.ndarray, n: int, frame: np.ndarray | None = None) -> np.ndarray:
     """``(n, J, 4)``: per body frame and joint, the median rotation over the
     matched hand frames: quaternions put in the hemisphere of the first
     matched one, component-wise median, renormalised (the rotation analogue of
     the paper's per-marker median; exact when one frame is matched, and equal
-    to the middle frame when each component is monotone over the matched run)."""
+    to the middle frame when each component is monotone over the matched run).
+
+    With ``frame (n,)``, a body frame matched to a single hand frame takes the
+    slerp of the hand rotations at the fractional ``frame``."""
     q = np.asarray(quats, dtype=float)
     path = np.asarray(path)
     starts, stops = _row_ranges(path, n)
-    out = q[path[starts, 1]].copy()
+    f = _single_frames(frame, q.shape[0], n)
+    if f is None:
+        out = q[path[starts, 1]].copy()
+    else:
+        i0 = np.minimum(np.floor(f).astype(np.int64), q.shape[0] - 1)
+        i1 = np.minimum(i0 + 1, q.shape[0] - 1)
+        out = slerp(q[i0], q[i1], np.broadcast_to((f - i0)[:, None], q[i0].shape[:-1]))
     for i in np.nonzero(stops - starts > 1)[0]:
         block = q[path[starts[i]:stops[i], 1]]  # (k, J, 4)
         sgn = np.sign(np.sum(block * block[:1], axis=-1, keepdims=True))

@@ -140,7 +140,7 @@ def splice_motions(body: Motion, hand: Motion, points=(), *, side: str = "right"
         if missing:
             raise AlignmentError(f"the hand recording's skeleton lacks the joints {missing} that the {s} {layer} layer drives")
         idx_h = [hand.skeleton.index(x) for x in nm]
-        merged = median_rotations(hand.rotations[:, idx_h], al.path, body.n_frames)
+        merged = median_rotations(hand.rotations[:, idx_h], al.path, body.n_frames, al.hand_frame)
         win = max(3, int(round(blend_window * body.fps)) | 1)
         merged, rep = blend_discontinuities(merged, al.hand_frame, window=win, jump=jump, rotations=True)
         rot[:, idx_b] = merged
@@ -194,7 +194,7 @@ def splice_markers(body, hand, points=(), *, side: str = "right", body_names=Non
         tb = time.perf_counter()
         al = align_hands(hb, hh, pts, cfg)
         tc = time.perf_counter()
-        rel = median_frames(hh.relative, al.path, al.n)  # (n, 4, 3)
+        rel = median_frames(hh.relative, al.path, al.n, al.hand_frame)  # (n, 4, 3)
         j = np.clip(np.round(al.hand_frame).astype(int), 0, al.m - 1)
         if hb.trunk_heading is not None and hh.trunk_heading is not None:
             theta = np.unwrap(hb.trunk_heading) - np.unwrap(hh.trunk_heading)[j]

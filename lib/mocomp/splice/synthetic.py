@@ -12,7 +12,18 @@ the same gesture by
   ``q = q_mean exp(a log(q_mean^-1 q))``, so the hand swings wider or narrower
   about the shoulder (the wrist's own posture is left as recorded);
 * a different body motion underneath (a walk) that drives every other joint;
-* white rotation noise on the arm joints.
+* white rotation noise on the arm joints, ``DEFAULT_NOISE_DEG = 0.25`` degrees
+  per axis and frame by default.
+
+The noise level is calibrated, not guessed: :func:`~mocomp.splice.metrics.marker_jitter`
+(white-noise estimate from the residual of a 5-frame cubic fit) gives
+0.06-0.25 mm on the virtual hand markers of the real clips in the data folder
+(Bandai Namco gestures and walk at 30 Hz, CMU wave at 60 Hz; an upper bound,
+since fast motion also leaves a residual), and about 2.4 mm with 0.25 degrees
+of rotation noise: ten times the noisiest real clip, the order of raw optical
+marker noise. The earlier default of 1 degree gives about 9.3 mm, 40 times
+the real clips; it stays available as a stress test (the sign metric of eq.
+6.6 compares signs of derivatives, so it is the first to suffer from noise).
 
 Everything is seeded by a ``numpy.random.Generator`` or an int.
 
@@ -34,6 +45,7 @@ from ..errors import AlignmentError
 from .markers import find_arm_joints
 
 __all__ = [
+    "DEFAULT_NOISE_DEG",
     "gesture_skeleton",
     "GestureClip",
     "gesture_clip",
@@ -48,6 +60,10 @@ __all__ = [
     "MarkerPair",
     "make_marker_pair",
 ]
+
+
+#: default rotation noise of the body recording, degrees per axis and frame (see the module docstring)
+DEFAULT_NOISE_DEG = 0.25
 
 
 # ------------------------------------------------------------- the performer
@@ -353,7 +369,7 @@ def _fit_length(under: Motion, n: int) -> Motion:
 
 def make_splice_pair(hand: Motion, under: Motion, rng=0, *, n_body: int | None = None, side: str = "right",
                      warp: np.ndarray | None = None, warp_strength: float = 0.5,
-                     amplitude: tuple[float, float] | np.ndarray = (0.5, 1.5), noise_deg: float = 1.0) -> SplicePair:
+                     amplitude: tuple[float, float] | np.ndarray = (0.5, 1.5), noise_deg: float = DEFAULT_NOISE_DEG) -> SplicePair:
     """Build a body recording of ``hand``'s gesture on top of ``under`` (e.g. a walk).
 
     The body clip has ``n_body`` frames (default ``1.2 m``) at ``hand.fps``:
@@ -362,7 +378,8 @@ def make_splice_pair(hand: Motion, under: Motion, rng=0, *, n_body: int | None =
     warped frames ``truth = warp`` (default :func:`time_warp`), scaled about
     its mean pose by the amplitude profile (or the given per-frame factors;
     upper arm and elbow only)
-    and perturbed by white rotation noise of ``noise_deg`` degrees.
+    and perturbed by white rotation noise of ``noise_deg`` degrees per axis
+    (every arm-chain joint, every frame).
     ``hand`` and ``under`` need the same arm joint names.
     """
     rng = np.random.default_rng(rng)
@@ -414,7 +431,7 @@ def synthetic_pair(rng=0, *, n_gestures: int = 4, fps: float = 30.0, side: str =
     return make_splice_pair(g.motion, walk, rng, n_body=n, side=side, **kw)
 
 
-def ambiguous_pair(rng=0, *, n_cycles: int = 4, fps: float = 30.0, side: str = "right", noise_deg: float = 1.0,
+def ambiguous_pair(rng=0, *, n_cycles: int = 4, fps: float = 30.0, side: str = "right", noise_deg: float = DEFAULT_NOISE_DEG,
                    amplitude: tuple[float, float] = (0.7, 1.3)) -> SplicePair:
     """The deliberately ambiguous case: the hand recording repeats one gesture
     ``n_cycles`` times back to back (a counting motion, cycles identical up to
