@@ -66,6 +66,20 @@ def test_points_reshape_the_band_piecewise():
     assert np.all(np.diff(band.lo) >= 0) and np.all(np.diff(band.hi) >= 0)
 
 
+def test_a_point_outside_the_slanted_band_reshapes_it():
+    """Algorithm 1: points are honoured wherever they lie in the matrix; one
+    outside the eq. 6.3 band bends the band to it (no error), and the optimal
+    path passes through it exactly."""
+    from mocomp.splice import dtw
+
+    n, m, W = 120, 100, 5.0
+    plain = slanted_band(n, m, W)
+    p = MatchPoint(30, 70, 0)
+    assert not plain.contains(p.x, p.y)
+    res = dtw(cost=np.random.default_rng(0).random((n, m)), width=W, points=[p])
+    np.testing.assert_array_equal(res.matches(p.x), [p.y])
+
+
 def test_pruned_band_keeps_only_cells_on_monotone_paths():
     band = matching_band(60, 60, 6.0, [MatchPoint(30, 10, 0)])
     # every kept row range connects to the next one

@@ -14,6 +14,27 @@ at ``(n, m)``. With 0-based frames the same line joins the corner cells
 the slope ``(m-1)/(n-1)`` and ``rho = W sqrt((n-1)^2 + (m-1)^2) / (n-1)``:
 ``W`` is then exactly the band's half-width measured perpendicular to the
 diagonal, in frames.
+
+Matching points, as Algorithm 1 defines them, *reshape* the band: between
+consecutive points (and the corners) each segment gets its own slanted band
+(eq. 6.4), so a point far off the diagonal -- outside the band of eq. 6.3 --
+is honoured, not rejected (that is what the reshaping is for; Figure 6.3 b).
+What a band cannot contain, and what raises
+:class:`~mocomp.errors.AlignmentError` naming the point, is: a point outside
+the matrix (a frame at or beyond either sequence's ends, which are anchors
+already), points out of order (eq. 6.4 requires ``x_{k-1} < x_k`` and
+``y_{k-1} < y_k``), and consecutive points on adjacent body frames whose
+hand frames are too far apart for any monotone path to match the frames in
+between (the band would be cut). Tolerance windows ``y +- T`` are clipped to
+the matrix, as the ``max{1, ...}``/``min{m, ...}`` of eq. 6.5 do.
+
+One deliberate difference from Algorithm 1 read literally: it assigns row
+``x_k`` to segment ``k`` only (``x_{k-1} < i <= x_k``), bounding it by
+``j <= y_k + T`` from above and the next row by ``j >= y_k - T`` from below,
+which with ``T = 0`` still lets a diagonal step from ``(x_k, y_k - 1)`` to
+``(x_k + 1, y_k)`` pass beside the point. Here row ``x_k`` belongs to both
+segments and takes the intersection, ``y_k - T <= j <= y_k + T``: an exact
+point is matched exactly ("band limited to one point", Figure 6.3 b).
 """
 from __future__ import annotations
 
@@ -344,11 +365,13 @@ def matching_band(n: int, m: int, width: float | None, points: Iterable = (), *,
     for k, p in enumerate(pts, 1):
         if not (0 < p.x < n - 1):
             raise AlignmentError(
-                f"matching point {k} ({p}) is outside the matrix: its body frame must lie strictly between 0 and {n - 1}"
+                f"matching point {k} ({p}) is outside the matrix (and so outside any band): its body frame must lie "
+                f"strictly between 0 and {n - 1}, the first and last frames being matched already"
             )
         if not (0 < p.y < m - 1):
             raise AlignmentError(
-                f"matching point {k} ({p}) is outside the matrix: its hand frame must lie strictly between 0 and {m - 1}"
+                f"matching point {k} ({p}) is outside the matrix (and so outside any band): its hand frame must lie "
+                f"strictly between 0 and {m - 1}, the first and last frames being matched already"
             )
         if prev is not None and not (p.x > prev.x and p.y > prev.y):
             raise AlignmentError(
