@@ -37,7 +37,8 @@ def test_cli_writes_spliced_bvh_and_plot(files, capsys):
 def test_cli_options(files, capsys):
     d, _ = files
     rc = main(["splice", str(d / "body.bvh"), str(d / "hand.bvh"), "-o", str(d / "out2.bvh"), "--side", "both",
-               "--layer", "forearm", "--theta", "trunk", "--no-refine", "--phase-width", "25%", "--plot", str(d / "b.png")])
+               "--layer", "forearm", "--theta", "trunk", "--no-refine", "--phase-width", "25%", "--plot", str(d / "b.png"),
+               "--frame-map", "median"])
     assert rc == 0
     assert (d / "b_right.png").exists() and (d / "b_left.png").exists()
     assert "left arm" in capsys.readouterr().out

@@ -55,6 +55,10 @@ def register(sub) -> None:
     p.add_argument("--metric", choices=("sign", "values"), default="sign",
                    help="pass-1 metric: signs of derivatives (eq. 6.6, default) or their values")
     p.add_argument("--no-refine", action="store_true", help="skip the second (hand-angle) pass")
+    p.add_argument("--frame-map", choices=("taut", "median"), default="taut",
+                   help="frame correspondence taken from each pass: the least-distorting map through the tube of "
+                        "near-optimal alignments (default), or the optimal path's row medians (the paper's, which "
+                        "leaves staircases inside phases and holds)")
     p.add_argument("--body-fps", type=fps_arg, metavar="F", help="override BODY's frame rate")
     p.add_argument("--hand-fps", type=fps_arg, metavar="F", help="override HAND's frame rate")
     p.add_argument("--plot", metavar="PNG", help="write the bands, paths and frame map (Figure 6.3 style)")
@@ -75,7 +79,7 @@ def run(args) -> int:
     body = datasets.load(args.body, fps=args.body_fps)
     hand = datasets.load(args.hand, fps=args.hand_fps)
     cfg = SpliceConfig(phase_width=args.phase_width, refine_width=args.refine_width, theta=args.theta,
-                       metric=args.metric, refine=not args.no_refine)
+                       metric=args.metric, refine=not args.no_refine, frame_map=args.frame_map)
     res = splice_motions(body, hand, args.match, side=args.side, layer=args.layer, config=cfg)
     write_bvh(res.motion, out)
     print(f"body {body.n_frames} frames at {body.fps:g} fps, hand {hand.n_frames} frames at {hand.fps:g} fps"

@@ -29,11 +29,14 @@ def _ax(ax, figsize=(5, 5)):
 
 
 def plot_band(result, ax=None, *, cost: bool = True, truth=None, title: str | None = None, cmap: str = "viridis",
-              path_color: str = "white", xlabel: str = "body frame", ylabel: str = "hand frame", colorbar: bool = False):
+              path_color: str = "white", xlabel: str = "body frame", ylabel: str = "hand frame", colorbar: bool = False,
+              tube=None, frame_map=None):
     """Figure 6.3: the band's local costs (darker = lower), its outline (as
     defined by eq. 6.3-6.5, before pruning), the optimal path and the
     matching points (squares; tolerance as a vertical bar). ``truth (n,)``
-    adds the true map as a dashed line. ``result`` is a
+    adds the true map as a dashed line; ``tube = (lo, hi)`` shades the
+    near-optimal tube and ``frame_map (n,)`` draws the frame map taken through
+    it (:mod:`~mocomp.splice.warpmap`). ``result`` is a
     :class:`~mocomp.splice.dtw.DTWResult`."""
     ax = _ax(ax)
     band = result.band
@@ -49,7 +52,12 @@ def plot_band(result, ax=None, *, cost: bool = True, truth=None, title: str | No
     i = np.arange(n)
     ax.plot(i, band.raw_lo - 0.5, color="orange", lw=1, label="band")
     ax.plot(i, band.raw_hi + 0.5, color="orange", lw=1)
+    if tube is not None:
+        ax.fill_between(i, np.asarray(tube[0]) - 0.5, np.asarray(tube[1]) + 0.5, color="white", alpha=0.35, lw=0,
+                        label="near-optimal tube")
     ax.plot(result.path[:, 0], result.path[:, 1], color=path_color, lw=1.5, label="optimal path")
+    if frame_map is not None:
+        ax.plot(i, np.asarray(frame_map), color="red", lw=1.2, label="frame map")
     if truth is not None:
         ax.plot(i, np.asarray(truth), "--", color="magenta", lw=1.2, label="truth")
     for p in band.points:
@@ -70,7 +78,8 @@ def plot_band(result, ax=None, *, cost: bool = True, truth=None, title: str | No
 
 def plot_alignment(alignment, truth=None, fig=None, title: str | None = None):
     """Three panels: pass 1 (sign metric, eq. 6.6) band and path, pass 2
-    (hand angle, eq. 6.9) band and path on the warped hand, and the final
+    (hand angle, eq. 6.9) band and path on the warped hand (each with its
+    near-optimal tube and frame map when the taut map was used), and the final
     frame map (with the truth and its error if given)."""
     import matplotlib.pyplot as plt
 
@@ -78,10 +87,13 @@ def plot_alignment(alignment, truth=None, fig=None, title: str | None = None):
         fig = plt.figure(figsize=(15, 4.6))
     axs = fig.subplots(1, 3)
     metric = "eq. 6.6 sign metric" if alignment.config.metric == "sign" else "derivative values"
-    plot_band(alignment.pass1, axs[0], truth=truth, title=f"pass 1: {metric}, W = {alignment.config.phase_width:.0%} n")
+    tubes = getattr(alignment, "tubes", {}) or {}
+    plot_band(alignment.pass1, axs[0], truth=truth, title=f"pass 1: {metric}, W = {alignment.config.phase_width:.0%} n",
+              tube=tubes.get("pass1"), frame_map=alignment.stage1_map)
     if alignment.pass2 is not None:
         plot_band(alignment.pass2, axs[1], ylabel="warped hand frame",
-                  title=f"pass 2: eq. 6.9 hand angle, W = {alignment.config.refine_width:.0%} n")
+                  title=f"pass 2: eq. 6.9 hand angle, W = {alignment.config.refine_width:.0%} n",
+                  tube=tubes.get("pass2"), frame_map=alignment.stage2_map)
     else:
         axs[1].set_axis_off()
     ax = axs[2]

@@ -117,6 +117,7 @@ class Alignment:
         merge uses it.
     tubes: per pass (``"pass1"``, ``"pass2"``) the near-optimal tube ``(lo, hi)``
         the taut map runs through (``"taut"`` only).
+    stage2_map: ``(n,)`` warped-hand frame per body frame from pass 2, or ``None``.
     points: user matching points (body frame, hand frame).
     points2: the same re-mapped for pass 2 (body frame, warped-hand frame).
     config: the :class:`SpliceConfig` used.
@@ -138,6 +139,7 @@ class Alignment:
     hand_features: ArmFeatures = field(repr=False)
     timings: dict = field(default_factory=dict)
     tubes: dict = field(default_factory=dict, repr=False)
+    stage2_map: np.ndarray | None = field(default=None, repr=False)
 
     def matches(self, i: int) -> np.ndarray:
         """Hand frames matched to body frame ``i``."""
@@ -240,7 +242,7 @@ def align_hands(body: HandMarkers, hand: HandMarkers, points=(), config: SpliceC
     else:
         map1 = r1.row_median()
     t2 = time.perf_counter()
-    r2 = None
+    r2 = map2 = None
     pts2: tuple[MatchPoint, ...] = ()
     if cfg.refine and n >= 3:
         # the hand recording's eq. 6.8 vectors, warped onto the body's frames
@@ -254,6 +256,7 @@ def align_hands(body: HandMarkers, hand: HandMarkers, points=(), config: SpliceC
             map2, tubes["pass2"] = taut_frame_map(r2, cfg.tie_tolerance)
             final = np.interp(map2, np.arange(n), map1)
         else:
+            map2 = r2.row_median()
             path = compose_paths(r2.path, r1.path, n)
     else:
         final = map1
@@ -268,10 +271,12 @@ def align_hands(body: HandMarkers, hand: HandMarkers, points=(), config: SpliceC
     elif r2 is not None:
         final = path_row_median(path, n)
     t3 = time.perf_counter()
-    for a in (map1, final, path):
-        a.setflags(write=False)
+    for a in (map1, final, path, map2):
+        if a is not None:
+            a.setflags(write=False)
     return Alignment(
         n=n, m=m, pass1=r1, pass2=r2, stage1_map=map1, hand_frame=final, path=path,
         points=pts, points2=pts2, config=cfg, body_features=fb, hand_features=fh,
         timings={"features": t1 - t0, "pass1": t2 - t1, "pass2": t3 - t2, "total": t3 - t0}, tubes=tubes,
+        stage2_map=map2,
     )
