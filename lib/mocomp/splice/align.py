@@ -18,8 +18,8 @@ Frame maps (``SpliceConfig.frame_map``):
   a phase the sign metric cannot tell frames apart (Figure 6.5 c), and in a
   hold no metric can, so instead of the arbitrary member of the tie that the
   backtracking returns (an L-shaped staircase) we take the straight line
-  through the tube of alignments whose cost is within ``tie_tolerance`` of the
-  optimum. The hand is warped by this map for the second pass, and the final
+  through the tube of alignments whose cost exceeds the optimum by at most
+  ``tie_cells`` times the optimal path's mean cost per matched pair. The hand is warped by this map for the second pass, and the final
   map is the second pass's taut map composed with the first's.
 * ``"median"``: the paper taken literally: each pass's map is the median of
   the frames its optimal path matches to each body frame, and the final
@@ -65,9 +65,9 @@ class SpliceConfig:
         per matched pair, so the path does not wander where the hand angle is flat).
     frame_map: ``"taut"`` (least-distorting near-optimal map, see the module
         docstring) or ``"median"`` (the optimal paths' row medians, the paper's).
-    tie_tolerance: relative cost margin of the near-optimal tube (``"taut"``):
-        alignments costing at most ``(1 + tie_tolerance)`` times the optimum
-        count as equally good.
+    tie_cells: cost margin of the near-optimal tube (``"taut"``) in units of
+        the optimal path's mean cost per matched pair: alignments costing at
+        most that much more than the optimum count as equally good.
     """
 
     phase_width: float = 0.30
@@ -81,7 +81,7 @@ class SpliceConfig:
     refine: bool = True
     refine_step_cost: float = 0.05
     frame_map: str = "taut"
-    tie_tolerance: float = 0.005
+    tie_cells: float = 2.0
 
     def __post_init__(self):
         for name in ("phase_width", "refine_width"):
@@ -94,8 +94,8 @@ class SpliceConfig:
             raise ValueError(f"metric must be 'sign' or 'values', got {self.metric!r}")
         if self.frame_map not in ("taut", "median"):
             raise ValueError(f"frame_map must be 'taut' or 'median', got {self.frame_map!r}")
-        if not (np.isfinite(self.tie_tolerance) and self.tie_tolerance >= 0):
-            raise AlignmentError(f"tie_tolerance must be a non-negative fraction, got {self.tie_tolerance!r}")
+        if not (np.isfinite(self.tie_cells) and self.tie_cells >= 0):
+            raise AlignmentError(f"tie_cells must be a non-negative number of cells, got {self.tie_cells!r}")
         if not (np.isfinite(self.refine_step_cost) and self.refine_step_cost >= 0):
             raise AlignmentError(f"refine_step_cost must be >= 0 radians, got {self.refine_step_cost!r}")
 
@@ -238,7 +238,7 @@ def align_hands(body: HandMarkers, hand: HandMarkers, points=(), config: SpliceC
     taut = cfg.frame_map == "taut"
     tubes = {}
     if taut:
-        map1, tubes["pass1"] = taut_frame_map(r1, cfg.tie_tolerance)
+        map1, tubes["pass1"] = taut_frame_map(r1, cfg.tie_cells)
     else:
         map1 = r1.row_median()
     t2 = time.perf_counter()
@@ -253,7 +253,7 @@ def align_hands(body: HandMarkers, hand: HandMarkers, points=(), config: SpliceC
         c2 = angle_band_costs(fb.forearm, fb.hand, f2, h2, band2) + cfg.refine_step_cost
         r2 = dtw_band_costs(band2, c2, cost_seconds=time.perf_counter() - ts)
         if taut:
-            map2, tubes["pass2"] = taut_frame_map(r2, cfg.tie_tolerance)
+            map2, tubes["pass2"] = taut_frame_map(r2, cfg.tie_cells)
             final = np.interp(map2, np.arange(n), map1)
         else:
             map2 = r2.row_median()

@@ -18,7 +18,8 @@ committal way:
   eq. 6.1-6.2, the same recurrence run backwards from the end cell, minus
   the cell's own local cost counted twice).
 * :func:`near_optimal_tube`: per row, the column range of the cells whose
-  best path costs at most ``(1 + tolerance)`` times the optimum. The range
+  best path costs at most a margin above the optimum (by default, in
+  :func:`frame_map`, the optimal path's mean cost of two matched pairs). The range
   is non-decreasing in both bounds and contains the optimal path, so every
   alignment that is as good as the optimum up to the tolerance lies inside.
 * :func:`taut_string`: the shortest curve from the first row to the last that
@@ -80,7 +81,7 @@ def _tube_kernel(lo, hi, off, through, limit, out_lo, out_hi):  # pragma: no cov
         out_hi[i] = b
 
 
-def near_optimal_tube(result: DTWResult, tolerance: float = 0.005, *, absolute: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+def near_optimal_tube(result: DTWResult, tolerance: float = 0.0, *, absolute: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """Per row ``i``, the lowest and highest column of the cells on some path
     costing at most ``cost (1 + tolerance) + absolute`` (``(n,)`` int64 each).
 
@@ -171,13 +172,27 @@ def taut_string(lo, hi, start: float | None = None, end: float | None = None) ->
     return out
 
 
-def frame_map(result: DTWResult, tolerance: float = 0.005) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray]]:
+def frame_map(result: DTWResult, tie_cells: float = 2.0) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray]]:
     """``(n,)`` fractional column per row: the taut string through the
-    near-optimal tube (:func:`near_optimal_tube` with ``tolerance``), and the
-    tube. With ``tolerance = 0`` and no ties this is the optimal path where it
-    moves one column per row, and straight through its horizontal and vertical
-    runs."""
-    lo, hi = near_optimal_tube(result, tolerance)
+    near-optimal tube, and the tube.
+
+    The tube admits paths costing at most ``tie_cells`` times the optimal
+    path's mean cost per matched pair above the optimum
+    (``absolute = tie_cells cost / len(path)`` in :func:`near_optimal_tube`):
+    a margin of "two average cells" by default, independent of the sequences'
+    length and of the metric's units. On the ground truth (8 procedural pairs,
+    16 real-clip pairs, 8 ambiguous pairs with points) 0, 1, 2, 3, 6 and 12
+    cells give mean errors 1.49/0.88/1.29, 1.12/0.72/1.00, 1.10/0.76/1.08,
+    1.15/0.83/1.29, 1.46/1.13/1.90 and 2.34/1.83/2.79 frames (the optimal
+    paths' row medians: 1.76/0.89/1.38), and, for 0-6 cells, a spliced wrist
+    (8 pairs) whose mean frame-to-frame acceleration is 2.6, 1.24, 1.10, 1.12 and 1.09 times the
+    truth's (row medians: 2.8): a wide optimum from one to three cells; two
+    balances alignment error and smoothness. ``tie_cells = 0`` keeps exact ties
+    only; then, without ties, this is the optimal path where it moves one
+    column per row and straight through its horizontal and vertical runs."""
+    if not (np.isfinite(tie_cells) and tie_cells >= 0):
+        raise AlignmentError(f"tie_cells must be a non-negative number of cells, got {tie_cells!r}")
+    lo, hi = near_optimal_tube(result, 0.0, absolute=tie_cells * result.normalized_cost)
     return taut_string(lo, hi), (lo, hi)
 
 
