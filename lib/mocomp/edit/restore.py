@@ -77,6 +77,11 @@ def magnitude_error(L: np.ndarray, L_star: np.ndarray) -> np.ndarray:
     return np.abs(np.linalg.norm(L, axis=1) - s) / s
 
 
+def _finite_max(errors: np.ndarray) -> float:
+    """Largest finite entry (frames without an error are NaN); 0 when there is none."""
+    return float(np.nanmax(errors)) if np.any(np.isfinite(errors)) else 0.0
+
+
 def _nan_rows(fn, L, ref):
     """``fn(L, ref)`` on the finite rows of ``L`` (and ``ref`` when it has rows), NaN elsewhere."""
     out = np.full(L.shape[0], np.nan)
@@ -341,11 +346,11 @@ class DirectionResult:
 
     @property
     def max_error_before(self) -> float:
-        return float(np.nanmax(self.error_before)) if np.any(np.isfinite(self.error_before)) else 0.0
+        return _finite_max(self.error_before)
 
     @property
     def max_error_after(self) -> float:
-        return float(np.nanmax(self.error_after)) if np.any(np.isfinite(self.error_after)) else 0.0
+        return _finite_max(self.error_after)
 
     @property
     def max_rotation_deg(self) -> float:
@@ -554,11 +559,11 @@ class MagnitudeResult:
 
     @property
     def max_error_before(self) -> float:
-        return float(np.nanmax(self.error_before)) if np.any(np.isfinite(self.error_before)) else 0.0
+        return _finite_max(self.error_before)
 
     @property
     def max_error_after(self) -> float:
-        return float(np.nanmax(self.error_after)) if np.any(np.isfinite(self.error_after)) else 0.0
+        return _finite_max(self.error_after)
 
 
 def correct_magnitude(body, motion: Motion, flight, L_star=None, oversample: int = 8,
