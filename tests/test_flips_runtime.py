@@ -108,3 +108,39 @@ def test_compiled_frame_distance_matches_numpy():
     np.testing.assert_allclose(D2, D1, atol=1e-12)
     np.testing.assert_allclose(np.angle(np.exp(1j * (p2 - p1))), 0.0, atol=1e-12)
     assert D1.max() > 0.5                       # the pairs are not trivially similar
+
+
+def test_gathered_slerp_and_fresh_motion_equal_the_checked_path():
+    """The retiming slerp reading rows in place equals the gathered one bit for bit and reports
+    non-finite results; the run-time stage's unchecked ``Motion`` equals ``Motion.replace``."""
+    from mocomp.flips import _kernels, multiflip, prepare
+    from mocomp.flips.multiflip import _fresh_motion
+
+    if not _kernels.AVAILABLE:
+        pytest.skip("numba not available")
+    from _flips_data import synthetic
+
+    P = prepare(synthetic("backflip").motion)
+    rot = np.array(P.rotations)
+    rng = np.random.default_rng(11)
+    i0 = rng.integers(0, rot.shape[0] - 1, 150)
+    a = rng.uniform(0, 1, 150)
+    out, ok = _kernels.slerp_gather_nb(rot, i0, a)
+    assert ok
+    np.testing.assert_array_equal(out, _kernels.slerp_rows_nb(rot[i0], rot[i0 + 1], a))
+    bad = rot.copy()
+    bad[i0[3] + 1, 5] = np.nan
+    assert not _kernels.slerp_gather_nb(bad, i0, a)[1]
+    with pytest.raises(IndexError):
+        _kernels.slerp_gather_nb(rot, np.array([rot.shape[0] - 1]), np.zeros(1))
+    res = multiflip(P, flips=2, evaluate=False)
+    m = res.motion
+    ref = P.motion.replace(root_positions=m.root_positions, rotations=m.rotations, source=m.source)
+    np.testing.assert_array_equal(ref.rotations, m.rotations)
+    np.testing.assert_array_equal(ref.root_positions, m.root_positions)
+    assert m.skeleton is P.motion.skeleton and m.fps == P.motion.fps and m._cache == {}
+    assert not m.rotations.flags.writeable and not m.root_positions.flags.writeable
+    assert m.positions.shape == (m.n_frames, P.motion.skeleton.n_joints, 3)
+    assert "fk" not in P.motion._cache or P.motion._cache["fk"][0].shape[0] == P.motion.n_frames
+    fresh = _fresh_motion(P.motion, np.zeros((4, 3)), np.array(rot[:4]), m.source)
+    assert fresh.n_frames == 4 and fresh.skeleton is P.motion.skeleton

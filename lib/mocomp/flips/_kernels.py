@@ -24,41 +24,68 @@ try:
 except Exception:  # pragma: no cover - numba is a dependency; keep the library importable without it
     AVAILABLE = False
 
-__all__ = ["AVAILABLE", "slerp_rows_nb", "com_relative_nb", "seam_block_nb", "frame_distance_nb", "warmup"]
+__all__ = ["AVAILABLE", "slerp_rows_nb", "com_relative_nb", "seam_block_nb", "frame_distance_nb", "slerp_gather_nb",
+           "warmup"]
 
 if AVAILABLE:
+    @numba.njit(cache=True, nogil=True, inline="always")
+    def _slerp1(q0, n0, q1, n1, j, t, cos_near, out, n):
+        """Row ``n`` joint ``j`` of the retiming slerp: ``q0[n0, j] -> q1[n1, j]`` at weight ``t``
+        into ``out[n, j]``; returns the squared norm before normalisation (finite and > 0 for a
+        valid unit result)."""
+        d = q0[n0, j, 0] * q1[n1, j, 0] + q0[n0, j, 1] * q1[n1, j, 1] + q0[n0, j, 2] * q1[n1, j, 2] \
+            + q0[n0, j, 3] * q1[n1, j, 3]
+        s = 1.0
+        if d < 0.0:
+            d = -d
+            s = -1.0
+        if d >= cos_near:
+            w0 = 1.0 - t
+            w1 = t * s
+        else:
+            if d > 1.0:
+                d = 1.0
+            th = math.acos(d)
+            inv = 1.0 / math.sin(th)
+            w0 = math.sin((1.0 - t) * th) * inv
+            w1 = math.sin(t * th) * inv * s
+        x = w0 * q0[n0, j, 0] + w1 * q1[n1, j, 0]
+        y = w0 * q0[n0, j, 1] + w1 * q1[n1, j, 1]
+        z = w0 * q0[n0, j, 2] + w1 * q1[n1, j, 2]
+        w = w0 * q0[n0, j, 3] + w1 * q1[n1, j, 3]
+        nn = x * x + y * y + z * z + w * w
+        r = 1.0 / math.sqrt(nn)
+        out[n, j, 0] = x * r
+        out[n, j, 1] = y * r
+        out[n, j, 2] = z * r
+        out[n, j, 3] = w * r
+        return nn
+
     @numba.njit(cache=True, nogil=True)
     def _slerp_rows(q0, q1, a, cos_near, out):
         N, J, _ = q0.shape
         for n in range(N):
             t = a[n]
             for j in range(J):
-                d = q0[n, j, 0] * q1[n, j, 0] + q0[n, j, 1] * q1[n, j, 1] + q0[n, j, 2] * q1[n, j, 2] \
-                    + q0[n, j, 3] * q1[n, j, 3]
-                s = 1.0
-                if d < 0.0:
-                    d = -d
-                    s = -1.0
-                if d >= cos_near:
-                    w0 = 1.0 - t
-                    w1 = t * s
-                else:
-                    if d > 1.0:
-                        d = 1.0
-                    th = math.acos(d)
-                    inv = 1.0 / math.sin(th)
-                    w0 = math.sin((1.0 - t) * th) * inv
-                    w1 = math.sin(t * th) * inv * s
-                x = w0 * q0[n, j, 0] + w1 * q1[n, j, 0]
-                y = w0 * q0[n, j, 1] + w1 * q1[n, j, 1]
-                z = w0 * q0[n, j, 2] + w1 * q1[n, j, 2]
-                w = w0 * q0[n, j, 3] + w1 * q1[n, j, 3]
-                r = 1.0 / math.sqrt(x * x + y * y + z * z + w * w)
-                out[n, j, 0] = x * r
-                out[n, j, 1] = y * r
-                out[n, j, 2] = z * r
-                out[n, j, 3] = w * r
+                _slerp1(q0, n, q1, n, j, t, cos_near, out, n)
         return out
+
+    @numba.njit(cache=True, nogil=True)
+    def _slerp_gather(rot, i0, a, cos_near, out):
+        """``out[n] = slerp(rot[i0[n]], rot[i0[n] + 1], a[n])`` without gathering the two rows first;
+        returns whether every result is a finite unit quaternion (its pre-normalisation norm finite
+        and positive), so the caller need not check again."""
+        N = i0.shape[0]
+        J = rot.shape[1]
+        ok = True
+        for n in range(N):
+            t = a[n]
+            k = i0[n]
+            for j in range(J):
+                nn = _slerp1(rot, k, rot, k + 1, j, t, cos_near, out, n)
+                if not (nn > 0.0 and nn < math.inf):
+                    ok = False
+        return ok
 
     @numba.njit(cache=True, nogil=True)
     def _com_relative(q, joints, parent, u, out):
@@ -221,6 +248,22 @@ def slerp_rows_nb(q0: np.ndarray, q1: np.ndarray, a: np.ndarray, nlerp_below: fl
                        np.empty_like(q0))
 
 
+def slerp_gather_nb(rot: np.ndarray, i0: np.ndarray, a: np.ndarray, nlerp_below: float = 0.1
+                    ) -> tuple[np.ndarray, bool]:
+    """:func:`slerp_rows_nb` of ``rot[i0]`` and ``rot[i0 + 1]`` with weights ``a`` (the retiming
+    interpolation), reading the rows in place: ``(out (N, J, 4), ok)``, ``ok`` telling that every
+    output is a finite unit quaternion (to rounding: each row is normalised)."""
+    rot = np.ascontiguousarray(rot, dtype=np.float64)
+    if not rot.flags.writeable:
+        rot = rot.copy()
+    i0 = np.ascontiguousarray(i0, dtype=np.int64)
+    if i0.size and (i0.min() < 0 or i0.max() + 1 >= rot.shape[0]):
+        raise IndexError(f"slerp rows {i0.min()}..{i0.max() + 1} outside 0..{rot.shape[0] - 1}")
+    out = np.empty((i0.shape[0],) + rot.shape[1:])
+    ok = _slerp_gather(rot, i0, np.ascontiguousarray(a, dtype=np.float64), math.cos(nlerp_below), out)
+    return out, bool(ok)
+
+
 def com_relative_nb(q: np.ndarray, joints: np.ndarray, parent: np.ndarray, u: np.ndarray) -> np.ndarray:
     q = np.ascontiguousarray(q, dtype=np.float64)
     if not q.flags.writeable:
@@ -240,6 +283,7 @@ def warmup() -> None:
     q = np.zeros((2, 2, 4))
     q[..., 3] = 1.0
     slerp_rows_nb(q, q, np.zeros(2))
+    slerp_gather_nb(q, np.zeros(1, dtype=np.int64), np.zeros(1))
     com_relative_nb(q, np.arange(2, dtype=np.int64), np.zeros(2, dtype=np.int64), np.zeros((2, 3)))
     seam_block_nb(q.copy(), np.zeros(2), np.array([True, False]), q[0], q[0], q[0, 0], q[0, 0], np.zeros(2),
                   np.array([1.0, 0.0, 0.0]), q[0, 0])

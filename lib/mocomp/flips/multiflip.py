@@ -22,6 +22,7 @@ new motion), which is evidence, not part of the method.
 """
 from __future__ import annotations
 
+import copy
 import dataclasses
 import json
 import time
@@ -40,7 +41,7 @@ from .sequence import Sequence, build_sequence
 from ..core.motion import slerp
 from .similarity import axis_quat, twist_angle
 from ._kernels import AVAILABLE as KERNELS
-from ._kernels import seam_block_nb, slerp_rows_nb
+from ._kernels import seam_block_nb, slerp_gather_nb
 from ._quat import qapply, qconj, qmul, qpow, slerp_rows
 from .smoothing import compose_root, ramp, shortest_arc, split_root
 
@@ -411,7 +412,10 @@ def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None 
         tw, tau = warped_positions(W, kk)
     i0 = np.minimum(np.floor(tau).astype(int), nseq - 2)
     al = tau - i0
-    rot_out = (slerp_rows_nb if KERNELS else slerp_rows)(rot[i0], rot[i0 + 1], al)
+    if KERNELS:
+        rot_out, unit = slerp_gather_nb(rot, i0, al)
+    else:
+        rot_out, unit = slerp_rows(rot[i0], rot[i0 + 1], al), False
     t3 = time.perf_counter()
     timings["retime"] = t3 - t2
     # ------------------------------------------------------------- reposition
@@ -436,9 +440,11 @@ def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None 
     timings["reposition"] = t4 - t3
     # --------------------------------------------------------------- assemble
     notes = (f"multi-flip ({flips if flips else 'extra rotation'}) by mocomp.flips from {P.name}: k={kk:.3f}",)
-    new = P.motion.replace(root_positions=root_out, rotations=rot_out,
-                           source=dataclasses.replace(P.motion.source, format="generated",
-                                                      notes=P.motion.source.notes + notes))
+    source = dataclasses.replace(P.motion.source, format="generated", notes=P.motion.source.notes + notes)
+    if unit and np.isfinite(root_out).all():
+        new = _fresh_motion(P.motion, root_out, rot_out, source)
+    else:                                                           # Motion's own checks (and its errors)
+        new = P.motion.replace(root_positions=root_out, rotations=rot_out, source=source)
     t5 = time.perf_counter()
     timings["assemble"] = t5 - t4
     flight_out = (int(fl[0]), int(fl[-1]) + 1)
@@ -497,6 +503,27 @@ def _seam_speeds(P: PreparedFlip, seq: Sequence, rot: np.ndarray, w: int, hi_u: 
             ref *= (np.where(left, mid / lev_l, mid / lev_r) ** ramp(np.abs(idx - a), w))[:, None]
         speed[idx] = seam_speed(L_new, ref)
     return speed
+
+
+def _fresh_motion(template: Motion, root_positions: np.ndarray, rotations: np.ndarray, source) -> Motion:
+    """``template.replace(root_positions=..., rotations=..., source=...)`` for arrays the run-time
+    stage has just made and checked, without :class:`Motion`'s defensive copy and validation
+    (its norm check alone cost more than the slerp): the shapes hold by construction, the
+    root positions were checked finite, and the compiled slerp normalised every rotation and
+    reported it finite and non-zero, so ``Motion.__post_init__`` would accept the arrays and
+    keep them bit for bit (it renormalises only quaternions more than 1e-14 off unit length).
+    The arrays are frozen here as it would; the result equals the checked construction (tested)."""
+    T, J = rotations.shape[0], template.skeleton.n_joints
+    if root_positions.shape != (T, 3) or rotations.shape != (T, J, 4) or T == 0:
+        return template.replace(root_positions=root_positions, rotations=rotations, source=source)
+    new = copy.copy(template)                                   # same skeleton and fps; no __post_init__
+    root_positions.setflags(write=False)
+    rotations.setflags(write=False)
+    object.__setattr__(new, "root_positions", root_positions)
+    object.__setattr__(new, "rotations", rotations)
+    object.__setattr__(new, "source", source)
+    object.__setattr__(new, "_cache", {})
+    return new
 
 
 def _whole_turns(angle: float) -> bool:
