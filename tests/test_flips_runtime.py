@@ -144,3 +144,31 @@ def test_gathered_slerp_and_fresh_motion_equal_the_checked_path():
     assert "fk" not in P.motion._cache or P.motion._cache["fk"][0].shape[0] == P.motion.n_frames
     fresh = _fresh_motion(P.motion, np.zeros((4, 3)), np.array(rot[:4]), m.source)
     assert fresh.n_frames == 4 and fresh.skeleton is P.motion.skeleton
+
+
+def test_compiled_landing_search_is_the_array_search():
+    """The compiled landing search picks the same pair, with the same mismatch and pair count
+    and the same distance (to an ulp), as the candidate-array version (every synthetic flip, 2-4 flips, odd extras)."""
+    from mocomp.flips import _kernels, prepare
+    from mocomp.flips.sequence import find_landing, loop_count
+
+    if not _kernels.AVAILABLE:
+        pytest.skip("numba not available")
+    from _flips_data import synthetic
+
+    for name in ("backflip", "frontflip", "sideflip"):
+        P = prepare(synthetic(name).motion)
+        for extra in (2 * np.pi, 4 * np.pi, 6 * np.pi, 2.6 * np.pi):
+            target = P.total_rotation + extra
+            copies = loop_count(target, P.theta[P.loop.m] - P.theta[0], P.theta[-1] - P.theta[P.loop.n], P.loop.phi) + 1
+            args = (P.rotations, P.theta, P.flight, P.loop, extra, copies, P.axis, P.weights)
+            fast = find_landing(*args)
+            try:
+                _kernels.AVAILABLE = False
+                slow = find_landing(*args)
+            finally:
+                _kernels.AVAILABLE = True
+            assert (fast.u, fast.f, fast.copy, fast.g, fast.delta, fast.n_pairs) == \
+                (slow.u, slow.f, slow.copy, slow.g, slow.delta, slow.n_pairs), (name, extra)
+            assert abs(fast.distance - slow.distance) <= 1e-12          # scalar vs vectorised atan2: an ulp
+            assert fast.n_pairs > 1

@@ -25,7 +25,7 @@ except Exception:  # pragma: no cover - numba is a dependency; keep the library 
     AVAILABLE = False
 
 __all__ = ["AVAILABLE", "slerp_rows_nb", "com_relative_nb", "seam_block_nb", "frame_distance_nb", "slerp_gather_nb",
-           "warmup"]
+           "landing_search_nb", "warmup"]
 
 if AVAILABLE:
     @numba.njit(cache=True, nogil=True, inline="always")
@@ -182,31 +182,77 @@ if AVAILABLE:
 
 
 if AVAILABLE:
+    @numba.njit(cache=True, nogil=True, inline="always")
+    def _pair_distance(r1, p1, r2, p2, ax, ay, az, wr, nz, wj):
+        """Eq. 5.12-5.13 between frame ``r1[p1]`` and frame ``r2[p2]``: ``(D, phi)``."""
+        # eq. 5.12: twist about the axis of q_r2 q_r1^-1, wrapped to (-pi, pi]
+        x, y, z, w = _qmul(r2[p2, 0, 0], r2[p2, 0, 1], r2[p2, 0, 2], r2[p2, 0, 3],
+                           -r1[p1, 0, 0], -r1[p1, 0, 1], -r1[p1, 0, 2], r1[p1, 0, 3])
+        phi = 2.0 * math.atan2(x * ax + y * ay + z * az, w)
+        phi = (phi + math.pi) % (2.0 * math.pi) - math.pi
+        h = 0.5 * phi
+        c, s_ = math.cos(h), math.sin(h)
+        # aligned root q_phi q_r1, then the angle of q_r2 aligned^-1
+        bx, by, bz, bw = _qmul(s_ * ax, s_ * ay, s_ * az, c, r1[p1, 0, 0], r1[p1, 0, 1], r1[p1, 0, 2], r1[p1, 0, 3])
+        x, y, z, w = _qmul(r2[p2, 0, 0], r2[p2, 0, 1], r2[p2, 0, 2], r2[p2, 0, 3], -bx, -by, -bz, bw)
+        d = wr * 2.0 * math.atan2(math.sqrt(x * x + y * y + z * z), abs(w))
+        # eq. 5.13: weighted joint-angle differences
+        for k in range(nz.shape[0]):
+            j = nz[k]
+            x, y, z, w = _qmul(r2[p2, j, 0], r2[p2, j, 1], r2[p2, j, 2], r2[p2, j, 3],
+                               -r1[p1, j, 0], -r1[p1, j, 1], -r1[p1, j, 2], r1[p1, j, 3])
+            d += wj[k] * 2.0 * math.atan2(math.sqrt(x * x + y * y + z * z), abs(w))
+        return d, phi
+
     @numba.njit(cache=True, nogil=True)
     def _frame_distance(r1, r2, axis, wr, nz, wj, out_d, out_phi):
         N = r1.shape[0]
         ax, ay, az = axis[0], axis[1], axis[2]
         for p in range(N):
-            # eq. 5.12: twist about the axis of q_r2 q_r1^-1, wrapped to (-pi, pi]
-            x, y, z, w = _qmul(r2[p, 0, 0], r2[p, 0, 1], r2[p, 0, 2], r2[p, 0, 3],
-                               -r1[p, 0, 0], -r1[p, 0, 1], -r1[p, 0, 2], r1[p, 0, 3])
-            phi = 2.0 * math.atan2(x * ax + y * ay + z * az, w)
-            phi = (phi + math.pi) % (2.0 * math.pi) - math.pi
-            h = 0.5 * phi
-            c, s_ = math.cos(h), math.sin(h)
-            # aligned root q_phi q_r1, then the angle of q_r2 aligned^-1
-            bx, by, bz, bw = _qmul(s_ * ax, s_ * ay, s_ * az, c, r1[p, 0, 0], r1[p, 0, 1], r1[p, 0, 2], r1[p, 0, 3])
-            x, y, z, w = _qmul(r2[p, 0, 0], r2[p, 0, 1], r2[p, 0, 2], r2[p, 0, 3], -bx, -by, -bz, bw)
-            d = wr * 2.0 * math.atan2(math.sqrt(x * x + y * y + z * z), abs(w))
-            # eq. 5.13: weighted joint-angle differences
-            for k in range(nz.shape[0]):
-                j = nz[k]
-                x, y, z, w = _qmul(r2[p, j, 0], r2[p, j, 1], r2[p, j, 2], r2[p, j, 3],
-                                   -r1[p, j, 0], -r1[p, j, 1], -r1[p, j, 2], r1[p, j, 3])
-                d += wj[k] * 2.0 * math.atan2(math.sqrt(x * x + y * y + z * z), abs(w))
+            d, phi = _pair_distance(r1, p, r2, p, ax, ay, az, wr, nz, wj)
             out_d[p] = d
             out_phi[p] = phi
         return out_d
+
+    @numba.njit(cache=True, nogil=True)
+    def _landing_search(rot, theta, m, period, n_u, phi, g0, g1, extra_total, max_delta, axis, wr, nz, wj):
+        """The landing search of :func:`mocomp.flips.sequence.find_landing` without the
+        candidate arrays: over ``g`` in ``g0 .. g1-1`` (outer) and ``u`` in ``0 .. n_u-1`` (inner,
+        source frame ``m + u % period``, copy ``u // period`` turned by ``copy * phi``), pairs
+        whose rotation about ``L`` is within ``max_delta`` of ``theta[g] + extra_total`` are
+        scored by eq. 5.13 plus ``1e-6 |mismatch|``; the first lowest score wins.
+        Returns ``(u, g, D, mismatch, n_pairs)`` (``n_pairs = 0``: none)."""
+        ax, ay, az = axis[0], axis[1], axis[2]
+        best = math.inf
+        bu, bg, bd, bdiff = -1, -1, 0.0, 0.0
+        n_pairs = 0
+        for g in range(g0, g1):
+            want = theta[g] + extra_total
+            for u in range(n_u):
+                f = m + u % period
+                diff = (theta[f] + (u // period) * phi) - want
+                if abs(diff) <= max_delta:
+                    n_pairs += 1
+                    d, _ = _pair_distance(rot, f, rot, g, ax, ay, az, wr, nz, wj)
+                    score = d + 1e-6 * abs(diff)
+                    if score < best or bu < 0:
+                        best = score
+                        bu, bg, bd, bdiff = u, g, d, diff
+        return bu, bg, bd, bdiff, n_pairs
+
+
+def landing_search_nb(rotations: np.ndarray, theta: np.ndarray, m: int, period: int, n_u: int, phi: float,
+                      g0: int, g1: int, extra_total: float, max_delta: float, axis: np.ndarray, weights):
+    """Compiled landing search (see ``_landing_search``); the same pairs, distances and choice as
+    the array version in :func:`mocomp.flips.sequence.find_landing` (tested)."""
+    nz = np.flatnonzero(weights.joints).astype(np.int64)
+    wj = np.ascontiguousarray(weights.joints[nz], dtype=np.float64)
+    a = np.asarray(axis, dtype=np.float64)
+    a = np.ascontiguousarray(a / np.linalg.norm(a))
+    return _landing_search(np.ascontiguousarray(rotations, dtype=np.float64),
+                           np.ascontiguousarray(theta, dtype=np.float64), int(m), int(period), int(n_u),
+                           float(phi), int(g0), int(g1), float(extra_total), float(max_delta), a,
+                           float(weights.root), nz, wj)
 
 
 def frame_distance_nb(rot1: np.ndarray, rot2: np.ndarray, axis: np.ndarray, weights) -> tuple[np.ndarray, np.ndarray]:
@@ -289,6 +335,12 @@ def warmup() -> None:
                   np.array([1.0, 0.0, 0.0]), q[0, 0])
     _frame_distance(q, q, np.array([1.0, 0.0, 0.0]), 1.0, np.arange(2, dtype=np.int64), np.ones(2), np.empty(2),
                     np.empty(2))
+    ro = q.copy()
+    ro.setflags(write=False)                          # the prepared clip's arrays are read-only
+    th = np.zeros(2)
+    th.setflags(write=False)
+    _landing_search(ro, th, 0, 1, 1, 1.0, 1, 2, 0.0, 1.0, np.array([1.0, 0.0, 0.0]), 1.0,
+                    np.arange(2, dtype=np.int64), np.ones(2))
     from ..flips.seamtime import _NUMBA, _angular_nb
 
     if _NUMBA:

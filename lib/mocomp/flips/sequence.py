@@ -135,14 +135,24 @@ def find_landing(rotations: np.ndarray, theta: np.ndarray, flight: tuple[int, in
     equal to ``g``'s plus ``extra_total`` to within ``max_delta`` (default: 1.5 frames of
     the flight's mean rotation rate, at least 2 degrees)."""
     s, e = flight
-    src, cp, th_u = _unrolled(theta, loop, copies)
-    g = np.arange(loop.n, e - 1)                       # F_E frames still in the air, not the last one
-    if g.size == 0:
+    g0, g1 = loop.n, e - 1                             # F_E frames still in the air, not the last one
+    if g1 <= g0:
         raise PhysicsError(f"no flight frames after the loop end n={loop.n} (flight ends at {e - 1}): "
                            "the loop search must leave part of the flight for the landing join")
     if max_delta is None:
         rate = (theta[e - 1] - theta[s]) / max(e - 1 - s, 1)
         max_delta = max(1.5 * abs(rate), np.deg2rad(2.0))
+    from ._kernels import AVAILABLE, frame_distance_nb, landing_search_nb
+
+    if AVAILABLE and not weights.velocity_weight > 0:
+        # the same pairs, scores and choice as below, without building the candidate arrays
+        u, g, d, delta, n_pairs = landing_search_nb(rotations, theta, loop.m, loop.period, copies * loop.period,
+                                                    loop.phi, g0, g1, extra_total, max_delta, axis, weights)
+        if n_pairs:
+            return LandingJoin(u=int(u), f=int(loop.m + u % loop.period), copy=int(u // loop.period), g=int(g),
+                               distance=float(d), delta=float(delta), n_pairs=int(n_pairs))
+    src, cp, th_u = _unrolled(theta, loop, copies)
+    g = np.arange(g0, g1)
     want = theta[g] + extra_total
     diff = th_u[None, :] - want[:, None]               # (G, U)
     ok = np.abs(diff) <= max_delta
@@ -158,8 +168,6 @@ def find_landing(rotations: np.ndarray, theta: np.ndarray, flight: tuple[int, in
     if weights.velocity_weight > 0:
         D, _ = frame_distance(rot[src[ui]], rot[g[gi]], axis, weights, om1, om2)
     else:
-        from ._kernels import AVAILABLE, frame_distance_nb
-
         D = (frame_distance_nb if AVAILABLE else frame_distance)(rot[src[ui]], rot[g[gi]], axis, weights)[0]
     k = int(np.argmin(D + 1e-6 * np.abs(diff[gi, ui])))
     return LandingJoin(u=int(ui[k]), f=int(src[ui[k]]), copy=int(cp[ui[k]]), g=int(g[gi[k]]),
