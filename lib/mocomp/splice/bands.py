@@ -42,6 +42,7 @@ import re
 from dataclasses import dataclass, field
 from typing import Iterable, Sequence
 
+import numba
 import numpy as np
 
 from ..errors import AlignmentError
@@ -131,6 +132,21 @@ def band_radius(width: float, dx: float, dy: float) -> float:
     return float(width) * float(np.hypot(dx, dy)) / float(dx)
 
 
+_UNBOUNDED = int(np.iinfo(np.int64).max)
+
+
+def _frozen_rows(a) -> np.ndarray:
+    """A read-only 1-D int64 array of ``a``: a private copy, unless ``a`` is
+    already a read-only int64 array owning its data (what the band
+    constructors hand over), which is kept as is."""
+    if (isinstance(a, np.ndarray) and a.dtype == np.int64 and a.ndim == 1 and a.flags.owndata
+            and not a.flags.writeable and a.flags.c_contiguous):
+        return a
+    a = np.array(a, dtype=np.int64).reshape(-1)
+    a.setflags(write=False)
+    return a
+
+
 @dataclass(frozen=True, eq=False)
 class Band:
     """Cells of an ``n x m`` DTW matrix that may be visited: columns ``lo[i]..hi[i]`` of each row.
@@ -165,18 +181,15 @@ class Band:
     _cache: dict = field(default_factory=dict, repr=False, compare=False)
 
     def __post_init__(self):
-        lo = np.array(self.lo, dtype=np.int64).reshape(-1)
-        hi = np.array(self.hi, dtype=np.int64).reshape(-1)
+        lo = _frozen_rows(self.lo)
+        hi = _frozen_rows(self.hi)
         if lo.shape != (self.n,) or hi.shape != (self.n,):
             raise AlignmentError(f"band row ranges must have {self.n} rows, got {lo.shape} and {hi.shape}")
-        for a in (lo, hi):
-            a.setflags(write=False)
         object.__setattr__(self, "lo", lo)
         object.__setattr__(self, "hi", hi)
         for name in ("raw_lo", "raw_hi"):
             v = getattr(self, name)
-            v = (lo if name == "raw_lo" else hi) if v is None else np.array(v, dtype=np.int64)
-            v.setflags(write=False)
+            v = (lo if name == "raw_lo" else hi) if v is None else _frozen_rows(v)
             object.__setattr__(self, name, v)
 
     # ------------------------------------------------------------- geometry
@@ -258,8 +271,42 @@ class Band:
         return f"Band({self.kind}, {self.n}x{self.m}, {self.cells} cells ({100 * self.fill:.1f}%){w}{p})"
 
 
-def _prune(n: int, m: int, lo: np.ndarray, hi: np.ndarray, what: str) -> tuple[np.ndarray, np.ndarray]:
+@numba.njit(cache=True, nogil=True)
+def _prune_kernel(lo, hi, m, raw_lo, raw_hi, lo_p, hi_p):  # pragma: no cover - compiled
+    """Clip ``lo, hi`` to the matrix into ``raw_lo, raw_hi`` and prune them into
+    ``lo_p, hi_p`` (see :func:`_prune`). Returns ``(code, row)``: 0 fine, 1 an
+    empty row, 2 no start cell, 3 no end cell, 4 the band is cut at ``row``."""
+    n = lo.shape[0]
+    for i in range(n):
+        raw_lo[i] = min(max(lo[i], 0), m - 1)
+        raw_hi[i] = min(max(hi[i], 0), m - 1)
+        lo_p[i] = max(lo[i], 0)
+        hi_p[i] = min(hi[i], m - 1)
+    for i in range(n):
+        if hi_p[i] < lo_p[i]:
+            return 1, i
+    if lo_p[0] != 0:
+        return 2, 0
+    if hi_p[n - 1] != m - 1:
+        return 3, n - 1
+    for i in range(1, n):
+        lo_p[i] = max(lo_p[i], lo_p[i - 1])
+    for i in range(n - 2, -1, -1):
+        hi_p[i] = min(hi_p[i], hi_p[i + 1])
+    for i in range(n):
+        if hi_p[i] < lo_p[i]:
+            return 4, i
+    for i in range(1, n):
+        if lo_p[i] > hi_p[i - 1] + 1:
+            return 4, i
+    return 0, 0
+
+
+def _prune(n: int, m: int, lo: np.ndarray, hi: np.ndarray, what: str) -> tuple[np.ndarray, ...]:
     """Keep the cells on some monotone path (0,0) -> (n-1,m-1); raise if there is none.
+
+    Returns the pruned ``lo, hi`` and the unpruned ones clipped to the matrix
+    (``raw_lo, raw_hi``), all read-only.
 
     Forward: a path reaches column ``j`` of row ``i`` only from a column ``<= j``
     of row ``i-1``, so ``lo[i] <- max(lo[i], lo[i-1])``. Backward: from column
@@ -267,30 +314,28 @@ def _prune(n: int, m: int, lo: np.ndarray, hi: np.ndarray, what: str) -> tuple[n
     ``hi[i] <- min(hi[i], hi[i+1])``. Pruned cells can neither be reached from
     the start nor reach the end, so no DTW value on the kept cells changes.
     """
-    lo = np.clip(np.asarray(lo, dtype=np.int64), 0, None)
-    hi = np.clip(np.asarray(hi, dtype=np.int64), None, m - 1)
-    empty = np.nonzero(hi < lo)[0]
-    if empty.size:
-        i = int(empty[0])
+    lo = np.ascontiguousarray(lo, dtype=np.int64)
+    hi = np.ascontiguousarray(hi, dtype=np.int64)
+    out = [np.empty(n, dtype=np.int64) for _ in range(4)]
+    code, i = _prune_kernel(lo, hi, m, *out)
+    if code == 1:
         raise AlignmentError(
             f"{what}: row {i} of the {n}x{m} matrix has no cell in the band "
             f"(sequences too short for the band, or the band is too narrow)"
         )
-    if lo[0] != 0:
+    if code == 2:
         raise AlignmentError(f"{what}: the band does not contain the start cell (0, 0)")
-    if hi[-1] != m - 1:
+    if code == 3:
         raise AlignmentError(f"{what}: the band does not contain the end cell ({n - 1}, {m - 1})")
-    lo_p = np.maximum.accumulate(lo)
-    hi_p = np.minimum.accumulate(hi[::-1])[::-1]
-    bad = np.nonzero(hi_p < lo_p)[0]
-    gap = np.nonzero(lo_p[1:] > hi_p[:-1] + 1)[0]
-    if bad.size or gap.size:
-        i = int(bad[0]) if bad.size else int(gap[0]) + 1
+    if code == 4:
         raise AlignmentError(
             f"{what}: no monotone path from (0, 0) to ({n - 1}, {m - 1}) stays inside the band "
             f"(it is cut at row {i}); widen the band or check the matching points"
         )
-    return lo_p, hi_p
+    raw_lo, raw_hi, lo_p, hi_p = out
+    for a in out:
+        a.setflags(write=False)
+    return lo_p, hi_p, raw_lo, raw_hi
 
 
 def _check_size(n: int, m: int):
@@ -305,22 +350,33 @@ def full_band(n: int, m: int) -> Band:
     return Band(int(n), int(m), np.zeros(n, dtype=np.int64), np.full(n, m - 1, dtype=np.int64), kind="full")
 
 
-def _segment_rows(n, m, x0, y0, x1, y1, rho, jmin, jmax, i):
-    """Column range of rows ``i`` in the segment (x0,y0)-(x1,y1) (eq. 6.4, clipped as eq. 6.5)."""
-    if x1 > x0:
-        c = y0 + (i - x0) * (y1 - y0) / (x1 - x0)
-    else:  # a single-row sequence
-        c = np.full(i.shape, float(y0))
-    lo = np.ceil(c - rho)
-    hi = np.floor(c + rho)
-    # Exact float boundaries the way dtw-python tests them: |j - c| <= rho.
-    lo = np.where(np.abs((lo - 1) - c) <= rho, lo - 1, lo)
-    lo = np.where(np.abs(lo - c) > rho, lo + 1, lo)
-    hi = np.where(np.abs((hi + 1) - c) <= rho, hi + 1, hi)
-    hi = np.where(np.abs(hi - c) > rho, hi - 1, hi)
-    lo = np.maximum(lo, max(jmin, 0))
-    hi = np.minimum(hi, min(jmax, m - 1))
-    return lo.astype(np.int64), hi.astype(np.int64)
+@numba.njit(cache=True, nogil=True)
+def _segment_rows(m, x0, y0, x1, y1, rho, jmin, jmax, lo, hi):  # pragma: no cover - compiled
+    """Intersect rows ``x0..x1`` of ``lo, hi`` with the segment (x0,y0)-(x1,y1)'s
+    band (eq. 6.4, clipped as eq. 6.5): ``|j - c_i| <= rho`` with
+    ``c_i = y0 + (i - x0)(y1 - y0)/(x1 - x0)``, ``jmin <= j <= jmax``."""
+    jlo = float(max(jmin, 0))
+    jhi = float(min(jmax, m - 1))
+    for i in range(x0, x1 + 1):
+        if x1 > x0:
+            c = y0 + ((i - x0) * (y1 - y0)) / (x1 - x0)
+        else:  # a single-row sequence
+            c = float(y0)
+        a = np.ceil(c - rho)
+        b = np.floor(c + rho)
+        # Exact float boundaries the way dtw-python tests them: |j - c| <= rho.
+        if abs((a - 1) - c) <= rho:
+            a = a - 1
+        if abs(a - c) > rho:
+            a = a + 1
+        if abs((b + 1) - c) <= rho:
+            b = b + 1
+        if abs(b - c) > rho:
+            b = b - 1
+        a = max(a, jlo)
+        b = min(b, jhi)
+        lo[i] = max(lo[i], np.int64(a))
+        hi[i] = min(hi[i], np.int64(b))
 
 
 def slanted_band(n: int, m: int, width: float | None = None, *, radius: float | None = None) -> Band:
@@ -387,8 +443,8 @@ def matching_band(n: int, m: int, width: float | None, points: Iterable = (), *,
     xs = [0] + [p.x for p in pts] + [n - 1]
     ys = [0] + [p.y for p in pts] + [m - 1]
     ts = [0] + [p.tol for p in pts] + [0]
-    lo = np.full(n, -np.iinfo(np.int64).max, dtype=np.int64)
-    hi = np.full(n, np.iinfo(np.int64).max, dtype=np.int64)
+    lo = np.full(n, -_UNBOUNDED, dtype=np.int64)
+    hi = np.full(n, _UNBOUNDED, dtype=np.int64)
     radii = []
     for k in range(1, len(xs)):
         x0, y0, x1, y1 = xs[k - 1], ys[k - 1], xs[k], ys[k]
@@ -397,15 +453,11 @@ def matching_band(n: int, m: int, width: float | None, points: Iterable = (), *,
         else:  # n == 1: one row, every column must be allowed
             rho = float(m)
         radii.append(float(rho))
-        rows = np.arange(x0, x1 + 1)
         jmin = y0 - ts[k - 1] if k > 1 else 0
         jmax = y1 + ts[k] if k < len(xs) - 1 else m - 1
-        slo, shi = _segment_rows(n, m, x0, y0, x1, y1, rho, jmin, jmax, rows)
-        lo[rows] = np.maximum(lo[rows], slo)
-        hi[rows] = np.minimum(hi[rows], shi)
-    raw_lo, raw_hi = np.clip(lo, 0, m - 1), np.clip(hi, 0, m - 1)
+        _segment_rows(m, x0, y0, x1, y1, float(rho), jmin, jmax, lo, hi)
     what = "band" if not pts else f"band shaped by {len(pts)} matching point(s)"
-    lo_p, hi_p = _prune(n, m, lo, hi, what)
+    lo_p, hi_p, raw_lo, raw_hi = _prune(n, m, lo, hi, what)
     return Band(
         n, m, lo_p, hi_p,
         kind="points" if pts else "slanted",
@@ -436,8 +488,8 @@ def corridor_band(path: np.ndarray, n: int, m: int, radius: int) -> Band:
     np.minimum.at(lo, rows, path[:, 1])
     np.maximum.at(hi, rows, path[:, 1])
     lo, hi = lo - int(radius), hi + int(radius)
-    lo_p, hi_p = _prune(n, m, lo, hi, "corridor band")
-    return Band(n, m, lo_p, hi_p, kind="corridor", radii=(float(radius),), raw_lo=np.clip(lo, 0, m - 1), raw_hi=np.clip(hi, 0, m - 1))
+    lo_p, hi_p, raw_lo, raw_hi = _prune(n, m, lo, hi, "corridor band")
+    return Band(n, m, lo_p, hi_p, kind="corridor", radii=(float(radius),), raw_lo=raw_lo, raw_hi=raw_hi)
 
 
 def _as_band(n: int, m: int, band: Band | None, width=None, radius=None, points: Sequence = ()) -> Band:

@@ -36,46 +36,59 @@ STEP_START, STEP_DIAGONAL, STEP_HORIZONTAL, STEP_VERTICAL, STEP_NONE = 0, 1, 2, 
 
 @numba.njit(cache=True, nogil=True)
 def _accumulate(cost, lo, hi, off, gamma, step):  # pragma: no cover - compiled
+    """Eq. 6.1-6.2 on the band cells, row by row.
+
+    Per row: the diagonal and vertical candidates ``gamma(i-1, .) + D`` (no
+    dependency inside the row, vectorised), then the horizontal chain
+    ``gamma(i, j) = min(pre(j), gamma(i, j-1) + D)`` (the only serial
+    dependency, branch-free), then the step codes from the three sums. The
+    step into a cell is the first of diagonal, horizontal, vertical whose sum
+    equals the minimum, i.e. exactly dtw-python's strict ``<`` scan in that
+    order. Row slices and 0-based ``range`` indices let LLVM drop numba's
+    negative-index wraparound and vectorise.
+    """
     n = lo.shape[0]
     inf = np.inf
+    maxw = 1
+    for i in range(n):
+        maxw = max(maxw, hi[i] - lo[i] + 1)
+    vd = np.empty(maxw)
+    vv = np.empty(maxw)
     for i in range(n):
         l = lo[i]
-        h = hi[i]
-        base = off[i]
+        w = hi[i] - l + 1
+        if w <= 0:
+            continue
+        c = cost[off[i]:off[i] + w]
+        g = gamma[off[i]:off[i] + w]
+        st = step[off[i]:off[i] + w]
+        vd[:w] = inf
+        vv[:w] = inf
         if i > 0:
             lp = lo[i - 1]
-            hp = hi[i - 1]
-            bp = off[i - 1]
-        else:
-            lp = 1
-            hp = 0
-            bp = 0
-        for j in range(l, h + 1):
-            k = base + j - l
-            d = cost[k]
-            if i == 0 and j == 0:
-                gamma[k] = d
-                step[k] = 0
-                continue
-            best = inf
-            s = -1
-            if i > 0 and j - 1 >= lp and j - 1 <= hp:
-                v = gamma[bp + j - 1 - lp] + d
-                if v < best:
-                    best = v
-                    s = 1
-            if j - 1 >= l:
-                v = gamma[k - 1] + d
-                if v < best:
-                    best = v
-                    s = 2
-            if i > 0 and j >= lp and j <= hp:
-                v = gamma[bp + j - lp] + d
-                if v < best:
-                    best = v
-                    s = 3
-            gamma[k] = best
-            step[k] = s
+            wp = hi[i - 1] - lp + 1
+            gp = gamma[off[i - 1]:off[i - 1] + max(wp, 0)]
+            sh = l - lp - 1  # cell (i, l + t) has its diagonal predecessor at gp[t + sh]
+            for t in range(max(0, -sh), min(w, wp - sh)):
+                vd[t] = gp[t + sh] + c[t]
+            sh += 1  # and its vertical one at gp[t + sh]
+            for t in range(max(0, -sh), min(w, wp - sh)):
+                vv[t] = gp[t + sh] + c[t]
+        elif l == 0:
+            vd[0] = c[0]  # the start cell: gamma(0, 0) = D(0, 0)
+        left = inf
+        for t in range(w):
+            left = min(min(vd[t], vv[t]), left + c[t])
+            g[t] = left
+        for t in range(w):
+            gt = g[t]
+            vh = g[t - 1] + c[t] if t > 0 else inf
+            s = np.int8(3)
+            s = np.int8(2) if vh == gt else s
+            s = np.int8(1) if vd[t] == gt else s
+            st[t] = s if gt < inf else np.int8(-1)
+        if i == 0 and l == 0:
+            st[0] = 0
 
 
 @numba.njit(cache=True, nogil=True)
@@ -103,16 +116,49 @@ def _backtrack(lo, off, step, n, m):  # pragma: no cover - compiled
     return out[:K][::-1].copy()
 
 
-@numba.njit(cache=True, nogil=True, fastmath=True)
-def _sqeuclidean_band(lo, hi, off, x, y, out):  # pragma: no cover - compiled
+@numba.njit(cache=True, nogil=True)
+def _sqeuclidean_band(lo, hi, off, x, yT, out):  # pragma: no cover - compiled
+    """Squared Euclidean distances of the band cells; ``yT`` is the second
+    sequence transposed, ``(d, m)`` C-contiguous, so the inner loop runs over
+    a row's contiguous columns (vectorised across cells, not across the few
+    feature dimensions). Each cell's sum is accumulated in feature order
+    ``((u_0^2 + u_1^2) + u_2^2) + ...`` without fused multiply-adds, exactly as
+    :func:`scipy.spatial.distance.cdist` ``"sqeuclidean"`` does (tested).
+    Returns the number of cells whose cost is not finite (an overflow or a
+    non-finite feature; an integer count, so the check vectorises too)."""
     d = x.shape[1]
+    d4 = d - d % 4
+    bad = 0
+    inf = np.inf
     for i in range(lo.shape[0]):
-        for j in range(lo[i], hi[i] + 1):
-            acc = 0.0
-            for k in range(d):
-                t = x[i, k] - y[j, k]
-                acc += t * t
-            out[off[i] + j - lo[i]] = acc
+        l = lo[i]
+        w = hi[i] - l + 1
+        o = out[off[i]:off[i] + w]
+        o[:] = 0.0
+        for k in range(0, d4, 4):
+            x0 = x[i, k]
+            x1 = x[i, k + 1]
+            x2 = x[i, k + 2]
+            x3 = x[i, k + 3]
+            y0 = yT[k, l:l + w]
+            y1 = yT[k + 1, l:l + w]
+            y2 = yT[k + 2, l:l + w]
+            y3 = yT[k + 3, l:l + w]
+            for t in range(w):
+                u0 = y0[t] - x0
+                u1 = y1[t] - x1
+                u2 = y2[t] - x2
+                u3 = y3[t] - x3
+                o[t] = (((o[t] + u0 * u0) + u1 * u1) + u2 * u2) + u3 * u3
+        for k in range(d4, d):
+            xk = x[i, k]
+            yk = yT[k, l:l + w]
+            for t in range(w):
+                u = yk[t] - xk
+                o[t] += u * u
+        for t in range(w):
+            bad += 0 if o[t] < inf else 1
+    return bad
 
 
 @dataclass(frozen=True, eq=False)
@@ -217,16 +263,22 @@ def dtw_band_costs(band: Band, costs: np.ndarray, *, cost_seconds: float = 0.0) 
     ``costs`` holds ``D(p_i, q_j)`` for every band cell in flat order
     (see :func:`band_costs`).
     """
-    costs = _check_costs(band, costs)
+    return _dtw_checked(band, _check_costs(band, costs), cost_seconds)
+
+
+def _dtw_checked(band: Band, costs: np.ndarray, cost_seconds: float) -> DTWResult:
+    """Recurrence and backtracking on validated costs (float64, contiguous, finite)."""
     t0 = time.perf_counter()
-    gamma = np.empty(band.cells, dtype=np.float64)
-    step = np.empty(band.cells, dtype=np.int8)
-    _accumulate(costs, band.lo, band.hi, band.offsets, gamma, step)
+    cells = band.cells
+    gamma = np.empty(cells, dtype=np.float64)
+    step = np.empty(cells, dtype=np.int8)
+    lo, off = band.lo, band.offsets
+    _accumulate(costs, lo, band.hi, off, gamma, step)
     t1 = time.perf_counter()
     total = float(gamma[-1])
-    if not np.isfinite(total):  # cannot happen for a pruned band with finite costs
+    if not total < np.inf:  # cannot happen for a pruned band with finite costs
         raise AlignmentError(f"no path through the band reaches ({band.n - 1}, {band.m - 1})")
-    path = _backtrack(band.lo, band.offsets, step, band.n, band.m)
+    path = _backtrack(lo, off, step, band.n, band.m)
     t2 = time.perf_counter()
     for a in (path, costs, gamma, step):
         a.setflags(write=False)
@@ -241,7 +293,7 @@ def dtw_band_costs(band: Band, costs: np.ndarray, *, cost_seconds: float = 0.0) 
     )
 
 
-def _as_features(a, name: str) -> np.ndarray:
+def _as_features(a, name: str, check_finite: bool = True) -> np.ndarray:
     a = np.asarray(a, dtype=np.float64)
     if a.ndim == 1:
         a = a[:, None]
@@ -249,7 +301,7 @@ def _as_features(a, name: str) -> np.ndarray:
         raise AlignmentError(f"{name} must be a sequence of feature vectors (T, d), got shape {a.shape}")
     if a.shape[0] < 1:
         raise AlignmentError(f"{name} is empty")
-    if not np.all(np.isfinite(a)):
+    if check_finite and not np.isfinite(a).all():
         t = int(np.argwhere(~np.isfinite(a))[0, 0])
         raise AlignmentError(f"{name} has a non-finite value at frame {t}")
     return a
@@ -264,15 +316,31 @@ def feature_band_costs(x: np.ndarray, y: np.ndarray, band: Band, metric: str = "
     :func:`scipy.spatial.distance.cdist` metric name (``"cityblock"``,
     ``"cosine"``, ...; evaluated block-wise over the rows' column spans).
     """
-    x = _as_features(x, "first sequence")
-    y = _as_features(y, "second sequence")
-    if x.shape[1] != y.shape[1]:
-        raise AlignmentError(f"feature dimensions differ: {x.shape[1]} vs {y.shape[1]}")
-    if (len(x), len(y)) != (band.n, band.m):
-        raise AlignmentError(f"band is {band.n}x{band.m}, sequences are {len(x)}x{len(y)}")
+    return _feature_costs(x, y, band, metric, block_rows)
+
+
+def _feature_costs(x, y, band: Band, metric: str = "sqeuclidean", block_rows: int = 64) -> np.ndarray:
+    """:func:`feature_band_costs`, returning finite costs (or raising).
+
+    For the compiled metrics the inputs' finiteness is checked only when a
+    cost comes out non-finite (every frame has band cells, so a non-finite
+    feature always shows up there); the error then names the frame, as the
+    up-front check does for the ``cdist`` metrics.
+    """
+    compiled = metric in ("sqeuclidean", "euclidean")
+    xf = _as_features(x, "first sequence", check_finite=not compiled)
+    yf = _as_features(y, "second sequence", check_finite=not compiled)
+    if xf.shape[1] != yf.shape[1]:
+        raise AlignmentError(f"feature dimensions differ: {xf.shape[1]} vs {yf.shape[1]}")
+    if (len(xf), len(yf)) != (band.n, band.m):
+        raise AlignmentError(f"band is {band.n}x{band.m}, sequences are {len(xf)}x{len(yf)}")
     out = np.empty(band.cells)
-    if metric in ("sqeuclidean", "euclidean"):
-        _sqeuclidean_band(band.lo, band.hi, band.offsets, np.ascontiguousarray(x), np.ascontiguousarray(y), out)
+    if compiled:
+        bad = _sqeuclidean_band(band.lo, band.hi, band.offsets, np.ascontiguousarray(xf), np.ascontiguousarray(yf.T), out)
+        if bad:
+            _as_features(xf, "first sequence")
+            _as_features(yf, "second sequence")
+            _check_costs(band, out)  # an overflow: names the cell
         if metric == "euclidean":
             np.sqrt(out, out=out)
         return out
@@ -282,9 +350,9 @@ def feature_band_costs(x: np.ndarray, y: np.ndarray, band: Band, metric: str = "
         j0 = int(band.lo[s])
         j1 = int(band.hi[s:e].max()) + 1
         rows, cols = band.cell_indices(s, e)
-        sub = cdist(x[s:e], y[j0:j1], metric=metric)
+        sub = cdist(xf[s:e], yf[j0:j1], metric=metric)
         out[off[s]:off[e]] = sub[rows - s, cols - j0]
-    return out
+    return _check_costs(band, out)
 
 
 def band_costs(band: Band, cost) -> np.ndarray:
@@ -329,10 +397,10 @@ def dtw(x=None, y=None, *, cost=None, metric: str = "sqeuclidean", band: Band | 
     if cost is None:
         if x is None or y is None:
             raise AlignmentError("dtw() needs two sequences x, y or a cost")
-        xf = _as_features(x, "first sequence")
-        yf = _as_features(y, "second sequence")
+        xf = _as_features(x, "first sequence", check_finite=False)
+        yf = _as_features(y, "second sequence", check_finite=False)
         b = _as_band(len(xf), len(yf), band, width, radius, points)
-        costs = feature_band_costs(xf, yf, b, metric)
+        return _dtw_checked(b, _feature_costs(xf, yf, b, metric), time.perf_counter() - t0)
     else:
         if x is not None or y is not None:
             raise AlignmentError("give either sequences x, y or a cost, not both")
