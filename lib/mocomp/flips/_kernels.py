@@ -25,7 +25,8 @@ except Exception:  # pragma: no cover - numba is a dependency; keep the library 
     AVAILABLE = False
 
 __all__ = ["AVAILABLE", "slerp_rows_nb", "com_relative_nb", "seam_block_nb", "frame_distance_nb", "slerp_gather_nb",
-           "landing_search_nb", "warmup"]
+           "landing_search_nb", "landing_seam_nb",
+           "turn_roots_nb", "warmup"]
 
 if AVAILABLE:
     @numba.njit(cache=True, nogil=True, inline="always")
@@ -183,6 +184,94 @@ if AVAILABLE:
 
 if AVAILABLE:
     @numba.njit(cache=True, nogil=True, inline="always")
+    def _arc(ux, uy, uz, vx, vy, vz):
+        """Shortest-arc quaternion from unit ``u`` to unit ``v`` (:func:`~mocomp.flips.smoothing.shortest_arc`)
+        and its norm before normalisation (``< 1e-9``: opposite vectors, not handled here)."""
+        x, y, z = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+        w = 1.0 + (ux * vx + uy * vy + uz * vz)
+        n = math.sqrt(x * x + y * y + z * z + w * w)
+        return x / n, y / n, z / n, w / n, n
+
+    @numba.njit(cache=True, nogil=True)
+    def _landing_seam(rot, a, la, rb, w, qr, br, axis, theta, src, ref):
+        """The landing seam of :func:`mocomp.flips.multiflip.multiflip` in place on ``rot`` (frames
+        ``la .. rb-1``, seam after ``a``; ``qr``/``br`` the pose and body-frame ``L`` of ``g``): the
+        half-way pose ``mid = slerp(rot[a], qr, 1/2)``, the per-joint offsets to it, the root
+        swing arcs to the middle direction, the raised-cosine ramp, then :func:`_seam_block`.
+        Returns False, leaving ``rot`` untouched, when a swing arc is degenerate (opposite
+        directions), so the caller can take the numpy path that handles it."""
+        J = rot.shape[1]
+        off_l = np.empty((J, 4))
+        off_r = np.empty((J, 4))
+        for j in range(J):
+            lx, ly, lz, lw = rot[a, j, 0], rot[a, j, 1], rot[a, j, 2], rot[a, j, 3]
+            rx, ry, rz, rw = qr[j, 0], qr[j, 1], qr[j, 2], qr[j, 3]
+            sg = -1.0 if lx * rx + ly * ry + lz * rz + lw * rw < 0.0 else 1.0
+            mx, my, mz, mw = lx + sg * rx, ly + sg * ry, lz + sg * rz, lw + sg * rw
+            mn = math.sqrt(mx * mx + my * my + mz * mz + mw * mw)
+            mx, my, mz, mw = mx / mn, my / mn, mz / mn, mw / mn
+            off_l[j, 0], off_l[j, 1], off_l[j, 2], off_l[j, 3] = _qmul(-lx, -ly, -lz, lw, mx, my, mz, mw)
+            off_r[j, 0], off_r[j, 1], off_r[j, 2], off_r[j, 3] = _qmul(-rx, -ry, -rz, rw, mx, my, mz, mw)
+        # b_l = q_root(a)^-1 L, b_m the normalised mean of b_l and b_r
+        qx, qy, qz, qw = -rot[a, 0, 0], -rot[a, 0, 1], -rot[a, 0, 2], rot[a, 0, 3]
+        vx, vy, vz = axis[0], axis[1], axis[2]
+        tx, ty, tz = 2.0 * (qy * vz - qz * vy), 2.0 * (qz * vx - qx * vz), 2.0 * (qx * vy - qy * vx)
+        blx = vx + qw * tx + (qy * tz - qz * ty)
+        bly = vy + qw * ty + (qz * tx - qx * tz)
+        blz = vz + qw * tz + (qx * ty - qy * tx)
+        bmx, bmy, bmz = blx + br[0], bly + br[1], blz + br[2]
+        bn = math.sqrt(bmx * bmx + bmy * bmy + bmz * bmz)
+        bmx, bmy, bmz = bmx / bn, bmy / bn, bmz / bn
+        arc_l = np.empty(4)
+        arc_r = np.empty(4)
+        arc_l[0], arc_l[1], arc_l[2], arc_l[3], nl = _arc(blx, bly, blz, bmx, bmy, bmz)
+        arc_r[0], arc_r[1], arc_r[2], arc_r[3], nr = _arc(br[0], br[1], br[2], bmx, bmy, bmz)
+        if not (nl >= 1e-9 and nr >= 1e-9):
+            return False
+        n = rb - la
+        wts = np.empty(n)
+        left = np.empty(n, dtype=np.bool_)
+        th = np.empty(n)
+        for i in range(n):
+            d = abs(la + i - a) / (w + 1.0)
+            wts[i] = 0.5 * (1.0 + math.cos(math.pi * min(max(d, 0.0), 1.0)))
+            left[i] = la + i <= a
+            th[i] = theta[src[la + i]]
+        _seam_block(rot[la:rb], wts, left, off_l, off_r, arc_l, arc_r, th, axis, ref)
+        return True
+
+    @numba.njit(cache=True, nogil=True)
+    def _turn_roots(rot, extra, axis):
+        """``rot[:, 0] = q_L(extra) rot[:, 0]`` in place: each frame's rotation about the unit ``axis``."""
+        ax, ay, az = axis[0], axis[1], axis[2]
+        for i in range(rot.shape[0]):
+            h = 0.5 * extra[i]
+            s_ = math.sin(h)
+            c = math.cos(h)
+            x, y, z, w = _qmul(s_ * ax, s_ * ay, s_ * az, c, rot[i, 0, 0], rot[i, 0, 1], rot[i, 0, 2], rot[i, 0, 3])
+            rot[i, 0, 0], rot[i, 0, 1], rot[i, 0, 2], rot[i, 0, 3] = x, y, z, w
+        return rot
+
+
+def landing_seam_nb(rot, a, la, rb, w, qr, br, axis, theta, src, ref) -> bool:
+    """In-place landing-seam smoothing of the gathered sequence rotations ``rot`` (see
+    :func:`mocomp.flips.multiflip.multiflip`); False (``rot`` untouched) for a degenerate swing arc."""
+    def c(x, dtype=np.float64):        # small writable copies: one compiled signature (no read-only variants)
+        return np.array(x, dtype=dtype, copy=True, order="C")
+
+    return bool(_landing_seam(rot, int(a), int(la), int(rb), int(w), c(qr), c(br), c(axis), c(theta),
+                              c(src, np.int64), c(ref)))
+
+
+def turn_roots_nb(rot, extra, axis) -> np.ndarray:
+    """In place ``rot[:, 0] = axis_quat(axis, extra) * rot[:, 0]`` (``axis`` normalised here)."""
+    a = np.asarray(axis, dtype=np.float64)
+    a = np.ascontiguousarray(a / np.linalg.norm(a))
+    return _turn_roots(rot, np.array(extra, dtype=np.float64, copy=True, order="C"), a)
+
+
+if AVAILABLE:
+    @numba.njit(cache=True, nogil=True, inline="always")
     def _pair_distance(r1, p1, r2, p2, ax, ay, az, wr, nz, wj):
         """Eq. 5.12-5.13 between frame ``r1[p1]`` and frame ``r2[p2]``: ``(D, phi)``."""
         # eq. 5.12: twist about the axis of q_r2 q_r1^-1, wrapped to (-pi, pi]
@@ -335,6 +424,9 @@ def warmup() -> None:
                   np.array([1.0, 0.0, 0.0]), q[0, 0])
     _frame_distance(q, q, np.array([1.0, 0.0, 0.0]), 1.0, np.arange(2, dtype=np.int64), np.ones(2), np.empty(2),
                     np.empty(2))
+    landing_seam_nb(q.copy(), 0, 0, 2, 1, q[0], np.array([1.0, 0.0, 0.0]), np.array([1.0, 0.0, 0.0]), np.zeros(2),
+                    np.arange(2), q[0, 0])
+    turn_roots_nb(q.copy(), np.zeros(2), np.array([1.0, 0.0, 0.0]))
     ro = q.copy()
     ro.setflags(write=False)                          # the prepared clip's arrays are read-only
     th = np.zeros(2)

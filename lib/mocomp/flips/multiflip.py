@@ -41,7 +41,7 @@ from .sequence import Sequence, build_sequence
 from ..core.motion import slerp
 from .similarity import axis_quat, twist_angle
 from ._kernels import AVAILABLE as KERNELS
-from ._kernels import seam_block_nb, slerp_gather_nb
+from ._kernels import landing_seam_nb, slerp_gather_nb, turn_roots_nb
 from ._quat import qapply, qconj, qmul, qpow, slerp_rows
 from .smoothing import compose_root, ramp, shortest_arc, split_root
 
@@ -330,29 +330,14 @@ def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None 
     # raised-cosine ramp (section 5.4.2.2); the root's part perpendicular to L only (eq. 5.14)
     a, g = seq.landing_seam, seq.join.g
     la, rb = max(a - w, 0), min(a + 2 + w, nseq)
-    blk = rot[la:rb]
-    idx = np.arange(la, rb)
-    left = idx <= a
-    wts = ramp(np.abs(idx - a), w)
-    ql, qr = rot[a], P.rotations[g]
-    sgn = np.where(np.einsum("ji,ji->j", ql, qr) < 0.0, -1.0, 1.0)[:, None]
-    mid = ql + sgn * qr
-    mid /= np.linalg.norm(mid, axis=-1, keepdims=True)       # slerp at 1/2
-    off_l, off_r = qmul(qconj(ql), mid), qmul(qconj(qr), mid)
-    bl, br = qapply(qconj(rot[a, 0]), P.axis), P.bdir[g]
-    bm = bl + br
-    bm /= np.linalg.norm(bm)
-    arc_l, arc_r = shortest_arc(bl, bm), shortest_arc(br, bm)
-    if KERNELS:
-        seam_block_nb(blk, wts, left, off_l, off_r, arc_l, arc_r, P.theta[src[la:rb]], P.axis, P.root_ref)
-    else:
-        offs = np.where(left[:, None, None], off_l[None], off_r[None])
-        blk[:, 1:] = qmul(blk[:, 1:], qpow(offs[:, 1:], wts[:, None]))
-        bb = qapply(qconj(blk[:, 0]), P.axis)
-        arcs = np.where(left[:, None], arc_l[None], arc_r[None])
-        blk[:, 0] = compose_root(P.theta[src[la:rb]], qapply(qpow(arcs, wts), bb), P.axis, P.root_ref)
+    if not (KERNELS and landing_seam_nb(rot, a, la, rb, w, P.rotations[g], P.bdir[g], P.axis, P.theta, src,
+                                        P.root_ref)):
+        _landing_seam_numpy(P, rot, src, a, g, la, rb, w)
     # each frame's rotation about L (copies j*phi, landing extra, spread join correction), on the left
-    rot[:, 0] = qmul(axis_quat(P.axis, seq.extra), rot[:, 0])
+    if KERNELS:
+        turn_roots_nb(rot, seq.extra, P.axis)
+    else:
+        rot[:, 0] = qmul(axis_quat(P.axis, seq.extra), rot[:, 0])
     q_land = None
     if not _whole_turns(seq.extra_total):
         # an extra rotation that is not whole turns (e.g. a twist jump turned further): the ground
@@ -524,6 +509,32 @@ def _fresh_motion(template: Motion, root_positions: np.ndarray, rotations: np.nd
     object.__setattr__(new, "source", source)
     object.__setattr__(new, "_cache", {})
     return new
+
+
+def _landing_seam_numpy(P: PreparedFlip, rot: np.ndarray, src: np.ndarray, a: int, g: int, la: int, rb: int,
+                        w: int) -> None:
+    """The landing seam f -> g+1 in place on ``rot`` (numpy; the compiled :func:`landing_seam_nb`
+    does the same): half the mismatch on each side with the raised-cosine ramp (section 5.4.2.2),
+    the root's part perpendicular to L only (eq. 5.14)."""
+    blk = rot[la:rb]
+    idx = np.arange(la, rb)
+    left = idx <= a
+    wts = ramp(np.abs(idx - a), w)
+    ql, qr = rot[a], P.rotations[g]
+    sgn = np.where(np.einsum("ji,ji->j", ql, qr) < 0.0, -1.0, 1.0)[:, None]
+    mid = ql + sgn * qr
+    mid /= np.linalg.norm(mid, axis=-1, keepdims=True)       # slerp at 1/2
+    off_l, off_r = qmul(qconj(ql), mid), qmul(qconj(qr), mid)
+    bl, br = qapply(qconj(rot[a, 0]), P.axis), P.bdir[g]
+    bm = bl + br
+    bm /= np.linalg.norm(bm)
+    arc_l, arc_r = shortest_arc(bl, bm), shortest_arc(br, bm)
+    offs = np.where(left[:, None, None], off_l[None], off_r[None])
+    blk[:, 1:] = qmul(blk[:, 1:], qpow(offs[:, 1:], wts[:, None]))
+    bb = qapply(qconj(blk[:, 0]), P.axis)
+    arcs = np.where(left[:, None], arc_l[None], arc_r[None])
+    blk[:, 0] = compose_root(P.theta[src[la:rb]], qapply(qpow(arcs, wts), bb), P.axis, P.root_ref)
+
 
 
 def _whole_turns(angle: float) -> bool:
