@@ -204,3 +204,32 @@ def test_compiled_landing_seam_and_root_turn_match_numpy():
         ref = qmul(axis_quat(P.axis, seq.extra), fast[:, 0])
         assert np.abs(turned[:, 0] - ref).max() < 1e-14
         np.testing.assert_array_equal(turned[:, 1:], fast[:, 1:])
+
+
+def test_compiled_landing_seam_speeds_match_numpy(monkeypatch):
+    """The compiled eq. 5.22 landing-seam speeds equal the numpy ones to rounding (and differ from 1,
+    so the comparison is not vacuous)."""
+    import sys
+
+    from mocomp.flips import _kernels, multiflip, prepare
+
+    if not _kernels.AVAILABLE:
+        pytest.skip("numba not available")
+    from _flips_data import synthetic
+
+    mod = sys.modules["mocomp.flips.multiflip"]
+    for name, flips in (("frontflip", 2), ("sideflip", 3)):
+        P = prepare(synthetic(name).motion)
+        res = multiflip(P, flips=flips, evaluate=False, window=P.default_window() + 1)
+        seq, w = res.sequence, P.default_window() + 1
+        rot = np.array(P.rotations[seq.frames])
+        rot[:, 0] = np.array(res.motion.rotations[0, 0])            # any poses: a seam with real momentum change
+        rot[seq.landing_seam - 1:seq.landing_seam + 3] = P.rotations[seq.join.g + 3]
+        a = seq.landing_seam
+        la, rb = max(a - w, 0), min(a + 2 + w, seq.n_frames)
+        fast = mod._seam_speeds(P, seq, rot, w, a + 1, la, rb)
+        monkeypatch.setattr(mod, "SEAM_NB", False)
+        slow = mod._seam_speeds(P, seq, rot, w, a + 1, la, rb)
+        monkeypatch.setattr(mod, "SEAM_NB", True)
+        assert np.abs(fast - slow).max() < 1e-12
+        assert np.abs(fast[la - 1:rb + 1] - 1.0).max() > 1e-3

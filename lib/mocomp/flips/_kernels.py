@@ -433,9 +433,18 @@ def warmup() -> None:
     th.setflags(write=False)
     _landing_search(ro, th, 0, 1, 1, 1.0, 1, 2, 0.0, 1.0, np.array([1.0, 0.0, 0.0]), 1.0,
                     np.arange(2, dtype=np.int64), np.ones(2))
-    from ..flips.seamtime import _NUMBA, _angular_nb
+    from ..flips.seamtime import _NUMBA, _angular_nb, _landing_speed_nb
 
     if _NUMBA:
+        def ro(x):                              # the body's evaluator arrays are read-only
+            x = np.array(x)
+            x.setflags(write=False)
+            return x
+
+        _landing_speed_nb(np.concatenate([q, q[:1]]), 0, 3, ro(np.array([-1, 0], dtype=np.int64)), ro(np.zeros((2, 3))),
+                          ro(np.arange(2, dtype=np.int64)), ro(np.zeros((2, 3))), ro(np.ones(2)),
+                          ro(np.tile(np.eye(3), (2, 1, 1))), 1.0, np.zeros(3, dtype=np.int64), np.zeros(3),
+                          np.array([1.0, 0.0, 0.0]), np.zeros((3, 3)), 1, 1, 1.0, 1.0, 1.0, 0.5, 2.0)
         _angular_nb(np.concatenate([q, q[:1]]), np.array([-1, 0], dtype=np.int64), np.zeros((2, 3)),
                     np.arange(2, dtype=np.int64), np.zeros((2, 3)), np.ones(2), np.tile(np.eye(3), (2, 1, 1)), 1.0,
                     np.empty((1, 3)))

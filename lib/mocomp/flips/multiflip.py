@@ -36,7 +36,10 @@ from ..errors import PhysicsError
 from .preprocess import PreparedFlip, flight_L_stats, smooth_block
 from .reposition import FlightTrajectory, flight_trajectory
 from .retime import RetimePlan, plan_retime, sample_positions
-from .seamtime import seam_speed, warp_time, warped_positions
+from .seamtime import SPEED_BOUNDS, seam_speed, warp_time, warped_positions
+from .seamtime import _NUMBA as SEAM_NB
+if SEAM_NB:
+    from .seamtime import _landing_speed_nb
 from .sequence import Sequence, build_sequence
 from ..core.motion import slerp
 from .similarity import axis_quat, twist_angle
@@ -474,14 +477,22 @@ def _seam_speeds(P: PreparedFlip, seq: Sequence, rot: np.ndarray, w: int, hi_u: 
     # landing seam: frames la .. rb-1 were smoothed; their neighbours' central differences reach in
     lo, hi = max(la - 2, 0), min(rb + 2, nseq)
     if hi - lo >= 3:
-        L_new = P.momentum_evaluator.angular(rot[lo:hi], P.fps)
         a, f, g = seq.landing_seam, seq.join.f, seq.join.g
         L0 = P.L_magnitude
+        lev_l, lev_r = float(L0[f]), float(L0[g])
+        mid = float(np.sqrt(lev_l * lev_r))
+        if KERNELS and SEAM_NB:                                     # compiled, the same steps as below
+            E = P.momentum_evaluator
+            ax = np.asarray(P.axis, dtype=float)
+            speed[lo + 1:hi - 1] = _landing_speed_nb(
+                rot, lo, hi, E.parents, E.offsets, E.seg_joint, E.local_coms, E.masses, E.inertias, float(P.fps),
+                np.array(seq.frames, dtype=np.int64), np.array(seq.extra, dtype=float), ax / np.linalg.norm(ax),
+                np.array(P.momentum.angular, dtype=float), int(a), int(w), lev_l, lev_r, mid, *SPEED_BOUNDS)
+            return speed
+        L_new = P.momentum_evaluator.angular(rot[lo:hi], P.fps)
         idx = np.arange(lo + 1, hi - 1)
         src = seq.frames[idx]
         left = idx <= a
-        lev_l, lev_r = float(L0[f]), float(L0[g])
-        mid = float(np.sqrt(lev_l * lev_r))
         # the original's L at the frames shown, turned with them about L, its level blended across the seam
         ref = qapply(axis_quat(P.axis, seq.extra[idx]), np.asarray(P.momentum.angular)[src])
         if lev_l > 0 and lev_r > 0:

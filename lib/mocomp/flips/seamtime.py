@@ -249,6 +249,49 @@ if _NUMBA:
         return out
 
 
+if _NUMBA:
+    @numba.njit(cache=True, nogil=True)
+    def _landing_speed_nb(rot, lo, hi, parents, offsets, seg_joint, local_coms, masses, inertias, fps, frames,
+                          extra, axis, Lv, a, w, lev_l, lev_r, mid, lo_b, hi_b):
+        """Eq. 5.22 speeds of the landing seam's sequence frames ``lo+1 .. hi-2`` (see
+        :func:`mocomp.flips.multiflip._seam_speeds`, whose numpy version this mirrors): ``L`` of the
+        smoothed frames ``rot[lo:hi]`` (:func:`_angular_nb`), the original's ``L`` at the source
+        frames turned with them about the unit ``axis``, its level blended across the seam after
+        frame ``a`` with the pose ramp, and :func:`seam_speed`'s least-squares speed, clipped."""
+        n = hi - lo
+        L_new = _angular_nb(rot[lo:hi], parents, offsets, seg_joint, local_coms, masses, inertias, fps,
+                            np.empty((n - 2, 3)))
+        blend = lev_l > 0 and lev_r > 0
+        out = np.empty(n - 2)
+        ax, ay, az = axis[0], axis[1], axis[2]
+        for k in range(n - 2):
+            i = lo + 1 + k
+            h = 0.5 * extra[i]
+            s_ = math.sin(h)
+            c = math.cos(h)
+            ux, uy, uz = s_ * ax, s_ * ay, s_ * az
+            f = frames[i]
+            vx, vy, vz = Lv[f, 0], Lv[f, 1], Lv[f, 2]
+            tx, ty, tz = 2.0 * (uy * vz - uz * vy), 2.0 * (uz * vx - ux * vz), 2.0 * (ux * vy - uy * vx)
+            rx = vx + c * tx + (uy * tz - uz * ty)
+            ry = vy + c * ty + (uz * tx - ux * tz)
+            rz = vz + c * tz + (ux * ty - uy * tx)
+            if blend:
+                d = abs(i - a) / (w + 1.0)
+                wt = 0.5 * (1.0 + math.cos(math.pi * min(max(d, 0.0), 1.0)))
+                sc = (mid / lev_l if i <= a else mid / lev_r) ** wt
+                rx, ry, rz = rx * sc, ry * sc, rz * sc
+            nx, ny, nz = L_new[k, 0], L_new[k, 1], L_new[k, 2]
+            nn = nx * nx + ny * ny + nz * nz
+            num = nx * rx + ny * ry + nz * rz
+            ref2 = rx * rx + ry * ry + rz * rz
+            sp = num / max(nn, 1e-300)
+            if nn <= 1e-18 * max(ref2, 1e-24):
+                sp = hi_b
+            out[k] = min(max(sp, lo_b), hi_b)
+        return out
+
+
 def seam_speed(L_new: np.ndarray, L_ref: np.ndarray, bounds: tuple[float, float] = SPEED_BOUNDS) -> np.ndarray:
     """Eq. 5.22's local playback speed, clipped to ``bounds``.
 
