@@ -422,8 +422,11 @@ def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None 
     rp_seq[seq.landing] = traj.end - P.com_eval.relative(rot[seq.landing:seq.landing + 1])[0]
     root_out = rp_seq[i0] + al[:, None] * (rp_seq[i0 + 1] - rp_seq[i0])
     fl = np.flatnonzero((tau >= seq.takeoff - 1e-9) & (tau <= seq.landing + 1e-9))
-    tf = (tw[fl] - W_to) / (kk * fps)
-    root_out[fl] = traj(tf) - P.com_eval.relative(rot_out[fl])
+    f0, f1 = int(fl[0]), int(fl[-1]) + 1
+    if fl.size != f1 - f0:                                          # tau is non-decreasing: cannot happen
+        raise AssertionError("retimed flight frames are not contiguous")
+    tf = (tw[f0:f1] - W_to) / (kk * fps)
+    root_out[f0:f1] = traj(tf) - P.com_eval.relative(rot_out[f0:f1])      # a view, no gather
     t4 = time.perf_counter()
     timings["reposition"] = t4 - t3
     # --------------------------------------------------------------- assemble
@@ -435,7 +438,7 @@ def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None 
         new = P.motion.replace(root_positions=root_out, rotations=rot_out, source=source)
     t5 = time.perf_counter()
     timings["assemble"] = t5 - t4
-    flight_out = (int(fl[0]), int(fl[-1]) + 1)
+    flight_out = (f0, f1)
     report, mom = None, None
     if evaluate:
         report, mom = _evaluate(P, seq, plan, traj, new, flight_out, timings, height_change, dy, flips,
