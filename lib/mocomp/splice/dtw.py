@@ -34,18 +34,88 @@ __all__ = ["DTWResult", "dtw", "dtw_band_costs", "band_costs", "feature_band_cos
 STEP_START, STEP_DIAGONAL, STEP_HORIZONTAL, STEP_VERTICAL, STEP_NONE = 0, 1, 2, 3, -1
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _row_general(c, g, vd, vv, gamma, off, lo, hi, i, l, w):  # pragma: no cover - compiled
+    """One row of any shape: candidate sums, then the horizontal chain."""
+    inf = np.inf
+    for t in range(w):
+        vd[t] = inf
+        vv[t] = inf
+    if i > 0:
+        lp = lo[i - 1]
+        wp = hi[i - 1] - lp + 1
+        for t in range(w):
+            p = t + l - lp  # previous-row position of column j = l + t
+            if 1 <= p <= wp:
+                vd[t] = gamma[off[i - 1] + p - 1] + c[t]
+            if 0 <= p < wp:
+                vv[t] = gamma[off[i - 1] + p] + c[t]
+    elif l == 0:
+        vd[0] = c[0]  # the start cell: gamma(0, 0) = D(0, 0)
+    left = inf
+    for t in range(w):
+        left = min(min(vd[t], vv[t]), left + c[t])
+        g[t] = left
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _row_monotone(c, g, vd, gp, l, w, lp, wp):  # pragma: no cover - compiled
+    """One row ``i > 0`` of a band whose previous row spans ``lp..hp`` with
+    ``lp <= l <= hp + 1 <= h + 1`` (every pruned band): the chain split into
+    column runs with a fixed set of predecessors, so the loops carry no
+    branches and no negative indices. Stores the diagonal sums in ``vd``."""
+    inf = np.inf
+    hp = lp + wp - 1
+    left = inf
+    t = 0
+    if l == lp:  # first column: only the vertical predecessor (i-1, l)
+        left = gp[0] + c[0]
+        g[0] = left
+        vd[0] = inf
+        t = 1
+    nb = hp - l + 1 - t  # columns l+t..hp: diagonal and vertical predecessors
+    if nb > 0:
+        cs = c[t:t + nb]
+        gs = g[t:t + nb]
+        ds = vd[t:t + nb]
+        dg = gp[l + t - 1 - lp:l + t - 1 - lp + nb]
+        vg = gp[l + t - lp:l + t - lp + nb]
+        for u in range(nb):
+            d = cs[u]
+            a = dg[u] + d
+            ds[u] = a
+            left = min(min(a, vg[u] + d), left + d)
+            gs[u] = left
+        t += nb
+    if t < w:  # column hp+1: only the diagonal predecessor (i-1, hp)
+        d = c[t]
+        a = gp[wp - 1] + d
+        vd[t] = a
+        left = min(a, left + d)
+        g[t] = left
+        t += 1
+    if t < w:  # columns beyond hp+1: horizontal steps only
+        cs = c[t:w]
+        gs = g[t:w]
+        ds = vd[t:w]
+        for u in range(w - t):
+            left = left + cs[u]
+            gs[u] = left
+            ds[u] = inf
+
+
 @numba.njit(cache=True, nogil=True)
 def _accumulate(cost, lo, hi, off, gamma, step):  # pragma: no cover - compiled
     """Eq. 6.1-6.2 on the band cells, row by row.
 
-    Per row: the diagonal and vertical candidates ``gamma(i-1, .) + D`` (no
-    dependency inside the row, vectorised), then the horizontal chain
-    ``gamma(i, j) = min(pre(j), gamma(i, j-1) + D)`` (the only serial
-    dependency, branch-free), then the step codes from the three sums. The
-    step into a cell is the first of diagonal, horizontal, vertical whose sum
-    equals the minimum, i.e. exactly dtw-python's strict ``<`` scan in that
-    order. Row slices and 0-based ``range`` indices let LLVM drop numba's
-    negative-index wraparound and vectorise.
+    Per row the horizontal chain ``gamma(i, j) = min(diag, vert, gamma(i, j-1) + D)``
+    is the only serial dependency; it runs branch-free over column runs
+    with a fixed set of predecessors (:func:`_row_monotone`; any other row
+    shape goes through :func:`_row_general`). The step into each cell is
+    then the first of diagonal, horizontal, vertical whose sum equals the
+    minimum, i.e. exactly dtw-python's strict ``<`` scan in that order.
+    Row slices and ``range`` indices keep numba's negative-index wraparound
+    out of the loops so that LLVM vectorises what has no dependency.
     """
     n = lo.shape[0]
     inf = np.inf
@@ -62,33 +132,29 @@ def _accumulate(cost, lo, hi, off, gamma, step):  # pragma: no cover - compiled
         c = cost[off[i]:off[i] + w]
         g = gamma[off[i]:off[i] + w]
         st = step[off[i]:off[i] + w]
-        vd[:w] = inf
-        vv[:w] = inf
         if i > 0:
             lp = lo[i - 1]
             wp = hi[i - 1] - lp + 1
-            gp = gamma[off[i - 1]:off[i - 1] + max(wp, 0)]
-            sh = l - lp - 1  # cell (i, l + t) has its diagonal predecessor at gp[t + sh]
-            for t in range(max(0, -sh), min(w, wp - sh)):
-                vd[t] = gp[t + sh] + c[t]
-            sh += 1  # and its vertical one at gp[t + sh]
-            for t in range(max(0, -sh), min(w, wp - sh)):
-                vv[t] = gp[t + sh] + c[t]
-        elif l == 0:
-            vd[0] = c[0]  # the start cell: gamma(0, 0) = D(0, 0)
-        left = inf
-        for t in range(w):
-            left = min(min(vd[t], vv[t]), left + c[t])
-            g[t] = left
-        for t in range(w):
-            gt = g[t]
-            vh = g[t - 1] + c[t] if t > 0 else inf
-            s = np.int8(3)
-            s = np.int8(2) if vh == gt else s
-            s = np.int8(1) if vd[t] == gt else s
-            st[t] = s if gt < inf else np.int8(-1)
+        if i > 0 and wp > 0 and lp <= l <= lp + wp and lp + wp <= l + w:
+            _row_monotone(c, g, vd, gamma[off[i - 1]:off[i - 1] + wp], l, w, lp, wp)
+        else:
+            _row_general(c, g, vd, vv, gamma, off, lo, hi, i, l, w)
+        # step codes: the first of diagonal, horizontal, vertical whose sum is the minimum
+        g0 = g[0]
+        st[0] = np.int8(-1) if not g0 < inf else (np.int8(1) if vd[0] == g0 else np.int8(3))
         if i == 0 and l == 0:
             st[0] = 0
+        gl = g[:w - 1]
+        gr = g[1:w]
+        cr = c[1:w]
+        dr = vd[1:w]
+        sr = st[1:w]
+        for u in range(w - 1):
+            gt = gr[u]
+            s = np.int8(3)
+            s = np.int8(2) if gl[u] + cr[u] == gt else s
+            s = np.int8(1) if dr[u] == gt else s
+            sr[u] = s if gt < inf else np.int8(-1)
 
 
 @numba.njit(cache=True, nogil=True)
