@@ -6,7 +6,12 @@ Rows
 * ``render+encode 640x480``: :func:`mocomp.plots.render3d.write_video` of a back flip
   resampled to 30 fps (300 frames; 60 with ``--quick``), scene set-up, rendering,
   pixel read-back and H.264 encoding (imageio-ffmpeg, libx264 ``veryfast``) all
-  timed. Goal: at least 30 frames/s (``ours_s <= n / 30``). Peer: PyVista's own
+  timed. Goal: at least 30 frames/s (``ours_s <= n / 30``). The process's one-time
+  warm-up (importing VTK/PyVista, creating the first EGL/OSMesa context, compiling
+  the shaders: ~1-1.5 s) is done once, untimed, by rendering one still before any
+  timing, and reported in the note; without it the first timed video (the only
+  one with ``--quick``) paid it and the peers, which run afterwards, did not.
+  Peer: PyVista's own
   movie path on the same scene (same capsule meshes and lights, actors moved by
   ``actor.user_matrix``): ``Plotter.open_movie`` + ``Plotter.write_frame`` per
   frame, (a) with PyVista's default theme (8x MSAA) and (b) with anti-aliasing
@@ -113,6 +118,9 @@ def run(quick: bool) -> list[dict]:
     m = _looped(clip, n, FPS)
     style = r3.RenderStyle(width=W, height=H)
     cam = r3.fit_camera(m.positions, elevation=6.0, aspect=W / H)
+    t0 = time.perf_counter()
+    r3.render_still(m, 0, style=style, camera=cam)  # process warm-up (imports, GL context, shaders), untimed
+    warmup = time.perf_counter() - t0
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
@@ -130,7 +138,8 @@ def run(quick: bool) -> list[dict]:
                 goal=f"ours_s <= {n / 30.0:.3f}",
                 note=f"{fps_ours:.1f} frames/s incl. scene set-up and H.264 encoding "
                      f"(peer {n / ps:.1f} frames/s); {origin}; {len(r3.bone_capsules(m.skeleton))} capsules "
-                     f"+ shadows + ground; {os.environ.get('VTK_DEFAULT_OPENGL_WINDOW')}"))
+                     f"+ shadows + ground; {os.environ.get('VTK_DEFAULT_OPENGL_WINDOW')}; process warm-up "
+                     f"{warmup:.2f} s before any timing (excluded for ours and the peers)"))
 
         from study.render import render_stimulus_set
         from study.spec import load_spec
