@@ -4,7 +4,7 @@ and appendices B-C).
 
 >>> from mocomp import flips
 >>> prep = flips.prepare("backflip")            # pre-processing, once per clip (~0.1 s)
->>> res = flips.multiflip(prep, flips=2)        # run time (about a millisecond)
+>>> res = flips.multiflip(prep, flips=2)        # run time (about half a millisecond)
 >>> print(res.report)                           # the physics report
 >>> res.motion                                  # the new Motion
 

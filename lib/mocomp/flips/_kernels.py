@@ -1,15 +1,23 @@
-"""Compiled (numba) versions of the run-time stage's two per-frame loops.
+"""Compiled (numba) versions of the run-time stage's per-frame loops.
 
-* :func:`slerp_rows_nb` -- the retiming interpolation of :func:`mocomp.flips._quat.slerp_rows`
-  (normalised lerp for neighbours closer than ``nlerp_below``, exact slerp otherwise);
+* :func:`slerp_rows_nb` / :func:`slerp_gather_nb` -- the retiming interpolation of
+  :func:`mocomp.flips._quat.slerp_rows` (normalised lerp for neighbours closer than
+  ``nlerp_below``, exact slerp otherwise); the gather variant reads rows ``i0`` and ``i0 + 1``
+  in place and reports that every output is a finite unit quaternion (so the new ``Motion``
+  need not be validated again);
 * :func:`com_relative_nb` -- :meth:`mocomp.flips.reposition.ComEvaluator.relative`, the
-  mass-weighted forward kinematics collapsed to one vector per joint.
+  mass-weighted forward kinematics collapsed to one vector per joint;
+* :func:`landing_search_nb` -- the landing search of :func:`mocomp.flips.sequence.find_landing`
+  (eq. 5.12-5.13 over the candidate pairs, no pair arrays built); :func:`frame_distance_nb`;
+* :func:`landing_seam_nb` -- the landing seam smoothing (eq. 5.14) of
+  :func:`mocomp.flips.multiflip.multiflip`; :func:`turn_roots_nb` -- each frame's rotation about ``L``.
 
-Both give the numpy versions' results to rounding (tested); they exist because the numpy
-versions are dominated by per-call overhead on arrays of a few thousand quaternions. Numba
-is a project dependency (also used by :mod:`mocomp.splice`); compiled code is cached on
-disk (``cache=True``). ``AVAILABLE`` is False when numba cannot be imported and the
-numpy versions are used instead.
+They give the numpy versions' results to rounding (tested, most bit for bit); they exist because
+the numpy versions are dominated by per-call overhead on small arrays (a few thousand
+quaternions, or a single frame's 31 joints). Numba is a project dependency (also used by
+:mod:`mocomp.splice`); compiled code is cached on disk (``cache=True``) and loaded by
+:func:`warmup` during pre-processing. ``AVAILABLE`` is False when numba cannot be imported and
+the numpy versions are used instead.
 """
 from __future__ import annotations
 
@@ -315,12 +323,16 @@ if AVAILABLE:
         best = math.inf
         bu, bg, bd, bdiff = -1, -1, 0.0, 0.0
         n_pairs = 0
+        th_u = np.empty(n_u)                       # rotation about L of each unrolled frame
+        for u in range(n_u):
+            cp = u // period
+            th_u[u] = theta[m + u - cp * period] + cp * phi
         for g in range(g0, g1):
             want = theta[g] + extra_total
             for u in range(n_u):
-                f = m + u % period
-                diff = (theta[f] + (u // period) * phi) - want
+                diff = th_u[u] - want
                 if abs(diff) <= max_delta:
+                    f = m + u % period
                     n_pairs += 1
                     d, _ = _pair_distance(rot, f, rot, g, ax, ay, az, wr, nz, wj)
                     score = d + 1e-6 * abs(diff)
