@@ -35,35 +35,36 @@ STEP_START, STEP_DIAGONAL, STEP_HORIZONTAL, STEP_VERTICAL, STEP_NONE = 0, 1, 2, 
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
-def _row_general(c, g, vd, vv, gamma, off, lo, hi, i, l, w):  # pragma: no cover - compiled
-    """One row of any shape: candidate sums, then the horizontal chain."""
+def _row_general(c, g, st, gamma, off, lo, hi, i, l, w):  # pragma: no cover - compiled
+    """One row of any shape (rows of custom, unpruned bands)."""
     inf = np.inf
-    for t in range(w):
-        vd[t] = inf
-        vv[t] = inf
-    if i > 0:
-        lp = lo[i - 1]
-        wp = hi[i - 1] - lp + 1
-        for t in range(w):
-            p = t + l - lp  # previous-row position of column j = l + t
-            if 1 <= p <= wp:
-                vd[t] = gamma[off[i - 1] + p - 1] + c[t]
-            if 0 <= p < wp:
-                vv[t] = gamma[off[i - 1] + p] + c[t]
-    elif l == 0:
-        vd[0] = c[0]  # the start cell: gamma(0, 0) = D(0, 0)
+    lp = lo[i - 1] if i > 0 else 0
+    wp = hi[i - 1] - lp + 1 if i > 0 else 0
     left = inf
     for t in range(w):
-        left = min(min(vd[t], vv[t]), left + c[t])
+        d = c[t]
+        p = t + l - lp  # previous-row position of column j = l + t
+        a = gamma[off[i - 1] + p - 1] + d if i > 0 and 1 <= p <= wp else inf
+        v = gamma[off[i - 1] + p] + d if i > 0 and 0 <= p < wp else inf
+        h = left + d
+        if i == 0 and l + t == 0:
+            a = d  # the start cell: gamma(0, 0) = D(0, 0)
+        left = min(min(a, v), h)
         g[t] = left
+        s = np.int8(3)
+        s = np.int8(2) if h == left else s
+        s = np.int8(1) if a == left else s
+        st[t] = s if left < inf else np.int8(-1)
+    if i == 0 and l == 0:
+        st[0] = 0
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
-def _row_monotone(c, g, vd, gp, l, w, lp, wp):  # pragma: no cover - compiled
-    """One row ``i > 0`` of a band whose previous row spans ``lp..hp`` with
-    ``lp <= l <= hp + 1 <= h + 1`` (every pruned band): the chain split into
-    column runs with a fixed set of predecessors, so the loops carry no
-    branches and no negative indices. Stores the diagonal sums in ``vd``."""
+def _row_monotone(c, g, st, gp, l, w, lp, wp):  # pragma: no cover - compiled
+    """One row ``i > 0`` whose previous row ``gp`` spans columns ``lp..hp``
+    with ``lp <= l <= hp + 1 <= h + 1`` (every pruned band): the row split
+    into column runs with a fixed set of predecessors, so the loops carry no
+    branches and no negative indices."""
     inf = np.inf
     hp = lp + wp - 1
     left = inf
@@ -71,59 +72,59 @@ def _row_monotone(c, g, vd, gp, l, w, lp, wp):  # pragma: no cover - compiled
     if l == lp:  # first column: only the vertical predecessor (i-1, l)
         left = gp[0] + c[0]
         g[0] = left
-        vd[0] = inf
+        st[0] = np.int8(3) if left < inf else np.int8(-1)
         t = 1
     nb = hp - l + 1 - t  # columns l+t..hp: diagonal and vertical predecessors
     if nb > 0:
         cs = c[t:t + nb]
         gs = g[t:t + nb]
-        ds = vd[t:t + nb]
+        ss = st[t:t + nb]
         dg = gp[l + t - 1 - lp:l + t - 1 - lp + nb]
         vg = gp[l + t - lp:l + t - lp + nb]
         for u in range(nb):
             d = cs[u]
             a = dg[u] + d
-            ds[u] = a
-            left = min(min(a, vg[u] + d), left + d)
+            h = left + d
+            left = min(min(a, vg[u] + d), h)
             gs[u] = left
+            # off the serial path: the first of diagonal, horizontal, vertical attaining the minimum
+            s = np.int8(3)
+            s = np.int8(2) if h == left else s
+            s = np.int8(1) if a == left else s
+            ss[u] = s if left < inf else np.int8(-1)
         t += nb
     if t < w:  # column hp+1: only the diagonal predecessor (i-1, hp)
         d = c[t]
         a = gp[wp - 1] + d
-        vd[t] = a
-        left = min(a, left + d)
+        h = left + d
+        left = min(a, h)
         g[t] = left
+        st[t] = np.int8(-1) if not left < inf else (np.int8(1) if a == left else np.int8(2))
         t += 1
     if t < w:  # columns beyond hp+1: horizontal steps only
         cs = c[t:w]
         gs = g[t:w]
-        ds = vd[t:w]
+        ss = st[t:w]
         for u in range(w - t):
             left = left + cs[u]
             gs[u] = left
-            ds[u] = inf
+            ss[u] = np.int8(2) if left < inf else np.int8(-1)
 
 
 @numba.njit(cache=True, nogil=True)
 def _accumulate(cost, lo, hi, off, gamma, step):  # pragma: no cover - compiled
-    """Eq. 6.1-6.2 on the band cells, row by row.
+    """Eq. 6.1-6.2 on the band cells, row by row, and the step into each cell.
 
-    Per row the horizontal chain ``gamma(i, j) = min(diag, vert, gamma(i, j-1) + D)``
-    is the only serial dependency; it runs branch-free over column runs
-    with a fixed set of predecessors (:func:`_row_monotone`; any other row
-    shape goes through :func:`_row_general`). The step into each cell is
-    then the first of diagonal, horizontal, vertical whose sum equals the
-    minimum, i.e. exactly dtw-python's strict ``<`` scan in that order.
-    Row slices and ``range`` indices keep numba's negative-index wraparound
-    out of the loops so that LLVM vectorises what has no dependency.
+    In each row the horizontal chain ``gamma(i, j) = min(diag, vert,
+    gamma(i, j-1) + D)`` is the only serial dependency; it runs branch-free
+    over column runs with a fixed set of predecessors (:func:`_row_monotone`;
+    rows of other shapes go through :func:`_row_general`). The step code
+    (computed off the serial path) is the first of diagonal, horizontal,
+    vertical whose sum equals the minimum, i.e. exactly dtw-python's strict
+    ``<`` scan in that order. Row slices and ``range`` indices keep numba's
+    negative-index wraparound out of the loops.
     """
     n = lo.shape[0]
-    inf = np.inf
-    maxw = 1
-    for i in range(n):
-        maxw = max(maxw, hi[i] - lo[i] + 1)
-    vd = np.empty(maxw)
-    vv = np.empty(maxw)
     for i in range(n):
         l = lo[i]
         w = hi[i] - l + 1
@@ -132,29 +133,15 @@ def _accumulate(cost, lo, hi, off, gamma, step):  # pragma: no cover - compiled
         c = cost[off[i]:off[i] + w]
         g = gamma[off[i]:off[i] + w]
         st = step[off[i]:off[i] + w]
+        mono = False
         if i > 0:
             lp = lo[i - 1]
             wp = hi[i - 1] - lp + 1
-        if i > 0 and wp > 0 and lp <= l <= lp + wp and lp + wp <= l + w:
-            _row_monotone(c, g, vd, gamma[off[i - 1]:off[i - 1] + wp], l, w, lp, wp)
+            mono = wp > 0 and lp <= l <= lp + wp and lp + wp <= l + w
+        if mono:
+            _row_monotone(c, g, st, gamma[off[i - 1]:off[i - 1] + wp], l, w, lp, wp)
         else:
-            _row_general(c, g, vd, vv, gamma, off, lo, hi, i, l, w)
-        # step codes: the first of diagonal, horizontal, vertical whose sum is the minimum
-        g0 = g[0]
-        st[0] = np.int8(-1) if not g0 < inf else (np.int8(1) if vd[0] == g0 else np.int8(3))
-        if i == 0 and l == 0:
-            st[0] = 0
-        gl = g[:w - 1]
-        gr = g[1:w]
-        cr = c[1:w]
-        dr = vd[1:w]
-        sr = st[1:w]
-        for u in range(w - 1):
-            gt = gr[u]
-            s = np.int8(3)
-            s = np.int8(2) if gl[u] + cr[u] == gt else s
-            s = np.int8(1) if dr[u] == gt else s
-            sr[u] = s if gt < inf else np.int8(-1)
+            _row_general(c, g, st, gamma, off, lo, hi, i, l, w)
 
 
 @numba.njit(cache=True, nogil=True)
