@@ -1,6 +1,7 @@
 """The immutable ``Motion`` value: a skeleton animated over uniformly spaced frames."""
 from __future__ import annotations
 
+import copy
 import dataclasses
 from dataclasses import dataclass, field
 from typing import Sequence
@@ -186,6 +187,29 @@ class Motion:
         """A new motion with some fields replaced (``dataclasses.replace``)."""
         changes.setdefault("_cache", {})
         return dataclasses.replace(self, **changes)
+
+    def _replace_trusted(self, root_positions: np.ndarray, rotations: np.ndarray,
+                         source: SourceInfo) -> "Motion":
+        """:meth:`replace` for arrays a library hot path has just made and checked, skipping the
+        defensive copy and validation of :meth:`__post_init__` (on a 400-frame flip its norm check
+        costs more than the slerp that made the rotations).
+
+        The caller guarantees what ``__post_init__`` would check: shapes ``(T, 3)`` and
+        ``(T, J, 4)`` with ``T > 0``, finite values, and rotations that are unit quaternions to
+        rounding (``__post_init__`` would keep those bit for bit). The arrays are frozen here, as
+        ``__post_init__`` freezes its own. Keep this next to ``__post_init__``: a new field or
+        check there must be mirrored here. Private: used by the multi-flip run-time stage."""
+        T, J = rotations.shape[0], self.skeleton.n_joints
+        if root_positions.shape != (T, 3) or rotations.shape != (T, J, 4) or T == 0:
+            return self.replace(root_positions=root_positions, rotations=rotations, source=source)
+        new = copy.copy(self)                                   # same skeleton and fps
+        root_positions.setflags(write=False)
+        rotations.setflags(write=False)
+        object.__setattr__(new, "root_positions", root_positions)
+        object.__setattr__(new, "rotations", rotations)
+        object.__setattr__(new, "source", source)
+        object.__setattr__(new, "_cache", {})
+        return new
 
     def __getitem__(self, index) -> "Motion":
         """Frame slicing: ``motion[10:50]`` or ``motion[::2]`` (step changes fps)."""

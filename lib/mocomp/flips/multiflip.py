@@ -22,7 +22,6 @@ new motion), which is evidence, not part of the method.
 """
 from __future__ import annotations
 
-import copy
 import dataclasses
 import json
 import time
@@ -505,24 +504,12 @@ def _seam_speeds(P: PreparedFlip, seq: Sequence, rot: np.ndarray, w: int, hi_u: 
 
 
 def _fresh_motion(template: Motion, root_positions: np.ndarray, rotations: np.ndarray, source) -> Motion:
-    """``template.replace(root_positions=..., rotations=..., source=...)`` for arrays the run-time
-    stage has just made and checked, without :class:`Motion`'s defensive copy and validation
-    (its norm check alone cost more than the slerp): the shapes hold by construction, the
-    root positions were checked finite, and the compiled slerp normalised every rotation and
-    reported it finite and non-zero, so ``Motion.__post_init__`` would accept the arrays and
-    keep them bit for bit (it renormalises only quaternions more than 1e-14 off unit length).
-    The arrays are frozen here as it would; the result equals the checked construction (tested)."""
-    T, J = rotations.shape[0], template.skeleton.n_joints
-    if root_positions.shape != (T, 3) or rotations.shape != (T, J, 4) or T == 0:
-        return template.replace(root_positions=root_positions, rotations=rotations, source=source)
-    new = copy.copy(template)                                   # same skeleton and fps; no __post_init__
-    root_positions.setflags(write=False)
-    rotations.setflags(write=False)
-    object.__setattr__(new, "root_positions", root_positions)
-    object.__setattr__(new, "rotations", rotations)
-    object.__setattr__(new, "source", source)
-    object.__setattr__(new, "_cache", {})
-    return new
+    """``template.replace(root_positions=..., rotations=..., source=...)`` without :class:`Motion`'s
+    defensive copy and validation (:meth:`Motion._replace_trusted`): the run-time stage made the
+    arrays with the right shapes, checked the root positions finite, and the compiled slerp
+    normalised every rotation and reported it finite and non-zero. The result equals the checked
+    construction (tested)."""
+    return template._replace_trusted(root_positions, rotations, source)
 
 
 def _landing_seam_numpy(P: PreparedFlip, rot: np.ndarray, src: np.ndarray, a: int, g: int, la: int, rb: int,
