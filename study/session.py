@@ -61,6 +61,24 @@ RESPONSE_COLUMNS: tuple[str, ...] = (
     "achieved_error", "base_clip", "expected_response", "response", "rated_correct", "input", "must_watch",
     "watched_to_end", "rt_s", "client_rt_s", "client_rt_end_s", "shown_utc", "responded_utc",
 )
+
+
+def _header_mismatch(header: list[str]) -> str:
+    """What differs between a session file's header and :data:`RESPONSE_COLUMNS`, and what to do."""
+    missing = [c for c in RESPONSE_COLUMNS if c not in header]
+    extra = [c for c in header if c not in RESPONSE_COLUMNS]
+    parts = []
+    if missing:
+        parts.append("missing " + ", ".join(missing))
+    if extra:
+        parts.append("unknown " + ", ".join(extra))
+    if not parts:
+        parts.append("same columns in another order")
+    return (f"header differs from this version's columns ({'; '.join(parts)}): the session was written by "
+            f"another version of the study package or edited by hand; nothing is written to it: resume it with "
+            f"the version that wrote it, or start a new session ID (see DATA_DICTIONARY.md for the columns)")
+
+
 RESPONSES = ("correct", "incorrect")
 _ID_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$")
 
@@ -361,7 +379,7 @@ class Session:
             raise StudyDataError("responses.csv is empty (no header)", path)
         rows = list(csv.reader(io.StringIO(text)))
         if tuple(rows[0]) != RESPONSE_COLUMNS:
-            raise StudyDataError(f"header differs from the expected columns {', '.join(RESPONSE_COLUMNS)}", path, 1)
+            raise StudyDataError(_header_mismatch(rows[0]), path, 1)
         ti = RESPONSE_COLUMNS.index("trial_index")
         st = RESPONSE_COLUMNS.index("stimulus_id")
         plan_stim = dict(zip(self.plan.trials["trial_index"].astype(int), self.plan.trials["stimulus_id"]))

@@ -91,6 +91,22 @@ def test_corrupt_responses_are_reported_with_line(stimuli, tmp_path):
         Session.open(tmp_path, "P1", "S1", stimuli)
 
 
+def test_a_session_written_with_other_columns_is_refused_untouched(stimuli, tmp_path):
+    """A session from another version of the package (a column fewer) is named, not rewritten."""
+    with Session.open(tmp_path, "P1", "S1", stimuli) as s:
+        _answer_n(s, 2)
+        path = s.responses_path
+    lines = path.read_text().splitlines(keepends=True)
+    drop = RESPONSE_COLUMNS.index("client_rt_end_s")
+    old = ["".join(",".join(f for i, f in enumerate(ln.rstrip("\r\n").split(",")) if i != drop) + "\n")
+           for ln in lines]
+    path.write_text("".join(old))
+    before = path.read_bytes()
+    with pytest.raises(StudyDataError, match=r"responses\.csv:1: header differs .*missing client_rt_end_s\)"):
+        Session.open(tmp_path, "P1", "S1", stimuli)
+    assert path.read_bytes() == before
+
+
 def test_torn_last_line_is_backed_up_and_repaired(stimuli, tmp_path):
     with Session.open(tmp_path, "P1", "S1", stimuli) as s:
         _answer_n(s, 2)
