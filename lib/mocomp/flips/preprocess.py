@@ -85,7 +85,17 @@ def flight_L_stats(L: np.ndarray, start: int, stop: int, margin: int = 1) -> dic
     """``|L|`` over a flight's interior (``margin`` frames dropped at each end, where central
     differences straddle take-off/landing): ``mean``; ``variation``, the largest relative
     deviation from the mean; ``std``, the coefficient of variation; ``range``, peak to peak
-    over the mean."""
+    over the mean.
+
+    What to expect: a ballistic flip sampled at 16 Hz key frames (synthetic, exact constant
+    ``L``) comes out at 16 % / 5 % (variation / std) after spline resampling; CMU 88_01 at
+    ~22 %. The DeepMimic back flip reports 62 % / 33 %, and that is the clip itself, not the
+    pipeline: on its raw 16 Hz keys, with the character file's own masses (or de Leva's),
+    ``|L|`` falls from 57 to 22 kg m^2/s while both feet are > 0.3 m up (keys 14-18), because
+    the body tucks (composite inertia about the somersault axis 5.1 -> 2.6 kg m^2) while the
+    root keeps turning at ~8.5 rad/s, and the COM's horizontal speed drops from 1.5 to
+    0.3-0.7 m/s (rms 30 mm off a straight line). Trimming the flight ends or swapping the mass
+    table does not change this (tests/test_deepmimic_flight_physics.py)."""
     a, b = start + margin, stop - margin
     if b - a < 2:
         a, b = start, stop
