@@ -90,7 +90,7 @@ def flight_L_stats(L: np.ndarray, start: int, stop: int, margin: int = 1) -> dic
     What to expect: a ballistic flip sampled at 16 Hz key frames (synthetic, exact constant
     ``L``) comes out at 16 % / 5 % (variation / std) after spline resampling; CMU 88_01 at
     ~22 %. The DeepMimic back flip reports 62 % / 33 %, and that is the clip itself, not the
-    pipeline: on its raw 16 Hz keys, with the character file's own masses (or de Leva's),
+    pipeline: on its raw 16 Hz keys, with the character file's own masses (de Leva's: the same within 10 %),
     ``|L|`` falls from 57 to 22 kg m^2/s while both feet are > 0.3 m up (keys 14-18), because
     the body tucks (composite inertia about the somersault axis 5.1 -> 2.6 kg m^2) while the
     root keeps turning at ~8.5 rad/s, and the COM's horizontal speed drops from 1.5 to
