@@ -54,8 +54,9 @@ def register(subparsers) -> None:
     p.add_argument("--plot", metavar="PNG", help="draw the per-frame errors before/after each step")
     p.add_argument("--reference", choices=("constant", "original"), default="constant",
                    help="target: the original flight's mean L (eq. 5.19, default) or its L frame by frame")
-    p.add_argument("--method", choices=("gauss-newton", "bfgs"), default="gauss-newton",
-                   help="step 1 solver (bfgs: scipy's quasi-Newton, as the paper)")
+    p.add_argument("--method", choices=("smooth", "gauss-newton", "bfgs"), default="smooth",
+                   help="step 1 solver: per-frame sweep then a joint smoothing projection (default), the "
+                        "per-frame sweep alone, or per frame by scipy's quasi-Newton BFGS (as the paper)")
     add_restore_args(p)
     p.add_argument("--up-side", choices=("l", "r"), default="l", help="arms-twist: which arm goes up")
     p.add_argument("--fps", type=_positive, default=None, help="frame rate to use instead of the file's")

@@ -475,3 +475,155 @@ def _qrot(ux, uy, uz, w, vx, vy, vz):
     ty = 2.0 * (uz * vx - ux * vz)
     tz = 2.0 * (ux * vy - uy * vx)
     return (vx + w * tx + uy * tz - uz * ty, vy + w * ty + uz * tx - ux * tz, vz + w * tz + ux * ty - uy * tx)
+
+
+# ------------------------------------------------ joint direction solve (eq. 5.21 stacked)
+@numba.njit(cache=True, nogil=True, inline="always")
+def _jl_inv(r0, r1, r2, J):
+    """Inverse left Jacobian of SO(3) at rotation vector ``r``: ``log(exp(d) exp(r)) ~ r + J d``."""
+    th2 = r0 * r0 + r1 * r1 + r2 * r2
+    th = math.sqrt(th2)
+    if th < 1e-6:
+        k = 1.0 / 12.0
+    else:
+        k = (1.0 - 0.5 * th * math.sin(th) / (1.0 - math.cos(th))) / th2
+    # I - 1/2 [r]x + k [r]x^2, [r]x^2 = r r^T - th2 I
+    J[0, 0] = 1.0 + k * (r0 * r0 - th2)
+    J[1, 1] = 1.0 + k * (r1 * r1 - th2)
+    J[2, 2] = 1.0 + k * (r2 * r2 - th2)
+    J[0, 1] = 0.5 * r2 + k * r0 * r1
+    J[1, 0] = -0.5 * r2 + k * r0 * r1
+    J[0, 2] = -0.5 * r1 + k * r0 * r2
+    J[2, 0] = 0.5 * r1 + k * r0 * r2
+    J[1, 2] = 0.5 * r0 + k * r1 * r2
+    J[2, 1] = -0.5 * r0 + k * r1 * r2
+
+
+@numba.njit(cache=True, nogil=True)
+def rotate_frames(X, Q, pivots, corr):
+    """Copies of ``X (n, S, 3)``, ``Q (n, S, 4)`` with frame ``g`` rotated by ``corr[g]`` about ``pivots[g]``."""
+    Xc = X.copy()
+    Qc = Q.copy()
+    R = np.empty((3, 3))
+    for g in range(X.shape[0]):
+        if corr[g, 3] < 1.0:
+            _rotate_frame(Xc, Qc, pivots[g], g, corr[g], R)
+    return Xc, Qc
+
+
+@numba.njit(cache=True, nogil=True)
+def momentum_blocks(m, I_local, X, Q, t, pivots):
+    """``L (n, 3)`` (eq. 5.5, central differences, as :func:`interior_momentum`) and its
+    derivatives with respect to a rotation of the whole pose at frames ``f-1``, ``f`` and
+    ``f+1`` about that frame's COM (``Jm``, ``J0``, ``Jp``, each ``(n, 3, 3)``; left
+    perturbations ``q_g <- exp(delta) q_g``), on frames ``1 .. n-2`` (rows 0 and n-1 zero).
+
+    With ``a = x_f - c_f``, ``d_g = x_g - c_g`` and ``v = al d_{f-1} + be a + ga d_{f+1}``
+    (the non-uniform central difference; the COM velocity cancels in L about the COM):
+    ``Jp = sum ga m ((a.d+) I - d+ a^T) + wf Iw Jl^-1(r_fwd)``,
+    ``Jm = sum al m ((a.d-) I - d- a^T) - wb Iw Jr^-1(r_back)``,
+    ``J0 = sum m (a v^T - (a.v) I) + be m (|a|^2 I - a a^T) - [Iw w]x + Iw [w]x
+    + Iw (wb Jl^-1(r_back) - wf Jr^-1(r_fwd))``; ``Jm + J0 + Jp = -[L]x`` (a rigid rotation of
+    every frame rotates L).
+    """
+    n, S = X.shape[0], X.shape[1]
+    L = np.zeros((n, 3))
+    Jm = np.zeros((n, 3, 3))
+    J0 = np.zeros((n, 3, 3))
+    Jp = np.zeros((n, 3, 3))
+    Rf = np.empty((3, 3))
+    Iw = np.empty((3, 3))
+    Jf = np.empty((3, 3))
+    Jb = np.empty((3, 3))
+    IJ = np.empty((3, 3))
+    for f in range(1, n - 1):
+        h1 = t[f] - t[f - 1]
+        h2 = t[f + 1] - t[f]
+        dt = h1 + h2
+        al = -h2 / (h1 * dt)
+        be = (h2 - h1) / (h1 * h2)
+        ga = h1 / (h2 * dt)
+        wf = h1 / (dt * h2)
+        wb = h2 / (dt * h1)
+        for s in range(S):
+            ms = m[s]
+            a0 = X[f, s, 0] - pivots[f, 0]
+            a1 = X[f, s, 1] - pivots[f, 1]
+            a2 = X[f, s, 2] - pivots[f, 2]
+            p0 = X[f + 1, s, 0] - pivots[f + 1, 0]
+            p1 = X[f + 1, s, 1] - pivots[f + 1, 1]
+            p2 = X[f + 1, s, 2] - pivots[f + 1, 2]
+            q0 = X[f - 1, s, 0] - pivots[f - 1, 0]
+            q1 = X[f - 1, s, 1] - pivots[f - 1, 1]
+            q2 = X[f - 1, s, 2] - pivots[f - 1, 2]
+            v0 = al * q0 + be * a0 + ga * p0
+            v1 = al * q1 + be * a1 + ga * p1
+            v2 = al * q2 + be * a2 + ga * p2
+            b0, b1, b2, b3 = _qmul(Q[f, s, 0], Q[f, s, 1], Q[f, s, 2], Q[f, s, 3],
+                                   -Q[f - 1, s, 0], -Q[f - 1, s, 1], -Q[f - 1, s, 2], Q[f - 1, s, 3])
+            rb0, rb1, rb2 = _qlog(b0, b1, b2, b3)
+            e0, e1, e2, e3 = _qmul(Q[f + 1, s, 0], Q[f + 1, s, 1], Q[f + 1, s, 2], Q[f + 1, s, 3],
+                                   -Q[f, s, 0], -Q[f, s, 1], -Q[f, s, 2], Q[f, s, 3])
+            rf0, rf1, rf2 = _qlog(e0, e1, e2, e3)
+            w0 = wf * rf0 + wb * rb0
+            w1 = wf * rf1 + wb * rb1
+            w2 = wf * rf2 + wb * rb2
+            _qmat(Q[f, s], Rf)
+            for i in range(3):
+                for j in range(3):
+                    acc = 0.0
+                    for p in range(3):
+                        for r in range(3):
+                            acc += Rf[i, p] * I_local[s, p, r] * Rf[j, r]
+                    Iw[i, j] = acc
+            h0 = Iw[0, 0] * w0 + Iw[0, 1] * w1 + Iw[0, 2] * w2
+            hh1 = Iw[1, 0] * w0 + Iw[1, 1] * w1 + Iw[1, 2] * w2
+            hh2 = Iw[2, 0] * w0 + Iw[2, 1] * w1 + Iw[2, 2] * w2
+            L[f, 0] += h0 + ms * (a1 * v2 - a2 * v1)
+            L[f, 1] += hh1 + ms * (a2 * v0 - a0 * v2)
+            L[f, 2] += hh2 + ms * (a0 * v1 - a1 * v0)
+            av = (a0, a1, a2)
+            pv = (p0, p1, p2)
+            qv = (q0, q1, q2)
+            vv = (v0, v1, v2)
+            ww = (w0, w1, w2)
+            ad_p = a0 * p0 + a1 * p1 + a2 * p2
+            ad_m = a0 * q0 + a1 * q1 + a2 * q2
+            aa = a0 * a0 + a1 * a1 + a2 * a2
+            a_v = a0 * v0 + a1 * v1 + a2 * v2
+            for i in range(3):
+                for j in range(3):
+                    dij = 1.0 if i == j else 0.0
+                    Jp[f, i, j] += ga * ms * (ad_p * dij - pv[i] * av[j])
+                    Jm[f, i, j] += al * ms * (ad_m * dij - qv[i] * av[j])
+                    J0[f, i, j] += ms * (av[i] * vv[j] - a_v * dij) + be * ms * (aa * dij - av[i] * av[j])
+            # - [Iw w]x + Iw [w]x
+            hv = (h0, hh1, hh2)
+            J0[f, 0, 1] += hv[2]
+            J0[f, 0, 2] -= hv[1]
+            J0[f, 1, 0] -= hv[2]
+            J0[f, 1, 2] += hv[0]
+            J0[f, 2, 0] += hv[1]
+            J0[f, 2, 1] -= hv[0]
+            for i in range(3):
+                # (Iw [w]x)[i, j] = sum_k Iw[i, k] [w]x[k, j]
+                J0[f, i, 0] += Iw[i, 1] * ww[2] - Iw[i, 2] * ww[1]
+                J0[f, i, 1] += Iw[i, 2] * ww[0] - Iw[i, 0] * ww[2]
+                J0[f, i, 2] += Iw[i, 0] * ww[1] - Iw[i, 1] * ww[0]
+            _jl_inv(rf0, rf1, rf2, Jf)
+            _jl_inv(rb0, rb1, rb2, Jb)
+            for i in range(3):
+                for j in range(3):
+                    accf = 0.0
+                    accfT = 0.0
+                    accb = 0.0
+                    accbT = 0.0
+                    for k in range(3):
+                        accf += Iw[i, k] * Jf[k, j]
+                        accfT += Iw[i, k] * Jf[j, k]
+                        accb += Iw[i, k] * Jb[k, j]
+                        accbT += Iw[i, k] * Jb[j, k]
+                    Jp[f, i, j] += wf * accf
+                    Jm[f, i, j] -= wb * accbT
+                    J0[f, i, j] += wb * accb - wf * accfT
+    return L, Jm, J0, Jp

@@ -186,6 +186,7 @@ class RestoreResult:
             "direction": {"method": self.direction.method, "first_departure": self.direction.first_departure,
                           "evaluations": self.direction.evaluations,
                           "roughness_deg": self.direction.roughness_deg,
+                          "per_frame_roughness_deg": self.direction.per_frame_roughness_deg,
                           "max_correction_deg": float(np.degrees(np.max(2 * np.arccos(np.clip(
                               np.abs(self.direction.corrections[:, 3]), 0, 1)))))},
             "retime": {"k": p.k, "k_star": p.k_star, "k_ratio": p.k_ratio, "T_seq": p.T_seq, "T_new": p.T_new,
@@ -242,7 +243,7 @@ def _stage(name, body, motion, flight, src_of_frame, target_fn, scale=1.0, L=Non
 
 def restore_momentum(body, original: Motion, edited: Motion, flight, *, k_ratio: float | None = None,
                      k: float | None = None, reference: str = "constant", L_star=None,
-                     method: str = "gauss-newton", takeoff_height: float = 0.0, platform: bool | str = "auto",
+                     method: str = "smooth", takeoff_height: float = 0.0, platform: bool | str = "auto",
                      clearance: float = 0.0, gravity: float | None = None, oversample: int = 8,
                      tol: float = 1e-7, fit: FlightFit | None = None, polish: bool = True,
                      upright: bool = True, recover_s: float = 0.3) -> RestoreResult:
@@ -265,7 +266,9 @@ def restore_momentum(body, original: Motion, edited: Motion, flight, *, k_ratio:
     reference: ``"constant"`` (default): the target is the constant ``L*`` (eq. 5.19, 5.22), the
         original flight's mean ``L`` unless ``L_star`` is given; ``"original"``: the original's own
         ``L(f)`` frame by frame (conference paper's ``ratio = |L_modif(f)| / |L(f)|``).
-    method: step 1's solver, ``"gauss-newton"`` or ``"bfgs"`` (the paper's).
+    method: step 1's solver, ``"smooth"`` (default: per-frame sweep, then all frames' corrections
+        smoothed jointly under the same constraints), ``"gauss-newton"`` (the per-frame sweep
+        alone) or ``"bfgs"`` (the paper's); see :func:`~mocomp.edit.restore.correct_direction`.
     takeoff_height, platform, clearance, gravity: step 3 options (:func:`~mocomp.edit.linear.correct_linear`).
     oversample: step 2's fine grid (x the frame rate).
     tol: step 1's direction tolerance (rad).
@@ -321,7 +324,7 @@ def restore_momentum(body, original: Motion, edited: Motion, flight, *, k_ratio:
 
 
 def three_steps(body, edited: Motion, flight, L_const, fit: FlightFit, *, original: Motion,
-                original_flight, L_orig=None, reference: str = "constant", method: str = "gauss-newton",
+                original_flight, L_orig=None, reference: str = "constant", method: str = "smooth",
                 tol: float = 1e-7, oversample: int = 8, k=None, k_ratio=None, takeoff_height: float = 0.0,
                 platform="auto", clearance: float = 0.0, gravity=None, polish: bool = True, notes=(),
                 edit_frames=None, com_eval=None, t_start=None, direction: bool = True,
@@ -394,11 +397,16 @@ def three_steps(body, edited: Motion, flight, L_const, fit: FlightFit, *, origin
         def dir_target(src):
             return np.column_stack([np.interp(src, tt, LL[:, i]) for i in range(3)])
 
+        mag_LL = np.linalg.norm(LL, axis=1)
+
         def mag_target(src):
-            # direction from the frame-rate original, magnitude from step 2's fine grid (its exact target)
+            # direction and magnitude from the frame-rate original, the discretisation the stages'
+            # L are measured with (step 2's fine-grid |L| of slerped in-between poses has a
+            # sawtooth of up to +-8% within each frame interval where limbs move fast; read at
+            # fractional source times it would show as a spurious error)
             v = dir_target(src)
             v = v / np.linalg.norm(v, axis=1, keepdims=True)
-            return v * np.interp(src, mg.ratio_times, mg.ref_magnitude)[:, None]
+            return v * np.interp(src, tt, mag_LL)[:, None]
 
     ident = lambda f: frame_t[f]  # noqa: E731
     stages = {
