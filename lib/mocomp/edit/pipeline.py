@@ -363,11 +363,15 @@ def three_steps(body, edited: Motion, flight, L_const, fit: FlightFit, *, origin
                             L_star=np.asarray(target1, dtype=float), first_departure=None, method="none",
                             evaluations=0, seconds=0.0, flight=(a, b))
     timings["direction"] = time.perf_counter() - t
-    if d.roughness_deg > 5.0:
+    if d.roughness_deg > 5.0 and d.smoothing is not None and d.smoothing.converged:
+        notes.append(f"the direction corrections change fast (second difference up to {d.roughness_deg:.1f} deg, "
+                     f"{d.per_frame_roughness_deg:.1f} deg frame by frame before the joint smoothing): the body's "
+                     "reaction to limbs moving within a few frames; ease the edit in and out more slowly")
+    elif d.roughness_deg > 5.0:
         notes.append(f"the direction corrections jitter from frame to frame (second difference up to "
                      f"{d.roughness_deg:.1f} deg): eq. 5.21's two-step recurrence oscillates when limbs move fast "
-                     "relative to the frame rate; ease the edit in and out more slowly or resample the clip to "
-                     "a higher frame rate")
+                     "relative to the frame rate; use method='smooth' (the joint solve), ease the edit in and out "
+                     "more slowly or resample the clip to a higher frame rate")
     # step 2
     t = time.perf_counter()
     if reference == "constant":

@@ -55,10 +55,10 @@ def preset_layers(motion: Motion, flight, name: str, margin: float = 0.15, ease:
     the flight stays L*). ``up_side`` picks which arm goes up for ``arms-twist``.
 
     The default ease (0.45: the limbs take ~45% of the edited span to open and as
-    long to close) keeps limb speeds human. Much faster edits (e.g. straightening
-    the legs of a side flip within ~0.1 s) make the per-frame direction recurrence
-    of eq. 5.21 oscillate from frame to frame; :class:`~mocomp.edit.DirectionResult`
-    reports that as ``roughness_deg``.
+    long to close) keeps limb speeds human. Faster edits (e.g. straightening the
+    legs of a side flip) make the per-frame direction recurrence of eq. 5.21
+    oscillate from frame to frame (:attr:`~mocomp.edit.DirectionResult.roughness_deg`);
+    step 1's default joint solve (:mod:`mocomp.edit.smooth_direction`) removes that.
     """
     if name not in PRESETS:
         raise ValueError(f"unknown edit preset {name!r}; choose one of {sorted(PRESETS)}")
