@@ -15,7 +15,8 @@ and the rest of the flight and the landing of motion ``B``:
    alignment (shortest arc from ``L_B`` to ``L_A``) is applied too; it tilts ``B``'s
    landing by that angle, so it is refused above ``max_tilt_deg`` (:class:`~mocomp.errors.JoinError`
    with the measured directions). With ``upright=True`` the tilt is eased out over the
-   landing phase (the ground can exert the torque; the feet slide, and the slide is reported).
+   landing phase (the ground can exert the torque; the feet on the ground are held by a root
+   translation and leg IK, and what they still slide is reported).
 2. **Match |L|** by uniform retiming (eq. 5.8): ``B`` is played ``|L_A| / |L_B|`` times
    faster (``match="takeoff"``), or ``A`` is retimed to ``B`` (``"landing"``), or both to the
    geometric mean (``"mean"``).

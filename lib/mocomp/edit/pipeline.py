@@ -102,7 +102,9 @@ class RestoreResult:
     timings: seconds per step (``direction``, ``magnitude``, ``linear``, ``polish``, ``evidence``, ``total``).
     polish: the final direction sweep over the output flight (``None`` if disabled).
     landing_tilt_deg: how far the corrections turned the landing off the vertical (degrees);
-    foot_slide: m, the feet's largest horizontal slide while it is eased back (``None``: no recovery).
+    foot_slide: m, the largest horizontal travel of a foot on the ground while the tilt is eased back,
+        feet pinned by root translation and leg IK (:func:`mocomp.edit.seams.recover_upright`;
+        ``None``: no recovery).
     """
 
     motion: Motion
@@ -464,8 +466,8 @@ def three_steps(body, edited: Motion, flight, L_const, fit: FlightFit, *, origin
             final, slide = recover_upright(final, lin.flight[1], up_now, recover_s, ce)
             timings["upright"] = time.perf_counter() - tr
             notes.append(f"the corrections turned the landing {tilt:.1f} deg off the vertical; it is eased back "
-                         f"upright over {recover_s:g} s after touchdown (a torque from the ground), the feet "
-                         f"sliding up to {100 * slide:.1f} cm")
+                         f"upright over {recover_s:g} s after touchdown (a torque from the ground), the feet on "
+                         f"the ground held by root translation and leg IK (largest slide {100 * slide:.1f} cm)")
     timings["total"] = time.perf_counter() - t_all
     if lin.plan.note:
         notes.append(lin.plan.note)

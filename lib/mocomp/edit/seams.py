@@ -18,7 +18,7 @@ import numpy as np
 from ..core.motion import Motion, slerp
 from ..core.rotations import quat_apply, quat_inverse, quat_multiply
 
-__all__ = ["crossfade", "recover_upright", "landing_tilt"]
+__all__ = ["crossfade", "recover_upright", "landing_tilt", "stance_slide"]
 
 
 def crossfade(rot: np.ndarray, rp: np.ndarray, last_left: int, left_ref: np.ndarray, right_ref: np.ndarray,
@@ -80,10 +80,51 @@ def landing_tilt(q_ref: np.ndarray, q_now: np.ndarray) -> tuple[float, np.ndarra
     return float(np.degrees(np.arccos(np.clip(up_now[1], -1.0, 1.0)))), up_now
 
 
-def recover_upright(motion: Motion, first_ground: int, up_now: np.ndarray, seconds: float, ce):
+def _contact_weights(heights: np.ndarray, contact) -> np.ndarray:
+    """Smoothstep weight 1 within ``contact[0]`` m of each column's lowest value, 0 above ``contact[1]``."""
+    h = heights - heights.min(axis=0)
+    x = np.clip((contact[1] - h) / (contact[1] - contact[0]), 0.0, 1.0)
+    return x * x * (3 - 2 * x)
+
+
+def stance_slide(positions: np.ndarray, weights: np.ndarray) -> float:
+    """Largest horizontal travel (m) of a joint during one of its contacts (runs of ``weights >=
+    0.5``) from where that contact began. ``positions (n, F, 3)``, ``weights (n, F)``."""
+    from .legs import run_starts
+
+    st = run_starts(np.asarray(weights) >= 0.5)
+    on = st >= 0
+    if not on.any():
+        return 0.0
+    xz = positions[..., [0, 2]]
+    origin = np.take_along_axis(xz, np.maximum(st, 0)[..., None], axis=0)
+    return float(np.linalg.norm(xz - origin, axis=-1)[on].max())
+
+
+def recover_upright(motion: Motion, first_ground: int, up_now: np.ndarray, seconds: float, ce,
+                    pin_feet: bool = True, contact: tuple[float, float] = (0.05, 0.12)):
     """Ease the landing tilt out after touchdown: frames from ``first_ground`` turn by a growing
     fraction of the rotation taking ``up_now`` back to vertical, about the ground point under the
-    COM at touchdown. Returns the motion and the largest horizontal foot displacement caused (m)."""
+    COM at touchdown.
+
+    The rotation alone carries the feet with it, and brings to the floor feet that the tilted
+    landing (a join's fully aligned landing part) was moving in the air: on the DeepMimic back
+    flip + spin kick join (37.5 deg of tilt) the foot on the ground then slides 13 cm. With
+    ``pin_feet``:
+
+    1. a horizontal root translation, eased like the rotation, puts the feet that are on the
+       ground back where they were before the recovery (each foot joint -- ``toe``/``foot``/
+       ``ankle`` in its name -- weighted by its contact weight: 1 within ``contact[0]`` m of its
+       own lowest height after touchdown, 0 above ``contact[1]`` m, smoothstep between; when no
+       foot touches, the last translation is held, nothing snaps back);
+    2. each leg's ankle is held where its contact began for as long as it lasts, by two-bone IK
+       of hip and knee (:func:`mocomp.edit.legs.plant_feet`; the foot keeps its orientation).
+
+    Returns ``(motion, slide)``: ``slide`` (m) is the largest horizontal travel of a foot joint
+    during a contact, from where that contact began (:func:`stance_slide`).
+    """
+    from .legs import leg_chains, plant_feet
+
     fix = _shortest_arc(np.asarray(up_now, dtype=float), np.array([0.0, 1.0, 0.0]))
     n = motion.n_frames - first_ground
     m = max(1, int(round(seconds * motion.fps)))
@@ -100,8 +141,32 @@ def recover_upright(motion: Motion, first_ground: int, up_now: np.ndarray, secon
     rot[first_ground:, 0] = quat_multiply(q, rot[first_ground:, 0])
     out = motion.replace(root_positions=rp, rotations=rot)
     feet = [j for j, nm in enumerate(motion.skeleton.names) if any(k in nm.lower() for k in ("toe", "foot", "ankle"))]
-    slide = 0.0
-    if feet:
-        d = out[first_ground:].positions[:, feet] - motion[first_ground:].positions[:, feet]
-        slide = float(np.max(np.linalg.norm(d[..., [0, 2]], axis=-1)))
-    return out, slide
+    if not feet:
+        return out, 0.0
+    after = out[first_ground:].positions[:, feet]
+    w = _contact_weights(after[..., 1], contact)
+    if pin_feet:
+        before = motion[first_ground:].positions[:, feet]
+        err = before[..., [0, 2]] - after[..., [0, 2]]                    # (n, F, 2)
+        shift = np.zeros((n, 2))
+        held = np.zeros(2)
+        for i in range(n):
+            ws = w[i].sum()
+            if ws > 1e-9:
+                cw = w[i].max()
+                held = cw * (w[i] @ err[i]) / ws + (1.0 - cw) * held
+            shift[i] = held
+        rp[first_ground:, 0] += shift[:, 0]
+        rp[first_ground:, 2] += shift[:, 1]
+        out = motion.replace(root_positions=rp, rotations=rot)
+        chains = [ch for ch in leg_chains(motion.skeleton) if ch[2] in feet]
+        if chains:
+            # heights are those after the rotation (the translation is horizontal)
+            wa = w[:, [feet.index(ch[2]) for ch in chains]]
+            out, solves = plant_feet(out, first_ground, wa, chains)
+            if solves:
+                after = out[first_ground:].positions[:, feet]
+                return out, stance_slide(after, w)
+        after[..., 0] += shift[:, None, 0]
+        after[..., 2] += shift[:, None, 1]
+    return out, stance_slide(after, w)
