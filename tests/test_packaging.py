@@ -55,3 +55,25 @@ def test_property_tests_are_derandomized_under_ci():
     assert ci.derandomize and ci.database is None
     if IN_CI:
         assert settings.default.derandomize and settings.default.database is None
+
+
+def _readme_commands() -> list[str]:
+    text = (ROOT / "README.md").read_text()
+    block = re.search(r"```bash\n(.*?)```", text, re.S)
+    assert block, "README.md must open with a ```bash block of set-up commands"
+    return [ln.strip() for ln in block.group(1).splitlines() if ln.strip()]
+
+
+def test_ci_runs_the_readme_test_command():
+    """.ci/run installs the README's test extra and runs the README's own pytest invocation."""
+    setup, tests = _readme_commands()[:2]
+    assert "mocomp demo" in setup
+    install = re.search(r"pip install -q -e (\S+)", tests)
+    pytest_cmd = re.search(r"(python -m pytest.*)$", tests)
+    assert install and pytest_cmd, tests
+    ci = (ROOT / ".ci" / "run").read_text()
+    ci_lines = [ln.strip() for ln in ci.splitlines() if not ln.lstrip().startswith("#")]
+    assert any(f"pip install -q -e {install.group(1)}" in ln for ln in ci_lines), \
+        f".ci/run does not install {install.group(1)} as the README does"
+    assert pytest_cmd.group(1).removeprefix(".venv/bin/") in ci_lines, \
+        f".ci/run does not run the README's '{pytest_cmd.group(1)}'"
