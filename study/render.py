@@ -299,7 +299,7 @@ def render_stimulus_set(spec: StudySpec | str | Path, out_dir: str | Path, *, fo
         "total_seconds": round(report.seconds, 3), "camera": camera.as_dict(), "style": style.as_dict(),
         "encoder": enc, "video_fps": fps, "renderer_version": RENDERER_VERSION, "versions": versions,
         "opengl_window": os.environ.get("VTK_DEFAULT_OPENGL_WINDOW"), "platform": platform.platform(),
-        "notes": notes, "bases": built.base_info,
+        "notes": notes, "skipped_bases": list(built.skipped_bases), "bases": built.base_info,
     }
     (out / "render_info.json").write_text(json.dumps(info, indent=2, default=_json_default) + "\n")
     return report

@@ -397,21 +397,34 @@ class BuiltStimuli:
     bases: list[BaseMotion]
     notes: list[str]
     base_info: dict
+    skipped_bases: list[str] = field(default_factory=list)
 
 
 def build_stimuli(spec: StudySpec, *, skip_missing_data: bool = False, progress: bool = False) -> BuiltStimuli:
-    """Load every base of ``spec`` and make all its stimuli (controls first)."""
+    """Load every base of ``spec`` and make all its stimuli (controls first).
+
+    A base whose data are missing (e.g. a ``clip:`` source with ``MOCOMP_DATA_DIR``
+    unset) is an error naming the base and ``MOCOMP_DATA_DIR``, unless
+    ``skip_missing_data`` or the base says ``required = false``: then it is left
+    out and listed in ``skipped_bases`` and ``notes``.
+    """
     from tqdm.auto import tqdm
 
     notes: list[str] = []
     bases: list[BaseMotion] = []
+    skipped: list[str] = []
     for b in spec.bases:
         try:
             bases.append(load_base(b, spec))
         except DataNotFoundError as e:
             if b.required and not skip_missing_data:
-                raise
-            notes.append(f"base {b.id!r} skipped: {e}")
+                raise DataNotFoundError(
+                    f"base {b.id!r} ({b.source}) of {spec.path or 'the specification'}: its data are missing ({e}); "
+                    "set MOCOMP_DATA_DIR to the folder of capture clips (e.g. ../shared/data/mocap), or pass "
+                    "--skip-missing-data (skip_missing_data=True) to render the other bases only "
+                    "(the skipped bases are then listed in render_info.json)") from None
+            skipped.append(b.id)
+            notes.append(f"base {b.id!r} skipped ({'--skip-missing-data' if b.required else 'required = false'}): {e}")
     out: list[Stimulus] = []
     design = [d for d in spec.design() if d[0] in {bm.id for bm in bases}]
     by_id = {bm.id: bm for bm in bases}
@@ -430,4 +443,4 @@ def build_stimuli(spec: StudySpec, *, skip_missing_data: bool = False, progress:
         except PhysicsError as e:
             raise PhysicsError(f"stimulus {stimulus_id(bid, p, d, lv)}: {e}") from None
     info = {bm.id: bm.info for bm in bases}
-    return BuiltStimuli(out, bases, notes, info)
+    return BuiltStimuli(out, bases, notes, info, skipped)

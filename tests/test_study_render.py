@@ -324,3 +324,35 @@ def test_mocomp_study_render_command(tmp_path, toy_example):
     rc = main(["study", "render", str(_spec(tmp_path)), "-o", str(tmp_path / "o"), "--no-progress"])
     assert rc == 0 and (tmp_path / "o" / "manifest.csv").is_file()
     assert main(["study", "render", str(tmp_path / "missing.toml"), "-o", str(tmp_path / "o")]) == 2
+
+
+def test_missing_real_data_fails_unless_skipped(tmp_path, toy_example, monkeypatch):
+    """A required base without its data stops the render (naming MOCOMP_DATA_DIR and the flag);
+    --skip-missing-data renders the rest and render_info.json lists what was skipped."""
+    from mocomp.cli import main
+    from mocomp.errors import DataNotFoundError
+    from study.render import render_stimulus_set
+    from study.spec import load_spec
+
+    # the paper spec's real base is required (it was silently dropped before)
+    paper = load_spec(Path(__file__).parents[1] / "stimuli" / "paper_table2.toml")
+    assert [b.required for b in paper.bases] == [True, True, True]
+    monkeypatch.delenv("MOCOMP_DATA_DIR", raising=False)
+    data = json.loads(_spec(tmp_path).read_text())
+    data["base"].append({"id": "real", "source": "clip:cmu_88_01_backflip"})
+    spec = tmp_path / "with_real.json"
+    spec.write_text(json.dumps(data))
+    with pytest.raises(DataNotFoundError) as ei:
+        render_stimulus_set(spec, tmp_path / "o1", progress=False)
+    msg = str(ei.value)
+    assert "'real'" in msg and "MOCOMP_DATA_DIR" in msg and "--skip-missing-data" in msg
+    assert not (tmp_path / "o1" / "manifest.csv").exists()
+    assert main(["study", "render", str(spec), "-o", str(tmp_path / "o2"), "--no-progress"]) == 2
+    rep = render_stimulus_set(spec, tmp_path / "o3", progress=False, skip_missing_data=True)
+    assert set(rep.manifest["base_clip"]) == {"toy"} and len(rep.manifest) == 4
+    info = json.loads((tmp_path / "o3" / "render_info.json").read_text())
+    assert info["skipped_bases"] == ["real"]
+    assert any("'real' skipped" in n for n in info["notes"])
+    # without the flag nothing was skipped
+    rep = render_stimulus_set(_spec(tmp_path), tmp_path / "o4", progress=False)
+    assert json.loads((tmp_path / "o4" / "render_info.json").read_text())["skipped_bases"] == []
