@@ -52,8 +52,10 @@ def register(subparsers) -> None:
     p.add_argument("--edited", metavar="EDITED.bvh", help="also write the edit before restoration")
     p.add_argument("--report", metavar="report.json", help="write the report (numbers and per-frame curves)")
     p.add_argument("--plot", metavar="PNG", help="draw the per-frame errors before/after each step")
-    p.add_argument("--reference", choices=("constant", "original"), default="constant",
-                   help="target: the original flight's mean L (eq. 5.19, default) or its L frame by frame")
+    p.add_argument("--reference", choices=("auto", "constant", "original"), default="auto",
+                   help="target: the original flight's mean L (eq. 5.19), its L frame by frame, or auto "
+                        "(default: constant when the clip's own L direction varies by at most 0.01 rad, as "
+                        "synthetic flights; else frame by frame, so captured frames before the edit stay untouched)")
     p.add_argument("--method", choices=("smooth", "gauss-newton", "bfgs"), default="smooth",
                    help="step 1 solver: per-frame sweep then a joint smoothing projection (default), the "
                         "per-frame sweep alone, or per frame by scipy's quasi-Newton BFGS (as the paper)")

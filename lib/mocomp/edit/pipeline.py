@@ -12,6 +12,10 @@ per-frame direction error (radians) and magnitude error (fraction) of ``L``
 over the flight are recorded against the target (Figures 3 / 5.4 / 5.5);
 after step 3 the target is ``k`` times the original one, since uniform
 retiming scales momentum by ``k`` (eq. 5.8).
+
+The default target (``reference="auto"``) is the constant ``L*`` on exact flights and the
+original's own ``L(f)`` on captured ones, so that step 1 starts where the edit starts
+(``f*`` of eq. 5.18-5.21) and the frames before the edit stay untouched.
 """
 from __future__ import annotations
 
@@ -35,6 +39,10 @@ __all__ = ["StageErrors", "RestoreResult", "restore_momentum", "three_steps", "c
 
 #: evidence stages in order
 STAGES = ("original", "edited", "direction", "magnitude", "final")
+
+#: ``reference="auto"``: largest own direction variation (rad) of the original flight's ``L``
+#: for which the constant target ``L*`` is used (the acceptance bound on step 1's error)
+AUTO_REFERENCE_TOL = 0.01
 
 
 @dataclass(frozen=True, eq=False)
@@ -93,7 +101,7 @@ class RestoreResult:
     body: the body model used.
     flight: ``(start, stop)`` of the original/edited flight; flight_out: of the output.
     reference: ``"constant"`` (target ``L*``, dissertation eq. 5.19/5.22) or ``"original"``
-        (the original's own ``L(f)``, conference paper section 5.5).
+        (the original's own ``L(f)``, conference paper section 5.5); ``"auto"`` resolved to one of them.
     L_star: ``(3,)`` kg m^2/s, the constant target (the original flight's mean ``L`` unless given).
     fit: the original flight's ballistic COM fit (take-off velocity, gravity).
     edit_frames: ``(first, last)`` frames the edit changed (``None``: nothing changed).
@@ -244,11 +252,12 @@ def _stage(name, body, motion, flight, src_of_frame, target_fn, scale=1.0, L=Non
 
 
 def restore_momentum(body, original: Motion, edited: Motion, flight, *, k_ratio: float | None = None,
-                     k: float | None = None, reference: str = "constant", L_star=None,
+                     k: float | None = None, reference: str = "auto", L_star=None,
                      method: str = "smooth", takeoff_height: float = 0.0, platform: bool | str = "auto",
                      clearance: float = 0.0, gravity: float | None = None, oversample: int = 8,
                      tol: float = 1e-7, fit: FlightFit | None = None, polish: bool = True,
-                     upright: bool = True, recover_s: float = 0.3) -> RestoreResult:
+                     upright: bool = True, recover_s: float = 0.3,
+                     auto_tol: float = AUTO_REFERENCE_TOL) -> RestoreResult:
     """Restore momentum conservation of an in-flight edit (section 5.5, all three steps).
 
     Parameters
@@ -265,9 +274,25 @@ def restore_momentum(body, original: Motion, edited: Motion, flight, *, k_ratio:
         slower rotation for a straight-leg edit, as Fig. 5.9 shows). ``k_ratio = 0.7`` is
         section 5.4.3's aesthetic choice for multi-flips ("higher jumps with slower rotations");
         it leaves vertical velocity jumps at take-off and landing (reported).
-    reference: ``"constant"`` (default): the target is the constant ``L*`` (eq. 5.19, 5.22), the
-        original flight's mean ``L`` unless ``L_star`` is given; ``"original"``: the original's own
-        ``L(f)`` frame by frame (conference paper's ``ratio = |L_modif(f)| / |L(f)|``).
+    reference: ``"constant"``: the target is the constant ``L*`` (eq. 5.19, 5.22), the original
+        flight's mean ``L`` unless ``L_star`` is given; ``"original"``: the original's own ``L(f)``
+        frame by frame (conference paper's ``ratio = |L_modif(f)| / |L(f)|``); ``"auto"`` (default):
+        ``"constant"`` when ``L_star`` is given or the original flight's own direction of ``L``
+        stays within ``auto_tol`` rad of its mean (exact or synthetic flights), else ``"original"``
+        (the resolved choice is :attr:`RestoreResult.reference`, with a note).
+
+        Why: section 5.5 / eq. 5.18-5.21 start step 1 at the first frame ``f*`` where the
+        *edited* ``L`` departs from ``L*``, i.e. where the edit begins. On captured flights
+        ``L`` is not constant (measured own direction variation: 0.05 rad CMU 88_01, 0.40 rad
+        CMU 90_08, 0.12 rad DeepMimic back flip), so against a constant ``L*`` the unedited
+        frames already "depart" and step 1 starts at the first flight frame, before the edit:
+        an *unedited* clip was turned by up to 10 deg (88_01), 37 deg (90_08) and 26 deg
+        (DeepMimic back flip), its landing tilted up to 31 deg. Against the original's own
+        ``L(f)`` the unedited frames match their target exactly, so ``f*`` is the frame before
+        the first edited one (``L_f`` reads pose ``f+1``), the corrections are the identity and
+        step 2's ratio is 1 before the edit, and an unedited clip passes through unturned.
+    auto_tol: ``reference="auto"``'s threshold (rad) on the original's own direction variation
+        (default 0.01, the acceptance bound on step 1's error).
     method: step 1's solver, ``"smooth"`` (default: per-frame sweep, then all frames' corrections
         smoothed jointly under the same constraints), ``"gauss-newton"`` (the per-frame sweep
         alone) or ``"bfgs"`` (the paper's); see :func:`~mocomp.edit.restore.correct_direction`.
@@ -289,8 +314,8 @@ def restore_momentum(body, original: Motion, edited: Motion, flight, *, k_ratio:
     t_all = time.perf_counter()
     if k is None and k_ratio is None:
         k_ratio = 1.0
-    if reference not in ("constant", "original"):
-        raise ValueError(f"reference must be 'constant' or 'original', got {reference!r}")
+    if reference not in ("auto", "constant", "original"):
+        raise ValueError(f"reference must be 'auto', 'constant' or 'original', got {reference!r}")
     if reference == "original" and L_star is not None:
         raise ValueError("L_star is a constant target; it cannot be combined with reference='original'")
     check_compatible(body, original)
@@ -315,6 +340,16 @@ def restore_momentum(body, original: Motion, edited: Motion, flight, *, k_ratio:
     if L_const.shape != (3,) or not np.linalg.norm(L_const) > 0:
         raise ValueError(f"L_star must be a non-zero 3-vector, got {L_star!r}")
     notes = []
+    if reference == "auto":
+        own = direction_error(L_orig[a + 1:b - 1], Lmean)
+        own_max = float(np.max(own)) if own.size else 0.0
+        if L_star is not None or own_max <= auto_tol:
+            reference = "constant"
+        else:
+            reference = "original"
+            notes.append(f"target: the original's own L(f) frame by frame (reference='auto': its direction varies "
+                         f"by up to {own_max:.3f} rad over the flight, above {auto_tol:g} rad; a constant L* "
+                         "would turn the frames before the edit)")
     if edit_frames is None:
         notes.append("the edited motion equals the original: nothing to restore but the uniform retiming")
     return three_steps(body, edited, (a, b), L_const, fit, original=original, original_flight=(a, b),
