@@ -7,7 +7,9 @@ Pipeline (what ``mocomp study analyze RESPONSES_DIR -o REPORT_DIR`` runs, via
    checks the schema: required columns, values, duplicate trials (the same
    participant/session/trial twice, within or across files), mixed stimulus
    sets. Zero-byte files are errors; header-only files (sessions with no
-   answers, e.g. consent declined) are skipped and listed.
+   answers, e.g. consent declined) are skipped and listed; a torn last line
+   (no line end: a crash mid-write in a session never resumed) is left out
+   with a warning naming the file and line, and listed in the report.
 2. Only ``kind == "test"`` trials enter the statistics (examples, practice and
    attention checks do not); attention checks are summarised per participant.
 3. :func:`condition_table`: per condition (error type x direction x level) the
@@ -65,12 +67,15 @@ class ResponseData:
     ``trials``: every row of every file (typed), plus ``incorrect`` (0/1),
     ``source_file`` and ``source_line``. ``skipped``: (file, reason) for
     header-only files. ``stimulus_set_ids``: the set(s) the sessions used.
+    ``dropped_lines``: (file, line, reason) for torn last lines left out (a
+    crash in the middle of writing a row, in a session never resumed).
     """
 
     trials: pd.DataFrame
     files: list[Path]
     skipped: list[tuple[str, str]] = field(default_factory=list)
     stimulus_set_ids: list[str] = field(default_factory=list)
+    dropped_lines: list[tuple[str, int, str]] = field(default_factory=list)
 
     @property
     def test(self) -> pd.DataFrame:
@@ -85,11 +90,29 @@ class ResponseData:
         return sorted(self.trials["participant_id"].unique())
 
 
-def _read_one(path: Path) -> pd.DataFrame | None:
-    if path.stat().st_size == 0:
+def _read_one(path: Path, dropped: list | None = None) -> pd.DataFrame | None:
+    import io
+
+    raw = path.read_bytes()
+    if not raw:
         raise StudyDataError("empty CSV (no header, no rows)", path)
+    if not raw.endswith(b"\n"):
+        # a torn last line: a session crashed in the middle of writing a row and was never
+        # resumed (Session.open would repair it). That answer was never acknowledged to the
+        # participant, so it is left out (not counted), with a warning naming the line.
+        cut = raw.rfind(b"\n") + 1
+        line = raw[:cut].count(b"\n") + 1
+        if cut == 0:
+            raise StudyDataError("torn header (the file has no complete line)", path, line=1)
+        frag = raw[cut:][:80].decode(errors="replace")
+        msg = (f"{path}:{line}: torn last line (no line end: a write interrupted by a crash, session never "
+               f"resumed) left out of the analysis: {frag!r}")
+        warnings.warn(msg, stacklevel=3)
+        if dropped is not None:
+            dropped.append((str(path), line, "torn last line (incomplete row) left out"))
+        raw = raw[:cut]
     try:
-        df = pd.read_csv(path, dtype=str, keep_default_na=False)
+        df = pd.read_csv(io.BytesIO(raw), dtype=str, keep_default_na=False)
     except pd.errors.EmptyDataError:
         raise StudyDataError("empty CSV (no header, no rows)", path) from None
     except pd.errors.ParserError as e:
@@ -149,9 +172,9 @@ def load_responses(path: str | Path, *, allow_mixed_sets: bool = False) -> Respo
                                                   if p.name == "responses.csv" or p.name.endswith(".responses.csv"))
     if not files:
         raise StudyDataError("no responses.csv found (expected DATA/<participant>/<session>/responses.csv)", path)
-    frames, skipped = [], []
+    frames, skipped, dropped = [], [], []
     for f in files:
-        df = _read_one(f)
+        df = _read_one(f, dropped)
         if df is None:
             skipped.append((str(f), "header only: no responses"))
         else:
@@ -177,7 +200,7 @@ def load_responses(path: str | Path, *, allow_mixed_sets: bool = False) -> Respo
     allr["incorrect"] = (allr["response"] == "incorrect").astype(int)
     allr["condition"] = [condition_label(p, d, lv) for p, d, lv in
                          zip(allr["perturbation"], allr["direction"], allr["nominal_level"])]
-    return ResponseData(trials=allr, files=files, skipped=skipped, stimulus_set_ids=sets)
+    return ResponseData(trials=allr, files=files, skipped=skipped, stimulus_set_ids=sets, dropped_lines=dropped)
 
 
 # --------------------------------------------------------------------- tables
@@ -399,7 +422,8 @@ def fit_psychometric_glms(data: ResponseData | pd.DataFrame, *, link: str = "pro
     ``"logit"`` (b in log-odds per unit level; threshold = level where the
     odds of "incorrect" are e times those of the controls). Returned per
     series: intercept, slope, their SEs, CI of the slope, threshold with CI
-    (from the slope's Wald CI; NaN bound where that CI includes 0), the level
+    (from the slope's Wald CI; upper bound ``inf`` where that CI includes 0, both NaN
+    when it lies below 0), the level
     where P = 0.5 (``pse``), deviance, df, and n.
 
     The GLM pools every participant's answers. ``se``: ``"cluster"`` gives
@@ -610,7 +634,7 @@ def analyze(responses: str | Path | ResponseData, out_dir: str | Path | None = N
         if excluded:
             keep = ~data.trials["participant_id"].isin(excluded)
             data = ResponseData(trials=data.trials[keep], files=data.files, skipped=data.skipped,
-                                stimulus_set_ids=data.stimulus_set_ids)
+                                stimulus_set_ids=data.stimulus_set_ids, dropped_lines=data.dropped_lines)
             if not len(data.test):
                 raise StudyDataError(f"every participant failed the attention criterion {min_attention}")
     kw = dict(level=level, control=control, correction=correction)
@@ -623,7 +647,8 @@ def analyze(responses: str | Path | ResponseData, out_dir: str | Path | None = N
                     seed=seed, min_attention=min_attention, excluded_participants=excluded,
                     n_participants=len(data.participants), n_test_trials=int(len(data.test)),
                     stimulus_set_ids=data.stimulus_set_ids, n_files=len(data.files),
-                    skipped_files=[f for f, _ in data.skipped])
+                    skipped_files=[f for f, _ in data.skipped],
+                    dropped_lines=[f"{f}:{ln}: {why}" for f, ln, why in data.dropped_lines])
     res = AnalysisResult(data=data, conditions=cond, participants_condition=pc, participants_series=ps,
                          psychometric=psy, mixed=mm, attention=att, settings=settings)
     if out_dir is not None:
@@ -688,6 +713,7 @@ def report_markdown(res: AnalysisResult) -> str:
            if s["min_attention"] is not None else "(no attention-check exclusion)")
         + f"; test trials: {s['n_test_trials']}; files: {s['n_files']}"
         + (f" ({len(s['skipped_files'])} header-only skipped)" if s["skipped_files"] else ""),
+        *[f"- **left out**: {d}" for d in s.get("dropped_lines", [])],
         f"- stimulus set(s): {', '.join(s['stimulus_set_ids'])}",
         f"- d' = z(H) - z(F), H = P(\"incorrect\" | perturbed), F = P(\"incorrect\" | unperturbed, "
         f"{'same error group' if s['control'] == 'group' else 'all groups pooled'}); correction: "
