@@ -229,7 +229,96 @@ def test_bad_input_exit_2_in_process(tmp_path, capsys, monkeypatch):
         assert main(argv) == 2, argv
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and err[0].startswith(f"mocomp {argv[0]}: error:"), err
-    for argv in (["info"], ["info", "x", "--fps", "-1"], ["info", "x", "--scale", "furlong"], ["nosuchcommand"]):
+    cases = {("info",): ("mocomp info", "the following arguments are required: FILE_OR_NAME"),
+             ("info", "x", "--fps", "-1"): ("mocomp info", "argument --fps: frame rate must be positive, got -1"),
+             ("info", "x", "--scale", "furlong"): ("mocomp info", "argument --scale: 'furlong' is neither a number"),
+             ("info", "x", "--bogus"): ("mocomp info", "unrecognized arguments: --bogus"),
+             ("nosuchcommand",): ("mocomp", "argument COMMAND: invalid choice: 'nosuchcommand'")}
+    for argv, (prog, what) in cases.items():
         with pytest.raises(SystemExit) as e:
-            main(argv)
+            main(list(argv))
         assert e.value.code == 2
+        cap = capsys.readouterr()
+        lines = cap.err.splitlines()
+        assert cap.out == "" and len(lines) == 1, cap.err  # no usage block: one line
+        assert lines[0].startswith(f"{prog}: error: {what}"), lines[0]
+        assert lines[0].endswith(f"(see {prog} --help)"), lines[0]
+
+
+def test_argparse_error_one_line_subprocess():
+    code, out, err = run_cli("info", "x", "--fps", "-1")
+    assert code == 2 and out == ""
+    assert err.splitlines() == ["mocomp info: error: argument --fps: frame rate must be positive, got -1 "
+                                "(see mocomp info --help)"]
+
+
+# ------------------------------------------------------------------ unwritable outputs
+@pytest.fixture
+def bad_outputs(tmp_path):
+    """(label, path, text the error must contain) for outputs that cannot be written."""
+    (tmp_path / "D.bvh").mkdir()
+    (tmp_path / "d.png").mkdir()
+    (tmp_path / "afile").write_text("x")
+    return tmp_path
+
+
+@pytest.mark.parametrize("cmd,name,expect", [
+    ("convert", "D.bvh", "output {p} is a directory, not a file"),
+    ("convert", "afile/x.bvh", "output folder {parent} is a file, not a directory"),
+    ("convert", "none/x.bvh", "output folder {parent} does not exist"),
+    ("plot", "d.png", "output {p} is a directory, not a file"),
+    ("plot", "afile/x.png", "output folder {parent} is a file, not a directory"),
+    ("plot", "none/x.png", "output folder {parent} does not exist"),
+])
+def test_unwritable_output_one_line_exit_2(cmd, name, expect, walker_bvh, bad_outputs, capsys):
+    p = bad_outputs / name
+    argv = [cmd, str(walker_bvh), str(p)] if cmd == "convert" else [cmd, str(walker_bvh), "-o", str(p)]
+    assert main(argv) == 2
+    cap = capsys.readouterr()
+    assert cap.err.splitlines() == [f"mocomp {cmd}: error: " + expect.format(p=p, parent=p.parent)]
+    assert not (bad_outputs / "afile").is_dir() and (bad_outputs / "afile").read_text() == "x"
+
+
+@pytest.mark.parametrize("cmd,suffix", [("convert", ".bvh"), ("plot", ".png")])
+def test_read_only_output_one_line_exit_2(cmd, suffix, walker_bvh, tmp_path, capsys, monkeypatch):
+    """A read-only output file (and folder): checked with os.access, so faked here (root may write anything)."""
+    import mocomp.cli._common as common
+
+    ro = tmp_path / ("ro" + suffix)
+    ro.write_text("keep")
+    monkeypatch.setattr(common.os, "access", lambda path, mode: False)
+    for out, expect in ((ro, f"output {ro} is read-only"),
+                        (tmp_path / ("new" + suffix), f"output folder {tmp_path} is not writable")):
+        argv = [cmd, str(walker_bvh), str(out)] if cmd == "convert" else [cmd, str(walker_bvh), "-o", str(out)]
+        assert main(argv) == 2
+        assert capsys.readouterr().err.splitlines() == [f"mocomp {cmd}: error: {expect}"]
+    assert ro.read_text() == "keep"
+
+
+@pytest.mark.parametrize("exc,expect", [
+    (IsADirectoryError(21, "Is a directory", "/x/D.bvh"), "/x/D.bvh: is a directory"),
+    (PermissionError(13, "Permission denied", "/x/ro.bvh"), "/x/ro.bvh: permission denied"),
+    (NotADirectoryError(20, "Not a directory", "/x/afile/o.png"), "/x/afile/o.png: not a directory"),
+    (OSError(28, "No space left on device"), "no space left on device"),
+    (FileExistsError(17, "File exists", "/a", None, "/b"), "/a -> /b: file exists"),
+    (FileNotFoundError("output folder /q does not exist"), "output folder /q does not exist"),
+])
+def test_any_os_error_of_a_command_is_one_line_exit_2(exc, expect, monkeypatch, capsys):
+    """The generic mechanism: whatever command raises an OSError (e.g. flips writing into a folder),
+    main() prints one line naming the path and what is wrong, and exits 2 (no traceback)."""
+    import mocomp.cli.info as info
+
+    def boom(args):
+        raise exc
+
+    monkeypatch.setattr(info, "run", boom)  # registered by build_parser() inside main()
+    assert main(["info", "whatever"]) == 2
+    assert capsys.readouterr().err.splitlines() == [f"mocomp info: error: {expect}"]
+
+
+def test_unwritable_output_subprocess(tmp_path):
+    (tmp_path / "D.bvh").mkdir()
+    src = write_bvh(walker(), tmp_path / "w.bvh")
+    code, out, err = run_cli("convert", src, tmp_path / "D.bvh")
+    assert code == 2 and out == "" and "Traceback" not in err
+    assert err.splitlines() == [f"mocomp convert: error: output {tmp_path / 'D.bvh'} is a directory, not a file"]

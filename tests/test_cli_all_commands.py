@@ -112,3 +112,34 @@ def test_bad_input_prints_one_line_and_exits_2(path, tmp_path, capsys, monkeypat
         assert bad.name in lines[0], lines[0]          # names the file
     # nothing was written for a failed command
     assert not [p.name for p in tmp_path.iterdir() if p.name.startswith("out")]
+
+
+@pytest.mark.parametrize("path", sorted(LEAVES), ids=" ".join)
+def test_argument_errors_print_one_line_and_exit_2(path, capsys):
+    """An argparse error (a missing required argument or an unknown option) is one line
+    ``mocomp CMD: error: ... (see mocomp CMD --help)``, not the usage block, for every (sub-)command."""
+    prog = "mocomp " + " ".join(path)
+    for extra in (["--no-such-option-xyz"], []):
+        argv = [*path, *extra]
+        required = [a for a in LEAVES[path]._actions if a.required or not a.option_strings]
+        if not extra and not required:
+            continue  # nothing can be missing
+        with pytest.raises(SystemExit) as e:
+            main(argv)
+        assert e.value.code == 2, argv
+        cap = capsys.readouterr()
+        lines = cap.err.splitlines()
+        assert cap.out == "" and len(lines) == 1, (argv, cap.err)
+        assert lines[0].startswith(f"{prog}: error: "), lines[0]
+        assert lines[0].endswith(f" (see {prog} --help)"), lines[0]
+        if not required:
+            assert "unrecognized arguments: --no-such-option-xyz" in lines[0], lines[0]
+
+
+@pytest.mark.parametrize("path", sorted(LEAVES), ids=" ".join)
+def test_every_parser_reports_errors_in_one_line(path):
+    """Each (sub-)command's parser is the one-line-error class, so argument errors found by the
+    command itself (``parser.error`` from a type check) are one line too."""
+    from mocomp.cli import Parser
+
+    assert isinstance(LEAVES[path], Parser)

@@ -3,6 +3,8 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
+from pathlib import Path
 
 from ..io.units import UNITS
 
@@ -29,6 +31,30 @@ def fps_arg(text: str) -> float:
     if not (v > 0 and math.isfinite(v)):
         raise argparse.ArgumentTypeError(f"frame rate must be positive, got {text}")
     return v
+
+
+def check_output_path(out: Path, what: str = "output") -> Path:
+    """Fail early, with one clear line, when ``out`` cannot be written as a file.
+
+    Raises ``IsADirectoryError`` when ``out`` is a folder, ``NotADirectoryError`` when
+    its parent is a file, ``FileNotFoundError`` when the parent folder is missing and
+    ``PermissionError`` when an existing ``out`` or its folder is not writable (for the
+    current user; root may write anyway, and then the write itself reports any error).
+    Each message names the path and what is wrong; ``mocomp`` prints it and exits 2.
+    """
+    out = Path(out)
+    if out.is_dir():
+        raise IsADirectoryError(f"{what} {out} is a directory, not a file")
+    parent = out.parent
+    if parent.exists() and not parent.is_dir():
+        raise NotADirectoryError(f"{what} folder {parent} is a file, not a directory")
+    if not parent.is_dir():
+        raise FileNotFoundError(f"{what} folder {parent} does not exist")
+    if out.exists() and not os.access(out, os.W_OK):
+        raise PermissionError(f"{what} {out} is read-only")
+    if not out.exists() and not os.access(parent, os.W_OK | os.X_OK):
+        raise PermissionError(f"{what} folder {parent} is not writable")
+    return out
 
 
 def add_load_args(p: argparse.ArgumentParser) -> None:

@@ -23,13 +23,12 @@ def register(sub) -> None:
 
 def run(args) -> int:
     from ..io import UNITS, write_bvh
-    from ._common import load_from_args
+    from ._common import check_output_path, load_from_args
 
     out = Path(args.out)
     if out.suffix.lower() != ".bvh":
         raise ValueError(f"output {out} must be a .bvh file (BVH is the only output format)")
-    if not out.parent.is_dir():
-        raise FileNotFoundError(f"output folder {out.parent} does not exist")
+    check_output_path(out)
     if args.out_scale == "auto":
         raise ValueError("--out-scale needs a number or a unit name, not 'auto'")
     if not 1 <= args.precision <= 15:

@@ -21,11 +21,9 @@ def register(sub) -> None:
 
 def run(args) -> int:
     from ..plots.motion import motion_overview
-    from ._common import load_from_args
+    from ._common import check_output_path, load_from_args
 
-    out = Path(args.output)
-    if not out.parent.is_dir():
-        raise FileNotFoundError(f"output folder {out.parent} does not exist")
+    out = check_output_path(Path(args.output))
     if out.suffix.lower().lstrip(".") not in ("png", "pdf", "svg", "jpg", "jpeg", "eps", "ps", "tif", "tiff", "webp"):
         raise ValueError(f"output {out}: unknown image type {out.suffix!r}; use .png, .pdf or .svg")
     if not 10 <= args.dpi <= 1200:
