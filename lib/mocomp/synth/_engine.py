@@ -26,6 +26,7 @@ from ..body.model import BodyModel
 from ..core.motion import Motion, SourceInfo
 from ..core.rotations import make_continuous
 from ..core.skeleton import Skeleton
+from ..dynamics.momentum import MotionVelocities
 from ..errors import PhysicsError
 from ._bodyframe import body_frame
 from ._so3 import exp_quat, log_quat, matrix_to_quat, quat_to_matrix, right_jacobian, left_jacobian
@@ -151,6 +152,16 @@ class _Body:
             knees.append(lp.knee_angle)
         return np.concatenate(Rs, axis=1), np.stack(knees, axis=1)
 
+    def local_rates(self, upper_rv, upper_rate, leg_w):
+        """Full ``(N, J, 3)`` local angular velocities (child frames) from the upper-body
+        rotation vectors and their rates (``J_r(phi) phi_dot``) and the legs' body rates."""
+        N = leg_w.shape[0]
+        phi = np.broadcast_to(upper_rv, (N, self.J, 3))
+        w = np.einsum("njab,njb->nja", right_jacobian(phi), np.broadcast_to(upper_rate, (N, self.J, 3)))
+        w[:, self.leg_idx] = leg_w
+        w[:, self.fixed] = 0.0
+        return w
+
     def local_matrices(self, upper_rv, leg_R):
         """Full ``(N, J, 3, 3)`` local rotations from upper-body rotation vectors and leg matrices."""
         N = leg_R.shape[0]
@@ -261,6 +272,23 @@ def _leg_rate_jacobian(B: _Body, p, R, toes, yaw, heel, eps: float = 1e-6):
     K = np.moveaxis(_rotvec_from_matrices(rel) / (2 * eps), 0, -1)
     Kknee = ((knees[0::2] - knees[1::2]) / (2 * eps)).T
     return K, Kknee
+
+
+def _leg_rates(B: _Body, root, R, v, w, toes, yaw, beta, beta_dot, eps: float = 1e-6):
+    """Body-frame rates ``(N, 8, 3)`` of the leg joints' local rotations on a ground-phase
+    path with the balls of the feet planted: the directional derivative of the closed-form
+    IK along the pelvis velocity ``v``, world angular velocity ``w`` and heel rate
+    ``beta_dot``, by a central difference of step ``eps`` (the IK is smooth: truncation
+    ~eps^2, rounding ~1e-16/eps, together ~1e-10 rad/s)."""
+    N = root.shape[0]
+    if N == 0:
+        return np.zeros((0, B.leg_idx.size, 3))
+    P = np.concatenate([root + eps * v, root - eps * v])
+    Rs = np.concatenate([quat_to_matrix(exp_quat(eps * w)) @ R, quat_to_matrix(exp_quat(-eps * w)) @ R])
+    b = np.concatenate([beta + eps * beta_dot, beta - eps * beta_dot])
+    legR, _ = B.legs(P, Rs, toes, (yaw, yaw), (b, b), max_reach=1.0)
+    rel = np.swapaxes(legR[N:], -1, -2) @ legR[:N]              # R-^T R+
+    return _rotvec_from_matrices(rel) / (2 * eps)
 
 
 def _momentum_map(B: _Body, R, phi_up, phidot_up, leg_R, K):
@@ -607,6 +635,14 @@ def generate(design: Design, skeleton: Skeleton, body: BodyModel, fps: float = 1
     R_fl = quat_to_matrix(q_fl)
     com_fl = np.stack([np.polyval(parabola[k], times[fi]) for k in range(3)], 1)
     root_fl = com_fl - np.einsum("nab,nb->na", R_fl, bf_fl.C)
+    # exact flight rates: the RK4 solution's angular velocity at each frame's orientation, the
+    # root velocity from the parabola (v = v_com - w x R C - R C_dot), the script's joint rates
+    w_fl = np.einsum("nab,nb->na", R_fl, oms[grid_idx])
+    vcom_fl = np.stack([np.polyval(np.polyder(parabola[k]), times[fi]) for k in range(3)], 1)
+    RC_fl = np.einsum("nab,nb->na", R_fl, bf_fl.C)
+    vroot_fl = vcom_fl - np.cross(w_fl, RC_fl) - np.einsum("nab,nb->na", R_fl, bf_fl.C_dot)
+    phi_chk, phidot_fl = fl.script(times[fi], x0)
+    wloc_fl = np.einsum("njab,njb->nja", right_jacobian(phi_chk), phidot_fl)
 
     # ---- touchdown on the balls of the feet: the pelvis keeps its velocity and angular
     # velocity (C1 root); the feet stop, the heels come down at the rate that gives the
@@ -657,16 +693,21 @@ def generate(design: Design, skeleton: Skeleton, body: BodyModel, fps: float = 1
     up = np.array([0.0, d.crouch_accel, 0.0])
     root_pre = np.empty((fpre.size, 3))
     q_pre = np.empty((fpre.size, 4))
+    v_pre = np.zeros((fpre.size, 3))
+    w_pre = np.zeros((fpre.size, 3))
     m_st = tp <= t_s
     root_pre[m_st] = stand.root_pos
     q_pre[m_st] = stand.root_q
     m_cr = (tp > t_s) & (tp <= t_c)
     if m_cr.any():
-        root_pre[m_cr] = quintic_hermite(tp[m_cr], t_s, t_c, stand.root_pos, 0 * up, 0 * up, crouch.root_pos, 0 * up, up)[0]
-        q_pre[m_cr] = _orientation_piece(tp[m_cr], t_s, t_c, stand.root_q, np.zeros(3), crouch.root_q, np.zeros(3))[0]
+        root_pre[m_cr], v_pre[m_cr], _ = quintic_hermite(tp[m_cr], t_s, t_c, stand.root_pos, 0 * up, 0 * up,
+                                                         crouch.root_pos, 0 * up, up)
+        q_pre[m_cr], w_pre[m_cr] = _orientation_piece(tp[m_cr], t_s, t_c, stand.root_q, np.zeros(3), crouch.root_q,
+                                                      np.zeros(3))
     m_ex = tp > t_c
-    root_pre[m_ex] = quintic_hermite(tp[m_ex], t_c, t0, crouch.root_pos, 0 * up, up, takeoff.root_pos, v0, acc0)[0]
-    q_pre[m_ex] = _orientation_piece(tp[m_ex], t_c, t0, crouch.root_q, np.zeros(3), q0, w0)[0]
+    root_pre[m_ex], v_pre[m_ex], _ = quintic_hermite(tp[m_ex], t_c, t0, crouch.root_pos, 0 * up, up,
+                                                     takeoff.root_pos, v0, acc0)
+    q_pre[m_ex], w_pre[m_ex] = _orientation_piece(tp[m_ex], t_c, t0, crouch.root_q, np.zeros(3), q0, w0)
     # heel rise: flat, then up to the take-off angle and rate; the quintic from rest is
     # monotonic when (rate x duration) <= 2.5 x angle, so the rise lasts 2 angle / rate
     heel_rate = float(x0[6])
@@ -676,43 +717,55 @@ def generate(design: Design, skeleton: Skeleton, body: BodyModel, fps: float = 1
     rise = min(0.6 * (t0 - t_c), 2.0 * takeoff.heel / max(heel_rate, 1e-9))
     t_h = t0 - rise
     beta = np.zeros(fpre.size)
+    beta_dot = np.zeros(fpre.size)
     m_h = tp > t_h
-    beta[m_h] = quintic_hermite(tp[m_h], t_h, t0, 0.0, 0.0, 0.0, takeoff.heel, x0[6], 0.0)[0]
+    beta[m_h], beta_dot[m_h], _ = quintic_hermite(tp[m_h], t_h, t0, 0.0, 0.0, 0.0, takeoff.heel, x0[6], 0.0)
     if np.any(beta < -1e-12):
         raise PhysicsError("the heel would sink below the floor before take-off; raise the take-off heel angle")
+    beta_dot[beta < 0.0] = 0.0
     beta = np.maximum(beta, 0.0)
     R_pre = quat_to_matrix(q_pre)
     legR_pre, _ = B.legs(root_pre, R_pre, toes0, (0.0, 0.0), (beta, beta))
-    up_pre, _ = upper_track(tp)
+    up_pre, updot_pre = upper_track(tp)
     Rloc_pre = B.local_matrices(up_pre, legR_pre)
+    wloc_pre = B.local_rates(up_pre, updot_pre,
+                             _leg_rates(B, root_pre, R_pre, v_pre, w_pre, toes0, 0.0, beta, beta_dot))
 
     # ---- post-landing ground phase: frames stop..end
     fpost = np.arange(stop, n_frames)
     tq = times[fpost]
     root_post = np.empty((fpost.size, 3))
     q_post = np.empty((fpost.size, 4))
+    v_post = np.zeros((fpost.size, 3))
+    w_post = np.zeros((fpost.size, 3))
     a_root = absorbed.root_pos + shift
     f_root = final.root_pos + shift
     m1 = tq <= t_a
-    root_post[m1] = quintic_hermite(tq[m1], t1, t_a, p1, v1, np.zeros(3), a_root, 0 * up, up)[0]
-    q_post[m1] = _orientation_piece(tq[m1], t1, t_a, q1, w1, absorbed.root_q, np.zeros(3))[0]
+    root_post[m1], v_post[m1], _ = quintic_hermite(tq[m1], t1, t_a, p1, v1, np.zeros(3), a_root, 0 * up, up)
+    q_post[m1], w_post[m1] = _orientation_piece(tq[m1], t1, t_a, q1, w1, absorbed.root_q, np.zeros(3))
     m2 = (tq > t_a) & (tq <= t_r)
-    root_post[m2] = quintic_hermite(tq[m2], t_a, t_r, a_root, 0 * up, up, f_root, 0 * up, 0 * up)[0]
-    q_post[m2] = _orientation_piece(tq[m2], t_a, t_r, absorbed.root_q, np.zeros(3), final.root_q, np.zeros(3))[0]
+    root_post[m2], v_post[m2], _ = quintic_hermite(tq[m2], t_a, t_r, a_root, 0 * up, up, f_root, 0 * up, 0 * up)
+    q_post[m2], w_post[m2] = _orientation_piece(tq[m2], t_a, t_r, absorbed.root_q, np.zeros(3), final.root_q,
+                                                np.zeros(3))
     m3 = tq > t_r
     root_post[m3] = f_root
     q_post[m3] = final.root_q
     R_post = quat_to_matrix(q_post)
     # heels down from the touchdown angle and rate (monotonic quintic, see the take-off)
     beta_post = np.zeros(fpost.size)
+    betadot_post = np.zeros(fpost.size)
     if heel1 > 0:
         t_hd = t1 + min(0.8 * d_absorb, 2.0 * heel1 / max(-heel_rate1, 1e-9))
         m_hd = tq < t_hd
-        beta_post[m_hd] = quintic_hermite(tq[m_hd], t1, t_hd, heel1, heel_rate1, 0.0, 0.0, 0.0, 0.0)[0]
+        beta_post[m_hd], betadot_post[m_hd], _ = quintic_hermite(tq[m_hd], t1, t_hd, heel1, heel_rate1, 0.0, 0.0,
+                                                                 0.0, 0.0)
+        betadot_post[beta_post < 0.0] = 0.0
         beta_post = np.maximum(beta_post, 0.0)
     legR_post, _ = B.legs(root_post, R_post, toes1, (yaw1, yaw1), (beta_post, beta_post))
-    up_post, _ = upper_track(tq)
+    up_post, updot_post = upper_track(tq)
     Rloc_post = B.local_matrices(up_post, legR_post)
+    wloc_post = B.local_rates(up_post, updot_post,
+                              _leg_rates(B, root_post, R_post, v_post, w_post, toes1, yaw1, beta_post, betadot_post))
 
     # ---- assemble
     rot = np.empty((n_frames, B.J, 4))
@@ -727,6 +780,14 @@ def generate(design: Design, skeleton: Skeleton, body: BodyModel, fps: float = 1
     rot[fpost, 0] = q_post
     rp[fpost] = root_post
     rot = make_continuous(rot, axis=0)
+    v_all = np.empty((n_frames, 3))
+    w_all = np.empty((n_frames, 3))
+    wl_all = np.empty((n_frames, B.J, 3))
+    v_all[fpre], w_all[fpre], wl_all[fpre] = v_pre, w_pre, wloc_pre
+    v_all[fi], w_all[fi], wl_all[fi] = vroot_fl, w_fl, wloc_fl
+    v_all[fpost], w_all[fpost], wl_all[fpost] = v_post, w_post, wloc_post
+    wl_all[:, B.fixed] = 0.0
+    velocities = MotionVelocities(v_all, w_all, wl_all)
     motion = Motion(skeleton, fps, rp, rot, SourceInfo(path=None, format="synthetic", unit_scale=1.0,
                                                        unit_reason="generated in metres", header_fps=fps,
                                                        notes=(f"mocomp.synth.{d.generator}",)))
@@ -770,7 +831,7 @@ def generate(design: Design, skeleton: Skeleton, body: BodyModel, fps: float = 1
         seconds=time.perf_counter() - tic)
     return SynthResult(motion=motion, body=body, L0=L0, flight=(start, stop), flight_times=(t0, t1),
                        contacts=contacts, g=G, com_parabola=parabola, params=dict(d.params), phases=phases,
-                       evidence=evidence)
+                       evidence=evidence, velocities=velocities)
 
 
 def _fd_jacobian(fun, L, r):

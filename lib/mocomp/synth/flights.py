@@ -52,25 +52,26 @@ Continuity at take-off and touchdown
 
 Measured with the project's own dynamics
 ----------------------------------------
-:func:`mocomp.dynamics.momentum` differentiates by central differences, whose
-O(dt^2) error dominates at capture rates: over the default backflip's flight
-``|L - L0| / |L0|`` is 3.4e-3 at 120 fps, 8.7e-4 at 240, 2.2e-4 at 480 and
-5.4e-5 at 960 fps (4x per doubling); Richardson extrapolation of the 960 and
-1920 fps values leaves 4.5e-8 (the RK4 error of the orientation itself is
-~1e-10 rad, ``evidence.integration_error_rad``). The twists, with a small ``L0``
-and fast arm folding, have the largest relative error (5.5e-2 and 2.7e-2 at 120
-fps). :func:`mocomp.dynamics.center_of_mass` follows the parabola to ~1e-15 m.
-``tests/test_synth_flights.py`` checks these figures.
+The result carries the exact rates of every frame (``result.velocities``, a
+:class:`~mocomp.dynamics.momentum.MotionVelocities`: in flight the RK4 solution's
+root angular velocity, the root velocity from the COM parabola and the script's
+joint rates). From them :func:`mocomp.dynamics.momentum` (``velocity=result.velocities``,
+or ``result.exact_momentum()``) evaluates eq. 5.5 at the true masses with no time
+differences: at the shipped 120 fps ``|L(t) - L0| / |L0|`` over every flight frame
+is 1e-14 .. 4e-14 for all six embedded examples (issue 3 asks <= 1e-4;
+``tests/test_synth_conservation.py`` pins it, ``benchmarks/bench_synth.py`` prints it).
+The RK4 error of the orientation itself is ~1e-10 rad
+(``evidence.integration_error_rad``). :func:`mocomp.dynamics.center_of_mass`
+follows the parabola to ~1e-15 m.
 
-So ``|L(t) - L0| / |L0| <= 1e-4`` over the flight is *not* what the project's
-default (order-2) dynamics measures at 120 fps: that measurement is limited by
-its own truncation error, not by the motion. With ``momentum(..., order=4)``
-(five-point stencil) the figure is met at 240 fps for the back and side
-somersaults and the straight jump (backflip 4.8e-5), at 480 fps for the front
-somersault and the 360-degree twist and at 960 fps for the 180-degree twist,
-and the deviation falls ~16x per doubling of the rate (fourth order), i.e. it is
-truncation error, not drift; ``tests/test_synth_conservation.py`` pins this for
-every embedded example.
+Estimating the velocities by central differences of the motion instead (the
+default of :func:`~mocomp.dynamics.momentum`, as for capture data) adds the
+differences' O(dt^2) truncation error: over the flight (frames whose stencil
+lies inside it) 3.1e-3 (jump), 3.4e-3 (backflip), 3.8e-3 (sideflip), 9.8e-3
+(frontflip), 2.7e-2 (twist360) and 5.5e-2 (twist180) at 120 fps (``order=4``:
+2.5e-4 .. 2.1e-2); for the backflip 8.7e-4 at 240, 2.2e-4 at 480 and 5.4e-5 at
+960 fps (4x per doubling, toward the exact figure). The twists, with a small
+``L0`` and fast arm folding, have the largest relative error.
 
 What is *not* modelled: ground reaction forces during the ground phases (the
 ground phases are kinematic, not dynamically consistent), muscle limits, and a
