@@ -8,8 +8,8 @@ from scipy.spatial.transform import Rotation
 from mocomp.errors import AlignmentError, MotionFormatError
 from mocomp.io.markers import Markers
 from mocomp.splice import HandMarkers, full_band, hand_markers_from_markers, motion_phases, slanted_band, virtual_hand_markers
-from mocomp.splice.metrics import (angle_band_costs, arm_features, hand_angle_distance, sign_band_costs, sign_distance,
-                                   theta_band, theta_eq67, value_band_costs)
+from mocomp.splice.metrics import (angle_band_costs, arm_features, hand_angle_distance, matched_theta, rotate_vertical,
+                                   sign_band_costs, sign_distance, theta_band, theta_eq67, value_band_costs)
 from mocomp.splice.synthetic import gesture_clip
 
 
@@ -62,6 +62,34 @@ def test_theta_band_equals_eq67_per_cell(hm):
     np.testing.assert_allclose(np.arctan2(sn[k], cs[k]), -0.7, atol=1e-9)
     th = theta_band(f, g, full, "none")
     assert np.all(th[0] == 1) and np.all(th[1] == 0)
+
+
+def test_matched_theta_recovers_a_known_turn(hm):
+    """The second pass's rotation (eq. 6.7 along a frame map, or the trunk
+    headings): a recording turned by R_y(0.9) (trunk heading + 0.9) is turned
+    back by -0.9 at every frame, through a non-identity map too; pooling the
+    eq. 6.7 sums over a span leaves an exact answer exact."""
+    R = _ry(0.9)
+    g = HandMarkers(hm.positions @ R.T, hm.fps, hm.shoulder @ R.T, hm.trunk_heading + 0.9)
+    f, fg = arm_features(hm), arm_features(g)
+    n = f.n_frames
+    for span in (1, 31):
+        np.testing.assert_allclose(matched_theta(fg, f, np.arange(n, dtype=float), "window", span), 0.9, atol=1e-9)
+    np.testing.assert_allclose(matched_theta(f, fg, np.arange(n, dtype=float), "window"), -0.9, atol=1e-9)
+    np.testing.assert_allclose(matched_theta(f, fg, np.arange(n, dtype=float), "trunk"), -0.9, atol=1e-9)
+    # trunk mode along a fractional map: body heading minus the interpolated hand heading
+    fmap = np.linspace(0, n - 1, n) ** 1.5 / (n - 1) ** 0.5
+    expect = f.heading - np.interp(fmap, np.arange(n), fg.heading)
+    np.testing.assert_allclose(matched_theta(f, fg, fmap, "trunk"), expect, atol=1e-12)
+    assert np.all(matched_theta(f, fg, fmap, "none") == 0)
+    # rotate_vertical is R_y of eq. 6.6, per frame
+    v = np.random.default_rng(2).normal(size=(5, 3))
+    th = np.linspace(-3, 3, 5)
+    np.testing.assert_allclose(rotate_vertical(v, th), np.stack([_ry(t) @ x for t, x in zip(th, v)]), atol=1e-12)
+    with pytest.raises(AlignmentError, match="trunk heading of the hand"):
+        matched_theta(f, arm_features(HandMarkers(hm.positions, hm.fps, hm.shoulder)), fmap, "trunk")
+    with pytest.raises(AlignmentError, match="frame map has shape"):
+        matched_theta(f, fg, fmap[:-1], "window")
 
 
 def test_sign_cost_matches_reference_per_cell(hm):

@@ -6,7 +6,13 @@
 2. *Within-phase refinement*: the hand motion is warped onto the body's frames
    along the first path; a second DTW with the hand-angle metric of eq.
    6.8-6.9 in a narrower band (``W = 0.10 n``) around the new diagonal
-   adjusts frames inside each phase. The user's points are re-mapped into the
+   adjusts frames inside each phase. Before it, the warped hand's forearm and
+   hand vectors are turned about the vertical into the body's heading at each
+   matched frame (``SpliceConfig.refine_theta``: the trunk-heading difference,
+   or eq. 6.7 pooled over 4 s): eq. 6.9 compares vectors in world
+   coordinates, and without the turn a hand recording facing 70 (120) degrees
+   away, or a body that turns while walking, misaligned the second pass by
+   3-22 frames although the first pass was within 1. The user's points are re-mapped into the
    warped hand's frame numbers first ("we recompute the user's input so the
    frame numbers that need to be matched correspond to frames in the aligned
    motion").
@@ -39,9 +45,10 @@ from .bands import MatchPoint, as_points, matching_band
 from .dtw import DTWResult, dtw_band_costs, path_row_median, warp_values
 from .markers import HandMarkers
 from .warpmap import frame_map as taut_frame_map, rasterize_map
-from .metrics import ArmFeatures, angle_band_costs, arm_features, sign_band_costs, value_band_costs
+from .metrics import (ArmFeatures, angle_band_costs, arm_features, matched_theta, rotate_vertical, sign_band_costs,
+                      value_band_costs)
 
-__all__ = ["SpliceConfig", "Alignment", "align_hands", "remap_points", "compose_paths", "alignment_error"]
+__all__ = ["SpliceConfig", "Alignment", "align_hands", "refine_theta", "remap_points", "compose_paths", "alignment_error"]
 
 
 @dataclass(frozen=True)
@@ -68,6 +75,22 @@ class SpliceConfig:
     tie_cells: cost margin of the near-optimal tube (``"taut"``) in units of
         the optimal path's mean cost per matched pair: alignments costing at
         most that much more than the optimum count as equally good.
+    refine_theta: rotation about the vertical that turns the hand
+        recording's eq. 6.8 vectors into the body's heading before the second
+        pass (eq. 6.9 compares vectors in world coordinates, so without it the
+        cost changes with the direction the performers face):
+        ``"auto"`` (default) the trunk-heading difference when both recordings
+        have a trunk heading, else the first pass's ``theta`` mode;
+        ``"window"`` eq. 6.7 between each body frame and its matched hand frame
+        (pooled over ``refine_theta_span``); ``"trunk"``; ``"none"`` (the
+        vectors as recorded). See :func:`~mocomp.splice.metrics.matched_theta`.
+    refine_theta_span: seconds over which ``"window"``'s eq. 6.7 sums are pooled
+        (a heading changes over seconds, while one 5-frame window also
+        answers to the arm's own swing, which differs between the
+        performances: on 25 turned/turning ground-truth pairs the mean final
+        error was 1.06 frames with 1 s, 1.02 with 4 s, 1.42 with 8 s,
+        4.2 with one angle for the whole take, 0.90 with the trunk headings
+        and 9.1 without any turn).
     """
 
     phase_width: float = 0.30
@@ -82,6 +105,8 @@ class SpliceConfig:
     refine_step_cost: float = 0.05
     frame_map: str = "taut"
     tie_cells: float = 2.0
+    refine_theta: str = "auto"
+    refine_theta_span: float = 4.0
 
     def __post_init__(self):
         for name in ("phase_width", "refine_width"):
@@ -92,6 +117,10 @@ class SpliceConfig:
             raise ValueError(f"theta must be 'window', 'trunk' or 'none', got {self.theta!r}")
         if self.metric not in ("sign", "values"):
             raise ValueError(f"metric must be 'sign' or 'values', got {self.metric!r}")
+        if self.refine_theta not in ("auto", "window", "trunk", "none"):
+            raise ValueError(f"refine_theta must be 'auto', 'window', 'trunk' or 'none', got {self.refine_theta!r}")
+        if not (np.isfinite(self.refine_theta_span) and self.refine_theta_span >= 0):
+            raise AlignmentError(f"refine_theta_span must be >= 0 seconds, got {self.refine_theta_span!r}")
         if self.frame_map not in ("taut", "median"):
             raise ValueError(f"frame_map must be 'taut' or 'median', got {self.frame_map!r}")
         if not (np.isfinite(self.tie_cells) and self.tie_cells >= 0):
@@ -206,6 +235,17 @@ def compose_paths(path2: np.ndarray, path1: np.ndarray, n_mid: int) -> np.ndarra
     return pairs
 
 
+def refine_theta(body: ArmFeatures, hand: ArmFeatures, stage1_map: np.ndarray, config: SpliceConfig) -> np.ndarray:
+    """Per body frame, the angle (radians) about the vertical by which the
+    second pass turns the hand recording's eq. 6.8 vectors, warped by
+    ``stage1_map``, before eq. 6.9 (``SpliceConfig.refine_theta``)."""
+    mode = config.refine_theta
+    if mode == "auto":
+        mode = "trunk" if body.heading is not None and hand.heading is not None else config.theta
+    span = max(1, int(round(config.refine_theta_span * body.fps)) | 1)
+    return matched_theta(body, hand, stage1_map, mode, span)
+
+
 def align_hands(body: HandMarkers, hand: HandMarkers, points=(), config: SpliceConfig | None = None,
                 **overrides) -> Alignment:
     """Align a body recording's hand markers with a hand recording's (two-stage DTW, ch. 6.1-6.2).
@@ -247,6 +287,11 @@ def align_hands(body: HandMarkers, hand: HandMarkers, points=(), config: SpliceC
     if cfg.refine and n >= 3:
         # the hand recording's eq. 6.8 vectors, warped onto the body's frames
         f2, h2 = warp_values(fh.forearm, map1), warp_values(fh.hand, map1)
+        # ... turned into the body's heading at each matched frame (eq. 6.9
+        # compares world-frame vectors, so without this its cost changes
+        # with the hand recording's heading)
+        th2 = refine_theta(fb, fh, map1, cfg)
+        f2, h2 = rotate_vertical(f2, th2), rotate_vertical(h2, th2)
         pts2 = remap_points(pts, map1, n)
         band2 = matching_band(n, n, cfg.refine_width * n, pts2)
         ts = time.perf_counter()

@@ -31,6 +31,8 @@ __all__ = [
     "forearm_hand_vectors",
     "theta_band",
     "theta_eq67",
+    "matched_theta",
+    "rotate_vertical",
     "sign_band_costs",
     "value_band_costs",
     "angle_band_costs",
@@ -230,6 +232,63 @@ def theta_band(body: ArmFeatures, hand: ArmFeatures, band: Band, mode: str = "wi
     sn = np.empty(band.cells)
     _theta_kernel(band.lo, band.hi, band.offsets, body.win_x, body.win_z, hand.win_x, hand.win_z, cs, sn)
     return cs, sn
+
+
+def matched_theta(body: ArmFeatures, hand: ArmFeatures, frame_map: np.ndarray, mode: str = "window",
+                  span: int = 1) -> np.ndarray:
+    """``theta`` of the first pass along a frame map: for each body frame ``i``
+    the rotation about the vertical that takes the hand recording at its
+    matched (fractional) frame ``frame_map[i]`` onto the body recording.
+
+    ``mode`` as in :func:`theta_band`: ``"window"`` evaluates eq. 6.7 on the
+    body's window around ``i`` and the hand's window linearly interpolated at
+    ``frame_map[i]``; its numerator and denominator are sums over the window,
+    so summing them over ``span`` consecutive body frames is eq. 6.7 over the
+    union of those windows (a least-squares angle over a longer stretch,
+    which stays defined in holds, where one window barely moves).
+    ``"trunk"``: the trunk-heading difference ``psi_body(i) - psi_hand(frame_map[i])``
+    (unwrapped headings, interpolated). ``"none"``: zeros.
+    Radians, ``(n,)``; used to turn the hand recording's eq. 6.8 vectors
+    into the body's heading before the second pass (eq. 6.9).
+    """
+    f = np.asarray(frame_map, dtype=float)
+    if f.shape != (body.n_frames,):
+        raise AlignmentError(f"frame map has shape {f.shape}, the body motion {body.n_frames} frames")
+    if mode == "none":
+        return np.zeros(body.n_frames)
+    if mode == "trunk":
+        if body.heading is None or hand.heading is None:
+            which = "body" if body.heading is None else "hand"
+            raise AlignmentError(f"theta='trunk' needs the trunk heading of the {which} motion (shoulder or waist markers)")
+        return body.heading - np.interp(f, np.arange(hand.n_frames), hand.heading)
+    if mode != "window":
+        raise ValueError(f"theta mode must be 'window', 'trunk' or 'none', got {mode!r}")
+    if body.win_x.shape[1] != hand.win_x.shape[1]:
+        raise AlignmentError(
+            f"eq. 6.7 windows differ in size ({body.theta_window} vs {hand.theta_window} frames): a sequence is shorter than the window"
+        )
+    from .dtw import warp_values
+
+    hx, hz = warp_values(hand.win_x, f), warp_values(hand.win_z, f)
+    nu = np.einsum("ij,ij->i", body.win_x, hz) - np.einsum("ij,ij->i", body.win_z, hx)
+    de = np.einsum("ij,ij->i", body.win_x, hx) + np.einsum("ij,ij->i", body.win_z, hz)
+    span = int(span)
+    if span > 1:
+        from scipy.ndimage import uniform_filter1d
+
+        nu = uniform_filter1d(nu, span, mode="nearest")
+        de = uniform_filter1d(de, span, mode="nearest")
+    return np.arctan2(nu, de)
+
+
+def rotate_vertical(v: np.ndarray, theta: np.ndarray) -> np.ndarray:
+    """``R_y(theta_t) v_t`` for vectors ``v (T, ..., 3)`` and angles ``theta (T,)``
+    (the rotation of eq. 6.6: ``x' = c x + s z``, ``z' = -s x + c z``)."""
+    v = np.asarray(v, dtype=float)
+    th = np.asarray(theta, dtype=float).reshape((-1,) + (1,) * (v.ndim - 2))
+    c, s = np.cos(th), np.sin(th)
+    x, z = v[..., 0], v[..., 2]
+    return np.stack([c * x + s * z, v[..., 1], -s * x + c * z], axis=-1)
 
 
 @numba.njit(cache=True, nogil=True, fastmath=True)

@@ -57,6 +57,7 @@ __all__ = [
     "synthetic_pair",
     "ambiguous_pair",
     "scale_arm_amplitude",
+    "turn_about_vertical",
     "MarkerPair",
     "make_marker_pair",
 ]
@@ -369,7 +370,8 @@ def _fit_length(under: Motion, n: int) -> Motion:
 
 def make_splice_pair(hand: Motion, under: Motion, rng=0, *, n_body: int | None = None, side: str = "right",
                      warp: np.ndarray | None = None, warp_strength: float = 0.5,
-                     amplitude: tuple[float, float] | np.ndarray = (0.5, 1.5), noise_deg: float = DEFAULT_NOISE_DEG) -> SplicePair:
+                     amplitude: tuple[float, float] | np.ndarray = (0.5, 1.5), noise_deg: float = DEFAULT_NOISE_DEG,
+                     heading_deg: float | np.ndarray = 0.0) -> SplicePair:
     """Build a body recording of ``hand``'s gesture on top of ``under`` (e.g. a walk).
 
     The body clip has ``n_body`` frames (default ``1.2 m``) at ``hand.fps``:
@@ -381,6 +383,12 @@ def make_splice_pair(hand: Motion, under: Motion, rng=0, *, n_body: int | None =
     and perturbed by white rotation noise of ``noise_deg`` degrees per axis
     (every arm-chain joint, every frame).
     ``hand`` and ``under`` need the same arm joint names.
+
+    ``heading_deg`` (degrees, a number or ``(m,)`` per hand frame) turns the
+    returned *hand* recording about the vertical through its first root
+    position (root rotation and root path; the body recording, built before,
+    and the truth are unchanged): a hand capture facing elsewhere than the
+    body capture, or turning, which the alignment must be invariant to.
     """
     rng = np.random.default_rng(rng)
     m = hand.n_frames
@@ -415,10 +423,31 @@ def make_splice_pair(hand: Motion, under: Motion, rng=0, *, n_body: int | None =
     rot[:, chain_b] = scaled
     body = body0.replace(rotations=rot, source=SourceInfo(format="synthetic", notes=(
         f"splice ground truth: arm of {hand.source.path or hand.source.format} warped onto {under.source.path or under.source.format}",)))
+    head = np.broadcast_to(np.asarray(heading_deg, dtype=float), (m,)) if np.ndim(heading_deg) == 0 else np.asarray(heading_deg, float)
+    if head.shape != (m,) or not np.all(np.isfinite(head)):
+        raise AlignmentError(f"heading_deg must be a finite number or {m} finite values (one per hand frame), got shape {head.shape}")
     desc = (f"{side} arm of a {m}-frame hand clip on a {n}-frame body clip, warp strength {warp_strength}, "
             f"amplitude {amp.min():.2f}-{amp.max():.2f}, noise {noise_deg} deg")
+    if np.any(head != 0):
+        hand = turn_about_vertical(hand, head)
+        desc += f", hand recording turned {head.min():g}-{head.max():g} deg about the vertical"
     return SplicePair(body, hand, truth, amp, side, (), desc,
-                      {"warp_strength": warp_strength, "noise_deg": noise_deg, "n": n, "m": m})
+                      {"warp_strength": warp_strength, "noise_deg": noise_deg, "n": n, "m": m,
+                       "heading_deg": (float(head.min()), float(head.max()))})
+
+
+def turn_about_vertical(motion: Motion, degrees: float | np.ndarray) -> Motion:
+    """``motion`` turned about the vertical (y) axis through its first root
+    position by ``degrees`` (a number or one per frame): root rotation
+    ``R_y q_root`` and root path ``p_0 + R_y (p - p_0)``; local joint rotations unchanged."""
+    T = motion.n_frames
+    deg = np.broadcast_to(np.asarray(degrees, dtype=float), (T,))
+    R = _rot("y", np.ascontiguousarray(deg))
+    q = np.array(motion.rotations)
+    q[:, 0] = (R * Rotation.from_quat(q[:, 0])).as_quat()
+    p = np.array(motion.root_positions, dtype=float)
+    p0 = p[:1] * np.array([1.0, 0.0, 1.0])
+    return motion.replace(rotations=q, root_positions=p0 + R.apply(p - p0))
 
 
 def synthetic_pair(rng=0, *, n_gestures: int = 4, fps: float = 30.0, side: str = "right", **kw) -> SplicePair:
