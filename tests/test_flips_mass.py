@@ -10,6 +10,7 @@ from mocomp.core.motion import concatenate
 from mocomp.core.rotations import quat_multiply
 from mocomp.flips.mass import FlightTooShortError, diagnose_gravity, estimate_masses, fit_ballistic
 from mocomp.flips.phases import default_prior, detect_flights
+from mocomp.flips import multiflip, prepare
 from mocomp.flips.preprocess import clip_prior, spline_resample
 
 from _flips_data import synthetic
@@ -49,7 +50,8 @@ def test_estimate_closer_to_truth_than_prior(tall, name, noise):
     m = noisy(r.motion, *noise) if noise[0] else r.motion
     est = estimate_masses(prior, m, r.flight)
     err, err0 = est.error_vs(r.body.masses)
-    assert err < err0, est.table(r.body.masses).to_string()
+    # measured err/err0: 0.936-0.938 (back flip), 0.954-0.957 (side flip) over these noise draws
+    assert err <= 0.97 * err0, est.table(r.body.masses).to_string()
     tab = est.table(r.body.masses)
     assert {"initial_%", "optimized_%", "true_%", "initial_error_%", "optimized_error_%"} <= set(tab.columns)
     # the tall-performer pattern of the dissertation: trunk up, limbs down
@@ -104,22 +106,48 @@ def test_too_short_flight_is_a_clear_error(tall):
         fit_ballistic(np.zeros((3, 3)), 120.0)
 
 
-@pytest.mark.realdata
-@pytest.mark.parametrize("name", ["cmu_88_01_backflip", "cmu_88_05_cartwheel_backflip", "deepmimic_backflip",
-                                  "deepmimic_sideflip"])
-def test_real_flights_momentum_deviation_reduced(real_data_dir, name):
-    """The paper reports a 30% reduction of the linear-momentum deviation from its ballistic
-    pattern relative to the prior (section 4.2); with the default regulariser (no segment moved
-    by more than ~5 points, where Table C.1 moves one by 2.6) ours is 16-39% on these flips, and a
-    smaller W buys more reduction with implausible masses (the regularisation path, mass.py)."""
+REAL_FLIPS = [("cmu_88_01_backflip", None), ("cmu_88_05_cartwheel_backflip", None), ("cmu_90_08_sideflip", None),
+              ("mass_backflip", 60.0), ("deepmimic_backflip", None), ("deepmimic_sideflip", None)]
+
+
+def _real(name, fps):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        m = datasets.load(name)
+        m = datasets.load(name, fps=fps)
     if m.fps < 50:
         m = spline_resample(m, 120.0)
+    return m
+
+
+@pytest.mark.realdata
+@pytest.mark.parametrize("name, fps", REAL_FLIPS)
+def test_real_flights_momentum_deviation_reduced(real_data_dir, name, fps):
+    """The paper reports a 30% reduction of the linear-momentum deviation from its ballistic
+    pattern relative to the prior (section 4.2); with the default regulariser (no segment moved
+    by more than ~5 points, where Table C.1 moves one by 2.6) ours is 16-39% on five of the six
+    real flips, and a smaller W buys more reduction with implausible masses (the regularisation
+    path, mass.py). On the side flip 90_08 the estimate makes it worse (-2.2%): ``prepare`` keeps
+    the prior there and says so."""
+    m = _real(name, fps)
     prior = clip_prior(m)
     d = detect_flights(m, prior)
     est = estimate_masses(prior, m, d.flight)
+    if name == "cmu_90_08_sideflip":
+        assert -0.05 < est.reduction <= 0.0, est.reduction             # measured -2.2 %
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            P = prepare(m)
+        assert P.flight == d.flight and P.mass.reduction == pytest.approx(est.reduction)
+        assert not P.mass_used and P.body is P.prior
+        np.testing.assert_array_equal(P.body.masses, prior.masses)
+        assert P.fit == next(f for f in P.mass.prior_fits if (f.start, f.stop) == P.flight)
+        note = [n for n in P.notes if n.startswith("mass estimate not used")]
+        assert len(note) == 1 and "-2.2% reduction" in note[0] and "prior masses are kept" in note[0]
+        assert "prior masses used" in P.summary()
+        assert note[0] in multiflip(P, flips=2).report.notes
+        kept = prepare(m, keep_prior_if_worse=False)
+        assert kept.mass_used and kept.body is kept.mass.body
+        return
     assert est.reduction > 0.12, (est.prior_momentum_deviation, est.momentum_deviation)
     assert est.residual_rms < 0.8 * est.prior_residual_rms          # eq. 5.1's own objective
     change = 100 * np.abs(est.body.masses / est.body.total_mass - prior.masses / prior.total_mass)
@@ -128,7 +156,33 @@ def test_real_flights_momentum_deviation_reduced(real_data_dir, name):
     assert loose.reduction >= est.reduction - 0.02                   # smaller W: more reduction ...
     assert 100 * np.abs(loose.body.masses / loose.body.total_mass - prior.masses / prior.total_mass).max() \
         >= change.max()                                              # ... bought with larger shifts
-    assert 0.7 < est.gravity_scale < 1.45
+    # MASS read at 60 Hz still gives s = 1.50 (its implied rate is ~49 Hz; MANIFEST: 50-60 Hz)
+    assert 0.7 < est.gravity_scale < (1.55 if name == "mass_backflip" else 1.45)
+    if name == "cmu_88_01_backflip":
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            P = prepare(m)
+        assert P.mass_used and P.body is P.mass.body
+        assert not any(n.startswith("mass estimate not used") for n in P.notes)
+
+
+@pytest.mark.realdata
+def test_min_fraction_bounds_the_masses(real_data_dir):
+    """At the default W the bound m_i >= 0 is active on 88_01 (forearms, hands, feet get 0 kg);
+    ``min_fraction`` keeps each segment at that fraction of the prior for a small loss of
+    reduction (measured 18.3 -> 15.1 % with 0.5)."""
+    m = _real("cmu_88_01_backflip", None)
+    prior = clip_prior(m)
+    d = detect_flights(m, prior)
+    free = estimate_masses(prior, m, d.flight)
+    zero = [s for s, x in zip(free.body.segment_names, free.masses) if x < 1e-9]
+    assert {"forearm_l", "forearm_r", "hand_l", "hand_r", "foot_l", "foot_r"} <= set(zero)
+    half = estimate_masses(prior, m, d.flight, min_fraction=0.5)
+    assert np.all(half.masses >= 0.5 * prior.masses * (1 - 1e-9))
+    assert half.body.total_mass == pytest.approx(prior.total_mass)
+    assert 0.12 < half.reduction < free.reduction
+    with pytest.raises(ValueError, match="min_fraction"):
+        estimate_masses(prior, m, d.flight, min_fraction=1.0)
 
 
 @pytest.mark.realdata

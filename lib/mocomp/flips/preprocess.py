@@ -119,6 +119,8 @@ class PreparedFlip:
     detection: all ballistic intervals (:class:`~mocomp.flips.phases.FlightDetection`).
     flight: ``(start, stop)`` half-open frames of the flight used.
     mass: the :class:`~mocomp.flips.mass.MassEstimate` (``None`` when estimation was skipped).
+    mass_used: ``body`` carries ``mass``'s masses (``False`` when estimation was skipped or the
+        estimate was set aside because it did not reduce the momentum deviation; see ``notes``).
     fit: ballistic COM trajectory of the flight with the body used (``a_x .. c_y``, gravity).
     momentum: :class:`~mocomp.dynamics.MomentumResult` with ``body`` (eq. 5.4-5.5).
     axis: ``(3,)`` unit direction of the mean angular momentum over the flight.
@@ -159,6 +161,7 @@ class PreparedFlip:
     notes: tuple[str, ...] = ()
     _cache: dict = field(default_factory=dict, repr=False)
     timing: object = None
+    mass_used: bool = False
 
     @property
     def fps(self) -> float:
@@ -304,7 +307,8 @@ class PreparedFlip:
             red = self.mass.reduction
             lines.append(f"  masses: linear-momentum deviation from the ballistic pattern "
                          f"{self.mass.prior_momentum_deviation:.3f} -> {self.mass.momentum_deviation:.3f} kg m/s "
-                         + (f"({100 * red:.0f}% reduction)" if np.isfinite(red) else "(already ballistic with the prior)"))
+                         + (f"({100 * red:.0f}% reduction)" if np.isfinite(red) else "(already ballistic with the prior)")
+                         + ("" if self.mass_used else "; prior masses used"))
         lines += [f"  note: {n}" for n in self.notes]
         return "\n".join(lines)
 
@@ -341,7 +345,8 @@ def prepare(source, *, body: BodyModel | None = None, total_mass: float = 70.0, 
             min_fps: float = 50.0, resample_fps: float = 120.0, flight: tuple[int, int] | None = None,
             estimate: bool = True, joint_flights: bool = False, W: float = 1e-2,
             smooth_sigma: float | None = None, weight_overrides: dict | None = None,
-            velocity_weight: float = 0.0, loop_options: dict | None = None) -> PreparedFlip:
+            velocity_weight: float = 0.0, loop_options: dict | None = None,
+            keep_prior_if_worse: bool = True) -> PreparedFlip:
     """Pre-process a single-flip clip (sections 4.1-4.3 and the self-looping search).
 
     Parameters
@@ -360,6 +365,10 @@ def prepare(source, *, body: BodyModel | None = None, total_mass: float = 70.0, 
     estimate: estimate the masses (eq. 5.1-5.2); ``False`` keeps the prior.
     joint_flights: estimate from every detected flight jointly (e.g. hops before the flip).
     W: regulariser of eq. 5.2 (see :mod:`mocomp.flips.mass`).
+    keep_prior_if_worse: when the estimate does not reduce the linear-momentum deviation from
+        the ballistic pattern relative to the prior (``mass.reduction <= 0``; CMU 90_08 at the
+        default ``W``: -2.2 %), use the prior masses instead; ``mass`` still holds the estimate,
+        ``mass_used`` is ``False`` and a note says so (it reaches the physics report's notes).
     smooth_sigma: Gaussian pre-smoothing (frames) for momentum; ``None`` = none.
     weight_overrides, velocity_weight: similarity weights (:func:`similarity_weights`).
     loop_options: keyword arguments for :func:`~mocomp.flips.looping.find_self_loop`.
@@ -391,8 +400,19 @@ def prepare(source, *, body: BodyModel | None = None, total_mass: float = 70.0, 
             mass = estimate_masses(prior, motion, flights, W=W)
             est = mass.body
             fit = next(f for f in mass.fits if (f.start, f.stop) == fl)
+            if keep_prior_if_worse and np.isfinite(mass.reduction) and not mass.reduction > 0:
+                # eq. 5.1-5.2 did not make the flight more ballistic (e.g. CMU 90_08: -2.2 %): the
+                # estimate is kept as evidence (``mass``), the prior is used
+                est = prior
+                fit = next(f for f in mass.prior_fits if (f.start, f.stop) == fl)
+                mass_note = (f"mass estimate not used: it did not reduce the linear-momentum deviation from the "
+                             f"ballistic pattern ({mass.prior_momentum_deviation:.3f} -> {mass.momentum_deviation:.3f} "
+                             f"kg m/s, {100 * mass.reduction:+.1f}% reduction at W={W:g}), so the prior masses are "
+                             "kept")
+            else:
+                mass_note = None
         else:
-            mass, est = None, prior
+            mass, est, mass_note = None, prior, None
             from ..dynamics import center_of_mass
 
             fit = fit_ballistic(center_of_mass(prior, motion)[fl[0]:fl[1]], motion.fps, fl[0])
@@ -405,6 +425,8 @@ def prepare(source, *, body: BodyModel | None = None, total_mass: float = 70.0, 
         break
     if not timing.consistent and not fix_timing:
         notes.append(timing.text)
+    if mass_note is not None:
+        notes.append(mass_note)
     t = time.perf_counter()
     from ..dynamics import momentum as compute_momentum
 
@@ -441,7 +463,8 @@ def prepare(source, *, body: BodyModel | None = None, total_mass: float = 70.0, 
     prep = PreparedFlip(motion=motion, name=name, prior=prior, body=est, detection=det, flight=fl, mass=mass,
                         fit=fit, momentum=mom, axis=axis, L_stats=Ls, rotations=rot, theta=theta, bdir=bdir,
                         root_ref=root_ref, omegas=omegas, weights=weights, loop=loop, com_eval=com_eval, com=mom.com,
-                        smooth_sigma=smooth_sigma, timings=timings, notes=tuple(notes), timing=timing)
+                        smooth_sigma=smooth_sigma, timings=timings, notes=tuple(notes), timing=timing,
+                        mass_used=mass is not None and est is mass.body)
     t = time.perf_counter()
     for retime in (True, False):          # the seam window and its smoothing / eq. 5.22 speeds, once per clip
         w = prep.best_window(retime)
