@@ -15,7 +15,14 @@ def register(subparsers) -> None:
                     "2007, section 6): turn B so the angular momenta point the same way (about the vertical, "
                     "and fully if needed, which tilts its landing), retime so |L| matches, find the most "
                     "similar pair of flight frames (App. A), blend, then restore |L| by non-uniform retiming, "
-                    "retime by k* and reposition the centre of mass on the gravity parabola.")
+                    "retime by k* and reposition the centre of mass on the gravity parabola. "
+                    "Limitation: at the seam the two bodies are oriented differently about an axis "
+                    "perpendicular to L (a back flip vs a side flip: 60-100 deg); blending that away turns L "
+                    "off its direction over the transition (0.6 rad synthetic, 1.2-1.3 rad DeepMimic joins), "
+                    "and --direction-step, which removes it, tilts the landing instead (18-130 deg). The "
+                    "summary and report give the seam evidence (direction error at the seam, |L| error, COM "
+                    "velocity jumps at take-off and landing against the inputs' own) and list the bounds "
+                    "exceeded as notes.")
     p.add_argument("takeoff", metavar="A", help="motion whose take-off is used (file or clip name)")
     p.add_argument("landing", metavar="B", help="motion whose landing is used (file or clip name)")
     p.add_argument("-o", "--output", required=True, metavar="OUT.bvh", help="joined motion (BVH)")

@@ -33,6 +33,25 @@ and the rest of the flight and the landing of motion ``B``:
    request: section 5.2 adjusts transitions by retiming), then uniform retiming by ``k*``
    and COM repositioning onto the parabola from ``A``'s take-off, with an optional raised
    take-off (App. B; ``takeoff_height``) and the platform clearance of Fig. 5.10.
+
+**Limitation: the seam.** After step 1 the two flights' mean L point the same way, but at
+the matched pair of frames the *bodies* are still oriented differently about an axis
+perpendicular to L (a back flip turns about the body's left-right axis, a side flip about
+its front-back axis: 62 deg on the synthetic back flip + side flip, 99 deg DeepMimic back
+flip + side flip, 88 deg back flip + spin kick; the frame search's root weight cannot find
+a better pair: x3-x30 leaves 60-97 deg). The crossfade removes that mismatch within the
+blend window, which turns L away from its direction there: measured 0.62 rad (synthetic),
+1.23 and 1.34 rad (DeepMimic), while the retiming keeps |L| within 7.4%, 28.8% (the DeepMimic
+clips' own variation is 65%) and 4.7%. A wider window hardly helps (it is capped by the
+flights' length: ``window_s=0.2`` gives 0.60 rad). Running step 1 over the joined flight
+(``direction_step=True``) removes the direction error (< 1e-6 rad) but turns everything after
+the seam, the landing too: 18, 85 and 129 deg, which the upright recovery cannot hide. The
+COM velocity jumps at take-off and landing are measured on the output (one-frame velocities
+either side; :func:`boundary_velocity_jumps`) and compared with the inputs' own; on the
+DeepMimic clips step 3's parabola does not match the captured take-off (the clips' flights
+are not ballistic: fitted gravity 7.8 m/s^2 for the back flip, 14.8 for the side flip), a
+1.5 m/s vertical jump. :attr:`JoinResult.seam` carries these numbers and the bounds they
+break (:data:`SEAM_LIMITS`, also in the notes).
 """
 from __future__ import annotations
 
@@ -48,7 +67,11 @@ from ..errors import JoinError
 from .pipeline import RestoreResult, three_steps
 from .restore import flight_momentum
 
-__all__ = ["JoinPart", "JoinResult", "join_flights", "load_part"]
+__all__ = ["JoinPart", "JoinResult", "join_flights", "load_part", "boundary_velocity_jumps", "SEAM_LIMITS"]
+
+
+def _fmt3(v):
+    return "(" + ", ".join(f"{x:+.2f}" for x in v) + ")"
 
 
 def _unit(v):
@@ -92,6 +115,28 @@ def _azimuth_deg(L):
     return float(np.degrees(np.arctan2(L[0], L[2])))
 
 
+#: bounds above which a join's seam evidence is flagged (:attr:`JoinResult.seam` ``["violations"]``):
+#: direction error of L (rad) over the transition, beyond the take-off part's own variation;
+#: relative |L| error (fraction, the paper's 20%: section 5.1) beyond the part's own; COM velocity
+#: jump (m/s, any component) at take-off or landing beyond the input's own jump there.
+SEAM_LIMITS = {"direction_rad": 0.1, "magnitude_frac": 0.2, "velocity_jump_m_s": 0.5}
+
+
+def boundary_velocity_jumps(com: np.ndarray, flight, fps: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(take-off, landing)`` COM velocity jumps (m/s, ``(3,)`` each) of a motion with COM
+    trajectory ``com (T, 3)`` and flight ``(start, stop)``: one-frame velocities on the airborne
+    side minus those on the ground side (take-off ``(c[a+1]-c[a]) - (c[a-1]-c[a-2])``, landing
+    ``(c[b+1]-c[b]) - (c[b-1]-c[b-2])``, times ``fps``). A smooth ballistic take-off gives about
+    ``-2 g / fps`` vertically; compare with the input's own value. NaN where the frames do not exist."""
+    a, b = int(flight[0]), int(flight[1])
+    c = np.asarray(com, dtype=float)
+    T = c.shape[0]
+    nan = np.full(3, np.nan)
+    take = (c[a + 1] - c[a] - (c[a - 1] - c[a - 2])) * fps if a >= 2 and a + 1 < T else nan
+    land = (c[b + 1] - c[b] - (c[b - 1] - c[b - 2])) * fps if b + 1 < T and b >= 2 else nan
+    return take, land
+
+
 @dataclass(frozen=True, eq=False)
 class JoinPart:
     """One input of a join, as used.
@@ -132,7 +177,16 @@ class JoinResult:
         (deg), the L elevations/azimuths before.
     seam: ``f`` (take-off part frame), ``g`` (landing part frame), ``distance`` (eq. 5.13),
         ``mean_angle_deg``, ``phi_deg`` (rotation about L spread over the take-off part),
-        ``window`` (frames), ``index`` (frame of the joined motion where ``B`` starts).
+        ``window`` (frames), ``index`` (frame of the joined motion where ``B`` starts),
+        ``root_mismatch_deg`` (body orientation difference perpendicular to L, removed by the
+        blend), and the evidence on the output: ``direction_error_seam_rad`` (largest angle
+        between L and the target over the blend window), ``direction_error_max_rad`` (whole
+        flight), ``direction_error_seam_before_rad`` (before restoration),
+        ``direction_error_own_rad`` (the take-off part's own variation), ``magnitude_error_*_frac``
+        (fractions; x100 for %), ``velocity_jump_{takeoff,landing}_m_s`` (``(3,)`` COM velocity
+        jumps, :func:`boundary_velocity_jumps`), ``..._own_m_s`` (the take-off input's at its
+        take-off, the landing input's at its landing), ``..._excess_m_s`` (largest component of
+        the difference) and ``violations`` (the :data:`SEAM_LIMITS` exceeded, in words).
     flight: ``(start, stop)`` of the joined flight before restoration.
     restore: the :class:`~mocomp.edit.RestoreResult` of the three steps (its ``stages`` are the
         per-frame errors; ``original`` is the take-off part's own flight).
@@ -167,7 +221,15 @@ class JoinResult:
             f"kg m^2/s; retimed x{self.takeoff.speed:.3f} and x{self.landing.speed:.3f} to "
             f"{np.linalg.norm(self.takeoff.L):.2f}",
             f"seam: frame {s['f']} of the take-off part ~ frame {s['g']} of the landing part, mean joint-angle "
-            f"mismatch {s['mean_angle_deg']:.1f} deg, phi {s['phi_deg']:.1f} deg about L, window {s['window']} frames",
+            f"mismatch {s['mean_angle_deg']:.1f} deg, phi {s['phi_deg']:.1f} deg about L, window {s['window']} frames, "
+            f"root mismatch {s['root_mismatch_deg']:.1f} deg (perpendicular to L)",
+            f"seam evidence (output): L direction error {s['direction_error_seam_rad']:.3f} rad at the seam "
+            f"({s['direction_error_seam_before_rad']:.3f} before restoration; take-off part's own "
+            f"{s['direction_error_own_rad']:.3f}), max |L| error {100 * s['magnitude_error_max_frac']:.1f}% "
+            f"(own {100 * s['magnitude_error_own_frac']:.1f}%); COM velocity jump take-off "
+            f"{_fmt3(s['velocity_jump_takeoff_m_s'])} (own {_fmt3(s['velocity_jump_takeoff_own_m_s'])}), landing "
+            f"{_fmt3(s['velocity_jump_landing_m_s'])} (own {_fmt3(s['velocity_jump_landing_own_m_s'])}) m/s"
+            + ("" if not s["violations"] else f"; {len(s['violations'])} bound(s) exceeded (see notes)"),
             f"landing tilt {self.landing_tilt_deg:.1f} deg"
             + (f" (eased out after touchdown; feet slide {100 * self.foot_slide:.1f} cm)" if self.foot_slide is not None
                else ""),
@@ -188,6 +250,58 @@ class JoinResult:
         return json.loads(json.dumps(d, default=float))
 
 
+def _seam_evidence(res: RestoreResult, ce, mA2, flA2, mB2, flB2, seam: dict, notes: list) -> dict:
+    """The transition's evidence: L's direction and magnitude errors over the blend window and
+    the whole flight (output and before restoration), the COM velocity jumps at take-off and
+    landing of the output against the inputs' own, and the bounds they break (:data:`SEAM_LIMITS`)."""
+    fps = res.motion.fps
+    lo, hi = (seam["index"] - 1 - seam["window"]) / fps, (seam["index"] + seam["window"]) / fps
+    st = res.stages
+    fin, ed, own = st["final"], st["edited"], st["original"]
+
+    def in_seam(e, vals):
+        m = (e.source_times >= lo) & (e.source_times <= hi)
+        return float(np.max(vals[m])) if np.any(m) else 0.0
+
+    comA = ce(mA2.root_positions, mA2.rotations)
+    comB = ce(mB2.root_positions, mB2.rotations)
+    comF = ce(res.motion.root_positions, res.motion.rotations)
+    jt, jl = boundary_velocity_jumps(comF, res.flight_out, fps)
+    jt_own = boundary_velocity_jumps(comA, flA2, fps)[0]
+    jl_own = boundary_velocity_jumps(comB, flB2, fps)[1]
+    ev = {
+        "direction_error_seam_rad": in_seam(fin, fin.direction),
+        "direction_error_max_rad": fin.max_direction,
+        "direction_error_seam_before_rad": in_seam(ed, ed.direction),
+        "direction_error_own_rad": own.max_direction,
+        "magnitude_error_seam_frac": in_seam(fin, fin.magnitude),
+        "magnitude_error_max_frac": fin.max_magnitude,
+        "magnitude_error_own_frac": own.max_magnitude,
+        "velocity_jump_takeoff_m_s": jt.tolist(), "velocity_jump_landing_m_s": jl.tolist(),
+        "velocity_jump_takeoff_own_m_s": jt_own.tolist(), "velocity_jump_landing_own_m_s": jl_own.tolist(),
+    }
+    lim = SEAM_LIMITS
+    viol = []
+    if ev["direction_error_max_rad"] > own.max_direction + lim["direction_rad"]:
+        viol.append(f"L direction error {ev['direction_error_max_rad']:.2f} rad (at the seam "
+                    f"{ev['direction_error_seam_rad']:.2f} rad) exceeds the take-off part's own variation "
+                    f"{own.max_direction:.2f} rad by more than {lim['direction_rad']:g} rad")
+    if ev["magnitude_error_max_frac"] > max(own.max_magnitude, lim["magnitude_frac"]):
+        viol.append(f"|L| error {100 * ev['magnitude_error_max_frac']:.1f}% exceeds "
+                    f"{100 * max(own.max_magnitude, lim['magnitude_frac']):.0f}% (the part's own variation or 20%)")
+    for where, j, j0 in (("take-off", jt, jt_own), ("landing", jl, jl_own)):
+        if np.all(np.isfinite(j)) and np.all(np.isfinite(j0)):
+            ex = float(np.max(np.abs(j - j0)))
+            ev[f"velocity_jump_{'takeoff' if where == 'take-off' else 'landing'}_excess_m_s"] = ex
+            if ex > lim["velocity_jump_m_s"]:
+                viol.append(f"COM velocity jump at {where} ({', '.join(f'{v:+.2f}' for v in j)}) m/s differs from "
+                            f"the input's own ({', '.join(f'{v:+.2f}' for v in j0)}) by {ex:.2f} m/s, "
+                            f"more than {lim['velocity_jump_m_s']:g}")
+    ev["violations"] = viol
+    notes.extend(f"seam check: {v}" for v in viol)
+    return ev
+
+
 def load_part(source, fps: float | None = None, resample_fps: float = 120.0, min_fps: float = 50.0) -> tuple[Motion, str]:
     """A motion from a :class:`Motion`, a file path or a clip/example name; key-framed clips
     (below ``min_fps``, e.g. DeepMimic's 16 Hz keys) are spline-resampled to ``resample_fps``."""
@@ -202,6 +316,37 @@ def load_part(source, fps: float | None = None, resample_fps: float = 120.0, min
 
         m = spline_resample(m, resample_fps)
     return m, name
+
+
+def _skeleton_difference(sa, sb, atol: float = 1e-4) -> str:
+    """What differs between two skeletons, in words ('' when they are the same within ``atol`` m)."""
+    if sa.names != sb.names:
+        if sa.n_joints != sb.n_joints:
+            only_a = [n for n in sa.names if n not in sb.names]
+            only_b = [n for n in sb.names if n not in sa.names]
+            return (f"{sa.n_joints} vs {sb.n_joints} joints (only in the first: {', '.join(only_a[:5]) or '-'}; "
+                    f"only in the second: {', '.join(only_b[:5]) or '-'})")
+        i = next(i for i, (x, y) in enumerate(zip(sa.names, sb.names)) if x != y)
+        return f"joint names differ from joint {i} on ({sa.names[i]!r} vs {sb.names[i]!r})"
+    if list(sa.parents) != list(sb.parents):
+        i = next(i for i, (x, y) in enumerate(zip(sa.parents, sb.parents)) if x != y)
+        return f"the hierarchy differs at joint {sa.names[i]!r}"
+    la = np.linalg.norm(np.asarray(sa.offsets, dtype=float), axis=1)
+    lb = np.linalg.norm(np.asarray(sb.offsets, dtype=float), axis=1)
+    d = np.abs(np.asarray(sa.offsets, dtype=float) - np.asarray(sb.offsets, dtype=float)).max(axis=1)
+    if d.max() <= atol:
+        return ""
+    root = np.asarray(sa.parents) < 0
+    bad = np.flatnonzero((d > atol) & ~root)
+    parts = []
+    if bad.size:
+        worst = bad[np.argsort(-np.abs(la[bad] - lb[bad]))][:3]
+        lens = "; ".join(f"{sa.names[i]} {100 * la[i]:.1f} vs {100 * lb[i]:.1f} cm" for i in worst)
+        parts.append(f"{bad.size} bone offsets differ by more than {1e3 * atol:g} mm (largest length differences: "
+                     f"{lens}; largest offset difference {100 * d[bad].max():.1f} cm)")
+    for i in np.flatnonzero((d > atol) & root):
+        parts.append(f"the root offset of {sa.names[i]} differs by {100 * d[i]:.1f} cm")
+    return f"same {sa.n_joints} joint names, but " + " and ".join(parts)
 
 
 def _detect(motion, body, flight):
@@ -260,6 +405,10 @@ def join_flights(takeoff, landing, *, body=None, flights=(None, None), match: st
         non-uniform motion retiming" (section 5.2); the transition's brief direction change is
         reported. Step 1 would turn the whole landing part to absorb it (a tilted landing).
     polish: final direction sweep when ``direction_step`` (see :func:`~mocomp.edit.restore_momentum`).
+
+    The seam's direction error and the take-off/landing velocity jumps are not removed (see
+    the module docstring's *Limitation*); they are measured and reported in ``seam``, and the
+    bounds they exceed are listed in ``seam["violations"]`` and the notes.
     """
     t0 = time.perf_counter()
     timings = {}
@@ -268,10 +417,10 @@ def join_flights(takeoff, landing, *, body=None, flights=(None, None), match: st
         raise ValueError(f"match must be 'takeoff', 'landing' or 'mean', got {match!r}")
     mA, nameA = load_part(takeoff)
     mB, nameB = load_part(landing)
-    if mA.skeleton.names != mB.skeleton.names or not np.allclose(mA.skeleton.offsets, mB.skeleton.offsets,
-                                                                   atol=1e-4):
-        raise JoinError(f"{nameA} and {nameB} have different skeletons ({mA.skeleton.n_joints} vs "
-                        f"{mB.skeleton.n_joints} joints); joining needs one body model: retarget first")
+    why = _skeleton_difference(mA.skeleton, mB.skeleton)
+    if why:
+        raise JoinError(f"{nameA} and {nameB} have different skeletons: {why}; joining needs one body model "
+                        "(the same joints and bone lengths): retarget one onto the other first")
     if mB.fps != mA.fps:
         mB = mB.resample(mA.fps)
         notes.append(f"{nameB} resampled to {mA.fps:g} Hz")
@@ -429,6 +578,7 @@ def join_flights(takeoff, landing, *, body=None, flights=(None, None), match: st
     out = res.motion
     tilt_land = res.landing_tilt_deg
     slide = res.foot_slide
+    seam.update(_seam_evidence(res, ce, mA2, flA2, mB2, flB2, seam, notes))
     timings["total"] = time.perf_counter() - t0
     partA = JoinPart(nameA, mA2, flA2, LA2, LA0, np.array([0.0, 0.0, 0.0, 1.0]), sA)
     partB = JoinPart(nameB, mB2, flB2, LB2, LB0, q_B, sB)
