@@ -18,7 +18,9 @@ def test_edit_writes_bvh_report_and_plot(tmp_path, capsys):
     assert m.skeleton.n_joints == 31 and m.n_frames > 250
     d = json.loads(rep.read_text())
     assert d["max_errors"]["direction"]["direction_rad"] < 0.01
-    assert d["max_errors"]["magnitude"]["magnitude"] < 0.05
+    assert d["max_errors"]["magnitude"]["magnitude_frac"] < 0.05
+    assert d["max_errors"]["magnitude"]["magnitude_percent"] == 100 * d["max_errors"]["magnitude"]["magnitude_frac"]
+    assert "max |L| err (%)" in capsys.readouterr().out
     assert png.stat().st_size > 10_000
     assert "after step" not in capsys.readouterr().err
 

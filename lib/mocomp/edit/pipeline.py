@@ -86,8 +86,9 @@ class StageErrors:
     def as_dict(self) -> dict:
         return {"stage": self.stage, "frames": self.frames.tolist(), "time_s": self.times.tolist(),
                 "phase": self.phase.tolist(), "source_time_s": self.source_times.tolist(),
-                "direction_error_rad": self.direction.tolist(), "magnitude_error": self.magnitude.tolist(),
-                "max_direction_error_rad": self.max_direction, "max_magnitude_error": self.max_magnitude}
+                "direction_error_rad": self.direction.tolist(), "magnitude_error_frac": self.magnitude.tolist(),
+                "max_direction_error_rad": self.max_direction, "max_magnitude_error_frac": self.max_magnitude,
+                "max_magnitude_error_percent": 100.0 * self.max_magnitude}
 
 
 @dataclass(frozen=True, eq=False)
@@ -183,7 +184,9 @@ class RestoreResult:
         return "\n".join(lines)
 
     def report(self, curves: bool = True) -> dict:
-        """A JSON-serialisable report (numbers, and the per-frame curves when ``curves``)."""
+        """A JSON-serialisable report (numbers, and the per-frame curves when ``curves``).
+        Direction errors are in radians (``*_rad``), relative magnitude errors of ``|L|`` as
+        fractions (``*_frac``; ``*_percent`` where a percentage is given too)."""
         p = self.linear.plan
         d = {
             "flight": list(self.flight), "flight_out": list(self.flight_out),
@@ -210,8 +213,10 @@ class RestoreResult:
             "platform": None if self.linear.platform is None else {
                 "top": self.linear.platform.top, "clearance": self.linear.platform.clearance,
                 "extra_speed": self.linear.platform.extra_speed},
-            "max_errors": {n: {"direction_rad": e.max_direction, "magnitude": e.max_magnitude,
-                               "rms_magnitude": e.rms_magnitude} for n, e in self.stages.items()},
+            # relative |L| errors as fractions (x100 for %; the summary prints %)
+            "max_errors": {n: {"direction_rad": e.max_direction, "magnitude_frac": e.max_magnitude,
+                               "magnitude_percent": 100.0 * e.max_magnitude,
+                               "rms_magnitude_frac": e.rms_magnitude} for n, e in self.stages.items()},
             "timings_s": dict(self.timings), "notes": list(self.notes),
         }
         if curves:
