@@ -174,6 +174,256 @@ def test_real_units_are_recorded(real_data_dir):
     assert slow.fps == 60 and slow.source.header_fps == pytest.approx(120.0, rel=1e-4)
 
 
+# ------------------------------------------------------------------ static root (Bandai joint_Root)
+def reference_bvh_positions(text: str) -> tuple[list[str], np.ndarray]:
+    """Joint names and world positions ``(T, J, 3)`` (file units) of BVH text, computed
+    independently of mocomp: every joint of the file (no restructuring), position
+    channels replace the OFFSET (as Bandai writes them), intrinsic Euler in channel order."""
+    head, _, rest = text.partition("MOTION")
+    names, parents, offsets, chans, stack, pending = [], [], [], [], [], None
+    for line in head.splitlines():
+        t = line.split()
+        if not t:
+            continue
+        if t[0] in ("ROOT", "JOINT"):
+            names.append(t[1])
+            parents.append(stack[-1] if stack else -1)
+            offsets.append(None)
+            chans.append(())
+            pending = len(names) - 1
+        elif t[0] == "End":
+            pending = -1
+        elif t[0] == "{":
+            stack.append(pending)
+        elif t[0] == "}":
+            stack.pop()
+        elif t[0] == "OFFSET" and stack[-1] != -1:
+            offsets[stack[-1]] = np.array([float(x) for x in t[1:4]])
+        elif t[0] == "CHANNELS":
+            chans[stack[-1]] = tuple(t[2:])
+    block = rest.split("\n", 3)[3] if "\r" not in rest else rest.replace("\r", "").split("\n", 3)[3]
+    data = np.array([[float(x) for x in ln.split()] for ln in block.splitlines() if ln.strip()])
+    T, J = len(data), len(names)
+    pos = np.zeros((T, J, 3))
+    glob = [None] * J
+    col = 0
+    for j in range(J):
+        ch = chans[j]
+        v = data[:, col:col + len(ch)]
+        col += len(ch)
+        local = np.tile(offsets[j], (T, 1))
+        if "Xposition" in ch:
+            local = np.column_stack([v[:, ch.index(a)] for a in ("Xposition", "Yposition", "Zposition")])
+        rc = [c for c in ch if c.endswith("rotation")]
+        r = Rotation.from_euler("".join(c[0] for c in rc), v[:, [ch.index(c) for c in rc]], degrees=True) \
+            if rc else Rotation.identity(T)
+        if parents[j] < 0:
+            pos[:, j] = local
+            glob[j] = r
+        else:
+            p = parents[j]
+            pos[:, j] = pos[:, p] + glob[p].apply(local)
+            glob[j] = glob[p] * r
+    return names, pos
+
+
+def hierarchy_outline(text: str) -> list[str]:
+    """ROOT/JOINT/End Site lines and channel lists, in file order, whitespace normalised."""
+    out = []
+    for line in text.partition("MOTION")[0].splitlines():
+        t = line.split()
+        if t and t[0] in ("ROOT", "JOINT", "End", "CHANNELS", "{", "}"):
+            out.append(" ".join(t))
+    return out
+
+
+def hierarchy_offsets(text: str) -> np.ndarray:
+    return np.array([[float(x) for x in ln.split()[1:]] for ln in text.partition("MOTION")[0].splitlines()
+                     if ln.split()[:1] == ["OFFSET"]])
+
+
+def bandai_style_text(T: int = 6, root_values=(0, 0, 0, 0, 0, 0), seed: int = 3) -> str:
+    """A generated Bandai-style file (cm, 30 Hz): a static 6-channel ``joint_Root`` above a
+    translating ``Hips``; every joint has 6 channels whose positions equal the offsets."""
+    rng = np.random.default_rng(seed)
+    names = ["joint_Root", "Hips", "Spine", "Head", "UpLeg_L", "Leg_L", "UpLeg_R", "Leg_R"]
+    parents = [-1, 0, 1, 2, 1, 4, 1, 6]
+    off = np.array([[0, 0, 0], [1.5, 93.0, -0.5], [0, 25, 0], [0, 40, 2], [9, -5, 0], [0, -45, 0],
+                    [-9, -5, 0], [0, -45, 0]], dtype=float)
+    ends = {3: [0, 15, 0], 5: [0, -42, 5], 7: [0, -42, 5]}
+    ch6 = "CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation"
+    lines = ["HIERARCHY"]
+
+    def emit(j, d):
+        ind = "  " * d
+        lines.extend([f"{ind}{'ROOT' if j == 0 else 'JOINT'} {names[j]}", f"{ind}{{",
+                      f"{ind}  OFFSET {off[j, 0]:g} {off[j, 1]:g} {off[j, 2]:g}", f"{ind}  {ch6}"])
+        for c in [k for k in range(len(names)) if parents[k] == j]:
+            emit(c, d + 1)
+        if j in ends:
+            e = ends[j]
+            lines.extend([f"{ind}  End Site", f"{ind}  {{", f"{ind}    OFFSET {e[0]} {e[1]} {e[2]}", f"{ind}  }}"])
+        lines.append(f"{ind}}}")
+
+    emit(0, 0)
+    order = [0, 1, 2, 3, 4, 5, 6, 7]
+    lines += ["MOTION", f"Frames:\t{T}", "Frame Time:\t0.0333333"]
+    for t in range(T):
+        row = []
+        for j in order:
+            if j == 0:
+                row += list(root_values)
+            elif j == 1:
+                row += [3.0 * t + 1.5, 93.0 + np.sin(t), -0.5 + 2.0 * t] + list(rng.uniform(-30, 30, 3))
+            else:
+                row += list(off[j]) + list(rng.uniform(-40, 40, 3))
+        lines.append(" ".join(f"{v:.6g}" for v in row))
+    return "\n".join(lines) + "\n"
+
+
+def _check_static_root_round_trip(src_text: str, tmp_path, n_file_joints: int):
+    src = tmp_path / "src.bvh"
+    src.write_text(src_text)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UnitWarning)
+        m = read_bvh(src, scale="cm")
+    # the loaded model is unchanged: rooted at Hips, one joint fewer, the removal recorded
+    assert m.skeleton.names[0] == "Hips" and m.skeleton.n_joints == n_file_joints - 1
+    rr = m.skeleton.removed_root
+    assert rr is not None and rr.name == "joint_Root" and len(rr.channels) == 6
+    out = write_bvh(m, tmp_path / "out.bvh", scale=0.01)  # write in the file's unit (cm)
+    text_out = out.read_text()
+    # hierarchy and channel layout of the file, offsets equal (in cm)
+    assert hierarchy_outline(text_out) == hierarchy_outline(src_text)
+    assert hierarchy_outline(text_out)[0] == "ROOT joint_Root"
+    assert sum(ln.startswith("CHANNELS") for ln in hierarchy_outline(text_out)) == n_file_joints
+    np.testing.assert_allclose(hierarchy_offsets(text_out), hierarchy_offsets(src_text), atol=1e-4)  # 1e-6 m
+    n_cols = len(text_out.rstrip("\n").split("\n")[-1].split())
+    assert n_cols == 6 * n_file_joints
+    # every joint's position, joint_Root included, from an independent FK of both files
+    names_a, pa = reference_bvh_positions(src_text)
+    names_b, pb = reference_bvh_positions(text_out)
+    assert names_a == names_b
+    assert np.abs(pa - pb).max() * 0.01 < 1e-6
+    # and our reader agrees with that FK on the original (21 of the 22 joints)
+    idx = [names_a.index(n) for n in m.skeleton.names]
+    assert np.abs(m.positions - pa[:, idx] * 0.01).max() < 1e-6
+    back = read_bvh(out, scale="cm")
+    assert back.skeleton.names == m.skeleton.names and back.skeleton.removed_root is not None
+    assert_same_pose(m, back, atol=1e-6)
+    # option to drop: the file then starts at Hips, 21 joints, same positions
+    dropped = format_bvh(m, scale=0.01, restore_root=False)
+    assert hierarchy_outline(dropped)[0] == "ROOT Hips"
+    assert sum(ln.startswith("CHANNELS") for ln in hierarchy_outline(dropped)) == n_file_joints - 1
+    assert_same_pose(m, parse_bvh(dropped, scale="cm"), atol=1e-6)
+    return m
+
+
+def test_static_root_is_written_again_synthetic(tmp_path):
+    m = _check_static_root_round_trip(bandai_style_text(), tmp_path, 8)
+    assert m.skeleton.removed_root.constant
+    np.testing.assert_array_equal(m.skeleton.removed_root.values, 0.0)
+
+
+def test_static_root_with_a_non_identity_transform(tmp_path):
+    """A root with a (constant) translation and rotation: the writer puts the rest of the motion
+    into Hips' channels relative to it, and every joint lands where it was."""
+    _check_static_root_round_trip(bandai_style_text(root_values=(5, -2, 7, 30, -20, 45)), tmp_path, 8)
+
+
+def test_moving_root_keeps_positions(tmp_path):
+    """joint_Root translating over the clip (as in bandai1_run_normal_001): the first frame's
+    values are written on every frame, Hips takes the rest; positions still reproduced."""
+    text = bandai_style_text()
+    head, data = text.split("Frame Time:\t0.0333333\n")
+    rows = [ln.split() for ln in data.splitlines()]
+    for k, r in enumerate(rows):
+        r[2] = str(-20.0 * k)
+        r[4] = str(3.0 * k)
+    text = head + "Frame Time:\t0.0333333\n" + "\n".join(" ".join(r) for r in rows) + "\n"
+    src = tmp_path / "src.bvh"
+    src.write_text(text)
+    m = read_bvh(src, scale="cm", height_check=False)
+    assert not m.skeleton.removed_root.constant
+    out = write_bvh(m, tmp_path / "o.bvh", scale=0.01)
+    assert hierarchy_outline(out.read_text()) == hierarchy_outline(text)
+    _, pa = reference_bvh_positions(text)
+    _, pb = reference_bvh_positions(out.read_text())
+    assert np.abs(pa[:, 1:] - pb[:, 1:]).max() * 0.01 < 1e-6  # every joint below joint_Root
+
+
+def test_removed_root_scales_and_survives_edits(tmp_path):
+    m = parse_bvh(bandai_style_text(root_values=(5, -2, 7, 30, -20, 45)), scale="cm")
+    rr = m.skeleton.removed_root
+    np.testing.assert_allclose(rr.values, [0.05, -0.02, 0.07, 30, -20, 45])  # metres / degrees
+    np.testing.assert_allclose(rr.child_offset, [0.015, 0.93, -0.005])
+    assert m.skeleton.scaled(2.0).removed_root.values[0] == pytest.approx(0.1)
+    assert m.skeleton.scaled(2.0).removed_root.values[3] == 30
+    # equality ignores it (no joint moves); slicing and mirroring keep it, and stay exact
+    assert m.skeleton == m.skeleton.without_removed_root()
+    for edited in (m[2:5], m.mirrored()):
+        assert edited.skeleton.removed_root is not None
+        back = parse_bvh(format_bvh(edited, scale=0.01), scale="cm")
+        assert_same_pose(edited, back, atol=1e-6)
+
+
+def test_static_root_not_restored_when_hips_would_not_read_back_as_moving():
+    """One frame (or a motion standing still): the reader would keep joint_Root, so the writer
+    leaves it out and the file reads back with the same 7 joints."""
+    m = parse_bvh(bandai_style_text(), scale="cm")
+    for still in (m[:1], m.replace(root_positions=np.repeat(m.root_positions[2:3], m.n_frames, axis=0))):
+        text = format_bvh(still, scale=0.01)
+        assert hierarchy_outline(text)[0] == "ROOT Hips"
+        back = parse_bvh(text, scale="cm", height_check=False)
+        assert back.skeleton.names == m.skeleton.names
+        assert_same_pose(still, back, atol=1e-6)
+
+
+@pytest.mark.realdata
+def test_real_bandai_clip_hierarchy_channels_and_positions(real_data_dir, tmp_path):
+    """bandai1_run_normal_001: 22 joints in the file (joint_Root moves 2 m in it), 21 loaded;
+    write_bvh gives the file's hierarchy and 132 channels back, every joint within 1e-6 m."""
+    f = real_data_dir / "walks" / "bandai1_run_normal_001.bvh"
+    src = f.read_text()
+    assert sum(ln.split()[:1] == ["CHANNELS"] for ln in src.splitlines()) == 22
+    m = read_bvh(f)
+    assert m.skeleton.n_joints == 21 and m.skeleton.names[0] == "Hips"
+    out = write_bvh(m, tmp_path / "o.bvh", scale=0.01)
+    text_out = out.read_text()
+    assert hierarchy_outline(text_out) == hierarchy_outline(src)
+    np.testing.assert_allclose(hierarchy_offsets(text_out), hierarchy_offsets(src), atol=1e-4)  # cm
+    assert len(text_out.rstrip("\n").split("\n")[-1].split()) == 132
+    names_a, pa = reference_bvh_positions(src)
+    names_b, pb = reference_bvh_positions(text_out)
+    assert names_a == names_b and len(names_a) == 22
+    # joint_Root itself is written static (first frame); every joint below it is exact
+    assert np.abs(pa[:, 1:] - pb[:, 1:]).max() * 0.01 < 1e-6
+    # the CLI's convert reproduces it too (metres by default)
+    from mocomp.cli import main
+
+    assert main(["convert", str(f), str(tmp_path / "c.bvh")]) == 0
+    conv = (tmp_path / "c.bvh").read_text()
+    assert hierarchy_outline(conv) == hierarchy_outline(src)
+    _, pc = reference_bvh_positions(conv)
+    assert np.abs(pa[:, 1:] * 0.01 - pc[:, 1:]).max() < 1e-6
+    assert main(["convert", str(f), str(tmp_path / "d.bvh"), "--drop-static-root"]) == 0
+    assert hierarchy_outline((tmp_path / "d.bvh").read_text())[0] == "ROOT Hips"
+
+
+@pytest.mark.realdata
+def test_real_bandai_static_root_clip_exact_joint_root(real_data_dir, tmp_path):
+    """A clip whose joint_Root stays at zero: all 22 joints, joint_Root too, within 1e-6 m."""
+    f = real_data_dir / "walks" / "bandai2_walk-turn-left_normal_001.bvh"
+    src = f.read_text()
+    m = read_bvh(f)
+    assert m.skeleton.removed_root.constant
+    text_out = format_bvh(m, scale=0.01)
+    assert hierarchy_outline(text_out) == hierarchy_outline(src)
+    _, pa = reference_bvh_positions(src)
+    _, pb = reference_bvh_positions(text_out)
+    assert np.abs(pa - pb).max() * 0.01 < 1e-6
+
+
 # ------------------------------------------------------------------ Euler conventions
 @pytest.mark.parametrize("seq", ORDERS + ["ZXZ", "XYX", "XY", "Z"])
 def test_euler_conversion_matches_scipy(seq):

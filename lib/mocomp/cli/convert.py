@@ -18,6 +18,9 @@ def register(sub) -> None:
                    help="metres per output file unit, or a unit name (default 1: metres)")
     p.add_argument("--precision", type=int, default=8, metavar="N",
                    help="decimals written per value (default 8: round trips within 1e-6 m)")
+    p.add_argument("--drop-static-root", action="store_true",
+                   help="do not write back the static root joint that loading removed (Bandai's joint_Root "
+                        "above Hips); by default the output keeps the input's hierarchy and channel layout")
     p.set_defaults(func=run)
 
 
@@ -35,7 +38,7 @@ def run(args) -> int:
         raise ValueError(f"--precision must be 1-15 decimals, got {args.precision}")
     scale = UNITS[args.out_scale] if isinstance(args.out_scale, str) else float(args.out_scale)
     m = load_from_args(args)
-    write_bvh(m, out, scale=scale, precision=args.precision)
+    write_bvh(m, out, scale=scale, precision=args.precision, restore_root=not args.drop_static_root)
     print(f"wrote {out}: {m.skeleton.n_joints} joints, {m.n_frames} frames at {m.fps:g} fps, "
           f"{scale:g} m per file unit")
     return 0

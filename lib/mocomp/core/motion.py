@@ -338,7 +338,7 @@ class Motion:
         same = np.allclose(offsets, sk.offsets, rtol=0, atol=1e-12) and all(
             a.parent == b.parent and np.allclose(a.offset, b.offset, rtol=0, atol=1e-12) for a, b in zip(ends, sk.end_sites)
         )
-        new_sk = sk if same else Skeleton(sk.names, sk.parents, offsets, sk.channels, tuple(ends))
+        new_sk = sk if same else Skeleton(sk.names, sk.parents, offsets, sk.channels, tuple(ends), sk.removed_root)
         q = self.rotations[:, m]
         # Reflection R -> S R S: for reflection across axis a, the quaternion vector
         # part keeps its a-component sign and negates the other two.

@@ -7,7 +7,7 @@ import numpy as np
 
 from ..errors import MotionFormatError
 
-__all__ = ["Skeleton", "EndSite"]
+__all__ = ["Skeleton", "EndSite", "RemovedRoot"]
 
 ROOT_CHANNELS = ("Xposition", "Yposition", "Zposition", "Zrotation", "Xrotation", "Yrotation")
 JOINT_CHANNELS = ("Zrotation", "Xrotation", "Yrotation")
@@ -39,6 +39,87 @@ class EndSite:
         object.__setattr__(self, "offset", _frozen(np.reshape(self.offset, 3)))
 
 
+_POSITIONS = ("Xposition", "Yposition", "Zposition")
+_ROTATIONS = ("Xrotation", "Yrotation", "Zrotation")
+
+
+@dataclass(frozen=True, eq=False)
+class RemovedRoot:
+    """A static BVH root joint that the reader folded into its only child.
+
+    The Bandai Namco files put a ``joint_Root`` (offset 0, six channels, all zero)
+    above ``Hips``, whose position channels carry the root motion. The BVH reader
+    removes it (the loaded skeleton is rooted at ``Hips``) and keeps this record so
+    that :func:`mocomp.io.write_bvh` writes the file's hierarchy and channel layout
+    again. Any constant root transform reproduces every joint position exactly: the
+    writer puts the remaining motion into the child's channels.
+
+    Attributes
+    ----------
+    name: the removed joint's name (``"joint_Root"``).
+    offset: ``(3,)`` metres, its ``OFFSET``.
+    channels: its channel names as loaded, e.g. ``("Xposition", ..., "Yrotation")``.
+    values: ``(len(channels),)`` its channel values on the first frame, in channel
+        order: positions in metres, rotations in degrees (the writer repeats them on
+        every frame).
+    child_offset: ``(3,)`` metres, the ``OFFSET`` line of the child that became the
+        root (BVH readers ignore it: the child's position channels replace it).
+    constant: whether the file's values were the same on every frame (``False``
+        for a root that moved; the joint positions are reproduced either way).
+    """
+
+    name: str
+    offset: np.ndarray
+    channels: tuple[str, ...]
+    values: np.ndarray
+    child_offset: np.ndarray
+    constant: bool = True
+
+    def __post_init__(self):
+        chans = tuple(str(c) for c in self.channels)
+        bad = [c for c in chans if c not in _VALID_CHANNELS]
+        if bad or len(set(chans)) != len(chans):
+            raise MotionFormatError(f"removed root {self.name!r}: bad channel list {chans}")
+        values = _frozen(np.reshape(self.values, -1))
+        if values.shape != (len(chans),):
+            raise MotionFormatError(
+                f"removed root {self.name!r}: {values.size} channel values for {len(chans)} channels")
+        offset = _frozen(np.reshape(self.offset, 3))
+        child = _frozen(np.reshape(self.child_offset, 3))
+        if not (np.all(np.isfinite(values)) and np.all(np.isfinite(offset)) and np.all(np.isfinite(child))):
+            raise MotionFormatError(f"removed root {self.name!r}: non-finite offset or channel value")
+        object.__setattr__(self, "name", str(self.name))
+        object.__setattr__(self, "channels", chans)
+        object.__setattr__(self, "values", values)
+        object.__setattr__(self, "offset", offset)
+        object.__setattr__(self, "child_offset", child)
+        object.__setattr__(self, "constant", bool(self.constant))
+
+    def scaled(self, factor: float) -> "RemovedRoot":
+        """A copy with lengths (offsets, position values) multiplied by ``factor``."""
+        f = np.array([factor if c in _POSITIONS else 1.0 for c in self.channels])
+        return RemovedRoot(self.name, self.offset * factor, self.channels, self.values * f,
+                           self.child_offset * factor, self.constant)
+
+    def transform(self) -> tuple[np.ndarray, np.ndarray]:
+        """The removed joint's global ``(position (3,), unit quaternion (4,))``: its
+        offset plus its position channels, and the rotation of its rotation channels
+        (intrinsic, in channel order, as a BVH reader composes them)."""
+        from scipy.spatial.transform import Rotation
+
+        from .rotations import euler_sequence
+
+        pos = np.array(self.offset, dtype=float)
+        for c, v in zip(self.channels, self.values):
+            if c in _POSITIONS:
+                pos[_POSITIONS.index(c)] += v
+        rot_ch = [c for c in self.channels if c in _ROTATIONS]
+        if not rot_ch:
+            return pos, np.array([0.0, 0.0, 0.0, 1.0])
+        angles = [v for c, v in zip(self.channels, self.values) if c in _ROTATIONS]
+        return pos, Rotation.from_euler(euler_sequence(rot_ch), angles, degrees=True).as_quat()
+
+
 @dataclass(frozen=True, eq=False)
 class Skeleton:
     """A kinematic tree in its rest pose (all local rotations identity).
@@ -52,6 +133,10 @@ class Skeleton:
     channels: per joint, the channel names as loaded (BVH spelling, e.g.
         ``("Zrotation", "Xrotation", "Yrotation")``); BVH export reproduces them.
     end_sites: the end sites (leaf points), for body-segment lengths and drawing.
+    removed_root: the static root joint the BVH reader removed above joint 0
+        (:class:`RemovedRoot`, e.g. Bandai's ``joint_Root``), re-emitted by the BVH
+        writer; ``None`` for every other skeleton. Not part of equality: it
+        changes no joint position.
     """
 
     names: tuple[str, ...]
@@ -59,6 +144,7 @@ class Skeleton:
     offsets: np.ndarray
     channels: tuple[tuple[str, ...], ...] = None  # type: ignore[assignment]
     end_sites: tuple[EndSite, ...] = ()
+    removed_root: RemovedRoot | None = None
     _index: dict = field(default=None, repr=False, compare=False)  # type: ignore[assignment]
 
     def __post_init__(self):
@@ -100,6 +186,11 @@ class Skeleton:
         for e in self.end_sites:
             if not (0 <= e.parent < J):
                 raise MotionFormatError(f"end site {e.name!r} hangs from joint index {e.parent}, out of range")
+        if self.removed_root is not None:
+            if not isinstance(self.removed_root, RemovedRoot):
+                raise MotionFormatError(f"removed_root must be a RemovedRoot, got {type(self.removed_root).__name__}")
+            if self.removed_root.name in seen:
+                raise MotionFormatError(f"removed root {self.removed_root.name!r} is also a joint of the skeleton")
         object.__setattr__(self, "names", names)
         object.__setattr__(self, "parents", parents)
         object.__setattr__(self, "offsets", offsets)
@@ -178,10 +269,15 @@ class Skeleton:
             self.offsets * factor,
             self.channels,
             tuple(EndSite(e.parent, e.offset * factor, e.name) for e in self.end_sites),
+            None if self.removed_root is None else self.removed_root.scaled(factor),
         )
 
     def with_channels(self, channels) -> "Skeleton":
-        return Skeleton(self.names, self.parents, self.offsets, channels, self.end_sites)
+        return Skeleton(self.names, self.parents, self.offsets, channels, self.end_sites, self.removed_root)
+
+    def without_removed_root(self) -> "Skeleton":
+        """The same skeleton with no :attr:`removed_root` (BVH export then starts at joint 0)."""
+        return Skeleton(self.names, self.parents, self.offsets, self.channels, self.end_sites)
 
     def mirror_map(self) -> np.ndarray:
         """``(J,)`` index of each joint's left/right counterpart (itself if none).

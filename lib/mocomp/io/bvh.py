@@ -3,6 +3,12 @@
 Supports any rotation-channel order per joint, 3- and 6-channel joints (non-root
 position channels must be constant and then replace the OFFSET, as in the
 Bandai Namco files), End Sites, any frame time, CRLF or LF line ends.
+
+A static root whose only child carries the root motion (Bandai's ``joint_Root``
+above ``Hips``) is removed on reading -- the loaded skeleton is rooted at the
+child -- and recorded as :attr:`Skeleton.removed_root`; the writer re-emits it
+by default (``restore_root=False`` drops it), so read -> write reproduces the
+file's hierarchy, channel layout and joint positions.
 Lengths are converted to metres on reading (``scale``) and recorded in
 ``Motion.source``; the writer writes metres unless told otherwise.
 """
@@ -18,13 +24,15 @@ from scipy.spatial.transform import Rotation
 
 from ..core.motion import Motion, SourceInfo
 from ..core.rotations import euler_sequence
-from ..core.skeleton import EndSite, Skeleton
+from ..core.skeleton import EndSite, RemovedRoot, Skeleton
 from ..errors import MotionFormatError
 from .units import HEIGHT_RANGE, check_height, resolve_scale, standing_height
 
 __all__ = ["read_bvh", "write_bvh", "parse_bvh", "format_bvh"]
 
 _POS = ("Xposition", "Yposition", "Zposition")
+#: relative spread above which a non-root joint's position channels count as moving
+_MOVING_TOL = 1e-6
 _ROT = ("Xrotation", "Yrotation", "Zrotation")
 
 
@@ -259,7 +267,7 @@ def _parse(head: str, raw: bytes, start: int, path, scale, fps, height_check) ->
             else:
                 spread = np.ptp(pvals, axis=0).max()
                 ref = np.abs(pvals).max() + 1.0
-                if spread > 1e-6 * ref:
+                if spread > _MOVING_TOL * ref:
                     moving.append(j)
                     moving_pos[j] = pvals
                 off[j] = pvals[0]
@@ -276,6 +284,7 @@ def _parse(head: str, raw: bytes, start: int, path, scale, fps, height_check) ->
         _euler_columns_to_quat(seq, [data[:, _as_slice(ca[:, k])] for k in range(ca.shape[1])], rots, js)
 
     notes = []
+    removed = None
     parents_arr = np.array(parents)
     if moving:
         # Only supported shape: a static root (e.g. Bandai's joint_Root) whose single
@@ -292,8 +301,12 @@ def _parse(head: str, raw: bytes, start: int, path, scale, fps, height_check) ->
         rots[:, j] = quat_multiply(q0, rots[:, j])
         off[j] = 0.0
         keep = np.arange(1, J)
+        k0 = len(channels[0])
+        removed = RemovedRoot(names[0], offsets[0], channels[0], data[0, :k0], offsets[j],
+                              constant=bool(np.all(data[:, :k0] == data[0, :k0])))
         notes.append(f"root joint {names[0]!r} removed; its transform was folded into {names[j]!r}, which "
-                     "carries the root motion and became the root")
+                     "carries the root motion and became the root (kept as skeleton.removed_root: "
+                     "write_bvh writes it again)")
         end_sites = [(p - 1, o, nm) for p, o, nm in end_sites if p != 0]
         names = [names[k] for k in keep]
         parents_arr = np.array([-1] + [parents[k] - 1 for k in keep[1:]])
@@ -303,7 +316,7 @@ def _parse(head: str, raw: bytes, start: int, path, scale, fps, height_check) ->
         root_pos = root_pos + 0.0
     sk_file = Skeleton(
         tuple(names), parents_arr, off, tuple(channels),
-        tuple(EndSite(p, o, nm) for p, o, nm in end_sites),
+        tuple(EndSite(p, o, nm) for p, o, nm in end_sites), removed,
     )
     step = max(1, n_frames // 64)  # the height estimate needs only a sample of frames
 
@@ -465,13 +478,47 @@ def _fmt(values: np.ndarray, precision: int) -> list[str]:
     return [row % tuple(r) for r in values.tolist()]
 
 
-def format_bvh(motion: Motion, scale: float = 1.0, precision: int = 8, channels=None) -> str:
+def format_bvh(motion: Motion, scale: float = 1.0, precision: int = 8, channels=None,
+               restore_root: bool = True) -> str:
     """BVH text for ``motion``. Lengths are written in file units of ``scale``
     metres (default 1: metres). ``channels`` overrides the per-joint channel layout
-    (default: the skeleton's, as loaded)."""
+    (default: the skeleton's, as loaded).
+
+    ``restore_root`` (default): when the skeleton records a static root the reader
+    removed (:attr:`Skeleton.removed_root`, Bandai's ``joint_Root``), write it again
+    as the ROOT, with its offset, channels and (constant) channel values, and joint 0
+    below it as a JOINT with the file's OFFSET line. Joint 0's channels then hold the
+    motion relative to that constant transform ``(p_R, q_R)``: position
+    ``q_R^-1 (root - p_R)``, rotation ``q_R^-1 q_0``, so every joint position is
+    reproduced exactly whatever ``(p_R, q_R)`` is. The root is not restored when
+    joint 0 lacks its three position channels or does not translate over the clip
+    (the reader would then keep the static root, so the file would read back with
+    one joint more): ``read_bvh(write_bvh(m))`` always has ``m``'s joints.
+    ``False``: start the file at joint 0.
+    """
     sk = motion.skeleton
     chans = sk.channels if channels is None else tuple(tuple(c) for c in channels)
     inv = 1.0 / scale
+    rr = sk.removed_root if restore_root else None
+    if rr is not None and not all(a in chans[0] for a in _POS):
+        rr = None
+    root_pos_ch = motion.root_positions - sk.offsets[0]  # joint 0's position channel values (metres)
+    root_rot = motion.rotations[:, 0]
+    if rr is not None:
+        from ..core.rotations import quat_apply, quat_inverse, quat_multiply
+
+        p_r, q_r = rr.transform()
+        q_inv = quat_inverse(q_r)
+        local = quat_apply(q_inv, motion.root_positions - p_r)
+        pv = local * inv
+        # The reader folds the root only when joint 0's position channels change over the
+        # clip; when they would not (one frame, a motion standing still) the file would
+        # read back with one joint more, so the root is not restored.
+        if np.ptp(pv, axis=0).max() > _MOVING_TOL * 10 * (np.abs(pv).max() + 1.0):
+            root_pos_ch = local
+            root_rot = quat_multiply(q_inv, root_rot)
+        else:
+            rr = None
     out = ["HIERARCHY"]
     kids = {j: [] for j in range(sk.n_joints)}
     for j in range(1, sk.n_joints):
@@ -486,9 +533,9 @@ def format_bvh(motion: Motion, scale: float = 1.0, precision: int = 8, channels=
     def emit(j: int, depth: int):
         order.append(j)
         ind = "\t" * depth
-        out.append(f"{ind}{'ROOT' if j == 0 else 'JOINT'} {sk.names[j]}")
+        out.append(f"{ind}{'ROOT' if depth == 0 else 'JOINT'} {sk.names[j]}")
         out.append(f"{ind}{{")
-        o = sk.offsets[j] * inv
+        o = (rr.child_offset if (rr is not None and j == 0) else sk.offsets[j]) * inv
         out.append(f"{ind}\tOFFSET " + " ".join(num % v for v in o))
         out.append(f"{ind}\tCHANNELS {len(chans[j])} " + " ".join(chans[j]))
         for c in kids[j]:
@@ -500,9 +547,19 @@ def format_bvh(motion: Motion, scale: float = 1.0, precision: int = 8, channels=
             out.append(f"{ind}\t}}")
         out.append(f"{ind}}}")
 
-    emit(0, 0)
     T = motion.n_frames
     cols = []
+    if rr is not None:
+        out.append(f"ROOT {rr.name}")
+        out.append("{")
+        out.append("\tOFFSET " + " ".join(num % v for v in rr.offset * inv))
+        out.append(f"\tCHANNELS {len(rr.channels)} " + " ".join(rr.channels))
+        emit(0, 1)
+        out.append("}")
+        for c, v in zip(rr.channels, rr.values):
+            cols.append(np.full(T, v * inv if c in _POS else v))
+    else:
+        emit(0, 0)
     for j in order:
         ch = chans[j]
         rot_ch = [c for c in ch if c in _ROT]
@@ -514,7 +571,8 @@ def format_bvh(motion: Motion, scale: float = 1.0, precision: int = 8, channels=
             full = seq + "".join(a for a in "XYZ" if a not in seq)
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")  # gimbal lock: angles differ, rotation is exact
-                eul = Rotation.from_quat(motion.rotations[:, j]).as_euler(full, degrees=True)
+                q = root_rot if j == 0 else motion.rotations[:, j]
+                eul = Rotation.from_quat(q).as_euler(full, degrees=True)
             if len(seq) < 3:
                 extra = np.abs(eul[:, len(seq):]).max()
                 if extra > 1e-6:
@@ -522,13 +580,13 @@ def format_bvh(motion: Motion, scale: float = 1.0, precision: int = 8, channels=
                         f"joint {sk.names[j]!r} rotates up to {extra:.3g} deg about axes its channels {ch} lack; "
                         "pass channels=... with three rotation channels")
                 eul = eul[:, :len(seq)]
-        elif not np.allclose(np.abs(motion.rotations[:, j, 3]), 1.0, atol=1e-12):
+        elif not np.allclose(np.abs((root_rot if j == 0 else motion.rotations[:, j])[:, 3]), 1.0, atol=1e-12):
             raise MotionFormatError(f"joint {sk.names[j]!r} rotates but its channel layout {ch} has no rotation channels")
         for c in ch:
             if c in _POS:
                 a = _POS.index(c)
                 if j == 0:
-                    cols.append((motion.root_positions[:, a] - sk.offsets[0, a]) * inv)
+                    cols.append(root_pos_ch[:, a] * inv)
                 else:
                     cols.append(np.full(T, sk.offsets[j, a] * inv))
             else:
@@ -546,13 +604,15 @@ def format_bvh(motion: Motion, scale: float = 1.0, precision: int = 8, channels=
     return "\n".join(out) + "\n"
 
 
-def write_bvh(motion: Motion, path, scale: float = 1.0, precision: int = 8, channels=None) -> Path:
-    """Write ``motion`` as BVH (see :func:`format_bvh`); returns the path.
+def write_bvh(motion: Motion, path, scale: float = 1.0, precision: int = 8, channels=None,
+              restore_root: bool = True) -> Path:
+    """Write ``motion`` as BVH (see :func:`format_bvh`, also for ``restore_root``); returns the path.
 
     With the default 8 decimals in metres and degrees, a
     read-write-read round trip reproduces joint positions within 1e-6 m for
     human-sized skeletons.
     """
     path = Path(path)
-    path.write_text(format_bvh(motion, scale=scale, precision=precision, channels=channels))
+    path.write_text(format_bvh(motion, scale=scale, precision=precision, channels=channels,
+                               restore_root=restore_root))
     return path
