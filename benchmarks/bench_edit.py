@@ -5,15 +5,21 @@ Input: the synthetic back somersault of :func:`mocomp.synth.flights.backflip` wi
 edited with a preset (``arms-twist``: asymmetric arms, changes direction and magnitude
 of L; ``straight-legs``: tucked -> straight, magnitude only).
 
-Ours: :func:`mocomp.edit.restore_momentum` end to end -- step 1 (direction of L, eq.
-5.18-5.21: compiled Gauss-Newton sweep), step 2 (non-uniform retiming, eq. 5.22, on an
-8x fine grid), step 3 (uniform retiming by k* and COM repositioning), the final direction
-sweep and all the per-stage evidence (errors before/after each step). The time is the
-**median** of the repeats (the goal is stated on the median); the note also gives the minimum.
+Ours: :func:`mocomp.edit.restore_momentum` end to end with its defaults -- step 1 (direction
+of L, eq. 5.18-5.21, ``method="smooth"``: the compiled per-frame Gauss-Newton sweep of eq. 5.21,
+followed by the joint smoothing solve of :mod:`mocomp.edit.smooth_direction` when the sweep's
+corrections are rough, i.e. their second difference exceeds ``smooth_above_deg``, 1 deg; on the
+two back-flip rows it is the sweep alone: arms-twist's corrections stay far below that and
+straight legs, a sagittal edit, never turn L off its direction), step 2 (non-uniform
+retiming, eq. 5.22, on an 8x fine grid), step 3 (uniform retiming by k* and COM repositioning),
+the final direction sweep and all the per-stage evidence (errors before/after each step). The
+target is the known constant ``L0`` (``L_star``), so ``reference="auto"`` resolves to the
+constant one. The time is the **median** of the repeats (the goal is stated on the median); the
+note also gives the minimum.
 
 A third row times a case where the per-frame recurrence oscillates (side flip, straight legs),
-so step 1 runs its joint solve (:mod:`mocomp.edit.smooth_direction`); its peer is the same
-pipeline with the per-frame Gauss-Newton sweep alone.
+so step 1 runs its joint solve; its peer is the same pipeline with the per-frame Gauss-Newton
+sweep alone (``method="gauss-newton"``).
 
 Peer: the same pipeline with step 1 solved frame by frame by ``scipy.optimize.minimize(
 method="BFGS")`` -- the paper's method (it used Matlab's quasi-Newton BFGS) -- on the
