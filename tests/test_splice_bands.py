@@ -80,6 +80,45 @@ def test_a_point_outside_the_slanted_band_reshapes_it():
     np.testing.assert_array_equal(res.matches(p.x), [p.y])
 
 
+def test_strict_points_raise_outside_the_band_naming_the_limits():
+    """Opt-in strict mode: a point whose window misses the eq. 6.3 band in its
+    row raises, naming the point and the band's columns there; a point (or a
+    tolerance window) touching the band passes, and the band is then the
+    same as without strict mode."""
+    n, m, W = 120, 100, 5.0
+    plain = slanted_band(n, m, W)
+    a, b = int(plain.raw_lo[30]), int(plain.raw_hi[30])
+    with pytest.raises(AlignmentError, match=rf"point 1 \(30:70\) is outside the band .*body frame 30 allows hand frames {a}\.\.{b}"):
+        matching_band(n, m, W, [MatchPoint(30, 70)], strict=True)
+    lo60, hi60 = int(plain.raw_lo[60]), int(plain.raw_hi[60])
+    with pytest.raises(AlignmentError, match=rf"point 2 \(60:{lo60 - 4}~3\) is outside the band .*frames {lo60}\.\.{hi60}"):
+        matching_band(n, m, W, [MatchPoint(30, a), MatchPoint(60, lo60 - 4, 3)], strict=True)
+    matching_band(n, m, W, [MatchPoint(30, a), MatchPoint(60, lo60 - 3, 3)], strict=True)  # touches the band
+    for pts in ([MatchPoint(30, b)], [MatchPoint(30, a)], [MatchPoint(30, b + 4, 4)]):
+        s, r = matching_band(n, m, W, pts, strict=True), matching_band(n, m, W, pts)
+        np.testing.assert_array_equal(s.lo, r.lo)
+        np.testing.assert_array_equal(s.hi, r.hi)
+    with pytest.raises(AlignmentError, match=r"point 1 \(30:%d~3\)" % (b + 4)):
+        matching_band(n, m, W, [MatchPoint(30, b + 4, 3)], strict=True)
+
+
+def test_fully_specified_points_need_equal_lengths():
+    """The 'fully specified' end of the continuum: an exact point on every
+    inner body frame pins the path to them for n == m; for n != m the
+    errors say why it cannot work."""
+    from mocomp.splice import dtw
+
+    n = 40
+    cost = np.random.default_rng(3).random((n, n))
+    pts = [(i, i) for i in range(1, n - 1)]
+    res = dtw(cost=cost, width=2.0, points=pts)
+    np.testing.assert_array_equal(res.path, np.stack([np.arange(n)] * 2, axis=1))
+    with pytest.raises(AlignmentError, match="same length"):
+        matching_band(n, n + 10, 2.0, [(i, i + (i > 20) * 10) for i in range(1, n - 1)])
+    with pytest.raises(AlignmentError, match="out of order.*as many hand frames as body frames"):
+        matching_band(n, n - 10, 2.0, [(i, min(i, n - 12)) for i in range(1, n - 1)])
+
+
 def test_pruned_band_keeps_only_cells_on_monotone_paths():
     band = matching_band(60, 60, 6.0, [MatchPoint(30, 10, 0)])
     # every kept row range connects to the next one

@@ -32,15 +32,22 @@ def register(sub) -> None:
         "splice", help="splice a hand recording onto a full-body recording (two-stage banded DTW)",
         description="Align the arm of HAND (a separately captured gesture) with the same gesture in BODY using "
                     "the two-stage DTW of Majkowska's dissertation ch. 6 (sign-of-derivative phase matching in a "
-                    "30%% band, then hand-angle refinement in a 10%% band), optionally pinned by matching points, "
-                    "and write BODY with the arm joints driven by the aligned HAND. Both may be files (BVH, "
-                    "ASF/AMC, ...) or clip names; they need arm joints with the same names.")
+                    "band of 30% of BODY's length, then hand-angle refinement in a 10% band), optionally pinned "
+                    "by matching points, and write BODY with the arm joints driven by the aligned HAND. Both may "
+                    "be files (BVH, ASF/AMC, ...) or clip names; they need arm joints with the same names. "
+                    "A matching point outside the band reshapes the band so the path passes through it "
+                    "(Algorithm 1); --strict-points makes that an error instead.")
     p.add_argument("body", metavar="BODY", help="full-body recording (file or clip name)")
     p.add_argument("hand", metavar="HAND", help="hand/gesture recording (file or clip name)")
     p.add_argument("-o", "--out", required=True, metavar="OUT.bvh", help="output BVH file")
     p.add_argument("--match", type=_match_arg, action="append", default=[], metavar="B:H[~T]",
                    help="matching point: BODY frame B shows HAND frame H (0-based, each file's own frames), "
-                        "optionally within T hand frames; repeat for several, in order")
+                        "optionally within T hand frames; repeat for several, in order (strictly increasing in "
+                        "both). A point outside the pass-1 band reshapes the band around it (Algorithm 1); exact "
+                        "points on every body frame work only if BODY and HAND have the same length")
+    p.add_argument("--strict-points", action="store_true",
+                   help="reject (exit 2) a matching point outside the pass-1 band, naming the point and the band's "
+                        "hand frames at its body frame, instead of reshaping the band")
     p.add_argument("--side", choices=("right", "left", "both"), default="right", help="which arm (default right)")
     p.add_argument("--layer", choices=("arm", "forearm", "hand"), default="arm",
                    help="joints taken from HAND: the whole arm from the clavicle (default), forearm and below, "
@@ -61,7 +68,8 @@ def register(sub) -> None:
                         "leaves staircases inside phases and holds)")
     p.add_argument("--body-fps", type=fps_arg, metavar="F", help="override BODY's frame rate")
     p.add_argument("--hand-fps", type=fps_arg, metavar="F", help="override HAND's frame rate")
-    p.add_argument("--plot", metavar="PNG", help="write the bands, paths and frame map (Figure 6.3 style)")
+    p.add_argument("--plot", metavar="PNG", help="write the bands, paths and frame map (Figure 6.3 style) to PNG; "
+                                                   "with --side both, one row per arm in the same file")
     p.set_defaults(func=run)
 
 
@@ -79,7 +87,8 @@ def run(args) -> int:
     body = datasets.load(args.body, fps=args.body_fps)
     hand = datasets.load(args.hand, fps=args.hand_fps)
     cfg = SpliceConfig(phase_width=args.phase_width, refine_width=args.refine_width, theta=args.theta,
-                       metric=args.metric, refine=not args.no_refine, frame_map=args.frame_map)
+                       metric=args.metric, refine=not args.no_refine, frame_map=args.frame_map,
+                       strict_points=args.strict_points)
     res = splice_motions(body, hand, args.match, side=args.side, layer=args.layer, config=cfg)
     write_bvh(res.motion, out)
     print(f"body {body.n_frames} frames at {body.fps:g} fps, hand {hand.n_frames} frames at {hand.fps:g} fps"
@@ -92,14 +101,10 @@ def run(args) -> int:
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
-        from ..plots.dtw import plot_alignment
+        from ..plots.dtw import plot_alignments
 
-        for k, (side, al) in enumerate(res.alignments.items()):
-            path = Path(args.plot)
-            if len(res.alignments) > 1:
-                path = path.with_name(f"{path.stem}_{side}{path.suffix}")
-            fig = plot_alignment(al, title=f"{Path(args.body).name} <- {Path(args.hand).name} ({side} arm)")
-            fig.savefig(path, dpi=110)
-            plt.close(fig)
-            print(f"wrote {path}")
+        fig = plot_alignments(res.alignments, title=f"{Path(args.body).name} <- {Path(args.hand).name}")
+        fig.savefig(args.plot, dpi=110)
+        plt.close(fig)
+        print(f"wrote {args.plot} ({', '.join(res.alignments)} arm{'s' if len(res.alignments) > 1 else ''})")
     return 0

@@ -4,7 +4,8 @@
   optimal path, user matching points and (optionally) the true alignment
   (Figure 6.3 a/b).
 * :func:`plot_alignment`: both passes of the two-stage alignment and the
-  final frame map against the truth.
+  final frame map against the truth; :func:`plot_alignments` stacks several
+  (both arms) in one figure.
 * :func:`plot_metric_comparison`: sign metric vs. value metric (Figure 6.4).
 * :func:`plot_phases`: Table 6.1 phase labels over the hand marker's speed.
 
@@ -15,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["plot_band", "plot_alignment", "plot_metric_comparison", "plot_phases", "PHASE_COLORS"]
+__all__ = ["plot_band", "plot_alignment", "plot_alignments", "plot_metric_comparison", "plot_phases", "PHASE_COLORS"]
 
 PHASE_COLORS = {"S": "#d62728", "H": "#7f7f7f", "P": "#2ca02c", "R": "#1f77b4"}
 
@@ -80,7 +81,9 @@ def plot_alignment(alignment, truth=None, fig=None, title: str | None = None):
     """Three panels: pass 1 (sign metric, eq. 6.6) band and path, pass 2
     (hand angle, eq. 6.9) band and path on the warped hand (each with its
     near-optimal tube and frame map when the taut map was used), and the final
-    frame map (with the truth and its error if given)."""
+    frame map (with the truth and its error if given). ``fig`` may be a
+    figure or a :class:`matplotlib.figure.SubFigure` (several alignments in
+    one file: :func:`plot_alignments`); a subfigure is left to its parent's layout."""
     import matplotlib.pyplot as plt
 
     if fig is None:
@@ -118,7 +121,25 @@ def plot_alignment(alignment, truth=None, fig=None, title: str | None = None):
     ax.legend(loc="upper left", fontsize=7)
     if title:
         fig.suptitle(title)
-    fig.tight_layout()
+    if hasattr(fig, "tight_layout"):
+        fig.tight_layout()
+    return fig
+
+
+def plot_alignments(alignments: dict, truth=None, title: str | None = None):
+    """:func:`plot_alignment` for several alignments (e.g. ``{"right": ..., "left": ...}``
+    of a ``side="both"`` splice) stacked in one figure, one row of three panels
+    each, titled ``"<title> (<key> arm)"``."""
+    import matplotlib.pyplot as plt
+
+    if not alignments:
+        raise ValueError("no alignments to plot")
+    k = len(alignments)
+    fig = plt.figure(figsize=(15, 4.6 * k), layout="constrained")
+    subs = np.atleast_1d(fig.subfigures(k, 1))
+    for sub, (key, al) in zip(subs, alignments.items()):
+        t = f"{title} ({key} arm)" if title else f"{key} arm"
+        plot_alignment(al, truth=truth, fig=sub, title=t)
     return fig
 
 

@@ -91,6 +91,10 @@ class SpliceConfig:
         error was 1.06 frames with 1 s, 1.02 with 4 s, 1.42 with 8 s,
         4.2 with one angle for the whole take, 0.90 with the trunk headings
         and 9.1 without any turn).
+    strict_points: a user point outside the first pass's eq. 6.3 band raises
+        :class:`~mocomp.errors.AlignmentError` (naming the point and the band's
+        columns in its row) instead of reshaping the band (Algorithm 1, the
+        default; see :func:`~mocomp.splice.bands.matching_band`).
     """
 
     phase_width: float = 0.30
@@ -107,6 +111,7 @@ class SpliceConfig:
     tie_cells: float = 2.0
     refine_theta: str = "auto"
     refine_theta_span: float = 4.0
+    strict_points: bool = False
 
     def __post_init__(self):
         for name in ("phase_width", "refine_width"):
@@ -251,7 +256,11 @@ def align_hands(body: HandMarkers, hand: HandMarkers, points=(), config: SpliceC
     """Align a body recording's hand markers with a hand recording's (two-stage DTW, ch. 6.1-6.2).
 
     ``points`` are user matching points ``(body frame, hand frame[, tolerance])``
-    (or :class:`MatchPoint` / ``"x:y~t"``). Both recordings must have the same
+    (or :class:`MatchPoint` / ``"x:y~t"``), strictly increasing in both frames.
+    A point outside the first pass's band reshapes it (Algorithm 1) unless
+    ``strict_points=True``, which raises instead; a point on every body frame
+    works only for equal lengths (:func:`~mocomp.splice.bands.matching_band`).
+    Both recordings must have the same
     frame rate (resample first). Keyword overrides change single
     :class:`SpliceConfig` fields.
     """
@@ -268,7 +277,7 @@ def align_hands(body: HandMarkers, hand: HandMarkers, points=(), config: SpliceC
     fh = arm_features(hand, smooth=cfg.smooth, dead_zone=cfg.dead_zone, theta_window=cfg.theta_window, role="hand")
     n, m = fb.n_frames, fh.n_frames
     t1 = time.perf_counter()
-    band1 = matching_band(n, m, cfg.phase_width * n, pts)
+    band1 = matching_band(n, m, cfg.phase_width * n, pts, strict=cfg.strict_points)
     if cfg.metric == "sign":
         c1 = sign_band_costs(fb, fh, band1, cfg.theta)
     else:

@@ -19,6 +19,11 @@ Matching points, as Algorithm 1 defines them, *reshape* the band: between
 consecutive points (and the corners) each segment gets its own slanted band
 (eq. 6.4), so a point far off the diagonal -- outside the band of eq. 6.3 --
 is honoured, not rejected (that is what the reshaping is for; Figure 6.3 b).
+This is the default. ``strict=True`` (:func:`matching_band`,
+``SpliceConfig.strict_points``, ``mocomp splice --strict-points``) instead
+raises :class:`~mocomp.errors.AlignmentError` for a point whose window
+``y +- T`` misses the eq. 6.3 band's columns in its row, naming the point and
+those limits (for users who take a point far off the diagonal to be a typo).
 What a band cannot contain, and what raises
 :class:`~mocomp.errors.AlignmentError` naming the point, is: a point outside
 the matrix (a frame at or beyond either sequence's ends, which are anchors
@@ -27,6 +32,16 @@ already), points out of order (eq. 6.4 requires ``x_{k-1} < x_k`` and
 hand frames are too far apart for any monotone path to match the frames in
 between (the band would be cut). Tolerance windows ``y +- T`` are clipped to
 the matrix, as the ``max{1, ...}``/``min{m, ...}`` of eq. 6.5 do.
+
+The "fully specified" end of the continuum (an exact point on every inner
+body frame) works only for sequences of equal length: points must increase
+strictly in both frames (eq. 6.4), so with ``m < n`` two of them would share
+a hand frame ("out of order"), and exact points on consecutive body frames
+must be on consecutive hand frames (the row of an exact point admits only
+its own column, so hand frames between them would be matched to no body
+frame), so with ``m > n`` the surplus hand frames could only go to the first
+and last body frames. For unequal lengths, leave gaps between the points
+or give them tolerances.
 
 One deliberate difference from Algorithm 1 read literally: it assigns row
 ``x_k`` to segment ``k`` only (``x_{k-1} < i <= x_k``), bounding it by
@@ -391,7 +406,8 @@ def slanted_band(n: int, m: int, width: float | None = None, *, radius: float | 
     return matching_band(n, m, width, (), radius=radius)
 
 
-def matching_band(n: int, m: int, width: float | None, points: Iterable = (), *, radius: float | None = None) -> Band:
+def matching_band(n: int, m: int, width: float | None, points: Iterable = (), *, radius: float | None = None,
+                  strict: bool = False) -> Band:
     """The band reshaped by user matching points (eq. 6.4-6.5, Algorithm 1).
 
     The anchors ``(0, 0)``, the points ``(x_k, y_k)`` (strictly increasing in
@@ -407,6 +423,17 @@ def matching_band(n: int, m: int, width: float | None, points: Iterable = (), *,
 
     ``radius`` instead of ``width`` fixes ``rho`` for every segment (only
     meaningful without points; used for the dtw-python cross-check).
+
+    A point outside the band of eq. 6.3 reshapes the band (Algorithm 1: the
+    default). With ``strict=True`` it raises
+    :class:`~mocomp.errors.AlignmentError` instead, naming the point and the
+    columns the eq. 6.3 band allows in its row: a point counts as inside when
+    its window ``[y - T, y + T]`` overlaps them.
+
+    Points must increase strictly in both frames (eq. 6.4) and exact points
+    on consecutive body frames must be on consecutive hand frames, so a
+    point on every body frame ("fully specified") works only for ``n == m``
+    (see the module docstring).
     """
     _check_size(n, m)
     n, m = int(n), int(m)
@@ -432,14 +459,28 @@ def matching_band(n: int, m: int, width: float | None, points: Iterable = (), *,
         if prev is not None and not (p.x > prev.x and p.y > prev.y):
             raise AlignmentError(
                 f"matching points out of order: point {k} ({p}) must come after point {k - 1} ({prev}) in both sequences"
+                + (" (a point on every body frame needs as many hand frames as body frames)" if p.y <= prev.y and p.x == prev.x + 1 else "")
             )
         if prev is not None and p.x == prev.x + 1 and p.y - p.tol > prev.y + prev.tol + 1:
             raise AlignmentError(
                 f"matching points {k - 1} ({prev}) and {k} ({p}) are on consecutive body frames but "
                 f"{p.y - prev.y} hand frames apart: the hand frames between them could not be matched to any body frame; "
-                f"put them at least 2 body frames apart or give a tolerance"
+                f"put them at least 2 body frames apart or give a tolerance (exact points on every body frame work "
+                f"only when both sequences have the same length)"
             )
         prev = p
+    if strict and pts:
+        base = matching_band(n, m, width, (), radius=radius)
+        for k, p in enumerate(pts, 1):
+            a, b = int(base.raw_lo[p.x]), int(base.raw_hi[p.x])
+            if p.y + p.tol < a or p.y - p.tol > b:
+                win = f"hand frame {p.y}" + (f" +- {p.tol}" if p.tol else "")
+                band_w = f"W = {width:g} frames" if width is not None else f"rho = {radius:g} frames"
+                raise AlignmentError(
+                    f"matching point {k} ({p}) is outside the band ({band_w}, eq. 6.3): body frame {p.x} allows hand "
+                    f"frames {a}..{b}, the point asks for {win}; widen the band, fix the point, or drop strict mode "
+                    f"to let the point reshape the band (Algorithm 1)"
+                )
     xs = [0] + [p.x for p in pts] + [n - 1]
     ys = [0] + [p.y for p in pts] + [m - 1]
     ts = [0] + [p.tol for p in pts] + [0]
