@@ -28,13 +28,77 @@ def test_cli_explicit_k_and_height_change(tmp_path, capsys):
     assert d["k"] == 1.2 and d["height_change"] == -0.3 and d["flips"] == 3
 
 
-def test_cli_levels_shape_joint_flights_and_k_star(tmp_path):
+@pytest.fixture
+def prepared_by_cli(monkeypatch):
+    """The :class:`PreparedFlip` of each ``mocomp flips`` run (``prepare`` wrapped where the CLI
+    imports it)."""
+    import mocomp.flips as flips_pkg
+
+    seen = []
+    real = flips_pkg.prepare
+
+    def spy(*args, **kwargs):
+        seen.append(real(*args, **kwargs))
+        return seen[-1]
+
+    monkeypatch.setattr(flips_pkg, "prepare", spy)
+    return seen
+
+
+def test_cli_levels_shape_and_k_star(tmp_path, prepared_by_cli):
     rep = tmp_path / "r.json"
     assert main(["flips", "backflip", "--k-ratio", "1", "--takeoff-height-change", "0.3", "--shape", "cuboid",
-                 "--joint-flights", "--no-seam-retime", "-o", str(tmp_path / "t.bvh"), "--report", str(rep)]) == 0
+                 "--no-seam-retime", "-o", str(tmp_path / "t.bvh"), "--report", str(rep)]) == 0
     d = json.loads(rep.read_text())
     assert d["takeoff_height_change"] == 0.3 and d["k"] == pytest.approx(d["k_star"])
     assert abs(d["p_jump_takeoff_rel"]) < 1e-9 and d["seam_retimed"] is False
+    # --shape cuboid reaches the body model: same masses' prior, other inertias (dissertation eq. 5.3)
+    assert main(["flips", "backflip", "--no-seam-retime", "-o", str(tmp_path / "e.bvh")]) == 0
+    cub, ell = prepared_by_cli
+    assert cub.prior.shape == "cuboid" and ell.prior.shape == "ellipsoid"
+    np.testing.assert_allclose(cub.prior.masses, ell.prior.masses)
+    diff = np.abs(cub.prior.inertias - ell.prior.inertias).max(axis=(1, 2)) / np.abs(ell.prior.inertias).max(axis=(1, 2))
+    assert np.all(diff > 0.1), diff
+
+
+@pytest.mark.realdata
+def test_cli_joint_flights_uses_every_flight(real_data_dir, tmp_path, prepared_by_cli):
+    """CMU 88_01 has the flip (frames 47-78) and a hop (95-108): --joint-flights fits both."""
+    for extra in ([], ["--joint-flights"]):
+        assert main(["flips", "cmu_88_01_backflip", *extra, "-o", str(tmp_path / "t.bvh")]) == 0
+    one, joint = prepared_by_cli
+    assert [(f.start, f.stop) for f in one.mass.fits] == [(47, 79)]
+    assert [(f.start, f.stop) for f in joint.mass.fits] == [(47, 79), (95, 109)]
+    assert joint.flight == one.flight == (47, 79)
+    assert np.abs(joint.body.masses - one.body.masses).max() > 0.05       # kg: the hop moved the estimate
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["flips", "backflip", "--flight", "150", "155"], "skip estimation and keep the table prior (--no-mass-estimate)"),
+    (["flips", "jump"], "this clip is not a flip (for a twist jump use mocomp twist)"),
+])
+def test_cli_hints_name_cli_options(tmp_path, capsys, argv, message):
+    assert main(argv + ["-o", str(tmp_path / "x.bvh")]) == 2
+    err = capsys.readouterr().err
+    assert message in err and "prepare(" not in err and "min_angle" not in err
+
+
+def test_cli_no_flight_hint_names_the_flight_option(tmp_path, capsys):
+    from mocomp.errors import NoFlightPhaseError
+    from mocomp.flips import prepare
+    from mocomp.io.bvh import write_bvh
+
+    from _flips_data import synthetic
+
+    m = synthetic("backflip").motion
+    still = m.replace(root_positions=np.repeat(m.root_positions[:1], 120, axis=0),
+                      rotations=np.repeat(m.rotations[:1], 120, axis=0))
+    path = write_bvh(still, tmp_path / "still.bvh")
+    with pytest.raises(NoFlightPhaseError, match=r"flight=\(start, stop\)"):       # the Python API's wording
+        prepare(str(path))
+    assert main(["flips", str(path), "-o", str(tmp_path / "x.bvh")]) == 2
+    err = capsys.readouterr().err
+    assert "no flight phase found" in err and "(--flight START STOP)" in err and "flight=(" not in err
 
 
 @pytest.mark.parametrize("argv, message", [
@@ -68,3 +132,22 @@ def test_demo_writes_everything(tmp_path, capsys):
     assert "angular momentum" in capsys.readouterr().out
     m = read_bvh(d["paths"]["bvh"], scale=1.0)
     np.testing.assert_allclose(m.root_positions, d["result"].motion.root_positions, atol=1e-6)
+
+
+def test_demo_cli_flips_count(tmp_path, capsys):
+    """``mocomp demo --flips 3`` makes a triple flip; ``--flips 1`` is refused before any work."""
+    out = tmp_path / "d"
+    assert main(["demo", "--flips", "3", "-o", str(out)]) == 0
+    rep = json.loads((out / "report.json").read_text())
+    assert rep["flips"] == 3 and abs(rep["achieved_rotation"] - 1080) < 10
+    assert (out / "backflip_x3.bvh").stat().st_size > 1000
+    capsys.readouterr()
+    assert main(["demo", "--flips", "1", "-o", str(tmp_path / "one")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "--flips must be at least 2" in err and err.count("\n") == 0
+    assert not (tmp_path / "one").exists()
+    from mocomp.flips import demo
+
+    with pytest.raises(ValueError, match=">= 2"):
+        demo(tmp_path / "two", flips=1)
+    assert not (tmp_path / "two").exists()

@@ -22,7 +22,8 @@ def register(sub) -> None:
 def run(args) -> int:
     from ..flips import demo
 
-    if args.flips < 1:
-        raise ValueError(f"--flips must be at least 1, got {args.flips}")
+    if args.flips < 2:
+        raise ValueError(f"--flips must be at least 2 (the demo's input is a single flip and the result has "
+                         f"--flips somersaults in total), got {args.flips}")
     demo(args.out, flips=args.flips)
     return 0

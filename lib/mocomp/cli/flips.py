@@ -41,7 +41,38 @@ def register(subparsers) -> None:
     p.set_defaults(func=run)
 
 
+#: Python-API hints in library error messages and the CLI option (or command) that does the same
+_CLI_HINTS = (
+    ("give the flight frames explicitly (flight=(start, stop))", "give the flight frames explicitly "
+     "(--flight START STOP)"),
+    ("or skip estimation and keep the table prior", "or skip estimation and keep the table prior "
+     "(--no-mass-estimate)"),
+    ("(for small rotations such as twist jumps lower min_angle, e.g. prepare(..., loop_options="
+     "{'min_angle': radians}))", "(for a twist jump use mocomp twist)"),
+)
+
+
+def cli_wording(message: str) -> str:
+    """``message`` with the Python-API hints of :data:`_CLI_HINTS` replaced by the CLI's options."""
+    for api, cli in _CLI_HINTS:
+        message = message.replace(api, cli)
+    return message
+
+
 def run(args: argparse.Namespace) -> int:
+    from ..errors import MocompError
+
+    try:
+        return _run(args)
+    except (MocompError, ValueError) as exc:
+        text = str(exc)
+        new = cli_wording(text)
+        if new != text:
+            exc.args = (new,) + tuple(exc.args[1:])
+        raise
+
+
+def _run(args: argparse.Namespace) -> int:
     from ..flips import multiflip, prepare
     from ..io.bvh import write_bvh
 

@@ -51,6 +51,7 @@ def demo(out_dir="mocomp-demo", flips: int = 2, source: str = "backflip", render
     from pathlib import Path
 
     import matplotlib
+    import numpy as np
 
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
@@ -58,6 +59,8 @@ def demo(out_dir="mocomp-demo", flips: int = 2, source: str = "backflip", render
     from ..io.bvh import write_bvh
     from ..plots.flips import filmstrip, plot_momentum_comparison
 
+    if isinstance(flips, bool) or not isinstance(flips, (int, np.integer)) or flips < 2:
+        raise ValueError(f"flips must be an integer >= 2 (total somersaults; the input is one flip), got {flips!r}")
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     prep = prepare(source)

@@ -109,7 +109,8 @@ def find_self_loop(rotations: np.ndarray, theta: np.ndarray, flight: tuple[int, 
         raise PhysicsError(
             f"the flight rotates only {np.degrees(total):.0f} deg about L between frames {lo} and {hi}; "
             f"a self-looping fragment needs at least {np.degrees(min_angle):.0f} deg: this clip is not a flip "
-            "(lower min_angle for small rotations such as twist jumps)")
+            "(for small rotations such as twist jumps lower min_angle, e.g. prepare(..., loop_options="
+            "{'min_angle': radians}))")
     mi, ni = idx[iu[ok]], idx[ju[ok]]
     phi = phi[ok]
     rot = np.asarray(rotations, dtype=float)
