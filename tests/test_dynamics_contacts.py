@@ -86,3 +86,87 @@ def test_real_clip_flights(real_data_dir, clip, n_flights, first):
     if first is not None:
         a, b = air[0]
         assert abs(a - first[0]) <= 3 and abs(b - first[1]) <= 3
+
+
+# ------------------------------------------------------------------ several support levels
+_NAMES = {"LeftFoot": "foot_l", "RightFoot": "foot_r", "LeftToeBase": "toe_l", "RightToeBase": "toe_r"}
+
+
+def _levels_case(kind, takeoff_level, landing_level):
+    from mocomp.synth import backflip, straight_jump
+
+    gen = {"jump": straight_jump, "backflip": backflip}[kind]
+    return gen(takeoff_level=takeoff_level, landing_level=landing_level)
+
+
+def _level_ground_toe_height(kind) -> float:
+    c = detect_contacts(_levels_case(kind, 0.0, 0.0).motion)
+    return c.ground_y + c.support_levels["toe_l"][0]
+
+
+@pytest.mark.parametrize("kind, takeoff_level, landing_level", [
+    ("jump", 0.3, 0.0),       # take-off from a box (was: airborne from frame 0, agreement 0.63)
+    ("jump", 0.0, 0.3),       # landing on a step (was: airborne until frame 306)
+    ("backflip", 0.0, 0.4),
+    ("backflip", 0.4, 0.0),
+])
+def test_take_off_and_landing_on_different_levels(kind, takeoff_level, landing_level):
+    r = _levels_case(kind, takeoff_level, landing_level)
+    c = detect_contacts(r.motion)
+    for joint, truth in r.contacts.items():
+        e = c.effectors.index(_NAMES[joint])
+        assert (c.labels[:, e] == truth).mean() > 0.97, joint
+    air = airborne_intervals(c, min_frames=3)
+    assert len(air) == 1
+    (a, b), (ta, tb) = air[0], r.flight
+    assert ta <= a <= ta + 5 and tb - 5 <= b <= tb
+    # the toes rest on two floors 0.3-0.4 m apart: both found, at the generator's levels
+    lv = c.support_levels["toe_l"]
+    assert len(lv) == 2
+    assert lv[1] - lv[0] == pytest.approx(abs(landing_level - takeoff_level), abs=2e-3)
+    # the toe tip rests tip_h above the floor it stands on (as on level ground)
+    tip_h = _level_ground_toe_height(kind)
+    assert c.ground_y + lv[0] == pytest.approx(min(takeoff_level, landing_level) + tip_h, abs=2e-3)
+    # each contact frame says which level it touches: the take-off level before, the landing level after
+    e = c.effectors.index("toe_l")
+    assert c.contact_levels[: r.flight[0] - 10, e] + c.ground_y == pytest.approx(takeoff_level + tip_h, abs=2e-3)
+    assert c.contact_levels[r.flight[1] + 10:, e] + c.ground_y == pytest.approx(landing_level + tip_h, abs=2e-3)
+    assert np.isnan(c.contact_levels[a:b]).all()
+    # hands hang still above the feet during the stand: never a support level
+    assert c.support_levels["hand_l"] == () and not c.touching[:, c.effectors.index("hand_l")].any()
+    assert any("several support levels" in n for n in c.notes)
+
+
+def test_level_ground_keeps_the_single_floor_rule():
+    """On one floor the labels are exactly the single-level rule (touching within height_tol
+    of the effector's 1st-percentile height, planted if also slow)."""
+    from mocomp.synth import make_example
+
+    for name in ("jump", "backflip", "twist360"):
+        m = make_example(name).motion
+        c = detect_contacts(m)
+        old_levels = np.percentile(c.heights, 1, axis=0)
+        touching = (c.heights <= old_levels + c.height_tol) & (old_levels <= 0.2)[None]
+        from mocomp.dynamics.contacts import _drop_short
+
+        labels = touching & (c.speeds <= c.speed_tol)
+        for arr in (labels, touching):
+            for e in range(arr.shape[1]):
+                arr[:, e] = _drop_short(_drop_short(arr[:, e], False, 2), True, 2)
+        assert np.array_equal(c.touching, touching) and np.array_equal(c.labels, labels), name
+        assert all(len(v) <= 1 for v in c.support_levels.values())
+        np.testing.assert_allclose(c.levels, old_levels)
+
+
+def test_a_limb_passing_the_landing_height_in_flight_does_not_touch():
+    """Landing 0.3 m up: the toes rise through 0.25-0.35 m early in the flight; that band
+    holds no rest until after touchdown, so it is not a contact."""
+    r = _levels_case("jump", 0.0, 0.3)
+    c = detect_contacts(r.motion)
+    e = c.effectors.index("toe_l")
+    a, b = r.flight
+    apex = int(np.argmax(c.heights[a:b, e]))
+    rising = np.flatnonzero(np.abs(c.heights[a:a + apex, e] + c.ground_y - 0.3) <= c.height_tol)
+    assert rising.size > 0                                   # it does pass that height
+    assert np.all(c.heights[a + rising, e] + c.ground_y > 0.2)   # far above the take-off floor
+    assert not c.touching[a + rising, e].any()
