@@ -13,7 +13,7 @@ from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
-from conftest import real_files
+from conftest import IN_CI, real_files
 from mocomp.core import EndSite, Motion, Skeleton, SourceInfo
 from mocomp.errors import MotionFormatError
 from mocomp.io import UnitWarning, format_bvh, parse_bvh, read_bvh, write_bvh
@@ -524,7 +524,32 @@ def test_unreadable_and_empty_files(tmp_path):
 
 
 # ------------------------------------------------------------------ property test
-SEED_TEXTS = [GOOD, GOOD.replace("\n", "\r\n"), bvh_text(synthetic_motion(T=4, seed=5), precision=3)]
+def _trimmed_real_cmu(n_frames: int = 3) -> list[str]:
+    """The real CMU 88_01 back flip (31 joints) cut to its first frames, read at test time
+    from the data directory (no real data is committed): once with CRLF line ends
+    throughout, once with the file's own mix (CRLF, but LF around ``Frames:``/``Frame Time:``
+    and on some frame lines)."""
+    from mocomp.datasets import data_dir
+
+    d = data_dir()
+    f = None if d is None else d / "flips" / "cmu_88_01_backflip.bvh"
+    if f is None or not f.is_file():
+        if IN_CI:
+            raise RuntimeError("CI=true but the real CMU seed flips/cmu_88_01_backflip.bvh is missing")
+        return []
+    text = f.read_bytes().decode("latin-1")
+    lines = text.splitlines(keepends=True)
+    ft = next(k for k, ln in enumerate(lines) if ln.startswith("Frame Time:"))
+    kept = [re.sub(r"Frames:\s*\d+", f"Frames: {n_frames}", ln) for ln in lines[:ft + 1 + n_frames]]
+    mixed = "".join(kept)
+    crlf = "".join(ln.rstrip("\r\n") + "\r\n" for ln in kept)
+    return [crlf, mixed]
+
+
+REAL_SEEDS = _trimmed_real_cmu()
+BANDAI_SEED = bandai_style_text(T=3)
+SEED_TEXTS = [GOOD, GOOD.replace("\n", "\r\n"), bvh_text(synthetic_motion(T=4, seed=5), precision=3),
+              BANDAI_SEED, *REAL_SEEDS]
 GARBAGE = ["nan", "inf", "-inf", "abc", "1e999", "", "{", "}", "JOINT", "ROOT", "1.2.3", "0x10", "-", "End",
            "Site", "CHANNELS", "OFFSET", "MOTION", "Frames:", "Frame", "Time:", "1e-320", "9" * 40, "\x00", "é"]
 
@@ -574,6 +599,87 @@ def test_mutated_bvh_parses_or_raises_motion_format_error(text):
     event("parsed")
     assert isinstance(m, Motion) and m.n_frames >= 1
     assert np.all(np.isfinite(m.rotations))
+
+
+def test_property_seeds_are_what_they_claim():
+    """The seeds parse, the Bandai-style one through the joint_Root restructuring, and the
+    real CMU one (when the data is there) keeps its CRLF line ends."""
+    for text in SEED_TEXTS:
+        assert parse_bvh(text, scale=0.01, height_check=False).n_frames >= 1
+    b = parse_bvh(BANDAI_SEED, scale="cm", height_check=False)
+    assert b.skeleton.removed_root is not None and b.skeleton.names[0] == "Hips"
+    for text in REAL_SEEDS:
+        assert text.count("\r\n") > 0.9 * text.count("\n")
+        m = parse_bvh(text, scale="cmu", height_check=False)
+        assert m.skeleton.n_joints == 31 and m.n_frames == 3
+    if REAL_SEEDS:
+        assert REAL_SEEDS[0].count("\r\n") == REAL_SEEDS[0].count("\n")
+
+
+_PROPERTY_DIR = None
+
+
+def _property_file():
+    import tempfile
+    from pathlib import Path
+
+    global _PROPERTY_DIR
+    if _PROPERTY_DIR is None:
+        _PROPERTY_DIR = tempfile.TemporaryDirectory(prefix="mocomp_bvh_property_")
+    return Path(_PROPERTY_DIR.name) / "mutated.bvh"
+
+
+@st.composite
+def mutated_bvh_bytes(draw):
+    """A mutated seed as file bytes: utf-8 or latin-1 (so the reader's latin-1 fallback
+    runs), LF/CRLF/old-Mac CR line ends, and stray bytes spliced in."""
+    text = draw(mutated_bvh())
+    endings = draw(st.sampled_from(["keep", "lf", "crlf", "cr"]))
+    if endings != "keep":
+        text = text.replace("\r\n", "\n").replace("\r", "\n")
+        text = text.replace("\n", {"lf": "\n", "crlf": "\r\n", "cr": "\r"}[endings])
+    data = text.encode(draw(st.sampled_from(["utf-8", "latin-1"])), errors="replace")
+    for _ in range(draw(st.integers(0, 2))):
+        i = draw(st.integers(0, len(data)))
+        data = data[:i] + draw(st.sampled_from([b"\xff", b"\xe9", b"\x00", b"\r", b"\n", b"\t", b" -"])) + data[i:]
+    return data
+
+
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(mutated_bvh_bytes())
+def test_mutated_bvh_file_reads_or_raises_motion_format_error(data):
+    """Same property through read_bvh on a file: its own Frame Time search on bytes, the
+    byte decoding with latin-1 fallback, the old-Mac line-end re-parse and the Bandai
+    restructuring all run on mutated input."""
+    f = _property_file()
+    f.write_bytes(data)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            m = read_bvh(f, scale=0.01)
+        except MotionFormatError as e:
+            assert e.path == str(f)
+            event("MotionFormatError")
+            return
+    event("parsed")
+    assert isinstance(m, Motion) and m.n_frames >= 1
+    assert np.all(np.isfinite(m.rotations)) and np.all(np.isfinite(m.root_positions))
+    assert np.all(np.isfinite(m.positions))
+
+
+@pytest.mark.parametrize("endings", ["\n", "\r\n", "\r"])
+@pytest.mark.parametrize("encoding", ["utf-8", "latin-1"])
+def test_seed_files_read_the_same_with_any_line_end_and_encoding(endings, encoding, tmp_path):
+    """Unmutated seeds written as files (a latin-1 joint name included) read to the same motion
+    as parse_bvh on the text."""
+    for k, text in enumerate(SEED_TEXTS):
+        text = text.replace("\r\n", "\n").replace("JOINT Leg", "JOINT Leg\u00e9")
+        ref = parse_bvh(text, scale=0.01, height_check=False)
+        f = tmp_path / f"s{k}.bvh"
+        f.write_bytes(text.replace("\n", endings).encode(encoding))
+        m = read_bvh(f, scale=0.01, height_check=False)
+        assert m.skeleton.names == ref.skeleton.names
+        np.testing.assert_array_equal(m.positions, ref.positions)
 
 
 @pytest.mark.parametrize("name", ["backflip", "frontflip", "sideflip", "twist180", "twist360", "jump"])
