@@ -279,15 +279,21 @@ class Session:
     def open(cls, data_dir: str | Path, participant_id: str, session_id: str, stimuli: StimulusSet, *,
              config: DesignConfig | None = None, seed: int | None = None, study_seed: int = 0,
              counterbalance_index: int | None = None, lock_timeout: float = 10.0,
-             stale_after_s: float = 1800.0) -> "Session":
+             stale_after_s: float = 1800.0, verify_videos: bool = True) -> "Session":
         """Create a new session (plan written to disk first) or resume an existing one.
 
         ``seed`` defaults to :func:`~study.design.participant_seed` ``(study_seed, participant_id)``.
-        On resume the plan on disk is used; a different stimulus set, seed or
-        design is refused (use a new session id) rather than silently ignored.
+        On resume the plan on disk is used; a different stimulus set, seed,
+        design or counterbalance index is refused (use a new session id) rather
+        than silently ignored. ``verify_videos``: first recompute the SHA-256 of
+        every video and compare it with the manifest
+        (:meth:`~study.stimulus_set.StimulusSet.verify_videos`), so no session
+        starts on a changed or missing file.
         """
         pid = check_id(participant_id, "participant id")
         sid = check_id(session_id, "session id")
+        if verify_videos:
+            stimuli.verify_videos()
         folder = Path(data_dir) / pid / sid
         folder.mkdir(parents=True, exist_ok=True)
         lock = SessionLock(folder, stale_after_s=stale_after_s).acquire(timeout=lock_timeout)
@@ -336,6 +342,10 @@ class Session:
         if int(meta.get("seed")) != int(seed):
             raise ValueError(f"session {folder} was planned with seed {meta.get('seed')}, not {seed}; "
                              "use a new session id for a new plan")
+        cb_planned = meta.get("counterbalance_index")
+        if (None if cb_index is None else int(cb_index)) != (None if cb_planned is None else int(cb_planned)):
+            raise ValueError(f"session {folder} was planned with counterbalance index {cb_planned}, not {cb_index}; "
+                             "resume it with the same --counterbalance-index, or use a new session id")
         if config is not None and config.to_dict() != meta.get("design"):
             raise ValueError(f"session {folder} was planned with a different design; "
                              "use a new session id for a new design")

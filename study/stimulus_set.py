@@ -89,6 +89,23 @@ class StimulusSet:
         d["stimulus_id"] = stimulus_id
         return d
 
+    def verify_videos(self) -> None:
+        """Recompute every video's SHA-256 and compare it with the manifest's ``sha256``.
+
+        Raises :class:`~mocomp.errors.StudyDataError` naming the manifest, its
+        line, the column and the video (missing or changed since rendering).
+        :meth:`study.session.Session.open` calls it before a session starts or
+        resumes, so a participant never sees a video other than the recorded one.
+        """
+        for pos, (sid, r) in enumerate(self.table.iterrows()):
+            f = self.root / str(r["file"])
+            if not f.is_file():
+                raise StudyDataError(f"video file {f} of stimulus {sid!r} does not exist", self.path, pos + 2, "file")
+            if sha256_file(f) != str(r["sha256"]).lower():
+                raise StudyDataError(f"SHA-256 of {f} (stimulus {sid!r}) differs from the manifest: the video "
+                                     "changed after rendering; re-render (mocomp study render) or restore it",
+                                     self.path, pos + 2, "sha256")
+
     @property
     def unperturbed(self) -> list[str]:
         return list(self.table.index[self.table["perturbation"] == "none"])

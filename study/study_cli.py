@@ -75,6 +75,21 @@ def _design_dict(args) -> dict | None:
     return d
 
 
+def _check_run_args(args, design: dict | None) -> None:
+    """Refuse, before any server starts, what the app would only find in the participant's browser."""
+    if (design or {}).get("counterbalance") == "latin" and args.counterbalance_index is None:
+        raise ValueError(f"the design{' ' + repr(args.design) if args.design else ''} uses counterbalance='latin', "
+                         "which needs --counterbalance-index N (the participant's number: row N of the "
+                         "balanced Latin square of group orders)")
+    import importlib.util
+
+    if importlib.util.find_spec("voila") is None:
+        from mocomp.errors import MocompError
+
+        raise MocompError(f"`mocomp study run` serves the app with Voila, which is not importable from "
+                          f"{sys.executable}: pip install 'mocomp[study]' (voila, ipykernel, jupyterlab-widgets)")
+
+
 def run_run(args) -> int:
     from .session import check_id
     from .stimulus_set import load_manifest
@@ -82,13 +97,15 @@ def run_run(args) -> int:
     check_id(args.participant, "participant id")
     check_id(args.session, "session id")
     manifest = Path(args.manifest).resolve()
-    load_manifest(manifest)  # fail here with a clear message, before starting a server
+    # fail here with a clear message, before starting a server (the app checks again at session start)
+    load_manifest(manifest, verify_hashes=True)
+    design = _design_dict(args)
+    _check_run_args(args, design)
     data = Path(args.data).resolve()
     data.mkdir(parents=True, exist_ok=True)
     cfg = {"manifest": str(manifest), "data_dir": str(data), "participant_id": args.participant,
            "session_id": args.session, "study_seed": args.study_seed, "seed": args.seed,
            "counterbalance_index": args.counterbalance_index}
-    design = _design_dict(args)
     if design:
         cfg["design"] = design
     if args.lock_timeout is not None:
@@ -119,7 +136,8 @@ def register_analyze(subparsers) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
         "analyze", help="analyse every session CSV under a folder (ratings, d', psychometric, mixed model)",
         description="Read every responses.csv below RESPONSES_DIR (schema checked), and write tidy CSVs "
-                    "(conditions.csv, trials.csv, participants_*.csv, psychometric.csv, mixed_model.csv), "
+                    "(conditions.csv, trials.csv, participants_*.csv, psychometric.csv, observer_model.csv, "
+                    "mixed_model.csv), "
                     "figures and report.md to REPORT_DIR.")
     p.add_argument("responses", metavar="RESPONSES_DIR")
     p.add_argument("-o", "--out", required=True, metavar="REPORT_DIR")
@@ -135,6 +153,10 @@ def register_analyze(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--min-attention", type=float, default=None,
                    help="exclude participants whose attention-check pass rate is below this")
     p.add_argument("--allow-mixed-sets", action="store_true", help="accept sessions from different stimulus sets")
+    p.add_argument("--observer-ci", choices=("profile", "bootstrap", "wald"), default="profile",
+                   help="CIs of the observer-model fit (observer_model.csv; default profile likelihood)")
+    p.add_argument("--no-observer-model", action="store_true",
+                   help="skip the observer-model fit (threshold, slope, bias, lapse)")
     p.add_argument("--no-figures", action="store_true")
     p.set_defaults(func=run_analyze)
     return p
@@ -145,7 +167,8 @@ def run_analyze(args) -> int:
 
     res = analyze(args.responses, args.out, level=args.level, control=args.control, correction=args.correction,
                   link=args.link, n_boot=args.n_boot, seed=args.seed, min_attention=args.min_attention,
-                  allow_mixed_sets=args.allow_mixed_sets, figures=not args.no_figures)
+                  allow_mixed_sets=args.allow_mixed_sets, figures=not args.no_figures,
+                  observer_model=not args.no_observer_model, observer_ci=args.observer_ci)
     s = res.settings
     print(f"{s['n_participants']} participants, {s['n_test_trials']} test trials, "
           f"{len(res.conditions)} condition rows -> {Path(args.out) / 'report.md'}")

@@ -177,3 +177,34 @@ def test_lock_from_another_host(tmp_path):
     lk = SessionLock(folder, stale_after_s=60).acquire(timeout=0)
     assert lk.took_over["host"].startswith("elsewhere")
     lk.release()
+
+
+def test_resume_refuses_a_different_counterbalance_index(stimuli, tmp_path):
+    cfg = DesignConfig(counterbalance="latin")
+    with Session.open(tmp_path, "P1", "S1", stimuli, config=cfg, counterbalance_index=1) as s:
+        order = s.plan.meta["group_order"]
+        _answer_n(s, 2)
+    for other in (0, 3, None):  # 3 = 1 mod 2 gives the same Latin row, but it is not what was planned
+        with pytest.raises(ValueError, match="counterbalance index 1"):
+            Session.open(tmp_path, "P1", "S1", stimuli, config=cfg, counterbalance_index=other)
+    with Session.open(tmp_path, "P1", "S1", stimuli, config=cfg, counterbalance_index=1) as s:
+        assert s.state.n_answered == 2 and s.plan.meta["group_order"] == order
+
+
+def test_videos_are_verified_before_a_session_starts_or_resumes(tmp_path):
+    stim = make_placeholder_set(tmp_path / "stim", LEVELS, base_clips=("a",), n_frames=4)
+    Session.open(tmp_path / "d", "P1", "S1", stim).close()
+    vid = stim.video_path(stim.ids[2])
+    good = vid.read_bytes()
+    vid.write_bytes(good[:-3] + b"xyz")  # same size, different content
+    line = stim.ids.index(stim.ids[2]) + 2
+    for pid in ("P1", "P2"):  # resume and a new session are both refused
+        with pytest.raises(StudyDataError, match=rf"manifest\.csv:{line} \[sha256\].*{vid.name}.*differs"):
+            Session.open(tmp_path / "d", pid, "S1", stim)
+    assert not (tmp_path / "d" / "P2" / "S1" / "plan.csv").exists()
+    assert sum(1 for e in (tmp_path / "d" / "P1" / "S1" / "events.jsonl").read_text().splitlines()) == 1
+    vid.unlink()
+    with pytest.raises(StudyDataError, match=rf"\[file\].*{vid.name}.*does not exist"):
+        Session.open(tmp_path / "d", "P1", "S1", stim)
+    vid.write_bytes(good)
+    Session.open(tmp_path / "d", "P1", "S1", stim).close()
