@@ -19,7 +19,9 @@ exactly that, with choices the paper leaves open made explicit in
   ``"mixed"`` shuffles both copies together. No stimulus is ever shown twice
   in a row;
 * interleaving: ``"proportional"`` spreads every group evenly over the
-  sequence (round-robin when groups are equal in size), ``"round_robin"``
+  sequence (round-robin when groups are equal in size), the first group of
+  the (counterbalanced) order leading and each later group phase-shifted by
+  rank / number of groups of its own spacing, ``"round_robin"``
   alternates strictly until a group runs out, ``"blocked"`` shows the groups
   one after the other;
 * optional counterbalancing of the group order (balanced Latin square by
@@ -216,14 +218,21 @@ class Plan:
 
 
 def _interleave(lists: list[list], mode: str) -> list:
-    """Merge per-group sequences (in group order) into one sequence."""
+    """Merge per-group sequences (in group order) into one sequence.
+
+    ``"proportional"``: item i of the group at rank r (of G) in the group order
+    sits at (i + r / G) / n_r of the sequence: every group evenly spread, and
+    the order sets the phase, so the first group leads and a counterbalanced
+    order changes the group at up to 2 min(n_r) positions (not only ties).
+    """
     if mode == "blocked":
         return [x for lst in lists for x in lst]
     keyed = []
+    G = len(lists)
     for rank, lst in enumerate(lists):
         n = len(lst)
         for i, x in enumerate(lst):
-            key = (i + 0.5) / n if mode == "proportional" else float(i)
+            key = (i + rank / G) / n if mode == "proportional" else float(i)
             keyed.append((key, rank, i, x))
     keyed.sort(key=lambda t: (t[0], t[1], t[2]))
     return [t[3] for t in keyed]

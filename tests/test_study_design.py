@@ -90,6 +90,30 @@ def test_blocked_mixed_and_counterbalanced(stimuli):
     assert set(_test(own).loc[_test(own)["perturbation"] == "none", "group"]) == {"control"}
 
 
+def test_counterbalanced_orders_differ_with_the_default_interleave(stimuli):
+    """Under interleave='proportional' (default) the group order is a phase: the first group of the
+    order leads each pass, and reversing the order moves the group at many positions, not only ties."""
+    cfg = DesignConfig(counterbalance="latin")
+    assert cfg.interleave == "proportional"
+    plans = [make_plan(stimuli, cfg, participant_id="P", seed=1, counterbalance_index=i) for i in (0, 1)]
+    orders = [p.meta["group_order"] for p in plans]
+    assert orders == [["angular_momentum", "takeoff"], ["takeoff", "angular_momentum"]]
+    seqs = [_test(p)["group"].to_numpy() for p in plans]
+    for plan, order, g in zip(plans, orders, seqs):
+        rep = _test(plan)["repetition"].to_numpy()
+        for r in (1, 2):  # each pass starts with the first group of this participant's order
+            assert g[rep == r][0] == order[0]
+    n_small = int((seqs[0] == "takeoff").sum())  # 2 passes x (2 controls + 8) = 20
+    changed = int((seqs[0] != seqs[1]).sum())
+    # every take-off trial changes place (the most that can change is 2 x 20 of the 88)
+    assert len(seqs[0]) == 88 and n_small == 20 and changed == 2 * n_small
+    # still proportional: the take-off group spread over each whole pass in both orders
+    for plan in plans:
+        p1 = _test(plan)[_test(plan)["repetition"] == 1].reset_index(drop=True)
+        pos = p1.index[p1["group"] == "takeoff"].to_numpy()
+        assert pos.min() <= 3 and pos.max() >= len(p1) - 4 and np.diff(pos).max() <= 2 * len(p1) / len(pos)
+
+
 @pytest.mark.parametrize("n", [2, 3, 4, 5, 6])
 def test_balanced_latin_square(n):
     sq = balanced_latin_square(n)
