@@ -38,6 +38,10 @@ Pipeline (what ``mocomp study analyze RESPONSES_DIR -o REPORT_DIR`` runs, via
    statsmodels' ``BinomialBayesMixedGLM`` (variational Bayes; its N(0, 2^2)
    prior shrinks large effects) and a GEE (population-averaged) are reported
    beside it as cross-checks.
+7. the observer model (:mod:`study.observer_fit`): per error type threshold
+   and slope of d'(x) = (x / threshold) ** slope, a shared criterion and a
+   lapse rate, by maximum likelihood with profile-likelihood CIs
+   (``observer_model.csv``); the model the simulated observers answer with.
 """
 from __future__ import annotations
 
@@ -90,7 +94,7 @@ class ResponseData:
         return sorted(self.trials["participant_id"].unique())
 
 
-def _read_one(path: Path, dropped: list | None = None) -> pd.DataFrame | None:
+def _read_one(path: Path, dropped: list | None = None, require: tuple[str, ...] = ()) -> pd.DataFrame | None:
     import io
 
     raw = path.read_bytes()
@@ -121,6 +125,11 @@ def _read_one(path: Path, dropped: list | None = None) -> pd.DataFrame | None:
     if missing:
         raise StudyDataError(f"missing column(s) {', '.join(missing)} (required: {', '.join(REQUIRED_COLUMNS)})",
                              path, line=1)
+    for col in require:
+        if col not in df.columns:
+            raise StudyDataError(f"no column {col!r} (needed as the level regressor: --level {col}); this file has "
+                                 f"{', '.join(df.columns)}; use --level nominal_level, or add the column", path,
+                                 line=1, column=col)
     if len(df) == 0:
         return None
     df["source_file"] = str(path)
@@ -151,12 +160,16 @@ def _read_one(path: Path, dropped: list | None = None) -> pd.DataFrame | None:
     for col in ("achieved_error", "rt_s", "client_rt_s", "client_rt_end_s", "repetition"):
         if col in df.columns:
             df[col] = pd.to_numeric(df[col].replace("", np.nan), errors="coerce")
+    for col in require:
+        if col != "nominal_level":
+            num = pd.to_numeric(df[col], errors="coerce")
+            bad(num.isna() & (df["kind"] == "test"), col, lambda v: f"not a number: {v!r} (needed as the level regressor)")
     if "expected_response" not in df.columns:
         df["expected_response"] = ""
     return df
 
 
-def load_responses(path: str | Path, *, allow_mixed_sets: bool = False) -> ResponseData:
+def load_responses(path: str | Path, *, allow_mixed_sets: bool = False, require: tuple[str, ...] = ()) -> ResponseData:
     """Read and check every ``responses.csv`` under ``path`` (or the one file ``path``).
 
     Raises :class:`~mocomp.errors.StudyDataError` naming the file, line and
@@ -164,6 +177,8 @@ def load_responses(path: str | Path, *, allow_mixed_sets: bool = False) -> Respo
     values, duplicate trials (a participant/session/trial answered twice, in
     one file or across files, e.g. a session folder copied twice) and sessions
     that used different stimulus sets (unless ``allow_mixed_sets``).
+    ``require``: further columns every file must have, with a number in every
+    test row (e.g. ``("achieved_error",)`` when it is the level regressor).
     """
     path = Path(path)
     if not path.exists():
@@ -174,7 +189,7 @@ def load_responses(path: str | Path, *, allow_mixed_sets: bool = False) -> Respo
         raise StudyDataError("no responses.csv found (expected DATA/<participant>/<session>/responses.csv)", path)
     frames, skipped, dropped = [], [], []
     for f in files:
-        df = _read_one(f, dropped)
+        df = _read_one(f, dropped, tuple(require))
         if df is None:
             skipped.append((str(f), "header only: no responses"))
         else:
@@ -614,19 +629,35 @@ class AnalysisResult:
     attention: pd.DataFrame
     settings: dict
     files: dict[str, Path] = field(default_factory=dict)
+    observer_model: pd.DataFrame = field(default_factory=pd.DataFrame)
 
 
 def analyze(responses: str | Path | ResponseData, out_dir: str | Path | None = None, *,
             level: str = "nominal_level", control: str = "group", correction: str = "loglinear",
             link: str = "probit", n_boot: int = 2000, seed: int = 0, min_attention: float | None = None,
-            allow_mixed_sets: bool = False, figures: bool = True, mixed: bool = True) -> AnalysisResult:
+            allow_mixed_sets: bool = False, figures: bool = True, mixed: bool = True,
+            observer_model: bool = True, observer_ci: str = "profile") -> AnalysisResult:
     """Run the whole analysis; with ``out_dir``, write the tidy CSVs, figures and ``report.md``.
 
     ``min_attention``: exclude participants whose attention-check pass rate is
     below this (reported in the settings); None keeps everyone.
+    ``observer_model``: also fit the observer model (:func:`study.observer_fit.fit_observer_model`:
+    per error type threshold and slope of d'(x) = (x / threshold) ** slope, a shared
+    criterion ``bias`` and a ``lapse`` rate, by maximum likelihood with ``observer_ci``
+    intervals, default profile likelihood), written to ``observer_model.csv``.
+    Unlike the probit GLM (``psychometric.csv``: d' linear in the level, no lapses)
+    it allows a non-linear d' and lapses. When the data cannot support it (e.g.
+    levels <= 0 in the regressor), the reason is in ``settings["observer_model_note"]``.
     """
-    data = responses if isinstance(responses, ResponseData) else load_responses(responses,
-                                                                                 allow_mixed_sets=allow_mixed_sets)
+    if level not in ("nominal_level", "achieved_error"):
+        raise ValueError(f"level must be 'nominal_level' or 'achieved_error', got {level!r}")
+    if isinstance(responses, ResponseData):
+        data = responses
+        if level not in data.trials.columns or data.test[level].isna().any():
+            raise StudyDataError(f"the responses have no (complete) column {level!r} for the level regressor",
+                                 data.files[0] if data.files else None, column=level)
+    else:
+        data = load_responses(responses, allow_mixed_sets=allow_mixed_sets, require=(level,))
     att = attention_summary(data)
     excluded: list[str] = []
     if min_attention is not None and len(att):
@@ -643,14 +674,29 @@ def analyze(responses: str | Path | ResponseData, out_dir: str | Path | None = N
     ps = participant_dprimes(data, by="series", n_boot=n_boot, seed=seed + 1, **kw)
     psy = fit_psychometric_glms(data, link=link, level=level, control=control)
     mm = fit_mixed_model(data, control=control) if mixed else pd.DataFrame()
+    obs_tab, obs_note = pd.DataFrame(), ""
+    if observer_model:
+        from .observer_fit import fit_observer_model
+
+        try:
+            of = fit_observer_model(data, level=level, ci_method=observer_ci, seed=seed)
+        except ValueError as e:
+            obs_note = f"observer model not fitted: {e}"
+        else:
+            obs_tab = of.params.assign(level_column=level, converged=of.converged, loglike=of.loglike,
+                                       deviance=of.deviance, df_resid=of.df_resid,
+                                       n_participants=of.settings["n_participants"])
+            if not of.converged:
+                obs_note = "observer model: the optimiser did not report convergence"
     settings = dict(level_column=level, control=control, correction=correction, link=link, n_boot=n_boot,
                     seed=seed, min_attention=min_attention, excluded_participants=excluded,
                     n_participants=len(data.participants), n_test_trials=int(len(data.test)),
                     stimulus_set_ids=data.stimulus_set_ids, n_files=len(data.files),
                     skipped_files=[f for f, _ in data.skipped],
-                    dropped_lines=[f"{f}:{ln}: {why}" for f, ln, why in data.dropped_lines])
+                    dropped_lines=[f"{f}:{ln}: {why}" for f, ln, why in data.dropped_lines],
+                    observer_model=bool(observer_model), observer_ci=observer_ci, observer_model_note=obs_note)
     res = AnalysisResult(data=data, conditions=cond, participants_condition=pc, participants_series=ps,
-                         psychometric=psy, mixed=mm, attention=att, settings=settings)
+                         psychometric=psy, mixed=mm, attention=att, settings=settings, observer_model=obs_tab)
     if out_dir is not None:
         write_report(res, out_dir, figures=figures)
     return res
@@ -658,7 +704,7 @@ def analyze(responses: str | Path | ResponseData, out_dir: str | Path | None = N
 
 def write_report(res: AnalysisResult, out_dir: str | Path, figures: bool = True) -> dict[str, Path]:
     """Write ``trials.csv`` (tidy trial-level data), ``conditions.csv``, ``participants_*.csv``,
-    ``psychometric.csv``, ``mixed_model.csv``, ``attention.csv``, ``settings.json``, figures and ``report.md``."""
+    ``psychometric.csv``, ``observer_model.csv``, ``mixed_model.csv``, ``attention.csv``, ``settings.json``, figures and ``report.md``."""
     import json
 
     out = Path(out_dir)
@@ -681,6 +727,8 @@ def write_report(res: AnalysisResult, out_dir: str | Path, figures: bool = True)
     save("participants_series.csv", res.participants_series)
     save("psychometric.csv", res.psychometric)
     save("mixed_model.csv", res.mixed)
+    if res.settings.get("observer_model", True):
+        save("observer_model.csv", res.observer_model)
     save("attention.csv", res.attention)
     (out / "settings.json").write_text(json.dumps(res.settings, indent=2, default=str))
     files["settings.json"] = out / "settings.json"
@@ -740,6 +788,14 @@ def report_markdown(res: AnalysisResult) -> str:
     for _, r in res.psychometric.iterrows():
         lines.append(f"| {r['perturbation']}/{r['direction']} | {r['slope']:.4f} ± {r['slope_se']:.4f} | "
                      f"{r['threshold']:.1f} | [{r['threshold_ci_low']:.1f}, {r['threshold_ci_high']:.1f}] |")
+    if len(res.observer_model):
+        lines += ["", "## Observer model (maximum likelihood; d'(x) = (x / threshold) ** slope, criterion bias, "
+                  f"lapse rate; {s.get('observer_ci', 'profile')} 95% CIs)", "",
+                  "| parameter | error type | estimate | 95% CI |", "|---|---|---|---|"]
+        for _, r in res.observer_model.iterrows():
+            lines.append(f"| {r['name']} | {r['series']} | {r['estimate']:.3g} | [{r['ci_low']:.3g}, {r['ci_high']:.3g}] |")
+    if s.get("observer_model_note"):
+        lines += ["", s["observer_model_note"]]
     if len(res.mixed):
         lines += ["", "## Mixed model (log odds ratio of \"incorrect\" against the group's unperturbed motions)", "",
                   "| group | term | estimate | 95% CI | p |", "|---|---|---|---|---|"]
@@ -749,5 +805,5 @@ def report_markdown(res: AnalysisResult) -> str:
     if len(res.attention):
         lines += ["", f"Attention checks: mean pass rate {res.attention['pass_rate'].mean():.2f}."]
     lines += ["", "Files: conditions.csv (tidy, one row per condition), trials.csv, participants_*.csv, "
-              "psychometric.csv, mixed_model.csv, attention.csv, figures/."]
+              "psychometric.csv, observer_model.csv, mixed_model.csv, attention.csv, figures/."]
     return "\n".join(lines) + "\n"

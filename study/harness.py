@@ -176,7 +176,9 @@ class HarnessTexts:
     break_text: str = "<p><b>Time for a short break.</b> Continue whenever you are ready.</p>"
     welcome_back: str = "<p><b>Welcome back.</b> The study continues at trial {next} of {total}.</p>"
     end: str = "<p><b>Thank you!</b> All your answers are saved. You may close this window now.</p>"
-    declined: str = "<p>You chose not to take part. Nothing but this decision was recorded. Thank you.</p>"
+    declined: str = ("<p>You chose not to take part. No answers and no personal information were recorded: "
+                     "only your participant code, the time of this decision and the trial order prepared for "
+                     "the session. Thank you.</p>")
 
 
 @dataclass(frozen=True)

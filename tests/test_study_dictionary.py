@@ -74,7 +74,7 @@ def test_responses_and_plan_columns_match_the_dictionary(session_files):
 
 
 @pytest.mark.parametrize("name", ["conditions.csv", "participants_condition.csv", "psychometric.csv",
-                                  "mixed_model.csv", "trials.csv", "attention.csv"])
+                                  "mixed_model.csv", "observer_model.csv", "trials.csv", "attention.csv"])
 def test_analysis_outputs_match_the_dictionary(session_files, name):
     _, rep = session_files
     md = (ROOT / "study" / "DATA_DICTIONARY.md").read_text()

@@ -46,21 +46,41 @@ def test_observers_use_the_harness_path(cohort):
     assert list(other["stimulus_id"]) != list(plan["stimulus_id"])
 
 
+def test_cli_observer_model_recovers_the_cohort(cohort, tmp_path, capsys):
+    """`mocomp study analyze` writes observer_model.csv: every generating parameter of the
+    simulated cohort (thresholds, slopes, bias, lapse) inside its 95% CI, estimates close."""
+    from mocomp.cli import main
+
+    root, _, _ = cohort
+    assert main(["study", "analyze", str(root / "data"), "-o", str(tmp_path / "cli"), "--n-boot", "200",
+                 "--no-figures"]) == 0
+    tab = pd.read_csv(tmp_path / "cli" / "observer_model.csv", keep_default_na=False, na_values=[""])
+    tab["series"] = tab["series"].fillna("")
+    got = {(r["name"], r["series"]): r for _, r in tab.iterrows()}
+    truth = {("bias", ""): OBSERVER.bias, ("lapse", ""): OBSERVER.lapse}
+    for (p, d), ps in TRUE.items():
+        truth[("threshold", f"{p}/{d}")] = ps.threshold
+        truth[("slope", f"{p}/{d}")] = ps.slope
+    assert set(got) == set(truth) and len(tab) == 12
+    for key, v in truth.items():
+        r = got[key]
+        assert r["ci_low"] <= v <= r["ci_high"], (key, v, r[["estimate", "ci_low", "ci_high"]].tolist())
+        assert r["ci_low"] <= r["estimate"] <= r["ci_high"]
+    for (p, d), ps in TRUE.items():  # and the point estimates are close (not just wide intervals)
+        assert got[("threshold", f"{p}/{d}")]["estimate"] == pytest.approx(ps.threshold, rel=0.25)
+    assert got[("bias", "")]["estimate"] == pytest.approx(0.6, abs=0.2)
+    assert set(tab["ci_method"]) == {"profile"} and tab["converged"].all()
+    assert "## Observer model" in (tmp_path / "cli" / "report.md").read_text()
+    # the same numbers as the library call
+    fit = fit_observer_model(load_responses(root / "data"))
+    np.testing.assert_allclose(tab["estimate"], fit.params["estimate"], rtol=1e-6)
+
+
 def test_analysis_recovers_observer_parameters(cohort, tmp_path):
     root, stim, _ = cohort
-    res = analyze(root / "data", tmp_path / "report", n_boot=1000, seed=3, figures=False, mixed=False)
-    # 1. full observer model: every generating parameter inside its 95% CI
-    fit = fit_observer_model(res.data)
-    for (p, d), ps in TRUE.items():
-        s = f"{p}/{d}"
-        assert fit.contains("threshold", ps.threshold, s), fit.params
-        assert fit.contains("slope", ps.slope, s), fit.params
-    assert fit.contains("bias", OBSERVER.bias)
-    assert fit.contains("lapse", OBSERVER.lapse)
-    # and the point estimates are close (not just wide intervals)
-    for (p, d), ps in TRUE.items():
-        assert fit.value("threshold", f"{p}/{d}") == pytest.approx(ps.threshold, rel=0.25)
-    assert fit.value("bias") == pytest.approx(0.6, abs=0.2)
+    res = analyze(root / "data", tmp_path / "report", n_boot=1000, seed=3, figures=False, mixed=False,
+                  observer_model=False)
+    assert not (tmp_path / "report" / "observer_model.csv").exists()
     # 2. condition d' (group-level, participant bootstrap) covers the d' the observer implies
     c = res.conditions[res.conditions["perturbation"] != "none"]
     expected = np.array([float(OBSERVER.expected_dprime(p, d, lv))

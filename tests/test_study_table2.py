@@ -67,3 +67,71 @@ def test_counts_route_equals_ratings_route_without_correction():
     r0 = 100 * (1 - k_ctl / n)
     np.testing.assert_allclose(d, dprime_from_ratings(r0, r), atol=1e-12)
     assert TABLE2_CONTROL_RATING == {"angular_momentum": 72, "takeoff": 63}
+
+
+def _table2_responses(root, n_parts=20, per_part=5):
+    """Responses CSVs whose pooled counts give exactly Table 2's mean ratings: every condition (and
+    each group's unperturbed motions) shown n_parts x per_part = 100 times, rating r % = r "correct"."""
+    import csv
+
+    from study.session import RESPONSE_COLUMNS
+
+    cells = [(g, "none", "none", 0, r0) for g, r0 in TABLE2_CONTROL_RATING.items()]
+    cells += [tuple(r) for r in table2()[["group", "perturbation", "direction", "level", "rating"]].itertuples(
+        index=False)]
+    n = n_parts * per_part
+    rows = {f"P{i:02d}": [] for i in range(n_parts)}
+    for g, p, d, lv, rating in cells:
+        answers = ["correct"] * int(rating) + ["incorrect"] * (n - int(rating))
+        for j, a in enumerate(answers):  # dealt round-robin over the participants
+            pid = f"P{j % n_parts:02d}"
+            r = {c: "" for c in RESPONSE_COLUMNS}
+            r.update(participant_id=pid, session_id="S1", stimulus_set_id="TABLE2", trial_index=len(rows[pid]),
+                     kind="test", group=g, repetition=1 + (j // n_parts) % 2, stimulus_id=f"{g}:{p}_{d}_{lv}",
+                     perturbation=p, direction=d, nominal_level=lv, achieved_error=lv, response=a,
+                     rated_correct=int(a == "correct"), input="table2")
+            rows[pid].append(r)
+    for pid, rr in rows.items():
+        f = root / pid / "S1" / "responses.csv"
+        f.parent.mkdir(parents=True)
+        with open(f, "w", newline="") as fh:
+            w = csv.DictWriter(fh, fieldnames=list(RESPONSE_COLUMNS))
+            w.writeheader()
+            w.writerows(rr)
+
+
+def test_table2_through_mocomp_study_analyze(tmp_path, capsys):
+    """Table-2-shaped responses through the CLI's condition table (not the ratings helper): with the
+    paper's convention (no correction: no rate is 0 or 1) every published d' within rounding."""
+    import pandas as pd
+
+    from mocomp.cli import main
+
+    from study.analysis import condition_table, load_responses
+
+    _table2_responses(tmp_path / "data")
+    assert main(["study", "analyze", str(tmp_path / "data"), "-o", str(tmp_path / "rep"), "--correction", "none",
+                 "--n-boot", "20", "--no-figures", "--no-observer-model"]) == 0
+    assert "20 participants" in capsys.readouterr().out
+    data = load_responses(tmp_path / "data")
+    out = {"none": pd.read_csv(tmp_path / "rep" / "conditions.csv")}
+    for corr in ("1/(2N)", "loglinear"):
+        out[corr] = condition_table(data, correction=corr, n_boot=20)
+    c = out["none"]
+    ctl = c[c["perturbation"] == "none"].set_index("group")
+    assert ctl["pct_rated_correct"].to_dict() == {"angular_momentum": 72.0, "takeoff": 63.0}
+    assert set(ctl["n_trials"]) == {100} and (c["control_source"] == "group").all()
+    pert = c[c["perturbation"] != "none"]
+    t = table2().merge(pert, on=["group", "perturbation", "direction", "level"], how="left", validate="1:1")
+    assert t["dprime"].notna().all() and len(t) == 19
+    np.testing.assert_array_equal(t["pct_rated_correct"], t["rating"])
+    np.testing.assert_allclose(t["dprime"], dprime_from_ratings(t["control_rating"], t["rating"]), atol=1e-12)
+    dev = (t["dprime"] - t["dprime_published"]).abs()
+    assert dev.max() < 0.06 and dev[t["decimals"] == 2].max() < 0.025, t[["perturbation", "direction", "level",
+                                                                           "dprime", "dprime_published"]]
+    # 1/(2N) only moves rates of 0 or 1 (none here): identical; log-linear shrinks every |d'| a little
+    np.testing.assert_allclose(out["1/(2N)"]["dprime"], c["dprime"], atol=1e-12)
+    ll = out["loglinear"][out["loglinear"]["perturbation"] != "none"]
+    nz = pert["dprime"].abs() > 1e-9
+    assert (ll["dprime"].abs()[nz].to_numpy() < pert["dprime"].abs()[nz].to_numpy()).all()
+    assert (pert["dprime"].abs()[nz].to_numpy() - ll["dprime"].abs()[nz].to_numpy()).max() < 0.02
