@@ -178,3 +178,87 @@ def test_hdm05_c3d_marker_path_end_to_end(real_data_dir):
         got_rel = res.markers.positions[:, idx] - p.body.positions[:, sh][:, None]
         assert np.median(np.linalg.norm(got_rel - truth_rel, axis=2)) < 0.03
     assert max(errs) < 3.0, errs  # frames at 120 Hz (25 ms)
+
+
+_ARM = ("RWRA", "RWRB", "RFRM", "RFIN", "RSHO")
+
+
+def _arm_only(m, names, positions=None, source="subset"):
+    from mocomp.io.markers import Markers
+
+    idx = [m.names.index("Daniel:" + n) for n in names]
+    P = np.nan_to_num(m.positions[:, idx]) if positions is None else positions
+    return Markers(tuple(names), P, m.fps, m.mask[:, idx], source=source)
+
+
+@pytest.mark.realdata
+def test_marker_splice_theta_window_is_clamped_at_the_ends(real_data_dir):
+    """No trunk heading (no waist or left shoulder marker): the arm layer
+    turns the hand recording by eq. 6.7 between matched frames. The body is
+    the same arm turned 40 degrees about the vertical; every frame, the
+    first and last two included (which used to get theta = 0, 0.16 m
+    off), comes back to the body's own markers within 1.5 cm."""
+    from mocomp.io.c3d import read_c3d
+    from mocomp.splice import hand_markers_from_markers
+
+    m = read_c3d(real_data_dir / "hands" / "HDM_dg_06-03_03_120.c3d")
+    hand = _arm_only(m, _ARM)
+    assert hand_markers_from_markers(hand).trunk_heading is None
+    c, s = np.cos(np.radians(40)), np.sin(np.radians(40))
+    R = np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
+    body = _arm_only(m, _ARM, np.nan_to_num(hand.positions) @ R.T, "turned")
+    res = splice_markers(body, hand)
+    err = np.linalg.norm(res.markers.positions[:, :4] - body.positions[:, :4], axis=2).max(axis=1)
+    assert err.max() < 0.015, err
+    assert err[[0, 1, -2, -1]].max() < 0.01
+
+
+@pytest.mark.realdata
+def test_hand_only_capture_drives_the_hand_marker_in_the_forearm_frame(real_data_dir):
+    """A hand-only capture (the four arm markers, no shoulder, the body
+    static): the hand marker is carried in the forearm's frame onto the
+    body's forearm (layer 'hand'); the body's wrist and forearm markers stay.
+    Against the truth (the hand recording's FIN in its forearm frame at the
+    true frames, put on the body's forearm) the spliced FIN is within 1.2 /
+    1.5 mm (median) here; layer='arm' explains why it cannot be used."""
+    from mocomp.io.c3d import read_c3d
+    from mocomp.splice import hand_markers_from_markers
+    from mocomp.splice.markers import forearm_frame
+
+    m = read_c3d(real_data_dir / "hands" / "HDM_dg_06-03_03_120.c3d")
+    ks = [m.names.index("Daniel:" + n) for n in _ARM]
+    rel = np.nan_to_num(m.positions[:, ks[:4]]) - np.nan_to_num(m.positions[:, ks[4]])[:, None] + [0.0, 1.2, 0.3]
+    hand_only = _arm_only(m, _ARM[:4], rel, "hand-only")
+    hh = hand_markers_from_markers(hand_only)
+    assert hh.shoulder is None and any("no shoulder marker" in n for n in hh.notes)
+    ch, Rh = forearm_frame(hh.positions)
+    local = np.einsum("tji,tj->ti", Rh, hh.positions[:, 3] - ch)
+    for seed in (0, 1):
+        p = make_marker_pair(m, seed)
+        res = splice_markers(p.body, hand_only)
+        assert res.joints["right"] == ("Daniel:RFIN",) and "hand layer" in res.markers.notes[-1]
+        assert res.alignments["right"].error(p.truth)["mean"] < 2.0  # frames at 120 Hz
+        hb = hand_markers_from_markers(p.body)
+        cb, Rb = forearm_frame(hb.positions)
+        want = cb + np.einsum("tij,tj->ti", Rb, np.stack([np.interp(p.truth, np.arange(m.n_frames), local[:, k]) for k in range(3)], 1))
+        fin = p.body.names.index("Daniel:RFIN")
+        assert np.nanmedian(np.linalg.norm(res.markers.positions[:, fin] - want, axis=1)) < 0.003
+        others = [p.body.names.index("Daniel:" + n) for n in _ARM[:3]]
+        np.testing.assert_array_equal(res.markers.positions[:, others], p.body.positions[:, others])
+    with pytest.raises(AlignmentError, match=r"layer='arm' .* need a right shoulder marker; the hand recording \(hand-only\) has none. Use layer='hand'"):
+        splice_markers(p.body, hand_only, layer="arm")
+    with pytest.raises(ValueError, match="layer"):
+        splice_markers(p.body, hand_only, layer="elbow")
+
+
+def test_forearm_frame_known_answer_and_degenerate_frame():
+    from mocomp.splice.markers import forearm_frame
+
+    P = np.array([[[0.0, 0.02, 0.0], [0.0, -0.02, 0.0], [-0.1, 0.0, 0.0], [0.05, 0.0, 0.01]]] * 3)
+    c, R = forearm_frame(P)
+    np.testing.assert_allclose(c, 0.0, atol=1e-15)
+    np.testing.assert_allclose(R[0], [[-1, 0, 0], [0, 1, 0], [0, 0, -1]], atol=1e-15)  # e1 -x, e2 +y, e3 = e1 x e2
+    Q = P.copy()
+    Q[2, 0], Q[2, 1] = [-0.05, 0.0, 0.0], [0.05, 0.0, 0.0]  # wrist axis along the forearm
+    with pytest.raises(AlignmentError, match="frame 2: the wrist markers' axis"):
+        forearm_frame(Q)

@@ -29,6 +29,7 @@ __all__ = [
     "virtual_hand_markers",
     "hand_markers_from_markers",
     "heading_angle",
+    "forearm_frame",
 ]
 
 #: roles of the four markers, in the order p1..p4 of eq. 6.8
@@ -44,6 +45,38 @@ def heading_angle(v: np.ndarray) -> np.ndarray:
     """
     v = np.asarray(v, dtype=float)
     return np.arctan2(-v[..., 2], v[..., 0])
+
+
+def forearm_frame(positions: np.ndarray, source=None) -> tuple[np.ndarray, np.ndarray]:
+    """The distal forearm's own frame from the markers p1..p3 ``(T, 4, 3)``.
+
+    Origin the wrist centre ``c = (p1 + p2)/2``; axes ``e1`` along the eq. 6.8
+    forearm vector ``f = p3 - c``, ``e2`` the wrist axis ``p1 - p2`` made
+    orthogonal to ``e1``, ``e3 = e1 x e2``. Returns ``c (T, 3)`` and
+    ``R (T, 3, 3)`` with the axes as columns (world = ``c + R local``). It
+    depends on the forearm alone, not on the shoulder or the heading, so a
+    hand-only capture can be expressed in it. Raises
+    :class:`~mocomp.errors.AlignmentError` naming the first frame where the
+    wrist axis is (nearly) parallel to the forearm.
+    """
+    P = np.asarray(positions, dtype=float)
+    c = 0.5 * (P[:, 0] + P[:, 1])
+    f = P[:, 2] - c
+    w = P[:, 0] - P[:, 1]
+    nf = np.linalg.norm(f, axis=1)
+    e1 = f / np.maximum(nf, 1e-300)[:, None]
+    w = w - np.sum(w * e1, axis=1, keepdims=True) * e1
+    nw = np.linalg.norm(w, axis=1)
+    bad = (nf < 1e-6) | (nw < 1e-3 * np.maximum(np.linalg.norm(P[:, 0] - P[:, 1], axis=1), 1e-300)) | (nw < 1e-6)
+    if np.any(bad):
+        t = int(np.argmax(bad))
+        raise AlignmentError(
+            f"frame {t}: the wrist markers' axis (p1 - p2) is parallel to the forearm vector (p3 - wrist centre) or a "
+            f"vector has zero length, so the forearm frame is undefined" + (f" ({source})" if source else "")
+        )
+    e2 = w / nw[:, None]
+    e3 = np.cross(e1, e2)
+    return c, np.stack([e1, e2, e3], axis=2)
 
 
 @dataclass(frozen=True, eq=False)
@@ -345,7 +378,9 @@ def hand_markers_from_markers(markers, side: str = "right", names: tuple[str, ..
 
     ``names`` = (wrist A, wrist B, forearm, hand[, shoulder]) labels; default the
     Vicon Plug-in-Gait set ``RWRA RWRB RFRM RFIN RSHO`` (left: ``L...``), matched
-    with or without a ``Subject:`` prefix. The trunk heading comes from the waist
+    with or without a ``Subject:`` prefix. A shoulder named in ``names`` (or
+    by ``shoulder=``) must exist; the default one (``shoulder="auto"``) is
+    optional: without it ``shoulder`` is ``None`` (a hand-only capture; noted). The trunk heading comes from the waist
     markers ``(LFWT+LBWT)/2 - (RFWT+RBWT)/2`` or else ``LSHO - RSHO``. Gaps of
     at most ``max_gap`` frames (default 0.1 s) are filled by PCHIP interpolation
     (reported in ``notes``); longer gaps raise
@@ -353,7 +388,8 @@ def hand_markers_from_markers(markers, side: str = "right", names: tuple[str, ..
     """
     if side not in ("right", "left"):
         raise ValueError(f"side must be 'right' or 'left', got {side!r}")
-    labels = tuple(names) if names is not None else _PLUG_IN_GAIT[side]
+    # the default set's shoulder is optional (a hand-only capture has none): as with shoulder="auto"
+    labels = tuple(names) if names is not None else _PLUG_IN_GAIT[side][:4]
     if len(labels) not in (4, 5):
         raise ValueError(f"names must list 4 hand markers and optionally the shoulder marker, got {labels}")
     sh_label = labels[4] if len(labels) == 5 else (None if shoulder in (None, "auto") else shoulder)

@@ -6,7 +6,8 @@ alignment -> median merge -> blended, combined motion.
   clip with the arm joints driven by the aligned hand clip.
 * :func:`splice_markers` for optical markers (C3D): the body recording's four
   hand markers replaced by the aligned hand recording's, carried to the body's
-  shoulder and turned by the matched ``theta``.
+  shoulder and turned by the matched ``theta``; or, for a hand-only capture
+  without a shoulder marker, the hand marker carried in the forearm's frame.
 """
 from __future__ import annotations
 
@@ -160,63 +161,91 @@ def splice_motions(body: Motion, hand: Motion, points=(), *, side: str = "right"
 
 
 def splice_markers(body, hand, points=(), *, side: str = "right", body_names=None, hand_names=None,
-                   config: SpliceConfig | None = None, blend_window: float = 0.2, jump: float = 1.5,
-                   **overrides) -> SpliceResult:
+                   layer: str = "auto", config: SpliceConfig | None = None, blend_window: float = 0.2,
+                   jump: float = 1.5, **overrides) -> SpliceResult:
     """Splice optical hand markers (:class:`~mocomp.io.markers.Markers`, e.g. C3D)
     onto a full-body marker recording.
 
     The four hand markers (default Plug-in-Gait ``WRA, WRB, FRM, FIN``; see
     :func:`~mocomp.splice.markers.hand_markers_from_markers`) of both
-    recordings are aligned; the body's four markers are then replaced by the
-    hand recording's, per body frame the median over the matched hand frames of
-    the shoulder-relative positions (ch. 6.2), turned about the vertical by the
-    trunk-heading difference (or eq. 6.7's ``theta`` when a heading is
-    missing) and added to the body's shoulder; discontinuities are blended.
+    recordings are aligned (two-stage DTW), then, per body frame, the median
+    over the matched hand frames (ch. 6.2) replaces the body's markers;
+    discontinuities are blended. ``layer``:
+
+    * ``"arm"``: all four markers. The hand recording's shoulder-relative
+      positions are turned about the vertical by the trunk-heading
+      difference (both recordings need a trunk heading: waist or both
+      shoulder markers), else by eq. 6.7's ``theta`` between the matched
+      frames (windows clamped at the clip's ends, sums pooled over
+      ``SpliceConfig.refine_theta_span``,
+      :func:`~mocomp.splice.metrics.matched_theta`), and added to the body's
+      shoulder. Needs a shoulder marker in both recordings.
+    * ``"hand"``: only the hand marker (``FIN``), carried in the distal
+      forearm's own frame (:func:`~mocomp.splice.markers.forearm_frame`: wrist
+      centre, forearm vector, wrist axis) from the hand recording onto the
+      body's forearm, which keeps its own markers. Needs no shoulder and no
+      heading: what a hand-only capture (no shoulder marker, the arm resting
+      on a table) records is the hand relative to the forearm.
+    * ``"auto"`` (default): ``"arm"`` when both recordings have a shoulder
+      marker, else ``"hand"``.
     """
-    from .metrics import theta_eq67
+    from .markers import forearm_frame
+    from .metrics import matched_theta, rotate_vertical
 
     t0 = time.perf_counter()
     cfg = config or SpliceConfig()
     if overrides:
         cfg = replace(cfg, **overrides)
+    if layer not in ("auto", "arm", "hand"):
+        raise ValueError(f"layer must be 'auto', 'arm' or 'hand', got {layer!r}")
     if abs(hand.fps - body.fps) > 1e-6 * body.fps:
         raise AlignmentError(f"body ({body.fps:g} fps) and hand ({hand.fps:g} fps) marker recordings must share a frame rate")
     pts = as_points(points)
     P = np.array(body.positions)
     alignments, bph, hph, names, blends = {}, {}, {}, {}, {}
     tm = {"markers": 0.0, "align": 0.0, "merge": 0.0, "phases": 0.0}
+    layers = {}
     for s in _sides(side):
         ta = time.perf_counter()
         hb = hand_markers_from_markers(body, s, body_names)
         hh = hand_markers_from_markers(hand, s, hand_names)
-        if hb.shoulder is None or hh.shoulder is None:
-            raise AlignmentError("marker splicing needs a shoulder marker in both recordings")
+        lay = layer
+        if lay == "auto":
+            lay = "arm" if hb.shoulder is not None and hh.shoulder is not None else "hand"
+        if lay == "arm" and (hb.shoulder is None or hh.shoulder is None):
+            which = "body" if hb.shoulder is None else "hand"
+            raise AlignmentError(
+                f"layer='arm' carries the hand recording's four {s} markers to the body's shoulder, so both recordings "
+                f"need a {s} shoulder marker; the {which} recording ({(body if which == 'body' else hand).source or which}) "
+                f"has none. Use layer='hand' (the hand marker carried in the forearm's frame) for a hand-only capture, "
+                f"or name the shoulder marker (names=(..., shoulder))"
+            )
         tb = time.perf_counter()
         al = align_hands(hb, hh, pts, cfg)
         tc = time.perf_counter()
-        rel = median_frames(hh.relative, al.path, al.n, al.hand_frame)  # (n, 4, 3)
-        j = np.clip(np.round(al.hand_frame).astype(int), 0, al.m - 1)
-        if hb.trunk_heading is not None and hh.trunk_heading is not None:
-            theta = np.unwrap(hb.trunk_heading) - np.unwrap(hh.trunk_heading)[j]
+        if lay == "arm":
+            rel = median_frames(hh.relative, al.path, al.n, al.hand_frame)  # (n, 4, 3)
+            both = al.body_features.heading is not None and al.hand_features.heading is not None
+            span = max(1, int(round(cfg.refine_theta_span * body.fps)) | 1)
+            theta = matched_theta(al.body_features, al.hand_features, al.hand_frame, "trunk" if both else "window", span)
+            merged = hb.shoulder[:, None, :] + rotate_vertical(rel, theta)
+            labels = hb.labels
         else:
-            w = cfg.theta_window
-            theta = np.array([theta_eq67(hb.relative[max(0, i - w // 2):i + w // 2 + 1].reshape(-1, 3),
-                                         hh.relative[max(0, jj - w // 2):jj + w // 2 + 1].reshape(-1, 3))
-                              if min(hb.n_frames - i, hh.n_frames - jj, i + 1, jj + 1) > w // 2 else 0.0
-                              for i, jj in enumerate(j)])
-        c, sn = np.cos(theta)[:, None], np.sin(theta)[:, None]
-        x, z = rel[..., 0], rel[..., 2]
-        rot = np.stack([c * x + sn * z, rel[..., 1], -sn * x + c * z], axis=-1)
-        merged = hb.shoulder[:, None, :] + rot
+            ch, Rh = forearm_frame(hh.positions, hand.source)
+            local = np.einsum("tji,tj->ti", Rh, hh.positions[:, 3] - ch)  # hand marker in the hand recording's forearm frame
+            local = median_frames(local, al.path, al.n, al.hand_frame)
+            cb, Rb = forearm_frame(hb.positions, body.source)
+            merged = (cb + np.einsum("tij,tj->ti", Rb, local))[:, None, :]
+            labels = hb.labels[3:]
         win = max(3, int(round(blend_window * body.fps)) | 1)
         merged, rep = blend_discontinuities(merged, al.hand_frame, window=win, jump=jump)
-        idx = [body.names.index(lab) for lab in hb.labels]
+        idx = [body.names.index(lab) for lab in labels]
         P[:, idx] = merged
         td = time.perf_counter()
         bph[s] = motion_phases(hb, smooth=cfg.smooth)
         hph[s] = motion_phases(hh, smooth=cfg.smooth)
         te = time.perf_counter()
-        alignments[s], names[s], blends[s] = al, hb.labels, rep
+        alignments[s], names[s], blends[s], layers[s] = al, labels, rep, lay
         tm["markers"] += tb - ta
         tm["align"] += tc - tb
         tm["merge"] += td - tc
@@ -225,7 +254,8 @@ def splice_markers(body, hand, points=(), *, side: str = "right", body_names=Non
     for s in names:
         for lab in names[s]:
             mask[:, body.names.index(lab)] = True
-    note = f"spliced {side} hand markers from {hand.source or 'hand recording'}"
+    note = (f"spliced {side} hand markers ({', '.join(f'{k}: {v} layer' for k, v in layers.items())}) "
+            f"from {hand.source or 'hand recording'}")
     out = replace(body, positions=P, mask=mask, notes=tuple(getattr(body, "notes", ())) + (note,))
     tm["total"] = time.perf_counter() - t0
     return SpliceResult(None, out, alignments, bph, hph, names, blends, pts, None, tm)
