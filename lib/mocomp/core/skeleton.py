@@ -183,9 +183,13 @@ class Skeleton:
             bad = [x for x in c if x not in _VALID_CHANNELS]
             if bad:
                 raise MotionFormatError(f"joint {names[j]!r} has unknown channel(s) {bad}")
+            if len(set(c)) != len(c):
+                raise MotionFormatError(f"joint {names[j]!r} repeats a channel: {c}")
         for e in self.end_sites:
             if not (0 <= e.parent < J):
                 raise MotionFormatError(f"end site {e.name!r} hangs from joint index {e.parent}, out of range")
+            if not np.all(np.isfinite(e.offset)):
+                raise MotionFormatError(f"end site {e.name!r} has a non-finite offset {e.offset.tolist()}")
         if self.removed_root is not None:
             if not isinstance(self.removed_root, RemovedRoot):
                 raise MotionFormatError(f"removed_root must be a RemovedRoot, got {type(self.removed_root).__name__}")
