@@ -51,3 +51,47 @@ def test_twist_and_out_of_range(tmp_path, capsys):
     assert np.isfinite(read_bvh(out).root_positions).all()
     assert main(["twist", "twist180", "--degrees", "720", "-o", str(out)]) == 2
     assert "outside the range reachable" in capsys.readouterr().err
+
+
+def _arm_angles(motion, f):
+    """Upper arm vs the trunk axis (deg), left and right."""
+    j = {n: i for i, n in enumerate(motion.skeleton.names)}
+    P = motion.positions[f]
+    up = P[j["Neck"]] - P[j["Hips"]]
+    out = []
+    for s in ("Left", "Right"):
+        a = P[j[s + "ForeArm"]] - P[j[s + "Arm"]]
+        out.append(float(np.degrees(np.arccos(a @ up / np.linalg.norm(a) / np.linalg.norm(up)))))
+    return out
+
+
+def test_edit_method_bfgs_and_up_side_reach_the_computation(tmp_path, capsys):
+    out, ed, rep = tmp_path / "e.bvh", tmp_path / "ed.bvh", tmp_path / "r.json"
+    assert main(["edit", "backflip", "--preset", "arms-twist", "--method", "bfgs", "--up-side", "r",
+                 "-o", str(out), "--edited", str(ed), "--report", str(rep)]) == 0
+    d = json.loads(rep.read_text())
+    assert d["direction"]["method"] == "bfgs"
+    assert d["direction"]["evaluations"] > 10 * (d["flight"][1] - d["flight"][0])   # BFGS iterates per frame
+    assert d["max_errors"]["direction"]["direction_rad"] < 1e-6
+    assert d["reference"] == "constant"           # 'auto' on an exact synthetic flight
+    # --up-side r: the right arm goes up along the trunk, the left out to the side (mid edit)
+    edited = read_bvh(ed)
+    lft, rgt = _arm_angles(edited, (d["flight"][0] + d["flight"][1]) // 2)
+    assert rgt < 10.0 and abs(lft - 90.0) < 5.0
+
+
+def test_edit_reference_original_and_takeoff_height_reach_the_computation(tmp_path, capsys):
+    from mocomp import datasets
+
+    out, rep = tmp_path / "e.bvh", tmp_path / "r.json"
+    assert main(["edit", "backflip", "--preset", "straight-legs", "--reference", "original",
+                 "--takeoff-height", "0.5", "-o", str(out), "--report", str(rep)]) == 0
+    d = json.loads(rep.read_text())
+    assert d["reference"] == "original"
+    assert d["takeoff_height_m"] == 0.5
+    assert d["platform"] is not None and d["platform"]["clearance"] >= -1e-9
+    assert d["retime"]["dy"] < -0.4                       # the landing now lies 0.5 m below the take-off
+    assert "target original" in capsys.readouterr().out
+    m = read_bvh(out)
+    src = datasets.load_example("backflip").motion
+    assert abs(m.root_positions[0, 1] - src.root_positions[0, 1] - 0.5) < 1e-4

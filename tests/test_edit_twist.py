@@ -76,3 +76,16 @@ def test_real_hop_turn_270(real_data_dir):
         assert r.restore.stages["final"].max_magnitude < r.restore.stages["original"].max_magnitude
     assert rs[0].takeoff_speed < rs[1].takeoff_speed < rs[2].takeoff_speed
     assert rs[0].height < rs[1].height < rs[2].height
+    # the rotation rate grows with the angle too (measured 387 -> 444 -> 471 deg/s; the 270 deg
+    # capture itself turns at 424 deg/s), read independently off the output's root orientation
+    from mocomp.flips.smoothing import split_root
+
+    P = prepare_twist("cmu_83_58_hopturn270")
+    rates = []
+    for r in rs:
+        a, b = r.flight_out
+        th, _ = split_root(np.asarray(r.motion.rotations[:, 0]), P.axis, getattr(P, "root_ref", None))
+        rates.append(float(np.degrees(abs(th[b - 1] - th[a])) / ((b - 1 - a) / r.motion.fps)))
+    np.testing.assert_allclose(rates, [r.angular_speed for r in rs], rtol=1e-9)
+    assert rates[0] < rs[0].angular_speed_original < rates[1] < rates[2]
+    assert rates[2] > 1.15 * rates[0]
