@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.rotations import quat_apply
+from ..core.rotations import quat_apply, quat_inverse
 from ..errors import MotionFormatError
 from .com import check_compatible
 from .derivatives import angular_velocity, central_difference, smooth_motion
@@ -85,12 +85,8 @@ class MotionVelocities:
                              f"{motion.skeleton.n_joints} joints")
         _, G = motion.fk()
         wl = quat_apply(G, self.joint_angular_velocities)
-        w = np.empty_like(wl)
-        w[:, 0] = self.root_angular_velocity
-        par = motion.skeleton.parents
-        for j in range(1, motion.skeleton.n_joints):
-            w[:, j] = w[:, par[j]] + wl[:, j]
-        return w
+        # w_j = w_root + sum of G_k w_k over the joints k on the path root -> j (k != root)
+        return self.root_angular_velocity[:, None] + (_path_matrix(motion.skeleton) @ wl)
 
 
 @dataclass(frozen=True, eq=False)
@@ -161,6 +157,18 @@ def world_inertias(body, rotations) -> np.ndarray:
     return np.einsum("tsij,sjk,tslk->tsil", R, body.inertias, R, optimize=True)
 
 
+def _path_matrix(skeleton) -> np.ndarray:
+    """``(J, J)`` 0/1: ``A[j, k] = 1`` when joint ``k != 0`` lies on the path from the root to
+    ``j`` (``j`` included), so a quantity summed along the tree is one matrix product."""
+    par = skeleton.parents
+    J = skeleton.n_joints
+    A = np.zeros((J, J))
+    for j in range(1, J):
+        A[j] = A[par[j]]
+        A[j, j] = 1.0
+    return A
+
+
 def joint_velocities(motion, omega_joints=None, order: int = 2, root_velocity=None):
     """Rigid-body velocities of every joint origin ``(T, J, 3)`` and world angular velocities ``(T, J, 3)``.
 
@@ -172,12 +180,13 @@ def joint_velocities(motion, omega_joints=None, order: int = 2, root_velocity=No
     P, G = motion.fk()
     t = motion.times
     w = angular_velocity(G, t, order=order) if omega_joints is None else omega_joints
-    v = np.empty_like(P)
-    v[:, 0] = central_difference(motion.root_positions, t, order=order) if root_velocity is None else root_velocity
-    par = motion.skeleton.parents
-    for j in range(1, motion.skeleton.n_joints):
-        p = par[j]
-        v[:, j] = v[:, p] + np.cross(w[:, p], P[:, j] - P[:, p])
+    v0 = central_difference(motion.root_positions, t, order=order) if root_velocity is None else root_velocity
+    par = np.asarray(motion.skeleton.parents).copy()
+    par[0] = 0
+    # v_j = v_parent + w_parent x (P_j - P_parent), summed along the path root -> j at once
+    step = np.cross(w[:, par], P - P[:, par])
+    step[:, 0] = 0.0
+    v = np.asarray(v0)[:, None] + (_path_matrix(motion.skeleton) @ step)
     return v, w
 
 
@@ -259,8 +268,11 @@ def assemble_momentum(body, times, pos, rot, vel, omega, smooth_sigma=None, velo
         raise MotionFormatError("body model has zero total mass")
     com = np.einsum("s,tsk->tk", m, pos) / M
     p = np.einsum("s,tsk->tk", m, vel)
-    Iw = world_inertias(body, rot)
-    L = np.einsum("tsij,tsj->ti", Iw, omega) + np.einsum("s,tsk->tk", m, np.cross(pos - com[:, None], vel))
+    # sum_i R_i I_i R_i^T w_i, as R_i (I_i (R_i^T w_i)) with quaternions (no 3x3 products per frame)
+    rot = np.asarray(rot, dtype=float)
+    u = quat_apply(quat_inverse(rot), omega)
+    spin = quat_apply(rot, (body.inertias[None] @ u[..., None])[..., 0]).sum(axis=1)
+    L = spin + np.einsum("s,tsk->tk", m, np.cross(pos - com[:, None], vel))
     return MomentumResult(times=np.asarray(times), com=com, com_velocity=p / M, linear=p, angular=L,
                           segment_positions=pos, segment_velocities=vel, segment_angular_velocities=omega,
                           total_mass=M, smooth_sigma=smooth_sigma if smooth_sigma else None,
