@@ -253,3 +253,20 @@ def test_timing_diagnosis_on_real_clips_read_at_120_hz(real_data_dir, name, trut
         assert t.consistent and t.suggested is None and "look right" in t.text
     else:
         assert not t.consistent and t.suggested == 60.0 and "labelled 120 Hz" in t.text and "fps=60" in t.text
+
+
+@pytest.mark.realdata
+def test_prepare_joint_flights_on_88_01(real_data_dir):
+    """``prepare(joint_flights=True)``: the flip (47-78) and the hop (95-108) of CMU 88_01 share the
+    masses (the same estimate as :func:`estimate_masses` over both), each has its own trajectory,
+    and the flight used is still the flip's."""
+    m = _real("cmu_88_01_backflip", None)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        P = prepare(m, joint_flights=True)
+    assert [(f.start, f.stop) for f in P.mass.fits] == [(47, 79), (95, 109)] and P.flight == (47, 79)
+    assert P.fit == P.mass.fits[0] and P.mass_used
+    ref = estimate_masses(P.prior, m, [(47, 79), (95, 109)])
+    np.testing.assert_allclose(P.body.masses, ref.masses, rtol=1e-9)
+    single = estimate_masses(P.prior, m, (47, 79))
+    assert np.abs(P.body.masses - single.masses).max() > 0.05

@@ -35,7 +35,8 @@ def test_synthetic_acceptance(prepared, name, flips):
     res = multiflip(P, flips=flips)
     R = res.report
     # the synthetic single flips turn exactly 360 deg: target = request
-    assert R.requested_rotation == 360 * flips
+    assert R.requested_rotation == 360 * flips and R.requested_extra == 360 * (flips - 1)
+    assert f"requested {360 * flips} deg ({360 * (flips - 1)} extra)" in str(R)
     assert abs(R.achieved_rotation - R.requested_rotation) <= 10.0
     assert abs(R.rotation_error) < 0.1
     assert R.landing_orientation_error <= 10.0
@@ -85,6 +86,11 @@ def test_k_star_removes_the_linear_momentum_jumps(prepared):
     d = multiflip(P, flips=2).report
     s = multiflip(P, flips=2, k_ratio=1.0).report
     assert abs(d.p_jump_takeoff_rel) > 0.5              # 0.7 k*: the vertical take-off velocity doubles
+    # the note's percentage and p_jump_takeoff_rel are one number (basis M k|v|, mocomp.flips.retime)
+    note = next(n for n in d.notes if n.startswith("k = 0.70 k*"))
+    assert f"jumps at take-off by {100 * d.p_jump_takeoff_rel:+.0f}% of the retimed take-off momentum" in note
+    assert d.p_jump_takeoff * (1 / d.p_jump_takeoff_rel) == pytest.approx(
+        P.body.total_mass * d.k * np.hypot(np.hypot(P.fit.a_x, P.fit.a_z), P.fit.b_y))
     assert abs(s.p_jump_takeoff_rel) < 1e-9 and abs(s.p_jump_landing_rel) < 0.05
     assert s.takeoff_angle_change < d.takeoff_angle_change
     e = multiflip(P, flips=2, k=1.3).report
@@ -112,8 +118,8 @@ def test_linear_momentum_measured_on_the_motion(prepared):
     R = res.report
     assert up7 / v_ground7 == pytest.approx((R.k_star / R.k) ** 2 - 1, abs=0.06)
     assert R.p_jump_takeoff_rel == pytest.approx(1.0, abs=0.1)
-    assert any("jumps by +10" in n and "k = k*" in n for n in R.notes)
-    assert not any("jumps by" in n for n in multiflip(P, flips=2, k_ratio=1.0).report.notes)
+    assert any(f"jumps at take-off by {100 * R.p_jump_takeoff_rel:+.0f}%" in n and "k = k*" in n for n in R.notes)
+    assert not any("jumps at take-off" in n for n in multiflip(P, flips=2, k_ratio=1.0).report.notes)
 
 
 def test_height_change_moves_the_landing(prepared):
@@ -212,7 +218,7 @@ def test_twist_jump_extra_rotation():
     P = prepare(r.motion, loop_options={"min_angle": np.deg2rad(30)})
     res = multiflip(P, flips=None, extra_rotation=np.deg2rad(90))
     R = res.report
-    assert R.flips is None and R.requested_rotation is None
+    assert R.flips is None and R.requested_rotation is None and R.requested_extra == pytest.approx(90.0)
     assert abs(R.rotation_error) < 1.0 and R.target_rotation == pytest.approx(R.original_rotation + 90)
     # the landing is the original's, turned 90 degrees about the vertical, on the same floor
     assert R.landing_orientation_error == pytest.approx(90.0, abs=1.0)

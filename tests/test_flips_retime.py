@@ -49,6 +49,15 @@ def test_plan_at_k_star_is_continuous_and_default_is_0_7():
     assert -0.5 * G * d.T_new ** 2 + d.vy_takeoff_new * d.T_new == pytest.approx(0.0, abs=1e-12)
     # slower than k*: higher jump, the take-off velocity has to jump up (factor (k*/k)^2 for dy = 0)
     assert d.vy_takeoff_new / (d.k * v0) == pytest.approx(1 / 0.49)
+    # one basis for the relative jump (note and p_jump_takeoff_rel): M k|v| of the retimed take-off;
+    # without horizontal speed it is the vertical (k*/k)^2 - 1 = +104 %
+    assert d.p_jump_takeoff_rel == pytest.approx(1 / 0.49 - 1) and "+104% of the retimed take-off" in d.note
+    h = plan_retime(G, 1.2, v0, 0.0, v_land, v_horizontal=2.0)
+    assert h.vy_takeoff_jump == pytest.approx(d.vy_takeoff_jump)           # the jump itself is vertical
+    assert h.takeoff_speed == pytest.approx(h.k * np.hypot(2.0, v0))
+    assert h.p_jump_takeoff_rel == pytest.approx(h.vy_takeoff_jump / (h.k * np.hypot(2.0, v0)))
+    assert h.p_jump_landing_rel == pytest.approx(h.vy_landing_jump / h.takeoff_speed)
+    assert f"{100 * h.p_jump_takeoff_rel:+.0f}% of the retimed take-off" in h.note
     e = plan_retime(G, 1.2, v0, 0.0, v_land, k=1.2)
     assert e.k == 1.2
     with pytest.raises(ValueError):

@@ -79,7 +79,8 @@ def slerp_frames(q0: np.ndarray, q1: np.ndarray, a: np.ndarray) -> np.ndarray:
 class PhysicsReport:
     """What a researcher needs to judge a generated multi-flip (angles in degrees).
 
-    Rotation: ``requested_rotation`` (``360 x flips``), ``target_rotation`` (the input's own
+    Rotation: ``requested_rotation`` (``360 x flips``), ``requested_extra`` (the rotation added to
+    the input's, ``360 x (flips - 1)``, or the ``extra_rotation`` given), ``target_rotation`` (the input's own
     rotation about L plus ``360 x (flips - 1)``, so it lands as the input did),
     ``original_rotation``, ``achieved_rotation`` (root rotation about L, first to last
     frame, of the new motion), ``rotation_error`` (achieved - target).
@@ -99,8 +100,9 @@ class PhysicsReport:
     ballistic fit), ``com_target_error`` (m, max distance to eq. 5.15/5.17).
     Take-off: ``takeoff_angle_original``, ``takeoff_angle_new``, ``takeoff_angle_change``
     (elevation of the COM velocity). Linear momentum jumps (kg m/s): ``p_jump_takeoff``,
-    ``p_jump_landing``, and relative to ``M |v|`` at take-off: ``p_jump_takeoff_rel``,
-    ``p_jump_landing_rel``. Landing: ``landing_orientation_error`` (final root orientation
+    ``p_jump_landing``, and relative to ``M k |v|``, the momentum of the ``k``-retimed ground
+    phase at take-off (the basis of the take-off note too; :mod:`mocomp.flips.retime`):
+    ``p_jump_takeoff_rel``, ``p_jump_landing_rel``. Landing: ``landing_orientation_error`` (final root orientation
     vs the original's final one). ``height_change`` (m, landing level change),
     ``takeoff_height_change`` (m), ``dy`` (m, landing minus take-off COM level of the new motion).
     ``times_ms``: per stage, ``runtime_total`` (sum of run-time stages),
@@ -171,6 +173,7 @@ class PhysicsReport:
     L_profile_deviation_max: float = float("nan")
     L_profile_deviation_rms: float = float("nan")
     takeoff_height_change: float = 0.0
+    requested_extra: float | None = None
 
     def to_dict(self) -> dict:
         d = dataclasses.asdict(self)
@@ -199,8 +202,9 @@ class PhysicsReport:
     def __str__(self) -> str:
         t = self.times_ms
         req = f"{self.requested_rotation:.0f}" if self.requested_rotation is not None else "-"
+        req += " deg" + (f" ({self.requested_extra:.0f} extra)" if self.requested_extra is not None else "")
         lines = [
-            f"rotation about L: requested {req} deg, target {self.target_rotation:.1f}, achieved "
+            f"rotation about L: requested {req}, target {self.target_rotation:.1f}, achieved "
             f"{self.achieved_rotation:.1f} (error {self.rotation_error:+.2f}); original {self.original_rotation:.1f}",
             f"sequencing: loop m={self.m} n={self.n} phi={self.phi:.1f} deg ({'self-looping' if self.loop_found else 'FALLBACK'}"
             f", mean mismatch {self.loop_mean_angle:.1f} deg), r={self.r}, copies used {self.copies_used}, "
@@ -379,7 +383,8 @@ def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None 
     dy = float(com_land[1] - com0[1] + height_change - h0)
     v_land = fit.b_y + 2.0 * fit.a_y * T0
     try:
-        plan = plan_retime(fit.gravity, T_seq, fit.b_y, dy, v_land, k=k, k_ratio=k_ratio)
+        plan = plan_retime(fit.gravity, T_seq, fit.b_y, dy, v_land, k=k, k_ratio=k_ratio,
+                           v_horizontal=float(np.hypot(fit.a_x, fit.a_z)))
     except PhysicsError as exc:
         if "radicand" not in str(exc):
             raise
@@ -591,7 +596,6 @@ def _evaluate(P: PreparedFlip, seq: Sequence, plan: RetimePlan, traj: FlightTraj
     ang0 = float(np.degrees(np.arctan2(fit.b_y, vh)))
     ang1 = float(np.degrees(np.arctan2(plan.vy_takeoff_new, plan.k * vh)))
     M = P.body.total_mass
-    speed = float(np.hypot(plan.k * vh, plan.k * fit.b_y))
     q_end = new.rotations[-1, 0]
     q_ref = P.motion.rotations[-1, 0]
     land_err = float(np.degrees(quat_angle(quat_multiply(q_end, quat_inverse(q_ref)))))
@@ -614,8 +618,9 @@ def _evaluate(P: PreparedFlip, seq: Sequence, plan: RetimePlan, traj: FlightTraj
                      + (" and |L| across the joins was adjusted by non-uniform retiming (eq. 5.22)"
                         if speeds is not None else "; seam retiming is off, so |L| is not constant across the joins"))
     req = 360.0 * flips if extra_rotation is None else None
+    req_extra = 360.0 * (flips - 1) if extra_rotation is None else float(np.degrees(extra_rotation))
     rep = PhysicsReport(
-        flips=int(flips) if extra_rotation is None else None, requested_rotation=req,
+        flips=int(flips) if extra_rotation is None else None, requested_rotation=req, requested_extra=req_extra,
         target_rotation=float(np.degrees(seq.target)), original_rotation=float(np.degrees(orig)),
         achieved_rotation=float(np.degrees(achieved)), rotation_error=float(np.degrees(achieved - seq.target)),
         r=seq.r, copies_used=int(seq.join.copy + 1), phi=float(np.degrees(P.loop.phi)),
@@ -631,8 +636,7 @@ def _evaluate(P: PreparedFlip, seq: Sequence, plan: RetimePlan, traj: FlightTraj
         L_direction_change=dir_change, com_residual_rms=rms, com_residual_max=mx, com_target_error=target_err,
         takeoff_angle_original=ang0, takeoff_angle_new=ang1, takeoff_angle_change=ang1 - ang0,
         p_jump_takeoff=M * plan.vy_takeoff_jump, p_jump_landing=M * plan.vy_landing_jump,
-        p_jump_takeoff_rel=plan.vy_takeoff_jump / speed if speed > 0 else float("nan"),
-        p_jump_landing_rel=plan.vy_landing_jump / speed if speed > 0 else float("nan"),
+        p_jump_takeoff_rel=plan.p_jump_takeoff_rel, p_jump_landing_rel=plan.p_jump_landing_rel,
         landing_orientation_error=land_err, height_change=float(height_change), dy=dy, times_ms=times,
         notes=tuple(notes), seam_retimed=speeds is not None,
         L_profile_deviation_max=float(np.max(np.abs(prof))), L_profile_deviation_rms=float(np.sqrt(np.mean(prof ** 2))),

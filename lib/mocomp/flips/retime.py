@@ -35,6 +35,14 @@ the jump is ``(k*/k)^2 - 1`` of ``k v0``: **+104 % at k = 0.7 k***, not small, a
 paper calls such discontinuities imperceptible; it vanishes at ``k = k*`` (``k_ratio=1``,
 CLI ``--k-ratio 1``), which is continuous at take-off and, for ``dy = 0``, at landing.
 Both jumps are in :class:`RetimePlan` and the physics report.
+
+Relative jumps use one basis everywhere (the plan's note, :attr:`RetimePlan.p_jump_takeoff_rel`
+and the physics report's ``p_jump_takeoff_rel`` / ``p_jump_landing_rel``): the magnitude of the
+linear momentum the ``k``-retimed ground phase has at take-off, ``M k |v|`` with ``|v| =
+sqrt(v_h^2 + v0^2)`` (``v_h``: the flight's horizontal COM speed, ``v_horizontal``). The jump
+itself is vertical (the horizontal velocity is ``k v_h`` on both sides), so with ``v_h = 0`` the
+relative jump is the ``(k*/k)^2 - 1`` above; a forward-moving flip gives a smaller percentage of
+the larger total.
 """
 from __future__ import annotations
 
@@ -87,6 +95,8 @@ class RetimePlan:
     vy_takeoff_jump, vy_landing_jump: m/s, vertical velocity discontinuities at take-off
         and landing (new flight minus the ``k``-retimed ground phase; 0 at ``k = k*``).
     note: plain-words remark.
+    takeoff_speed: m/s, ``k |v|``, the ``k``-retimed ground phase's COM speed at take-off (``|v|``
+        from ``v0`` and ``v_horizontal``): the basis of the relative jumps (module docstring).
     """
 
     k: float
@@ -101,15 +111,27 @@ class RetimePlan:
     vy_takeoff_jump: float
     vy_landing_jump: float
     note: str = ""
+    takeoff_speed: float = float("nan")
+
+    @property
+    def p_jump_takeoff_rel(self) -> float:
+        """Take-off linear-momentum jump over ``M k |v|`` (``vy_takeoff_jump / takeoff_speed``)."""
+        return self.vy_takeoff_jump / self.takeoff_speed if self.takeoff_speed > 0 else float("nan")
+
+    @property
+    def p_jump_landing_rel(self) -> float:
+        """Landing linear-momentum jump over the same take-off basis ``M k |v|``."""
+        return self.vy_landing_jump / self.takeoff_speed if self.takeoff_speed > 0 else float("nan")
 
 
 def plan_retime(g: float, T_seq: float, v0: float, dy: float, v_land: float,
-                k: float | None = None, k_ratio: float | None = None) -> RetimePlan:
+                k: float | None = None, k_ratio: float | None = None, v_horizontal: float = 0.0) -> RetimePlan:
     """Choose ``k`` (explicit, or ``k_ratio * k*``, default ``0.7 k*`` as in section 5.3) and
     derive the new flight's vertical velocity.
 
     ``v_land`` is the original vertical velocity at landing (``b_y + 2 a_y T0``),
-    used for the landing discontinuity.
+    used for the landing discontinuity; ``v_horizontal`` (m/s) the flight's horizontal COM
+    speed ``sqrt(a_x^2 + a_z^2)``, which only enters the basis ``M k |v|`` of the relative jumps.
     """
     if k is not None and k_ratio is not None:
         raise ValueError("give either k or k_ratio, not both")
@@ -135,18 +157,20 @@ def plan_retime(g: float, T_seq: float, v0: float, dy: float, v_land: float,
     T_new = T_seq / k
     vy_new = dy / T_new + 0.5 * g * T_new
     vy_land_new = vy_new - g * T_new
+    speed = float(k * math.hypot(float(v_horizontal), float(v0)))
     if np.isfinite(ks) and abs(k / ks - 1.0) > 1e-6 and not note:
         kv0 = k * v0
-        rel = (vy_new - kv0) / abs(kv0) if abs(kv0) > 1e-12 else float("nan")
+        rel = (vy_new - kv0) / speed if speed > 1e-12 else float("nan")
         note = (f"k = {k / ks:.2f} k*: the flight keeps its retimed duration and both end levels, so it leaves "
-                f"at {vy_new:.2f} m/s vertically while the retimed take-off reaches {kv0:.2f} m/s: the vertical "
-                f"linear momentum jumps by {100 * rel:+.0f}% at take-off (and the vertical velocity by "
-                f"{vy_land_new - k * v_land:+.2f} m/s at landing); k = k* (k_ratio=1, --k-ratio 1) keeps it "
+                f"at {vy_new:.2f} m/s vertically while the retimed take-off reaches {kv0:.2f} m/s: the linear "
+                f"momentum jumps at take-off by {100 * rel:+.0f}% of the retimed take-off momentum M k|v| "
+                f"(k|v| = {speed:.2f} m/s; p_jump_takeoff_rel), and the vertical velocity by "
+                f"{vy_land_new - k * v_land:+.2f} m/s at landing; k = k* (k_ratio=1, --k-ratio 1) keeps it "
                 f"continuous")
     return RetimePlan(k=float(k), k_star=float(ks), k_ratio=float(k / ks) if np.isfinite(ks) else float("nan"),
                       g=float(g), T_seq=float(T_seq), T_new=float(T_new), v0=float(v0), dy=float(dy),
                       vy_takeoff_new=float(vy_new), vy_takeoff_jump=float(vy_new - k * v0),
-                      vy_landing_jump=float(vy_land_new - k * v_land), note=note)
+                      vy_landing_jump=float(vy_land_new - k * v_land), note=note, takeoff_speed=speed)
 
 
 def sample_positions(n_seq: int, k: float) -> np.ndarray:
