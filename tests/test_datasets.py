@@ -165,11 +165,49 @@ def test_not_found_messages(fake_data_dir, monkeypatch):
     monkeypatch.delenv("MOCOMP_DATA_DIR")
     with pytest.raises(DataNotFoundError, match="no real-data directory is set: set MOCOMP_DATA_DIR"):
         datasets.load("88_07")
+    with pytest.raises(DataNotFoundError, match="'bandai2_dance_001' is named like a clip of the Bandai Namco "
+                                                "Research Motion Dataset data: the 'source' column of the data "
+                                                "set's MANIFEST.md"):
+        datasets.load("bandai2_dance_001")
     monkeypatch.setenv("MOCOMP_DATA_DIR", str(fake_data_dir / "missing"))
     with pytest.raises(DataNotFoundError, match="is not a directory"):
         datasets.load("88_07")
     with pytest.raises(DataNotFoundError, match="no such file"):
         datasets.load(Path("/no/such/file.bvh"))
+    for d in (fake_data_dir / "jumps", str(fake_data_dir / "jumps")):
+        with pytest.raises(DataNotFoundError, match=f"{fake_data_dir / 'jumps'} is a directory, not a motion file"):
+            datasets.load(d)
+
+
+@pytest.mark.parametrize("name, data_set", [
+    ("sfu_0005_Hop002", "SFU Motion Capture Database"),
+    ("bandai1_kick_fast_001", "Bandai Namco Research Motion Dataset"),
+    ("deepmimic_dance_a", "DeepMimic motion"),
+    ("mass_run.bvh", "MASS (retargeted BVH)"),
+    ("hdm05_cartwheel", "HDM05"),
+    ("HDM_bd_01-01_01_120.amc", "HDM05"),
+])
+def test_not_found_hint_per_source(name, data_set, fake_data_dir):
+    """Non-CMU names get a how-to-obtain hint for their data set, pointing at the MANIFEST's
+    source column; a clip listed there but missing from the folder gets its row's source quoted."""
+    with pytest.raises(DataNotFoundError) as e:
+        datasets.load(name)
+    msg = str(e.value)
+    assert f"{Path(name).name!r} is named like a clip of the {data_set}" in msg, msg
+    assert f"the 'source' column of {fake_data_dir / 'MANIFEST.md'}" in msg and f"put it in {fake_data_dir}" in msg
+    assert "MANIFEST row for it" not in msg  # not listed in this MANIFEST
+
+
+def test_not_found_hint_quotes_the_manifest_row(fake_data_dir):
+    (fake_data_dir / "MANIFEST.md").write_text(
+        "| file | description | source (repo @ commit : path) | notes |\n|---|---|---|---|\n"
+        "| `jumps/sfu_0005_Hop002.bvh` | hops | `owner/repo` @ `abc123` : `tests/0005_Hop002.bvh` | inches |\n")
+    with pytest.raises(DataNotFoundError) as e:
+        datasets.load("sfu_0005_Hop002")
+    assert "(MANIFEST row for it: owner/repo @ abc123 : tests/0005_Hop002.bvh)" in str(e.value)
+    with pytest.raises(DataNotFoundError) as e:  # a name of no known source: no data-set hint
+        datasets.load("walk_unknown")
+    assert "named like a clip" not in str(e.value)
 
 
 # --------------------------------------------------------------- corrections

@@ -146,6 +146,10 @@ def _not_found_message(name: str, root: Path | None, clips: builtins.list[Path])
                    f"(from {CMU_REGISTRY[tid].repo})")
     elif tid is not None:
         how.append(f"get CMU trial {tid} from mocap.cs.cmu.edu (cgspeed BVH release) and put it in the data directory")
+    else:
+        hint = _source_hint(name, root)
+        if hint:
+            how.append(hint)
     if root is None:
         msg = (f"{name!r} is not an embedded example ({', '.join(ex) or 'none registered'}) nor an existing file, "
                f"and no real-data directory is set: set {ENV_VAR} to the folder of capture clips "
@@ -158,6 +162,57 @@ def _not_found_message(name: str, root: Path | None, clips: builtins.list[Path])
         if close:
             msg += f"; close: {', '.join(close)}"
     return "; ".join([msg] + how)
+
+
+#: data set of each non-CMU file-name prefix (as :func:`mocomp.datasets.clips.facts_for` reads them)
+_SOURCE_NAMES = {
+    "sfu": "SFU Motion Capture Database",
+    "bandai": "Bandai Namco Research Motion Dataset",
+    "deepmimic": "DeepMimic motion (its character file goes in skeletons/)",
+    "mass": "MASS (retargeted BVH)",
+    "hdm05": "HDM05 (ASF/AMC, C3D markers)",
+}
+
+
+def _source_hint(name: str, root: Path | None) -> str:
+    """How to obtain a non-CMU clip: its data set (from the name's prefix: ``sfu_``,
+    ``bandai``, ``deepmimic_``, ``mass_``, ``hdm05``/``HDM_``) and where its origin is
+    recorded (the data MANIFEST.md's source column; quoted when a row names the clip)."""
+    stem = Path(name.strip().replace("\\", "/")).name
+    low = stem.lower()
+    source = "hdm05" if low.startswith("hdm05") else facts_for(Path(stem)).source
+    if source not in _SOURCE_NAMES:
+        return ""
+    manifest = "the data set's MANIFEST.md" if root is None else str(root / "MANIFEST.md")
+    hint = (f"{stem!r} is named like a clip of the {_SOURCE_NAMES[source]} data: the 'source' column "
+            f"of {manifest} says where each staged clip comes from; fetch the file from there and put it in "
+            + ("the data directory" if root is None else str(root)))
+    row = _manifest_source(str(root), Path(stem).stem) if root is not None else ""
+    if row:
+        hint += f" (MANIFEST row for it: {row})"
+    return hint
+
+
+def _manifest_source(root: str, stem: str) -> str:
+    """The source column of the MANIFEST.md row whose file has stem ``stem``, or ``''``."""
+    try:
+        text = (Path(root) / "MANIFEST.md").read_text(encoding="utf-8")
+    except OSError:
+        return ""
+    lines = [ln for ln in text.splitlines() if ln.startswith("|")]
+    header = next((ln for ln in lines if "source" in ln.lower() and "file" in ln.lower()), None)
+    if header is None:
+        return ""
+    cols = [c.strip().lower() for c in header.strip("|").split("|")]
+    k = next((i for i, c in enumerate(cols) if c.startswith("source")), None)
+    if k is None:
+        return ""
+    for ln in lines:
+        cells = [c.strip() for c in ln.strip("|").split("|")]
+        m = re.match(r"`([^`]+)`", cells[0]) if cells else None
+        if m and Path(m.group(1)).stem.lower() == stem.lower() and len(cells) > k:
+            return cells[k].replace("`", "")
+    return ""
 
 
 # ---------------------------------------------------------------------- load
@@ -239,6 +294,8 @@ def load(name_or_path, *, fps: float | None = None, scale=None, raw: bool = Fals
     p = Path(os.fspath(name_or_path)).expanduser()
     if p.is_file():
         return _apply_facts(p, fps, scale, raw, **kw)
+    if p.is_dir() and ("/" in str(name_or_path) or os.sep in str(name_or_path) or not isinstance(name_or_path, str)):
+        raise DataNotFoundError(f"{p} is a directory, not a motion file")
     if not isinstance(name_or_path, str):
         raise DataNotFoundError(f"no such file: {p}")
     try:
