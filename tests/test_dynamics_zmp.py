@@ -6,6 +6,7 @@ from dyn_helpers import wavy_motion
 from mocomp.body import BodyModel
 from mocomp.core import Motion
 from mocomp.dynamics import center_of_mass, support_polygon_distance, zmp
+from scipy.spatial import ConvexHull, QhullError
 
 
 @pytest.fixture(scope="module")
@@ -91,3 +92,61 @@ def test_walk_zmp_mostly_inside_support_polygon(real_data_dir):
     ok = np.isfinite(d)
     assert ok.mean() > 0.9
     assert np.median(d[ok]) < 0.05
+
+
+# --------------------------------------------- the vectorised hull distance vs a per-frame ConvexHull
+def _ref_point_segment_distance(p, a, b) -> float:
+    ab = b - a
+    denom = float(ab @ ab)
+    t = 0.0 if denom == 0 else float(np.clip((p - a) @ ab / denom, 0.0, 1.0))
+    return float(np.linalg.norm(p - (a + t * ab)))
+
+
+def _ref_signed_distance_2d(p: np.ndarray, pts: np.ndarray) -> float:
+    if len(pts) == 0:
+        return np.nan
+    if len(pts) == 1:
+        return float(np.linalg.norm(p - pts[0]))
+    try:
+        hull = ConvexHull(pts)
+        verts = pts[hull.vertices]  # counter-clockwise
+    except (QhullError, ValueError):
+        # collinear points: the polygon is a segment between the extreme points
+        d = pts - pts.mean(axis=0)
+        u = np.linalg.svd(d, full_matrices=False)[2][0]
+        s = d @ u
+        return _ref_point_segment_distance(p, pts[np.argmin(s)], pts[np.argmax(s)])
+    n = len(verts)
+    dist = min(_ref_point_segment_distance(p, verts[k], verts[(k + 1) % n]) for k in range(n))
+    e = np.roll(verts, -1, axis=0) - verts
+    w = p - verts
+    inside = np.all(e[:, 0] * w[:, 1] - e[:, 1] * w[:, 0] >= 0)
+    return -dist if inside else dist
+
+
+
+def test_support_polygon_distance_equals_per_frame_convex_hull():
+    """The vectorised distance (no loop over frames) against the previous per-frame
+    scipy ConvexHull implementation, on random contact sets of 0..6 points with
+    collinear sets, coincident points and ZMPs on vertices."""
+    rng = np.random.default_rng(0)
+    T, K = 3000, 6
+    pts = rng.normal(size=(T, K, 2)) * rng.uniform(0.01, 1.0, (T, 1, 1))
+    pts[:300, :, 1] = 0.5 * pts[:300, :, 0] + 0.1            # collinear
+    pts[300:600, 1] = pts[300:600, 0]                         # coincident points
+    mask = rng.random((T, K)) < 0.7
+    p = rng.normal(size=(T, 2)) * 0.8
+    p[600:700] = pts[600:700, 0]                              # on a (possible) vertex
+    p[5] = np.nan
+    ref = np.full(T, np.nan)
+    for t in range(T):
+        if np.all(np.isfinite(p[t])):
+            ref[t] = _ref_signed_distance_2d(p[t], pts[t][mask[t]])
+    p3 = np.stack([p[:, 0], np.zeros(T), p[:, 1]], axis=1)
+    c3 = np.stack([pts[..., 0], np.zeros((T, K)), pts[..., 1]], axis=-1)
+    got = support_polygon_distance(p3, c3, mask)
+    assert np.array_equal(np.isnan(got), np.isnan(ref))
+    f = np.isfinite(ref)
+    assert (ref[f] < 0).sum() > 200 and (ref[f] > 0).sum() > 1000   # both inside and outside occur
+    np.testing.assert_allclose(got[f], ref[f], rtol=0, atol=1e-12)
+    assert np.array_equal(np.sign(got[f]), np.sign(ref[f]))

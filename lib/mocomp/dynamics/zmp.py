@@ -18,7 +18,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import ConvexHull, QhullError
 
 from .com import segment_positions
 from .derivatives import second_difference, smooth_motion
@@ -85,35 +84,6 @@ def zmp(body, motion, g: float = 9.81, ground_y: float | None = None, smooth_sig
     return ZMPResult(m_in.times, Z, defined, den, com_acc, float(ground_y), float(g), smooth_sigma or None)
 
 
-def _point_segment_distance(p, a, b) -> float:
-    ab = b - a
-    denom = float(ab @ ab)
-    t = 0.0 if denom == 0 else float(np.clip((p - a) @ ab / denom, 0.0, 1.0))
-    return float(np.linalg.norm(p - (a + t * ab)))
-
-
-def _signed_distance_2d(p: np.ndarray, pts: np.ndarray) -> float:
-    if len(pts) == 0:
-        return np.nan
-    if len(pts) == 1:
-        return float(np.linalg.norm(p - pts[0]))
-    try:
-        hull = ConvexHull(pts)
-        verts = pts[hull.vertices]  # counter-clockwise
-    except (QhullError, ValueError):
-        # collinear points: the polygon is a segment between the extreme points
-        d = pts - pts.mean(axis=0)
-        u = np.linalg.svd(d, full_matrices=False)[2][0]
-        s = d @ u
-        return _point_segment_distance(p, pts[np.argmin(s)], pts[np.argmax(s)])
-    n = len(verts)
-    dist = min(_point_segment_distance(p, verts[k], verts[(k + 1) % n]) for k in range(n))
-    e = np.roll(verts, -1, axis=0) - verts
-    w = p - verts
-    inside = np.all(e[:, 0] * w[:, 1] - e[:, 1] * w[:, 0] >= 0)
-    return -dist if inside else dist
-
-
 def support_polygon_distance(zmp_points, contact_points, contact_mask=None) -> np.ndarray:
     """Signed horizontal distance ``(T,)`` m from each frame's ZMP to the support polygon.
 
@@ -143,9 +113,53 @@ def support_polygon_distance(zmp_points, contact_points, contact_mask=None) -> n
     mask = np.ones(c.shape[:2], dtype=bool) if contact_mask is None else np.asarray(contact_mask, dtype=bool)
     if mask.shape != c.shape[:2]:
         raise ValueError(f"contact_mask must be {c.shape[:2]}, got {mask.shape}")
-    out = np.full(z.shape[0], np.nan)
-    for t in range(z.shape[0]):
-        if not np.all(np.isfinite(z2[t])):
-            continue
-        out[t] = _signed_distance_2d(z2[t], c2[t][mask[t]])
+    return _signed_distance_frames(z2, c2, mask)
+
+
+def _signed_distance_frames(p, pts, mask, rel_eps: float = 1e-10) -> np.ndarray:
+    """Vectorised over frames: signed distance ``(T,)`` of ``p`` ``(T, 2)`` to the convex hull of
+    the masked points ``pts`` ``(T, K, 2)``.
+
+    Every pair ``i <= j`` of contact points is a candidate segment (``i == j``: the point
+    itself). A pair ``i < j`` is a hull edge when no two of the other points lie strictly
+    on opposite sides of its line. Outside (or for a degenerate polygon: one point, or
+    all points on a line -- cross products below ``rel_eps`` times the squared extent)
+    the distance is the minimum over the segments, which is the distance to the hull
+    (its nearest point lies on a hull edge, and every segment lies inside the hull);
+    inside, minus the minimum over the hull edges. The same answers as a per-frame
+    :class:`scipy.spatial.ConvexHull` (``tests/test_dynamics_zmp.py``), without a loop
+    over frames.
+    """
+    T, K = mask.shape
+    out = np.full(T, np.nan)
+    ok = np.all(np.isfinite(p), axis=1) & mask.any(axis=1)
+    if not ok.any() or K == 0:
+        return out
+    p, pts, mask = p[ok], pts[ok], mask[ok]
+    iu, ju = np.triu_indices(K)                               # pairs i <= j, self pairs included
+    a, b = pts[:, iu], pts[:, ju]                             # (N, P, 2)
+    valid = mask[:, iu] & mask[:, ju]
+    ab = b - a
+    denom = np.einsum("npk,npk->np", ab, ab)
+    ap = p[:, None] - a
+    tt = np.clip(np.einsum("npk,npk->np", ap, ab) / np.where(denom > 0, denom, 1.0), 0.0, 1.0)
+    tt = np.where(denom > 0, tt, 0.0)
+    dist = np.linalg.norm(ap - tt[..., None] * ab, axis=-1)    # (N, P)
+    # side of every point k relative to the line of each pair
+    rel = pts[:, None, :, :] - a[:, :, None, :]               # (N, P, K, 2)
+    cr = ab[:, :, None, 0] * rel[..., 1] - ab[:, :, None, 1] * rel[..., 0]
+    lo, hi = np.nanmin(np.where(mask[..., None], pts, np.nan), axis=1), np.nanmax(
+        np.where(mask[..., None], pts, np.nan), axis=1)
+    eps = rel_eps * np.max(hi - lo, axis=1) ** 2              # (N,)
+    pos = ((cr > eps[:, None, None]) & mask[:, None, :]).any(axis=2)
+    neg = ((cr < -eps[:, None, None]) & mask[:, None, :]).any(axis=2)
+    flat = ~((pos | neg) & valid).any(axis=1) | (eps == 0)   # one point, or all on a line
+    edge = valid & (iu < ju)[None] & (denom > 0) & ~(pos & neg)
+    side = np.where(pos, 1.0, -1.0)                           # the interior's side of a hull edge
+    cp = ab[..., 0] * ap[..., 1] - ab[..., 1] * ap[..., 0]    # side of p
+    inside = ~flat & np.all(~edge | (cp * side >= 0), axis=1)
+    d_all = np.min(np.where(valid, dist, np.inf), axis=1)
+    d_edge = np.min(np.where(edge, dist, np.inf), axis=1)
+    res = np.where(flat, d_all, np.where(inside, -d_edge, d_edge))
+    out[ok] = res
     return out
