@@ -196,3 +196,42 @@ def test_table_c1_comparison_and_plots():
     assert df.loc[whole, "C.1 initial %"].sum() == pytest.approx(100.0, abs=0.05)
     fig = plot_mass_comparison(df)
     assert len(fig.axes[0].patches) == len(df) * 4
+
+
+def test_which_densities_each_solid_uses():
+    """Pinned: the cuboid uses dissertation Table C.1's densities, the ellipsoid Winter's
+    Table 4.1 by default (see mocomp.body.tables); both use Table C.1's width/depth ratios;
+    densities="table_c1" gives the ellipsoid Table C.1's, with the closed-form effect on
+    its long-axis moment (I_long = m/5 (b^2 + c^2) and b c = 3 V / (4 pi a), V = m / rho:
+    I_long scales as 1 / rho at fixed mass and length)."""
+    from mocomp.body import BodyModel
+    from mocomp.body.builder import _kind
+    from mocomp.body.tables import ELLIPSOID_DENSITY, SHAPE_DENSITY_RATIO
+    from mocomp.synth import synthetic_skeleton
+
+    sk = synthetic_skeleton(1.75)
+    kinds = None
+    models = {}
+    for shape, dens in (("ellipsoid", None), ("cuboid", None), ("ellipsoid", "table_c1"), ("ellipsoid", "winter"),
+                        ("cuboid", "winter")):
+        b = BodyModel.from_skeleton(sk, 70.0, shape=shape, densities=dens)
+        kinds = [_kind(s) for s in b.segment_names]
+        models[shape, dens] = b
+        np.testing.assert_array_equal(b.geometry.ratios, [SHAPE_DENSITY_RATIO[k][1] for k in kinds])
+    c1 = [SHAPE_DENSITY_RATIO[k][0] for k in kinds]
+    winter = [ELLIPSOID_DENSITY[k] for k in kinds]
+    np.testing.assert_array_equal(models["ellipsoid", None].geometry.densities, winter)
+    np.testing.assert_array_equal(models["cuboid", None].geometry.densities, c1)
+    np.testing.assert_array_equal(models["ellipsoid", "table_c1"].geometry.densities, c1)
+    np.testing.assert_array_equal(models["cuboid", "winter"].geometry.densities, winter)
+    assert np.array_equal(models["ellipsoid", "winter"].inertias, models["ellipsoid", None].inertias)
+    # the two density sources really differ (thorax 920 vs 1019 kg/m^3), and the moments follow 1/rho
+    assert not np.allclose(c1, winter)
+    a, b = models["ellipsoid", None], models["ellipsoid", "table_c1"]
+    long_a = np.einsum("si,sij,sj->s", a.geometry.axes[:, :, 0], a.inertias, a.geometry.axes[:, :, 0])
+    long_b = np.einsum("si,sij,sj->s", b.geometry.axes[:, :, 0], b.inertias, b.geometry.axes[:, :, 0])
+    np.testing.assert_allclose(long_b / long_a, np.array(winter) / np.array(c1), rtol=1e-12)
+    np.testing.assert_array_equal(a.masses, b.masses)
+    assert "Winter" in a.notes[-1] and "Table C.1" in b.notes[-1]
+    with pytest.raises(ValueError, match="density source"):
+        BodyModel.from_skeleton(sk, 70.0, densities="dg67")

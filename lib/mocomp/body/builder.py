@@ -9,9 +9,12 @@ from .inertia import SegmentGeometry, geometry_inertias, segment_axes
 from .mapping import resolve_landmark, resolve_mapping
 from .tables import ELLIPSOID_DENSITY, SEGMENT_KINDS, SHAPE_DENSITY_RATIO, get_table
 
-__all__ = ["build_from_table", "body_directions", "SHAPES"]
+__all__ = ["build_from_table", "body_directions", "SHAPES", "DENSITY_SOURCES", "DEFAULT_DENSITIES", "density_of"]
 
 SHAPES = ("ellipsoid", "cuboid", "gyration")
+#: density sources of the solids, and each shape's default (see :mod:`mocomp.body.tables`)
+DENSITY_SOURCES = ("table_c1", "winter")
+DEFAULT_DENSITIES = {"ellipsoid": "winter", "cuboid": "table_c1"}
 
 
 def _kind(seg: str) -> str:
@@ -37,11 +40,23 @@ def body_directions(skeleton: Skeleton, resolved) -> tuple[np.ndarray, np.ndarra
     return np.cross(left, up), up
 
 
-def build_from_table(cls, skeleton: Skeleton, total_mass: float, table, shape: str, mapping):
+def density_of(kind: str, source: str) -> float:
+    """Density kg/m^3 of segment ``kind`` from ``source`` (``"table_c1"`` or ``"winter"``)."""
+    if source == "table_c1":
+        return SHAPE_DENSITY_RATIO[kind][0]
+    if source == "winter":
+        return ELLIPSOID_DENSITY[kind]
+    raise ValueError(f"unknown density source {source!r}; choose one of {DENSITY_SOURCES}")
+
+
+def build_from_table(cls, skeleton: Skeleton, total_mass: float, table, shape: str, mapping,
+                     densities: str | None = None):
     if not (np.isfinite(total_mass) and total_mass > 0):
         raise ValueError(f"total_mass must be a positive number of kilograms, got {total_mass!r}")
     if shape not in SHAPES:
         raise ValueError(f"unknown shape {shape!r}; choose one of {SHAPES}")
+    if densities is not None and densities not in DENSITY_SOURCES:
+        raise ValueError(f"unknown density source {densities!r}; choose one of {DENSITY_SOURCES}")
     t = get_table(table)
     rm = resolve_mapping(skeleton, mapping)
     rest = skeleton.rest_positions()
@@ -63,11 +78,10 @@ def build_from_table(cls, skeleton: Skeleton, total_mass: float, table, shape: s
     dens = np.full(S, np.nan)
     ratio = np.full(S, np.nan)
     gyr = np.full((S, 3), np.nan)
-    if shape == "cuboid":
-        dens[:] = [SHAPE_DENSITY_RATIO[k][0] for k in kinds]
-        ratio[:] = [SHAPE_DENSITY_RATIO[k][1] for k in kinds]
-    elif shape == "ellipsoid":
-        dens[:] = [ELLIPSOID_DENSITY[k] for k in kinds]
+    source = None
+    if shape in ("cuboid", "ellipsoid"):
+        source = densities or DEFAULT_DENSITIES[shape]
+        dens[:] = [density_of(k, source) for k in kinds]
         ratio[:] = [SHAPE_DENSITY_RATIO[k][1] for k in kinds]
     else:
         for i, r in enumerate(rows):
@@ -81,6 +95,9 @@ def build_from_table(cls, skeleton: Skeleton, total_mass: float, table, shape: s
     geom = SegmentGeometry(tuple([shape] * S), lengths, dens, ratio, axes, gyr)
     inertias = geometry_inertias(geom, masses)
     notes = [f"mapping: {rm.convention.name}", *rm.convention.notes]
+    if source is not None:
+        notes.append(f"densities: {'dissertation Table C.1' if source == 'table_c1' else 'Winter Table 4.1'}; "
+                     "width/depth ratios: dissertation Table C.1")
     if abs(fsum - 1.0) > 1e-12:
         notes.append(f"table mass fractions sum to {fsum:.6f}; normalised to 1")
     return cls(

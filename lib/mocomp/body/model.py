@@ -121,7 +121,7 @@ class BodyModel:
     # ------------------------------------------------------------ constructors
     @classmethod
     def from_skeleton(cls, skeleton: Skeleton, total_mass: float = 70.0, table: str = "de_leva_male",
-                      shape: str = "ellipsoid", mapping=None) -> "BodyModel":
+                      shape: str = "ellipsoid", mapping=None, densities: str | None = None) -> "BodyModel":
         """Segment masses, COMs and inertias for ``skeleton`` from a parameter table.
 
         Parameters
@@ -136,6 +136,12 @@ class BodyModel:
         mapping: ``None`` (detect the naming convention), a convention name, a
             :class:`~mocomp.body.mapping.SegmentMap`, or a dict override
             ``{"landmarks": {...}, "carriers": {...}}`` (see :mod:`~mocomp.body.mapping`).
+        densities: segment densities of the solid, ``"table_c1"`` (dissertation Table C.1,
+            :data:`~mocomp.body.tables.SHAPE_DENSITY_RATIO`) or ``"winter"`` (Dempster's
+            densities as listed in Winter's Table 4.1, :data:`~mocomp.body.tables.ELLIPSOID_DENSITY`);
+            default ``None``: ``"winter"`` for the ellipsoid, ``"table_c1"`` for the cuboid
+            (why the ellipsoid keeps Winter's by default: :mod:`mocomp.body.tables`). The
+            width/depth ratios are Table C.1's for both solids. Ignored for ``"gyration"``.
 
         Each anatomical segment is one rigid body carried by one joint; its COM lies
         at the table's fraction along the proximal -> distal landmark line. Joints
@@ -143,7 +149,7 @@ class BodyModel:
         """
         from .builder import build_from_table
 
-        return build_from_table(cls, skeleton, total_mass, table, shape, mapping)
+        return build_from_table(cls, skeleton, total_mass, table, shape, mapping, densities)
 
     # ---------------------------------------------------------------- helpers
     def symmetric_groups(self) -> list[list[int]]:
