@@ -64,7 +64,7 @@ import numpy as np
 from ..core.motion import Motion
 from ..core.rotations import make_continuous, quat_apply, quat_inverse, quat_multiply
 from ..errors import JoinError
-from .pipeline import RestoreResult, three_steps
+from .pipeline import RestoreResult, boundary_velocity_jumps, three_steps
 from .restore import flight_momentum
 
 __all__ = ["JoinPart", "JoinResult", "join_flights", "load_part", "boundary_velocity_jumps", "SEAM_LIMITS"]
@@ -122,19 +122,6 @@ def _azimuth_deg(L):
 SEAM_LIMITS = {"direction_rad": 0.1, "magnitude_frac": 0.2, "velocity_jump_m_s": 0.5}
 
 
-def boundary_velocity_jumps(com: np.ndarray, flight, fps: float) -> tuple[np.ndarray, np.ndarray]:
-    """``(take-off, landing)`` COM velocity jumps (m/s, ``(3,)`` each) of a motion with COM
-    trajectory ``com (T, 3)`` and flight ``(start, stop)``: one-frame velocities on the airborne
-    side minus those on the ground side (take-off ``(c[a+1]-c[a]) - (c[a-1]-c[a-2])``, landing
-    ``(c[b+1]-c[b]) - (c[b-1]-c[b-2])``, times ``fps``). A smooth ballistic take-off gives about
-    ``-2 g / fps`` vertically; compare with the input's own value. NaN where the frames do not exist."""
-    a, b = int(flight[0]), int(flight[1])
-    c = np.asarray(com, dtype=float)
-    T = c.shape[0]
-    nan = np.full(3, np.nan)
-    take = (c[a + 1] - c[a] - (c[a - 1] - c[a - 2])) * fps if a >= 2 and a + 1 < T else nan
-    land = (c[b + 1] - c[b] - (c[b - 1] - c[b - 2])) * fps if b + 1 < T and b >= 2 else nan
-    return take, land
 
 
 @dataclass(frozen=True, eq=False)

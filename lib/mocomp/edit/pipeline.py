@@ -35,7 +35,8 @@ from .linear import LinearResult, correct_linear
 from .restore import (DirectionResult, MagnitudeResult, correct_direction, correct_magnitude, direction_error,
                       flight_momentum, magnitude_error, validate_flight)
 
-__all__ = ["StageErrors", "RestoreResult", "restore_momentum", "three_steps", "changed_frames", "STAGES"]
+__all__ = ["StageErrors", "RestoreResult", "restore_momentum", "three_steps", "changed_frames", "STAGES",
+           "boundary_velocity_jumps"]
 
 #: evidence stages in order
 STAGES = ("original", "edited", "direction", "magnitude", "final")
@@ -115,6 +116,10 @@ class RestoreResult:
         feet pinned by root translation and leg IK (:func:`mocomp.edit.seams.recover_upright`;
         ``None``: no recovery); foot_slide_own: m, the same measure on the input's own frames after
         its flight (captured landings slide too: 10.5 cm on CMU 88_01), for comparison.
+    velocity_jumps: measured COM velocity jumps (m/s, :func:`boundary_velocity_jumps`) across the
+        output's take-off and landing (``takeoff_m_s``, ``landing_m_s``) and the original's
+        (``..._own_m_s``); the retime plan's ``vy_*_jump`` are the model's (fitted parabola vs
+        ``k`` times its own take-off/landing velocity), these are what the frames show.
     """
 
     motion: Motion
@@ -137,6 +142,7 @@ class RestoreResult:
     landing_tilt_deg: float = 0.0
     foot_slide: float | None = None
     foot_slide_own: float | None = None
+    velocity_jumps: dict | None = None
 
     @property
     def k(self) -> float:
@@ -212,7 +218,7 @@ class RestoreResult:
             "polish_max_rotation_deg": None if self.polish is None else float(np.degrees(np.max(
                 2 * np.arccos(np.clip(np.abs(self.polish.corrections[:, 3]), 0, 1))))),
             "landing_tilt_deg": self.landing_tilt_deg, "foot_slide_m": self.foot_slide,
-            "foot_slide_own_m": self.foot_slide_own,
+            "foot_slide_own_m": self.foot_slide_own, "velocity_jumps_measured": self.velocity_jumps,
             "com_parabola_residual_m": self.linear.com_residual,
             "takeoff_height_m": self.linear.takeoff_height,
             "platform": None if self.linear.platform is None else {
@@ -231,6 +237,21 @@ class RestoreResult:
     def write_report(self, path, curves: bool = True) -> None:
         with open(path, "w") as fh:
             json.dump(self.report(curves), fh, indent=1)
+
+
+def boundary_velocity_jumps(com: np.ndarray, flight, fps: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(take-off, landing)`` COM velocity jumps (m/s, ``(3,)`` each) of a motion with COM
+    trajectory ``com (T, 3)`` and flight ``(start, stop)``: one-frame velocities on the airborne
+    side minus those on the ground side (take-off ``(c[a+1]-c[a]) - (c[a-1]-c[a-2])``, landing
+    ``(c[b+1]-c[b]) - (c[b-1]-c[b-2])``, times ``fps``). A smooth ballistic take-off gives about
+    ``-2 g / fps`` vertically; compare with the input's own value. NaN where the frames do not exist."""
+    a, b = int(flight[0]), int(flight[1])
+    c = np.asarray(com, dtype=float)
+    T = c.shape[0]
+    nan = np.full(3, np.nan)
+    take = (c[a + 1] - c[a] - (c[a - 1] - c[a - 2])) * fps if a >= 2 and a + 1 < T else nan
+    land = (c[b + 1] - c[b] - (c[b - 1] - c[b - 2])) * fps if b + 1 < T and b >= 2 else nan
+    return take, land
 
 
 def _own_slide(motion: Motion, stop: int, contact=(0.05, 0.12)) -> float | None:
@@ -529,6 +550,19 @@ def three_steps(body, edited: Motion, flight, L_const, fit: FlightFit, *, origin
                          + ("" if slide_own is None else
                             f"; the input's own feet travel {100 * slide_own:.1f} cm during its landing contacts")
                          + ")")
+    comF = ce(final.root_positions, final.rotations)
+    comO = ce(original.root_positions, original.rotations)
+    jt, jl = boundary_velocity_jumps(comF, lin.flight, final.fps)
+    jt0, jl0 = boundary_velocity_jumps(comO, original_flight, original.fps)
+    vjumps = {"takeoff_m_s": jt.tolist(), "landing_m_s": jl.tolist(), "takeoff_own_m_s": jt0.tolist(),
+              "landing_own_m_s": jl0.tolist()}
+    ex = np.abs(jt - jt0)
+    if np.all(np.isfinite(ex)) and ex.max() > 0.5:
+        notes.append(f"the COM velocity jumps by ({', '.join(f'{v:+.2f}' for v in jt)}) m/s across the take-off, "
+                     f"the input by ({', '.join(f'{v:+.2f}' for v in jt0)}): the input flight's ballistic fit "
+                     f"(gravity {fit.gravity:.2f} m/s^2, take-off velocity ({fit.a_x:+.2f}, {fit.b_y:+.2f}, "
+                     f"{fit.a_z:+.2f}) m/s) does not meet its captured take-off, so step 3's parabola starts off the "
+                     "ground phase's velocity")
     timings["total"] = time.perf_counter() - t_all
     if lin.plan.note:
         notes.append(lin.plan.note)
@@ -536,4 +570,4 @@ def three_steps(body, edited: Motion, flight, L_const, fit: FlightFit, *, origin
                          flight_out=lin.flight, reference=reference, L_star=L_const, fit=fit,
                          edit_frames=edit_frames, direction=d, magnitude=mg, linear=lin, stages=stages,
                          timings=timings, notes=tuple(notes), polish=polish_res, landing_tilt_deg=tilt,
-                         foot_slide=slide, foot_slide_own=slide_own)
+                         foot_slide=slide, foot_slide_own=slide_own, velocity_jumps=vjumps)
