@@ -22,6 +22,11 @@ constant ``L_star`` (3,), or per-frame targets (T, 3) / a ``reference`` motion
 (the unedited original). On exact synthetic flights they coincide; on capture
 data the per-frame form leaves the unedited frames exactly untouched and
 removes only what the edit changed (the capture's own momentum noise stays).
+Section 5.5 starts step 1 at the first frame ``f*`` where the *edited* L departs
+from ``L*`` (eq. 5.18-5.21); against a constant ``L*`` a capture's unedited frames
+already depart (its own L direction varies by 0.05-0.40 rad on the CMU and DeepMimic
+flips), so :func:`mocomp.edit.restore_momentum` defaults to ``reference="auto"``:
+the per-frame target on such flights, the constant one on exact flights.
 
 Every step returns the evidence the paper plots (Figures 3, 5.4, 5.5): the
 per-frame direction error (radians) and magnitude error (fraction) before and
