@@ -112,6 +112,51 @@ def test_info_on_example_name(monkeypatch, capsys):
         datasets._make_example.cache_clear()
 
 
+def test_info_fps_wording_per_source(monkeypatch, capsys):
+    """A generated motion has no header: info says so (not "(as the header)"), in text and JSON."""
+    monkeypatch.setitem(EXAMPLES, "cli_test_walker", Example(
+        "cli_test_walker", "glides", lambda: types.SimpleNamespace(motion=walker().replace(
+            source=datasets.load("backflip").source), truth=None)))
+    datasets._make_example.cache_clear()
+    try:
+        assert main(["info", "cli_test_walker"]) == 0
+        text = capsys.readouterr().out
+        assert "fps          120 (generated at this rate)" in text and "header" not in text
+        assert main(["info", "cli_test_walker", "--json"]) == 0
+        d = json.loads(capsys.readouterr().out)
+        assert d["header_fps"] is None and d["fps_basis"] == "generated at this rate"
+    finally:
+        datasets._make_example.cache_clear()
+
+
+@pytest.mark.parametrize("fmt, fps, header, words", [
+    ("bvh", 120.0, 120.0, "as the header"),
+    ("bvh", 60.0, 120.0, "header says 120"),
+    ("synthetic", 120.0, 120.0, "generated at this rate"),
+    ("synthetic", 120.0, None, "generated at this rate"),
+    ("synthetic", 60.0, 120.0, "generated at 120 fps"),
+    ("deepmimic", 16.0, 16.0, "from the key-frame times"),
+    ("deepmimic", 30.0, 16.0, "key frames at 16 fps"),
+    ("deepmimic", 30.0, None, "single key frame: no timing in the file"),
+    ("asf/amc", 120.0, None, "the file states none"),
+    ("unknown", 50.0, None, ""),
+])
+def test_fps_basis_words(fmt, fps, header, words):
+    from mocomp.io.summary import fps_basis
+
+    assert fps_basis(fmt, fps, header) == words
+
+
+@pytest.mark.parametrize("name, line", [
+    ("deepmimic_backflip", "fps          16 (from the key-frame times)"),
+    ("01_01.amc", "fps          120 (the file states none)"),
+    ("88_01", "fps          60 (header says 120)"),
+])
+def test_info_fps_wording_real(name, line, real_data_dir, capsys):
+    assert main(["info", name]) == 0
+    assert line in capsys.readouterr().out.splitlines()
+
+
 def test_summary_matches_library(walker_bvh):
     m = read_bvh(walker_bvh)
     s = summarize(m)
@@ -314,6 +359,19 @@ def test_any_os_error_of_a_command_is_one_line_exit_2(exc, expect, monkeypatch, 
     monkeypatch.setattr(info, "run", boom)  # registered by build_parser() inside main()
     assert main(["info", "whatever"]) == 2
     assert capsys.readouterr().err.splitlines() == [f"mocomp info: error: {expect}"]
+
+
+def test_closed_stdout_is_not_an_error(tmp_path):
+    """``mocomp info ... | head -1``: the reader closing the pipe ends the command quietly."""
+    src = write_bvh(walker(), tmp_path / "w.bvh")
+    env = dict(os.environ)
+    env.pop("MOCOMP_DATA_DIR", None)
+    p = subprocess.Popen([sys.executable, "-m", "mocomp", "info", str(src), "--json"], stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, env=env)
+    p.stdout.close()  # nobody reads: the first write fails with EPIPE
+    err = p.stderr.read().decode()
+    assert p.wait(timeout=120) == 1
+    assert err == "", err
 
 
 def test_unwritable_output_subprocess(tmp_path):

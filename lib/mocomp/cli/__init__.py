@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 import warnings
 
@@ -97,6 +98,12 @@ def main(argv=None) -> int:
         with warnings.catch_warnings():
             warnings.simplefilter("default")
             return int(args.func(args) or 0)
+    except BrokenPipeError:  # stdout closed by the reader (mocomp info ... | head): stop quietly
+        try:
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        except (OSError, ValueError):
+            pass
+        return 1
     except OSError as e:  # FileNotFoundError, PermissionError, IsADirectoryError, NotADirectoryError, ...
         msg = _os_error_text(e)
         print(f"mocomp {args.command}: error: {' '.join(msg.split())}", file=sys.stderr)

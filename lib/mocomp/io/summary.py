@@ -34,7 +34,11 @@ class MotionSummary:
     format: file format (``SourceInfo.format``).
     n_joints, joint_names, root: skeleton size, names, root joint name.
     n_frames: frames.
-    fps: frame rate used (Hz); header_fps: the file's own rate (``None`` if none).
+    fps: frame rate used (Hz); header_fps: the file's own rate (``None`` if none: an
+        AMC file, a generated motion).
+    fps_basis: where ``fps`` comes from, in words: ``"as the header"`` / ``"header says
+        X"`` (BVH), ``"from the key-frame times"`` / ``"key frames at X fps"`` (DeepMimic),
+        ``"generated at this rate"`` (synthetic), ``"the file states none"`` (ASF/AMC).
     duration: seconds from first to last frame.
     unit_scale: metres per file length unit the loader applied; unit_reason: why.
     standing_height: 95th percentile over frames of the vertical extent of joints
@@ -66,6 +70,7 @@ class MotionSummary:
     peak_joint: str
     peak_time: float
     notes: tuple[str, ...]
+    fps_basis: str = ""
 
     def to_dict(self) -> dict:
         d = asdict(self)
@@ -76,10 +81,7 @@ class MotionSummary:
 
     def to_text(self) -> str:
         """Aligned human-readable lines."""
-        hdr = ""
-        if self.header_fps is not None:
-            same = abs(self.header_fps - self.fps) <= 1e-6 * self.fps
-            hdr = " (as the header)" if same else f" (header says {self.header_fps:.6g})"
+        hdr = f" ({self.fps_basis})" if self.fps_basis else ""
         lo, hi = self.root_height_range
         lines = [
             ("source", f"{self.source} [{self.format}]"),
@@ -100,6 +102,27 @@ class MotionSummary:
         return "\n".join(out)
 
 
+def fps_basis(fmt: str, fps: float, header_fps: float | None) -> str:
+    """Where a motion's frame rate comes from, worded for its source format (see
+    :class:`MotionSummary`); ``""`` when nothing is known."""
+    fmt = (fmt or "").lower()
+    same = header_fps is not None and abs(header_fps - fps) <= 1e-6 * fps
+    if fmt == "synthetic":
+        return "generated at this rate" if header_fps is None or same else f"generated at {header_fps:.6g} fps"
+    if fmt == "deepmimic":
+        if header_fps is None:
+            return "single key frame: no timing in the file"
+        return "from the key-frame times" if same else f"key frames at {header_fps:.6g} fps"
+    if fmt in ("asf/amc", "amc"):
+        return "the file states none" if header_fps is None else ("as the file says" if same else
+                                                                   f"file says {header_fps:.6g}")
+    if header_fps is None:
+        return ""
+    if fmt == "bvh":
+        return "as the header" if same else f"header says {header_fps:.6g}"
+    return "as the source says" if same else f"source says {header_fps:.6g}"
+
+
 def summarize(motion, name: str | None = None) -> MotionSummary:
     """The :class:`MotionSummary` of ``motion`` (``name`` labels generated motions)."""
     src = motion.source
@@ -118,7 +141,8 @@ def summarize(motion, name: str | None = None) -> MotionSummary:
         joint_names=sk.names,
         n_frames=motion.n_frames,
         fps=float(motion.fps),
-        header_fps=None if src.header_fps is None else float(src.header_fps),
+        # a generated motion has no file, hence no header (the generator records its rate)
+        header_fps=None if (src.header_fps is None or src.format == "synthetic") else float(src.header_fps),
         duration=float(motion.duration),
         unit_scale=float(src.unit_scale),
         unit_reason=src.unit_reason,
@@ -131,4 +155,5 @@ def summarize(motion, name: str | None = None) -> MotionSummary:
         peak_joint=sk.names[j],
         peak_time=float(t / motion.fps),
         notes=tuple(src.notes),
+        fps_basis=fps_basis(src.format, float(motion.fps), src.header_fps),
     )
