@@ -125,14 +125,15 @@ def test_retimed_flight_still_follows_the_parabola_and_k_star(backflip):
 
 @pytest.mark.realdata
 def test_real_seams_follow_the_original_momentum(real_data_dir):
-    """CMU 88_01 (60 Hz): the loop seams' |L| dips (15-25 % with slerp alone) are removed."""
+    """CMU 88_01 (60 Hz): the loop seams' |L| dips are about halved (largest deviation from k x the
+    original's |L| at the frames shown: measured 21.2 % with slerp alone, 11.4 % retimed; rms 8.0 -> 4.3 %)."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         P = prepare("cmu_88_01_backflip")
     plain = multiflip(P, flips=2, seam_retime=False).report
     fixed = multiflip(P, flips=2).report
     assert fixed.L_profile_deviation_rms < plain.L_profile_deviation_rms / 1.5
-    assert fixed.L_profile_deviation_max < 0.13
+    assert fixed.L_profile_deviation_max < 0.13 and fixed.L_profile_deviation_max < plain.L_profile_deviation_max / 1.7
     assert fixed.L_std_new < fixed.L_std_original
     mom = momentum(P.body, P.motion)
     np.testing.assert_allclose(P.L_magnitude, np.linalg.norm(mom.angular, axis=1))
