@@ -43,7 +43,9 @@ a better pair: x3-x30 leaves 60-97 deg). The crossfade removes that mismatch wit
 blend window, which turns L away from its direction there: measured 0.62 rad (synthetic),
 1.23 and 1.34 rad (DeepMimic), while the retiming keeps |L| within 7.4%, 28.8% (the DeepMimic
 clips' own variation is 65%) and 4.7%. A wider window hardly helps (it is capped by the
-flights' length: ``window_s=0.2`` gives 0.60 rad). Running step 1 over the joined flight
+flights' length: ``window_s=0.2`` gives 0.60 rad), and turning the take-off part's whole
+flight towards the landing part's orientation (a smoothstep from take-off to the seam) was
+worse (1.08, 1.83, 1.76 rad). Running step 1 over the joined flight
 (``direction_step=True``) removes the direction error (< 1e-6 rad) but turns everything after
 the seam, the landing too: 18, 85 and 129 deg, which the upright recovery cannot hide. The
 COM velocity jumps at take-off and landing are measured on the output (one-frame velocities
