@@ -4,6 +4,7 @@ from __future__ import annotations
 import json
 
 import numpy as np
+import pytest
 
 from mocomp.cli import main
 from mocomp.io import read_bvh
@@ -95,3 +96,23 @@ def test_edit_reference_original_and_takeoff_height_reach_the_computation(tmp_pa
     m = read_bvh(out)
     src = datasets.load_example("backflip").motion
     assert abs(m.root_positions[0, 1] - src.root_positions[0, 1] - 0.5) < 1e-4
+
+
+def test_edit_real_clip_default_target_starts_at_the_edit(tmp_path, capsys, real_data_dir):
+    """CLI default --reference auto on a capture: the original's own L(f), so step 1's first departure
+    is the frame before the first edited one and the output's take-off part is the capture's."""
+    rep = tmp_path / "r.json"
+    assert main(["edit", "cmu_88_01_backflip", "--preset", "arms-twist", "-o", str(tmp_path / "e.bvh"),
+                 "--report", str(rep)]) == 0
+    d = json.loads(rep.read_text())
+    assert d["reference"] == "original"
+    assert d["direction"]["first_departure"] == d["edit_frames"][0] - 1
+    assert d["foot_slide_own_m"] > 0.05 and d["foot_slide_m"] < d["foot_slide_own_m"] + 0.02
+    assert "reference='auto'" in capsys.readouterr().out
+
+
+def test_join_help_states_the_seam_limitation(capsys):
+    with pytest.raises(SystemExit):
+        main(["join", "--help"])
+    out = " ".join(capsys.readouterr().out.split())
+    assert "Limitation" in out and "--direction-step" in out and "velocity jumps" in out
