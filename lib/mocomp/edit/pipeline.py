@@ -187,7 +187,8 @@ class RestoreResult:
         if self.foot_slide is not None:
             lines.append(f"landing tilt {self.landing_tilt_deg:.1f} deg eased out after touchdown (feet slide "
                          f"{100 * self.foot_slide:.1f} cm"
-                         + ("" if self.foot_slide_own is None else f"; the input's own {100 * self.foot_slide_own:.1f} cm")
+                         + ("" if self.foot_slide_own is None
+                            else f"; the input's own {100 * self.foot_slide_own:.1f} cm")
                          + ")")
         lines.append("time: " + ", ".join(f"{k} {1e3 * v:.1f} ms" for k, v in self.timings.items()))
         lines += [f"note: {n}" for n in self.notes]
