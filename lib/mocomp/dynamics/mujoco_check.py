@@ -27,7 +27,7 @@ def _wxyz(q):
     return np.concatenate([q[..., 3:4], q[..., :3]], axis=-1)
 
 
-def qpos_qvel(motion, model, order: int = 2) -> tuple[np.ndarray, np.ndarray]:
+def qpos_qvel(motion, model, order: int = 2, velocities=None) -> tuple[np.ndarray, np.ndarray]:
     """``qpos (T, nq)`` and ``qvel (T, nv)`` of ``motion`` for ``model`` (from
     :func:`~mocomp.body.mjcf.to_mjcf` of a body on the same skeleton).
 
@@ -35,26 +35,38 @@ def qpos_qvel(motion, model, order: int = 2) -> tuple[np.ndarray, np.ndarray]:
     joints are placed by name through ``jnt_qposadr`` / ``jnt_dofadr``.
     Quaternions are MuJoCo's ``(w, x, y, z)``; the free joint's linear velocity is
     in world axes, its angular velocity and every ball joint's in the child frame.
+    ``velocities``: a :class:`~mocomp.dynamics.momentum.MotionVelocities` of known rates
+    (e.g. :attr:`mocomp.synth.SynthResult.velocities`) put into ``qvel`` as they are,
+    instead of the finite differences (its joint rates are already each joint's rate
+    relative to its parent in its own frame, MuJoCo's ball-joint convention).
     """
     P, G = motion.fk()
     t = motion.times
     T, J = motion.n_frames, motion.skeleton.n_joints
     names = mjcf_names(motion.skeleton)
-    w = angular_velocity(G, t, order=order)  # world
+    if velocities is not None and (velocities.n_frames != T or velocities.joint_angular_velocities.shape[1] != J):
+        raise ValueError(f"velocities for {velocities.n_frames} frames x {velocities.joint_angular_velocities.shape[1]} "
+                         f"joints do not fit a motion of {T} frames x {J} joints")
+    w = angular_velocity(G, t, order=order) if velocities is None else None  # world
     qpos = np.zeros((T, model.nq))
     qvel = np.zeros((T, model.nv))
     fj = model.joint("root_free")
     a, d = int(fj.qposadr[0]), int(fj.dofadr[0])
     qpos[:, a:a + 3] = motion.root_positions
     qpos[:, a + 3:a + 7] = _wxyz(motion.rotations[:, 0])
-    qvel[:, d:d + 3] = central_difference(motion.root_positions, t, order=order)
-    qvel[:, d + 3:d + 6] = quat_apply(quat_inverse(G[:, 0]), w[:, 0])
+    if velocities is None:
+        qvel[:, d:d + 3] = central_difference(motion.root_positions, t, order=order)
+        qvel[:, d + 3:d + 6] = quat_apply(quat_inverse(G[:, 0]), w[:, 0])
+    else:
+        qvel[:, d:d + 3] = velocities.root_velocity
+        qvel[:, d + 3:d + 6] = quat_apply(quat_inverse(G[:, 0]), velocities.root_angular_velocity)
     par = motion.skeleton.parents
     for j in range(1, J):
         jt = model.joint(f"{names[j]}_ball")
         a, d = int(jt.qposadr[0]), int(jt.dofadr[0])
         qpos[:, a:a + 4] = _wxyz(motion.rotations[:, j])
-        qvel[:, d:d + 3] = quat_apply(quat_inverse(G[:, j]), w[:, j] - w[:, par[j]])
+        qvel[:, d:d + 3] = (quat_apply(quat_inverse(G[:, j]), w[:, j] - w[:, par[j]]) if velocities is None
+                            else velocities.joint_angular_velocities[:, j])
     return qpos, qvel
 
 

@@ -59,7 +59,8 @@ joint rates). From them :func:`mocomp.dynamics.momentum` (``velocity=result.velo
 or ``result.exact_momentum()``) evaluates eq. 5.5 at the true masses with no time
 differences: at the shipped 120 fps ``|L(t) - L0| / |L0|`` over every flight frame
 is 1e-14 .. 4e-14 for all six embedded examples (issue 3 asks <= 1e-4;
-``tests/test_synth_conservation.py`` pins it, ``benchmarks/bench_synth.py`` prints it).
+``tests/test_synth_conservation.py`` pins it, ``benchmarks/bench_synth.py`` prints it;
+MuJoCo fed the same rates as ``qvel`` gives 1e-9 .. 6e-9).
 The RK4 error of the orientation itself is ~1e-10 rad
 (``evidence.integration_error_rad``). :func:`mocomp.dynamics.center_of_mass`
 follows the parabola to ~1e-15 m.
