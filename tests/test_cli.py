@@ -361,6 +361,17 @@ def test_any_os_error_of_a_command_is_one_line_exit_2(exc, expect, monkeypatch, 
     assert capsys.readouterr().err.splitlines() == [f"mocomp info: error: {expect}"]
 
 
+def test_unwritable_output_of_another_command_is_one_line(tmp_path, capsys):
+    """The generic mechanism on a real command that does no output check of its own:
+    ``mocomp demo -o FILE`` (a file where the output folder should be)."""
+    f = tmp_path / "afile"
+    f.write_text("x")
+    assert main(["demo", "-o", str(f)]) == 2
+    lines = capsys.readouterr().err.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("mocomp demo: error: ") and str(f) in lines[0], lines
+    assert f.read_text() == "x"
+
+
 def test_closed_stdout_is_not_an_error(tmp_path):
     """``mocomp info ... | head -1``: the reader closing the pipe ends the command quietly."""
     src = write_bvh(walker(), tmp_path / "w.bvh")
