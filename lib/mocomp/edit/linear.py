@@ -151,7 +151,8 @@ def correct_linear(body, motion: Motion, flight, fit: FlightFit, *, k: float | N
     v_land = fit.b_y + 2.0 * fit.a_y * T0
     dy = float(c_land[1] - c_take[1] - h)
     try:
-        plan = plan_retime(g, T_seq, v0, dy, v_land, k=k, k_ratio=k_ratio)
+        plan = plan_retime(g, T_seq, v0, dy, v_land, k=k, k_ratio=k_ratio,
+                           v_horizontal=float(np.hypot(fit.a_x, fit.a_z)))
     except PhysicsError as e:
         if h != 0.0:
             raise PhysicsError(f"{e} (take-off raised by {h:.3f} m, so the landing lies {dy:.3f} m above it)") from e
