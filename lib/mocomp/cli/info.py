@@ -10,8 +10,9 @@ def register(sub) -> None:
     p = sub.add_parser(
         "info", help="summarise a motion: joints, frames, fps, duration, units, height, root travel",
         description="Summarise a motion file or named clip: joints, frames, frame rate (used, and where it comes "
-                    "from: the header, the key-frame times, the generator), duration, the length unit applied and why, standing height, root travel and the "
-                    "fastest joint. Implausible heights or speeds point at a wrong unit or frame rate.")
+                    "from: the header, the key-frame times, the generator), duration, the length unit applied and "
+                    "why, standing height, root travel and the fastest joint. Implausible heights or speeds point "
+                    "at a wrong unit or frame rate.")
     add_load_args(p)
     p.add_argument("--json", action="store_true", help="print the summary as JSON (all joint names included)")
     p.set_defaults(func=run)

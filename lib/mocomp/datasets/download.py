@@ -196,8 +196,9 @@ def fetch_cmu(trial: str, cache: str | Path | None = None, url_template: str | N
     A file already in the cache with its recorded SHA-256 is returned without
     network access. The first download is trusted as served (trust on first use:
     only its size is checked, where the registry knows it, unless ``known_hash``
-    is given); its SHA-256 is recorded and every later fetch must match it. ``url_template`` (or ``$MOCOMP_CMU_URL``) points at a mirror:
-    ``"{repo}"``, ``"{commit}"`` and ``"{path}"`` are filled in from the registry.
+    is given); its SHA-256 is recorded and every later fetch must match it.
+    ``url_template`` (or ``$MOCOMP_CMU_URL``) points at a mirror: ``"{repo}"``,
+    ``"{commit}"`` and ``"{path}"`` are filled in from the registry.
     Raises :class:`DataNotFoundError` for an unknown trial or a failed download
     and :class:`ChecksumError` when the bytes do not match the known size/hash.
     """
