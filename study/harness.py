@@ -176,6 +176,10 @@ class HarnessTexts:
     break_text: str = "<p><b>Time for a short break.</b> Continue whenever you are ready.</p>"
     welcome_back: str = "<p><b>Welcome back.</b> The study continues at trial {next} of {total}.</p>"
     end: str = "<p><b>Thank you!</b> All your answers are saved. You may close this window now.</p>"
+    locked: str = ("<p style='color:#b00'><b>This session is already open in another window.</b></p>"
+                   "<p>If you closed or reloaded a window of this study just now, its connection is released "
+                   "within about {seconds} seconds: wait, then press <b>Try again</b>. Otherwise close the other "
+                   "window first.</p>")
     declined: str = ("<p>You chose not to take part. No answers and no personal information were recorded: "
                      "only your participant code, the time of this decision and the trial order prepared for "
                      "the session. Thank you.</p>")
@@ -193,6 +197,9 @@ class HarnessConfig:
     show_progress: bool = True
     experience_levels: tuple = ("none", "a little", "some", "significant")
     lock_timeout_s: float = 15.0
+    #: seconds after which the kernel of a closed or reloaded page has been shut down by the
+    #: server (``mocomp study run --kernel-cull-s`` + its check interval); said on the "locked" screen
+    release_after_s: float = 40.0
 
 
 def _video_bytes(path: Path) -> bytes:
@@ -237,18 +244,25 @@ class StudyApp:
         self._video: W.Video | None = None
         self._token = 0
         self._screen_cls = ""
+        self._open_args = dict(stimuli=stimuli, data_dir=data_dir, design=design, study_seed=study_seed, seed=seed,
+                               counterbalance_index=counterbalance_index)
+        self._open_session()
+
+    def _open_session(self) -> None:
+        """Open (or resume) the session; while another window's kernel holds it, say so and offer "Try again"."""
+        a = self._open_args
         try:
-            st = stimuli if isinstance(stimuli, StimulusSet) else load_manifest(stimuli)
-            sess = Session.open(data_dir, self.participant_id, self.session_id, st, config=design,
-                                study_seed=study_seed, seed=seed, counterbalance_index=counterbalance_index,
-                                lock_timeout=self.cfg.lock_timeout_s)
+            st = a["stimuli"] if isinstance(a["stimuli"], StimulusSet) else load_manifest(a["stimuli"])
+            sess = Session.open(a["data_dir"], self.participant_id, self.session_id, st, config=a["design"],
+                                study_seed=a["study_seed"], seed=a["seed"],
+                                counterbalance_index=a["counterbalance_index"], lock_timeout=self.cfg.lock_timeout_s)
         except SessionLockedError as e:
-            self._show_error("This session is already open in another window or program. "
-                             "Please close the other window and reload this page.", str(e))
+            self._show_locked(str(e))
             return
         except (MocompError, ValueError, FileNotFoundError) as e:
             self._show_error("The study could not start. Please call the experimenter.", str(e))
             return
+        self.error = None
         self.controller = TrialController(sess)
         self._examples = self.controller.examples_to_show()
         if sess.state.resumed and (sess.n_answered > 0 or sess.participant_info() is not None):
@@ -361,6 +375,15 @@ class StudyApp:
         self.error = detail
         self._set("error", [W.HTML(f"<p style='color:#b00'><b>{html.escape(message)}</b></p>"
                                    f"<pre style='font-size:80%;white-space:pre-wrap'>{html.escape(detail)}</pre>")])
+
+    def _show_locked(self, detail: str) -> None:
+        """The session is held by another window: one still open, or one just closed or reloaded whose
+        kernel the server shuts down within ``release_after_s`` (the lock is never shared)."""
+        self.error = detail
+        secs = int(round(self.cfg.release_after_s))
+        retry = self._button("Try again", "mocomp-btn-retry", "primary", self._open_session)
+        self._set("error", [W.HTML(self.texts.locked.format(seconds=secs)), retry,
+                            W.HTML(f"<pre style='font-size:80%;white-space:pre-wrap'>{html.escape(detail)}</pre>")])
 
     def _show_welcome(self) -> None:
         self._set("welcome", [W.HTML(self.texts.welcome),
@@ -579,8 +602,8 @@ def config_from_environment(env: dict | None = None) -> dict:
 def app_from_config(cfg: dict) -> StudyApp:
     texts = HarnessTexts(**cfg.get("texts", {}))
     hc = HarnessConfig(texts=texts)
-    extra = {k: cfg[k] for k in ("key_correct", "key_incorrect", "video_width", "loop_video", "lock_timeout_s")
-             if k in cfg}
+    extra = {k: cfg[k] for k in ("key_correct", "key_incorrect", "video_width", "loop_video", "lock_timeout_s",
+                                 "release_after_s") if k in cfg}
     hc = replace(hc, **extra)
     design = DesignConfig.from_dict(cfg["design"]) if cfg.get("design") else None
     return StudyApp(cfg["manifest"], cfg["data_dir"], cfg["participant_id"], cfg["session_id"], design=design,

@@ -30,6 +30,11 @@ Guarantees:
   is recognised as stale and taken over (logged). For a holder on another
   host (a shared network drive, where ``flock`` may not be honoured) the lock
   counts as live until its heartbeat is older than ``stale_after_s``.
+  A reloaded or closed page whose kernel lives on (its shutdown request lost)
+  still holds the lock: ``mocomp study run`` has the server cull such kernels
+  (no page connected, idle ``--kernel-cull-s`` seconds; see
+  :func:`study.study_cli.voila_command`), after which the new page's "Try
+  again" takes the session over; it is never shared.
 """
 from __future__ import annotations
 

@@ -13,7 +13,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-__all__ = ["register_run", "register_analyze", "voila_command", "app_notebook"]
+__all__ = ["register_run", "register_analyze", "voila_command", "app_notebook", "cull_interval", "KERNEL_CULL_S"]
 
 
 def app_notebook() -> Path:
@@ -21,11 +21,42 @@ def app_notebook() -> Path:
     return Path(__file__).with_name("app.ipynb")
 
 
-def voila_command(port: int, notebook: str | Path | None = None, *, python: str | None = None) -> list[str]:
-    """The Voila command line serving the app on 127.0.0.1:``port`` (no browser, no tracebacks shown)."""
+#: Default seconds after which the kernel of a closed or reloaded page is shut down (see voila_command).
+KERNEL_CULL_S = 30
+
+
+def cull_interval(cull_idle_s: int) -> int:
+    """How often (s) the server looks for kernels to cull: a quarter of the idle timeout, 1-10 s."""
+    return int(min(10, max(1, int(cull_idle_s) // 4)))
+
+
+def voila_command(port: int, notebook: str | Path | None = None, *, python: str | None = None,
+                  cull_idle_s: int = KERNEL_CULL_S) -> list[str]:
+    """The Voila command line serving the app on 127.0.0.1:``port`` (no browser, no tracebacks shown).
+
+    Each page has its own kernel, which holds the session lock while it lives.
+    Voila's page asks the server to shut its kernel down on ``beforeunload``
+    (a ``sendBeacon``), but browsers and extensions can drop that request; the
+    kernel of a closed or reloaded page would then live on and keep the session
+    locked. So the server also culls kernels that have *no page connected* and
+    have been idle for ``cull_idle_s`` seconds (jupyter_server's
+    ``MappingKernelManager.cull_idle_timeout``, checked every
+    :func:`cull_interval` s; ``cull_connected=False``: the kernel of an open
+    page is never culled, however long the participant takes). After at most
+    ``cull_idle_s + cull_interval`` seconds the lock is free and the new
+    page's "Try again" opens the session where it stopped; two windows never
+    write at once (the lock is an exclusive ``flock``, held until the old
+    kernel's process has exited).
+    """
     nb = Path(notebook) if notebook is not None else app_notebook()
+    cull = int(cull_idle_s)
+    if cull < 1:
+        raise ValueError(f"cull_idle_s must be >= 1 s, got {cull_idle_s}")
     return [python or sys.executable, "-m", "voila", "--no-browser", f"--port={int(port)}", "--Voila.ip=127.0.0.1",
-            "--show_tracebacks=False", "--theme=light", str(nb)]
+            "--show_tracebacks=False", "--theme=light",
+            f"--MappingKernelManager.cull_idle_timeout={cull}",
+            f"--MappingKernelManager.cull_interval={cull_interval(cull)}",
+            "--MappingKernelManager.cull_connected=False", "--MappingKernelManager.cull_busy=False", str(nb)]
 
 
 def register_run(subparsers) -> argparse.ArgumentParser:
@@ -54,6 +85,9 @@ def register_run(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--texts", metavar="JSON", help="participant-facing texts (JSON file, fields of HarnessTexts)")
     p.add_argument("--lock-timeout", type=float, default=None, metavar="S",
                    help="seconds a new window waits for a session held by another window (default 15)")
+    p.add_argument("--kernel-cull-s", type=int, default=KERNEL_CULL_S, metavar="S",
+                   help="shut down the kernel of a closed or reloaded page after S idle seconds without a "
+                        f"page (frees the session for a new window; default {KERNEL_CULL_S})")
     p.add_argument("--print-config", action="store_true", help="print the app configuration and exit")
     p.set_defaults(func=run_run)
     return p
@@ -110,6 +144,9 @@ def run_run(args) -> int:
         cfg["design"] = design
     if args.lock_timeout is not None:
         cfg["lock_timeout_s"] = args.lock_timeout
+    if args.kernel_cull_s < 1:
+        raise ValueError(f"--kernel-cull-s must be >= 1, got {args.kernel_cull_s}")
+    cfg["release_after_s"] = args.kernel_cull_s + cull_interval(args.kernel_cull_s)
     if args.texts:
         cfg["texts"] = json.loads(Path(args.texts).read_text())
     if args.print_config:
@@ -117,7 +154,7 @@ def run_run(args) -> int:
         return 0
     env = dict(os.environ)
     env["MOCOMP_STUDY_CONFIG"] = json.dumps(cfg)
-    cmd = voila_command(args.port)
+    cmd = voila_command(args.port, cull_idle_s=args.kernel_cull_s)
     print(f"participant {args.participant}, session {args.session}: open http://127.0.0.1:{args.port}/ "
           f"(data -> {data / args.participant / args.session}); Ctrl-C stops the server", flush=True)
     proc = subprocess.Popen(cmd, env=env)

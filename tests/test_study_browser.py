@@ -12,6 +12,10 @@ participant app served by Voila (``mocomp study run``) on 127.0.0.1.
    restarted, the page reopened: the app resumes at the first unanswered
    trial; afterwards no response is lost and none is duplicated, and the rows
    written before the crash are byte-for-byte unchanged.
+4. A page reload mid-session whose kernel-shutdown beacon is lost (as with some
+   browser extensions): the old kernel lives on, so the reloaded page is told the
+   session is open elsewhere; the server culls the orphaned kernel and "Try
+   again" resumes the session where it stopped, nothing lost or duplicated.
 
 Skips locally when Chromium (/usr/bin/chromium), Playwright or Voila is
 missing; under CI=true it fails instead (``.ci/run`` installs Chromium).
@@ -108,11 +112,13 @@ def _descendants(pid: int) -> list[int]:
 class Server:
     """``mocomp study run`` in its own process group, with its own Jupyter dirs."""
 
-    def __init__(self, tmp: Path, stimuli, data: Path, participant: str, session: str = "S1"):
+    def __init__(self, tmp: Path, stimuli, data: Path, participant: str, session: str = "S1",
+                 extra: tuple[str, ...] = ()):
         self.tmp, self.data, self.port = tmp, data, _free_port()
         self.args = [sys.executable, "-m", "mocomp", "study", "run", "--participant", participant,
                      "--session", session, "--manifest", str(stimuli.path), "--data", str(data),
-                     "--port", str(self.port), "--design", str(self._design_file()), "--lock-timeout", "3"]
+                     "--port", str(self.port), "--design", str(self._design_file()), "--lock-timeout", "3",
+                     *extra]
         self.env = dict(os.environ)
         for k in ("DATA", "RUNTIME", "CONFIG"):
             d = tmp / f"jupyter_{k.lower()}"
@@ -390,6 +396,66 @@ def test_kill_server_mid_session_and_resume(browser, stimuli, tmp_path):
         assert {r["must_watch"] for r in rows} == {"1"}  # also after the restart
         resumed = next(e for e in ev if e["event"] == "resumed")
         assert resumed["n_answered"] == k
+        page.close()
+    finally:
+        srv.stop()
+
+
+def test_reload_with_lost_shutdown_beacon_resumes_after_the_orphan_is_culled(browser, stimuli, tmp_path):
+    data = tmp_path / "data"
+    folder = data / "P04" / "S1"
+    cull = 4  # seconds (the default is 30); the server checks every second
+    srv = Server(tmp_path, stimuli, data, "P04", extra=("--kernel-cull-s", str(cull)))
+    k = 2
+    try:
+        url = srv.start()
+        page = browser.new_page()
+        _open(page, url)
+        expected_idx = _plan_response_indices(folder)
+        n = len(expected_idx)
+        script = _script(n)
+        _intro(page)
+        _examples(page)
+        log: list = []
+        _answer_trials(page, k, script, log)
+        page.wait_for_selector(".mocomp-screen-trial .mocomp-btn-correct:not([disabled]), .mocomp-screen-break")
+        holder = json.loads((folder / "session.lock").read_text())["pid"]
+        # the page's beforeunload beacon (voila/api/shutdown/<kernel>) never reaches the server
+        page.evaluate("() => { navigator.sendBeacon = () => true; }")
+        t0 = time.monotonic()
+        page.reload(wait_until="domcontentloaded", timeout=90_000)
+        page.wait_for_selector(".mocomp-screen-error, .mocomp-screen-welcome_back", timeout=90_000)
+        if page.query_selector(".mocomp-screen-error"):
+            # the new kernel came up before the orphan was culled: told so, and "Try again" works
+            msg = page.inner_text(".mocomp-screen-error")
+            assert "already open" in msg and f"within about {cull + 1} seconds" in msg
+            assert len(_rows(folder / "responses.csv")) == k  # nothing written by either window meanwhile
+            deadline = time.monotonic() + 60
+            while True:
+                page.click(".mocomp-btn-retry")
+                try:
+                    page.wait_for_selector(".mocomp-screen-welcome_back", timeout=6_000)
+                    break
+                except Exception:
+                    assert time.monotonic() < deadline, "the orphaned kernel was never culled"
+        waited = time.monotonic() - t0
+        # it was the server's culler (the beacon never arrived) that shut the old kernel down
+        log_text = srv.log.read_text()
+        assert "Culling 'idle' kernel" in log_text and "with 0 connections" in log_text, log_text[-2000:]
+        assert not Path(f"/proc/{holder}").exists() or _state(holder) == "Z"
+        assert f"trial {k + 1} of {n}" in page.inner_text(".mocomp-screen-welcome_back")
+        page.click(".mocomp-screen-welcome_back .mocomp-btn-next")
+        _answer_trials(page, 1, script[k:], log2 := [])
+        rows = _wait_rows(folder / "responses.csv", k + 1)
+        idx = [int(r["trial_index"]) for r in rows]
+        assert idx == expected_idx[:k + 1] and len(set(idx)) == k + 1  # nothing lost, nothing duplicated
+        assert [r["response"] for r in rows] == [a[1] for a in log + log2 if a != "break"]
+        ev = [json.loads(x) for x in (folder / "events.jsonl").read_text().splitlines()]
+        names = [e["event"] for e in ev]
+        assert names.count("opened") == 1 and names.count("resumed") == 1
+        rec = next(e for e in ev if e["event"] == "stale_lock_recovered")
+        assert rec["previous_holder"]["pid"] == holder
+        assert waited < 60, waited
         page.close()
     finally:
         srv.stop()

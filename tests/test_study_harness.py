@@ -10,7 +10,7 @@ import pandas as pd
 import pytest
 
 from study.design import DesignConfig
-from study.harness import StudyApp, app_from_config, app_from_environment, config_from_environment
+from study.harness import HarnessConfig, StudyApp, app_from_config, app_from_environment, config_from_environment
 from study.observers import Observer, Psychometric
 from study.placeholders import make_placeholder_set
 
@@ -97,11 +97,16 @@ def test_resume_stale_screens_and_locks(stimuli, tmp_path):
     first.click()  # a click on the previous trial's button: ignored (logged)
     second.click()
     # a second app on the same session (another window) is refused
-    other = StudyApp(stimuli, tmp_path, "P2", "S1")
+    other = StudyApp(stimuli, tmp_path, "P2", "S1", config=HarnessConfig(lock_timeout_s=0.2, release_after_s=7))
     assert other.screen_name == "error" and "already open" in other.error
-    app.close()  # e.g. the page is closed; the session is not finished
-    again = StudyApp(stimuli, tmp_path, "P2", "S1")
-    assert again.screen_name == "welcome_back"
+    text = _find(other.widget, "mocomp-screen-error")[0].children[0].value
+    assert "within about 7 seconds" in text and "Try again" in text
+    _click(other, "mocomp-btn-retry")  # still held: still refused, nothing written
+    assert other.screen_name == "error" and other.controller is None
+    app.close()  # e.g. the page is closed (its kernel shut down); the session is not finished
+    _click(other, "mocomp-btn-retry")  # the new window takes the session over where it stopped
+    again = other
+    assert again.screen_name == "welcome_back" and again.error is None
     assert "trial 3 of" in _find(again.widget, "mocomp-screen-welcome_back")[0].children[0].value
     _click(again, "mocomp-btn-next")
     assert again.screen_name == "trial" and again.controller.n_answered == 2
