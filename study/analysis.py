@@ -389,7 +389,7 @@ def participant_dprimes(data: ResponseData | pd.DataFrame, *, by: str = "conditi
                 lo = hi = np.nan
                 note = "undefined: a rate of 0 or 1 without a correction (d' is infinite)"
             else:
-                with np.errstate(divide="ignore"):
+                with np.errstate(divide="ignore", invalid="ignore"):  # no correction: draws of 0 or n give +-inf
                     db = dprime_counts(kb, n, fb, nf, correction).dprime
                 a = (1 - ci) / 2
                 # order statistics (no interpolation): draws can be +-inf without a correction

@@ -125,3 +125,51 @@ def reproduce_table2(dprime=None) -> tuple[pd.DataFrame, pd.DataFrame]:
         groups.append(dict(group=g, control_rating=TABLE2_CONTROL_RATING[g], control_lo=lo, control_hi=hi,
                            consistent=bool(d["consistent"].all() and lo <= hi)))
     return cells, pd.DataFrame(groups)
+
+
+def write_table2_responses(root, n_parts: int = 20, per_part: int = 5) -> list:
+    """Write responses CSVs whose pooled counts give exactly Table 2's mean ratings.
+
+    Every condition of :func:`table2`, and each group's unperturbed motions, is
+    shown ``n_parts x per_part`` times (default 100, so a rating of r % is r
+    "correct" answers), the answers dealt round-robin over ``n_parts``
+    participants (``P00``...) in the layout of ``responses.csv``
+    (``root/<participant>/S1/responses.csv``). The paper reports neither trial
+    counts nor per-participant data: only the pooled counts are Table 2's, which
+    is what the group d' of :func:`study.analysis.condition_table` uses.
+    Returns the files written.
+    """
+    import csv
+    from pathlib import Path
+
+    from .session import RESPONSE_COLUMNS
+
+    root = Path(root)
+    cells = [(g, "none", "none", 0, r0) for g, r0 in TABLE2_CONTROL_RATING.items()]
+    cells += [tuple(r) for r in table2()[["group", "perturbation", "direction", "level", "rating"]].itertuples(
+        index=False)]
+    n = int(n_parts) * int(per_part)
+    if n <= 0 or n % 100:
+        raise ValueError(f"n_parts x per_part must be a multiple of 100 (whole-percent ratings), got {n}")
+    rows: dict[str, list] = {f"P{i:02d}": [] for i in range(int(n_parts))}
+    for g, p, d, lv, rating in cells:
+        k = int(rating) * n // 100
+        answers = ["correct"] * k + ["incorrect"] * (n - k)
+        for j, a in enumerate(answers):
+            pid = f"P{j % int(n_parts):02d}"
+            r = {c: "" for c in RESPONSE_COLUMNS}
+            r.update(participant_id=pid, session_id="S1", stimulus_set_id="TABLE2", trial_index=len(rows[pid]),
+                     kind="test", group=g, repetition=1 + (j // int(n_parts)) % 2, stimulus_id=f"{g}:{p}_{d}_{lv}",
+                     perturbation=p, direction=d, nominal_level=lv, achieved_error=lv, response=a,
+                     rated_correct=int(a == "correct"), input="table2")
+            rows[pid].append(r)
+    files = []
+    for pid, rr in rows.items():
+        f = root / pid / "S1" / "responses.csv"
+        f.parent.mkdir(parents=True, exist_ok=True)
+        with open(f, "x", newline="") as fh:
+            w = csv.DictWriter(fh, fieldnames=list(RESPONSE_COLUMNS), lineterminator="\n")
+            w.writeheader()
+            w.writerows(rr)
+        files.append(f)
+    return files

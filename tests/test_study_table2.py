@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from scipy.stats import norm
 
-from study.paper import TABLE2_CONTROL_RATING, reproduce_table2, table2
+from study.paper import TABLE2_CONTROL_RATING, reproduce_table2, table2, write_table2_responses
 from study.sdt import dprime_counts, dprime_from_ratings
 
 
@@ -69,37 +69,6 @@ def test_counts_route_equals_ratings_route_without_correction():
     assert TABLE2_CONTROL_RATING == {"angular_momentum": 72, "takeoff": 63}
 
 
-def _table2_responses(root, n_parts=20, per_part=5):
-    """Responses CSVs whose pooled counts give exactly Table 2's mean ratings: every condition (and
-    each group's unperturbed motions) shown n_parts x per_part = 100 times, rating r % = r "correct"."""
-    import csv
-
-    from study.session import RESPONSE_COLUMNS
-
-    cells = [(g, "none", "none", 0, r0) for g, r0 in TABLE2_CONTROL_RATING.items()]
-    cells += [tuple(r) for r in table2()[["group", "perturbation", "direction", "level", "rating"]].itertuples(
-        index=False)]
-    n = n_parts * per_part
-    rows = {f"P{i:02d}": [] for i in range(n_parts)}
-    for g, p, d, lv, rating in cells:
-        answers = ["correct"] * int(rating) + ["incorrect"] * (n - int(rating))
-        for j, a in enumerate(answers):  # dealt round-robin over the participants
-            pid = f"P{j % n_parts:02d}"
-            r = {c: "" for c in RESPONSE_COLUMNS}
-            r.update(participant_id=pid, session_id="S1", stimulus_set_id="TABLE2", trial_index=len(rows[pid]),
-                     kind="test", group=g, repetition=1 + (j // n_parts) % 2, stimulus_id=f"{g}:{p}_{d}_{lv}",
-                     perturbation=p, direction=d, nominal_level=lv, achieved_error=lv, response=a,
-                     rated_correct=int(a == "correct"), input="table2")
-            rows[pid].append(r)
-    for pid, rr in rows.items():
-        f = root / pid / "S1" / "responses.csv"
-        f.parent.mkdir(parents=True)
-        with open(f, "w", newline="") as fh:
-            w = csv.DictWriter(fh, fieldnames=list(RESPONSE_COLUMNS))
-            w.writeheader()
-            w.writerows(rr)
-
-
 def test_table2_through_mocomp_study_analyze(tmp_path, capsys):
     """Table-2-shaped responses through the CLI's condition table (not the ratings helper): with the
     paper's convention (no correction: no rate is 0 or 1) every published d' within rounding."""
@@ -109,7 +78,7 @@ def test_table2_through_mocomp_study_analyze(tmp_path, capsys):
 
     from study.analysis import condition_table, load_responses
 
-    _table2_responses(tmp_path / "data")
+    write_table2_responses(tmp_path / "data")
     assert main(["study", "analyze", str(tmp_path / "data"), "-o", str(tmp_path / "rep"), "--correction", "none",
                  "--n-boot", "20", "--no-figures", "--no-observer-model"]) == 0
     assert "20 participants" in capsys.readouterr().out
