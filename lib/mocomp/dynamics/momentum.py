@@ -15,6 +15,7 @@ import numpy as np
 
 from ..core.rotations import quat_apply, quat_inverse
 from ..errors import MotionFormatError
+from . import _kernels
 from .com import check_compatible
 from .derivatives import angular_velocity, central_difference, smooth_motion
 
@@ -77,12 +78,16 @@ class MotionVelocities:
         return MotionVelocities(self.root_velocity[frames], self.root_angular_velocity[frames],
                                 self.joint_angular_velocities[frames])
 
-    def world_angular_velocities(self, motion) -> np.ndarray:
-        """``(T, J, 3)`` rad/s world angular velocity of every joint frame of ``motion``."""
+    def check_fits(self, motion) -> None:
+        """Raise ``ValueError`` unless these rates have ``motion``'s frames and joints."""
         if motion.n_frames != self.n_frames or motion.skeleton.n_joints != self.joint_angular_velocities.shape[1]:
             raise ValueError(f"velocities for {self.n_frames} frames x {self.joint_angular_velocities.shape[1]} "
                              f"joints do not fit a motion of {motion.n_frames} frames x "
                              f"{motion.skeleton.n_joints} joints")
+
+    def world_angular_velocities(self, motion) -> np.ndarray:
+        """``(T, J, 3)`` rad/s world angular velocity of every joint frame of ``motion``."""
+        self.check_fits(motion)
         _, G = motion.fk()
         wl = quat_apply(G, self.joint_angular_velocities)
         # w_j = w_root + sum of G_k w_k over the joints k on the path root -> j (k != root)
@@ -224,15 +229,10 @@ def momentum(body, motion, smooth_sigma: float | None = None, velocity="finite_d
         if smooth_sigma or order != 2:
             raise ValueError("known velocities are used as given: smooth_sigma and order do not apply")
         check_compatible(body, motion)
-        P, G = motion.fk()
-        j = body.segment_joint
-        rot = G[:, j]
-        pos = P[:, j] + quat_apply(rot, body.local_coms[None])
-        vj, wj = joint_velocities(motion, omega_joints=velocity.world_angular_velocities(motion),
-                                  root_velocity=velocity.root_velocity)
-        omega = wj[:, j]
-        vel = vj[:, j] + np.cross(omega, pos - P[:, j])
-        return assemble_momentum(body, motion.times, pos, rot, vel, omega, velocity_mode="given")
+        velocity.check_fits(motion)
+        if _kernels.AVAILABLE:
+            return _momentum_given_compiled(body, motion, velocity)
+        return _momentum_given_numpy(body, motion, velocity)
     if isinstance(velocity, str) and velocity not in VELOCITY_MODES:
         raise ValueError(f"velocity must be one of {VELOCITY_MODES} or a MotionVelocities, got {velocity!r}")
     if not isinstance(velocity, str):
@@ -257,11 +257,67 @@ def momentum(body, motion, smooth_sigma: float | None = None, velocity="finite_d
                              order=order)
 
 
+def _momentum_given_numpy(body, motion, velocity: MotionVelocities) -> MomentumResult:
+    """The numpy reference of ``momentum(body, motion, velocity=MotionVelocities)`` (and the
+    path taken without numba): :meth:`Motion.fk`, :meth:`MotionVelocities.world_angular_velocities`,
+    :func:`joint_velocities`, then eq. 5.4-5.5 (:func:`_assemble_numpy`)."""
+    P, G = motion.fk()
+    j = body.segment_joint
+    rot = G[:, j]
+    pos = P[:, j] + quat_apply(rot, body.local_coms[None])
+    vj, wj = joint_velocities(motion, omega_joints=velocity.world_angular_velocities(motion),
+                              root_velocity=velocity.root_velocity)
+    omega = wj[:, j]
+    vel = vj[:, j] + np.cross(omega, pos - P[:, j])
+    return _assemble_numpy(body, motion.times, pos, rot, vel, omega, velocity_mode="given")
+
+
+def _momentum_given_compiled(body, motion, velocity: MotionVelocities) -> MomentumResult:
+    """``momentum(body, motion, velocity=MotionVelocities)`` in one compiled loop over frames and
+    joints (:func:`mocomp.dynamics._kernels.momentum_given_nb`: forward kinematics, rate
+    propagation, segment COMs and velocities, eq. 5.4-5.5); equal to
+    :func:`_momentum_given_numpy` to rounding. The motion's own FK cache is neither read nor filled."""
+    M = body.total_mass
+    if M <= 0:
+        raise MotionFormatError("body model has zero total mass")
+    sk = motion.skeleton
+    k = _kernels.momentum_given_nb(sk.parents, sk.offsets, motion.root_positions, motion.rotations,
+                                   velocity.root_velocity, velocity.root_angular_velocity,
+                                   velocity.joint_angular_velocities, body.segment_joint, body.local_coms,
+                                   body.masses, body.inertias, total_mass=M)
+    return MomentumResult(times=motion.times, com=k["com"], com_velocity=k["linear"] / M, linear=k["linear"],
+                          angular=k["angular"], segment_positions=k["pos"], segment_velocities=k["vel"],
+                          segment_angular_velocities=k["omega"], total_mass=M, velocity_mode="given")
+
+
 def assemble_momentum(body, times, pos, rot, vel, omega, smooth_sigma=None, velocity_mode="given",
                       order: int = 2) -> MomentumResult:
     """eq. 5.4-5.5 from segment kinematics already in hand: COM positions ``pos`` ``(T, S, 3)``,
     orientations ``rot`` ``(T, S, 4)``, COM velocities ``vel`` ``(T, S, 3)`` and world angular
-    velocities ``omega`` ``(T, S, 3)`` (what :func:`momentum` computes from a motion)."""
+    velocities ``omega`` ``(T, S, 3)`` (what :func:`momentum` computes from a motion).
+
+    The sums run in a compiled loop (:func:`mocomp.dynamics._kernels.assemble_nb`) when numba is
+    available, else in numpy (:func:`_assemble_numpy`, the reference; equal to rounding)."""
+    if not _kernels.AVAILABLE:
+        return _assemble_numpy(body, times, pos, rot, vel, omega, smooth_sigma, velocity_mode, order)
+    M = body.total_mass
+    if M <= 0:
+        raise MotionFormatError("body model has zero total mass")
+    pos, rot, vel, omega = (np.asarray(a, dtype=float) for a in (pos, rot, vel, omega))
+    S = body.n_segments
+    for name, a, d in (("pos", pos, 3), ("rot", rot, 4), ("vel", vel, 3), ("omega", omega, 3)):
+        if a.ndim != 3 or a.shape[1:] != (S, d) or a.shape[0] != pos.shape[0]:
+            raise ValueError(f"{name} must have shape ({pos.shape[0]}, {S}, {d}), got {a.shape}")
+    com, p, L = _kernels.assemble_nb(body.masses, body.inertias, rot, pos, vel, omega, total_mass=M)
+    return MomentumResult(times=np.asarray(times), com=com, com_velocity=p / M, linear=p, angular=L,
+                          segment_positions=pos, segment_velocities=vel, segment_angular_velocities=omega,
+                          total_mass=M, smooth_sigma=smooth_sigma if smooth_sigma else None,
+                          velocity_mode=velocity_mode, order=order)
+
+
+def _assemble_numpy(body, times, pos, rot, vel, omega, smooth_sigma=None, velocity_mode="given",
+                    order: int = 2) -> MomentumResult:
+    """The numpy reference of :func:`assemble_momentum` (eq. 5.4-5.5)."""
     m = body.masses
     M = body.total_mass
     if M <= 0:
