@@ -19,7 +19,8 @@ synthetic backflip with its exact rates and on a random motion); the numpy versi
 (``AVAILABLE`` False). Numba is a project dependency (also used by :mod:`mocomp.flips` and
 :mod:`mocomp.splice`); compiled code is cached on disk (``cache=True``). The first call in a
 process loads it from that cache (or compiles it, the first time on a machine: a few seconds);
-:func:`warmup` does that ahead of time. All array arguments are passed as C-contiguous
+:func:`warmup` does that ahead of time (:mod:`~mocomp.dynamics.momentum` imports this module, and
+so numba, on its first call, not at import). All array arguments are passed as C-contiguous
 read-only float64/int64 views (:func:`_ro`), so a single compiled signature serves every caller.
 """
 from __future__ import annotations

@@ -15,7 +15,6 @@ import numpy as np
 
 from ..core.rotations import quat_apply, quat_inverse
 from ..errors import MotionFormatError
-from . import _kernels
 from .com import check_compatible
 from .derivatives import angular_velocity, central_difference, smooth_motion
 
@@ -23,6 +22,14 @@ __all__ = ["MomentumResult", "MotionVelocities", "momentum", "assemble_momentum"
            "world_inertias", "joint_velocities"]
 
 VELOCITY_MODES = ("finite_difference", "kinematic")
+
+
+def _compiled():
+    """The compiled kernels' module when numba is available, else ``None`` (imported on first use,
+    so that ``import mocomp.dynamics`` does not pay numba's import)."""
+    from . import _kernels
+
+    return _kernels if _kernels.AVAILABLE else None
 
 
 @dataclass(frozen=True, eq=False)
@@ -230,7 +237,7 @@ def momentum(body, motion, smooth_sigma: float | None = None, velocity="finite_d
             raise ValueError("known velocities are used as given: smooth_sigma and order do not apply")
         check_compatible(body, motion)
         velocity.check_fits(motion)
-        if _kernels.AVAILABLE:
+        if _compiled() is not None:
             return _momentum_given_compiled(body, motion, velocity)
         return _momentum_given_numpy(body, motion, velocity)
     if isinstance(velocity, str) and velocity not in VELOCITY_MODES:
@@ -281,10 +288,10 @@ def _momentum_given_compiled(body, motion, velocity: MotionVelocities) -> Moment
     if M <= 0:
         raise MotionFormatError("body model has zero total mass")
     sk = motion.skeleton
-    k = _kernels.momentum_given_nb(sk.parents, sk.offsets, motion.root_positions, motion.rotations,
-                                   velocity.root_velocity, velocity.root_angular_velocity,
-                                   velocity.joint_angular_velocities, body.segment_joint, body.local_coms,
-                                   body.masses, body.inertias, total_mass=M)
+    k = _compiled().momentum_given_nb(sk.parents, sk.offsets, motion.root_positions, motion.rotations,
+                                     velocity.root_velocity, velocity.root_angular_velocity,
+                                     velocity.joint_angular_velocities, body.segment_joint, body.local_coms,
+                                     body.masses, body.inertias, total_mass=M)
     return MomentumResult(times=motion.times, com=k["com"], com_velocity=k["linear"] / M, linear=k["linear"],
                           angular=k["angular"], segment_positions=k["pos"], segment_velocities=k["vel"],
                           segment_angular_velocities=k["omega"], total_mass=M, velocity_mode="given")
@@ -298,7 +305,8 @@ def assemble_momentum(body, times, pos, rot, vel, omega, smooth_sigma=None, velo
 
     The sums run in a compiled loop (:func:`mocomp.dynamics._kernels.assemble_nb`) when numba is
     available, else in numpy (:func:`_assemble_numpy`, the reference; equal to rounding)."""
-    if not _kernels.AVAILABLE:
+    kern = _compiled()
+    if kern is None:
         return _assemble_numpy(body, times, pos, rot, vel, omega, smooth_sigma, velocity_mode, order)
     M = body.total_mass
     if M <= 0:
@@ -308,7 +316,7 @@ def assemble_momentum(body, times, pos, rot, vel, omega, smooth_sigma=None, velo
     for name, a, d in (("pos", pos, 3), ("rot", rot, 4), ("vel", vel, 3), ("omega", omega, 3)):
         if a.ndim != 3 or a.shape[1:] != (S, d) or a.shape[0] != pos.shape[0]:
             raise ValueError(f"{name} must have shape ({pos.shape[0]}, {S}, {d}), got {a.shape}")
-    com, p, L = _kernels.assemble_nb(body.masses, body.inertias, rot, pos, vel, omega, total_mass=M)
+    com, p, L = kern.assemble_nb(body.masses, body.inertias, rot, pos, vel, omega, total_mass=M)
     return MomentumResult(times=np.asarray(times), com=com, com_velocity=p / M, linear=p, angular=L,
                           segment_positions=pos, segment_velocities=vel, segment_angular_velocities=omega,
                           total_mass=M, smooth_sigma=smooth_sigma if smooth_sigma else None,
