@@ -139,12 +139,49 @@ def format_table(rows: list[dict]) -> str:
     return "\n".join(out)
 
 
-def machine_info() -> dict:
+def host_speed(repeats: int = 5) -> dict:
+    """Fixed reference workloads timed on this host (best of ``repeats``), so absolute times of
+    different runs can be compared: hosts here differ (and a shared host slows down) by 2-3x,
+    and our rows and their peers slow down together.
+
+    ``python_loop_s``: a 2,000,000-step pure-Python integer loop; ``numpy_s``: 200 sine + sum
+    passes over a 100,000-element float64 array (single-threaded elementwise numpy)."""
     import numpy
 
-    return {"python": platform.python_version(), "numpy": numpy.__version__, "platform": platform.platform(),
+    def loop():
+        s = 0
+        for i in range(2_000_000):
+            s += i
+        return s
+
+    a = numpy.linspace(0.0, 1.0, 100_000)
+
+    def elementwise():
+        t = 0.0
+        for _ in range(200):
+            t += float(numpy.sin(a).sum())
+        return t
+
+    out = {}
+    for key, fn in (("python_loop_s", loop), ("numpy_s", elementwise)):
+        best = float("inf")
+        for _ in range(repeats):
+            t0 = time.perf_counter()
+            fn()
+            best = min(best, time.perf_counter() - t0)
+        out[key] = best
+    return out
+
+
+def machine_info(speed: bool = True) -> dict:
+    import numpy
+
+    info = {"python": platform.python_version(), "numpy": numpy.__version__, "platform": platform.platform(),
             "processor": platform.processor() or platform.machine(), "cpus": os.cpu_count(),
             "load_average": os.getloadavg() if hasattr(os, "getloadavg") else None}
+    if speed:
+        info["host_speed"] = host_speed()
+    return info
 
 
 def main(argv=None) -> int:

@@ -70,6 +70,17 @@ def _cell(text) -> str:
     return str(text).replace("|", "\\|").replace("\n", " ")
 
 
+def _speed_sentence(speed: dict | None) -> str:
+    """How fast this host was (``benchmarks/run.py: host_speed``): absolute times of runs on
+    different days or hosts compare only after scaling by these."""
+    if not speed:
+        return ""
+    return (f" Host speed (reference workloads, best of 5): a 2,000,000-step pure-Python loop "
+            f"{speed['python_loop_s'] * 1e3:.0f} ms, 200 numpy sine+sum passes over 100,000 doubles "
+            f"{speed['numpy_s'] * 1e3:.0f} ms; absolute times (ours and the peers alike) scale with these "
+            "between hosts, ratios much less.")
+
+
 def render_markdown(doc: dict) -> str:
     """The Markdown page for a benchmark JSON document."""
     m = doc.get("machine", {})
@@ -93,7 +104,8 @@ def render_markdown(doc: dict) -> str:
         f"Machine: {m.get('cpus', '?')} CPUs ({m.get('processor', '?')}), {m.get('platform', '?')}, "
         f"Python {m.get('python', '?')}, numpy {m.get('numpy', '?')}. Real clips: {doc.get('data_dir', '?')}. "
         f"Load average (1/5/15 min) before the run {load('load_before')}, after {load('load_after')}: "
-        "the machine is shared with other jobs, so times are those of a loaded machine.",
+        "the machine is shared with other jobs, so times are those of a loaded machine."
+        + _speed_sentence(m.get("host_speed")),
         "",
         f"Goals: {n_pass} of {n_goal} pass.",
         "",

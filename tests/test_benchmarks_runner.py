@@ -73,6 +73,8 @@ def test_discover_only_and_main_json(runner, tmp_path, monkeypatch, capsys):
     assert runner.main(["--quick", "--json", str(out)]) == 0
     doc = json.loads(out.read_text())
     assert doc["quick"] is True and doc["results"][0]["passed"] is True and doc["machine"]["cpus"] >= 1
+    speed = doc["machine"]["host_speed"]   # reference workloads: runs on different hosts/days compare
+    assert set(speed) == {"python_loop_s", "numpy_s"} and all(0 < v < 60 for v in speed.values())
     assert runner.main([]) == 1
     assert "FAIL" in capsys.readouterr().out
 
@@ -102,6 +104,10 @@ def test_benchmark_docs_from_json(tmp_path):
     assert "| 20 µs |" in table[2] and table[2].endswith("| FAIL |") and table[3].endswith("| ERROR |")
     assert "Goals: 1 of 3 pass." in md and "before the run 3.50 / 3.20 / 3.10" in md
     assert "- **bad**: RuntimeError: boom" in md
+    assert "Host speed" not in md   # older JSON without the reference workloads
+    doc_speed = dict(doc, machine=dict(doc["machine"], host_speed={"python_loop_s": 0.1234, "numpy_s": 0.3456}))
+    md_speed = docs.render_markdown(doc_speed)
+    assert "2,000,000-step pure-Python loop 123 ms" in md_speed and "100,000 doubles 346 ms" in md_speed
     src = tmp_path / "in.json"
     src.write_text(json.dumps(doc))
     out = tmp_path / "docs"
