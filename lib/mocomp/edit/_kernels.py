@@ -627,3 +627,72 @@ def momentum_blocks(m, I_local, X, Q, t, pivots):
                     Jm[f, i, j] -= wb * accbT
                     J0[f, i, j] += wb * accb - wf * accfT
     return L, Jm, J0, Jp
+
+
+# ------------------------------------------------------------------ forward kinematics
+@numba.njit(cache=True, nogil=True)
+def forward_kinematics(parents, offsets, root_pos, rot):
+    """``(P (T, J, 3), G (T, J, 4))``: :func:`mocomp.core.kinematics.forward_kinematics` compiled,
+    with its operations in its order (``G_j = G_p L_j``, ``P_j = P_p + G_p offset_j``), so the
+    results are the same to the last bit; ~50x faster on a 120-frame, 31-joint clip, where the
+    numpy version's cost is its ~1200 array calls, not the arithmetic."""
+    T = rot.shape[0]
+    J = rot.shape[1]
+    P = np.empty((T, J, 3))
+    G = np.empty((T, J, 4))
+    for f in range(T):
+        for c in range(4):
+            G[f, 0, c] = rot[f, 0, c]
+        for c in range(3):
+            P[f, 0, c] = root_pos[f, c]
+        for j in range(1, J):
+            p = parents[j]
+            ax = G[f, p, 0]
+            ay = G[f, p, 1]
+            az = G[f, p, 2]
+            aw = G[f, p, 3]
+            bx = rot[f, j, 0]
+            by = rot[f, j, 1]
+            bz = rot[f, j, 2]
+            bw = rot[f, j, 3]
+            G[f, j, 0] = aw * bx + ax * bw + ay * bz - az * by
+            G[f, j, 1] = aw * by - ax * bz + ay * bw + az * bx
+            G[f, j, 2] = aw * bz + ax * by - ay * bx + az * bw
+            G[f, j, 3] = aw * bw - ax * bx - ay * by - az * bz
+            vx = offsets[j, 0]
+            vy = offsets[j, 1]
+            vz = offsets[j, 2]
+            tx = (ay * vz - az * vy) * 2.0
+            ty = (az * vx - ax * vz) * 2.0
+            tz = (ax * vy - ay * vx) * 2.0
+            P[f, j, 0] = aw * tx + vx + (ay * tz - az * ty) + P[f, p, 0]
+            P[f, j, 1] = aw * ty + vy + (az * tx - ax * tz) + P[f, p, 1]
+            P[f, j, 2] = aw * tz + vz + (ax * ty - ay * tx) + P[f, p, 2]
+    return P, G
+
+
+def fk_arrays(skeleton, root_positions, rotations) -> tuple[np.ndarray, np.ndarray]:
+    """Compiled FK (:func:`forward_kinematics`) of raw ``(T, 3)`` / ``(T, J, 4)`` arrays (for
+    frame ranges of a motion, without building a :class:`~mocomp.core.Motion` for them)."""
+    return forward_kinematics(np.asarray(skeleton.parents, dtype=np.int64),
+                              np.ascontiguousarray(skeleton.offsets, dtype=float),
+                              np.ascontiguousarray(root_positions, dtype=float),
+                              np.ascontiguousarray(rotations, dtype=float))
+
+
+def motion_fk(motion, start: int = 0, stop: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """``motion.fk()`` restricted to frames ``start:stop``, computed compiled. A whole-motion
+    request fills the motion's FK cache (the same arrays ``Motion.fk`` would cache: bit-identical,
+    read-only); a range reuses that cache when present, else computes only its own frames."""
+    T = motion.n_frames
+    start, stop, _ = slice(start, stop).indices(T)
+    cache = motion._cache
+    if "fk" in cache:
+        P, G = cache["fk"]
+        return P[start:stop], G[start:stop]
+    P, G = fk_arrays(motion.skeleton, motion.root_positions[start:stop], motion.rotations[start:stop])
+    if start == 0 and stop == T:
+        P.setflags(write=False)
+        G.setflags(write=False)
+        cache["fk"] = (P, G)
+    return P, G

@@ -113,21 +113,22 @@ def plant_feet(motion: Motion, start: int, weights: np.ndarray, chains, tol: flo
         for c2 in chains:
             if c1 is not c2 and _descends(parents, c2[0], c1[0]):
                 raise ValueError(f"leg chains {c1} and {c2} overlap; plant_feet needs disjoint legs")
+    from ._kernels import motion_fk
+
     rot = np.array(motion.rotations)
-    P, G = motion.fk()
-    n = motion.n_frames - start
+    P, G = motion_fk(motion, start)                     # frames start.. only (compiled FK)
     solves = 0
     starts = run_starts(np.asarray(weights) >= 0.5)
     for c, chain in enumerate(chains):
         a = chain[2]
-        tgt = np.array(P[start:, a])
+        tgt = np.array(P[:, a])
         on = starts[:, c] >= 0
         plant = tgt[np.maximum(starts[:, c], 0)][:, [0, 2]]
         blend = np.where(on, weights[:, c], 0.0)[:, None]
         tgt[:, [0, 2]] += blend * (plant - tgt[:, [0, 2]])
-        idx = np.flatnonzero(np.linalg.norm(tgt - P[start:, a], axis=1) > tol)
+        idx = np.flatnonzero(np.linalg.norm(tgt - P[:, a], axis=1) > tol)
         if idx.size:
             f = start + idx
-            rot[f], _ = two_bone_ik(P[f], G[f], rot[f], parents, chain, tgt[idx])
+            rot[f], _ = two_bone_ik(P[idx], G[idx], rot[f], parents, chain, tgt[idx])
             solves += idx.size
     return motion.replace(rotations=rot), solves

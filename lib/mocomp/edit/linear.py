@@ -103,8 +103,12 @@ class LinearResult:
 
 
 def _lowest_and_forward(motion: Motion, frame: int, direction: np.ndarray) -> tuple[float, float]:
-    P = np.concatenate([motion.positions[frame], motion.end_site_positions()[frame]], axis=0) \
-        if motion.skeleton.end_sites else motion.positions[frame]
+    from ..core.kinematics import end_site_positions
+    from ._kernels import motion_fk
+
+    Pf, Gf = motion_fk(motion, frame, frame + 1)           # this frame only
+    P = np.concatenate([Pf[0], end_site_positions(motion.skeleton.end_sites, Pf, Gf)[0]], axis=0) \
+        if motion.skeleton.end_sites else Pf[0]
     return float(P[:, 1].min()), float((P @ direction).max())
 
 
@@ -190,9 +194,12 @@ def correct_linear(body, motion: Motion, flight, fit: FlightFit, *, k: float | N
         top = low + h
         # joint positions relative to each flight frame's COM (translation-invariant)
         sk = out.skeleton
-        Pj = out[int(fl[0]):int(fl[-1]) + 1].positions
+        from ..core.kinematics import end_site_positions
+        from ._kernels import motion_fk
+
+        Pj, Gj = motion_fk(out, int(fl[0]), int(fl[-1]) + 1)
         if sk.end_sites:
-            Pj = np.concatenate([Pj, out[int(fl[0]):int(fl[-1]) + 1].end_site_positions()], axis=1)
+            Pj = np.concatenate([Pj, end_site_positions(sk.end_sites, Pj, Gj)], axis=1)
         com_fl = rp[fl] + rel
         Prel = Pj - com_fl[:, None, :]
 

@@ -101,7 +101,9 @@ def _nan_rows(fn, L, ref):
 
 def segment_state(body, motion: Motion) -> tuple[np.ndarray, np.ndarray]:
     """``(X (T, S, 3), Q (T, S, 4))``: segment COM positions and world orientations (contiguous)."""
-    P, G = motion.fk()
+    from ._kernels import motion_fk
+
+    P, G = motion_fk(motion)
     Q = np.ascontiguousarray(G[:, body.segment_joint])
     X = np.ascontiguousarray(P[:, body.segment_joint] + quat_apply(Q, body.local_coms[None]))
     return X, Q

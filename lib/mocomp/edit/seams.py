@@ -101,6 +101,29 @@ def stance_slide(positions: np.ndarray, weights: np.ndarray) -> float:
     return float(np.linalg.norm(xz - origin, axis=-1)[on].max())
 
 
+def _held_shift(w: np.ndarray, err: np.ndarray) -> np.ndarray:
+    """``(n, 2)`` root shift of :func:`recover_upright`: per frame the contact-weighted mean
+    ``e = w @ err / sum(w)`` of the feet's horizontal errors ``err (n, F, 2)``, blended by the
+    strongest contact ``c = max(w)`` with the previous frame's (``s_i = c e + (1 - c) s_{i-1}``);
+    held where no foot touches (``sum(w) <= 1e-9``). The reductions are vectorised, only the
+    scalar recurrence runs per frame."""
+    n = w.shape[0]
+    ws = w.sum(axis=1)
+    cw = w.max(axis=1) if w.shape[1] else np.zeros(n)
+    touch = ws > 1e-9
+    mean = np.zeros((n, 2))
+    mean[touch] = np.einsum("if,ifk->ik", w[touch], err[touch]) / ws[touch, None]
+    x, z = 0.0, 0.0
+    shift = np.empty((n, 2))
+    for i, (t, c, m) in enumerate(zip(touch.tolist(), cw.tolist(), mean.tolist())):
+        if t:
+            x = c * m[0] + (1.0 - c) * x
+            z = c * m[1] + (1.0 - c) * z
+        shift[i, 0] = x
+        shift[i, 1] = z
+    return shift
+
+
 def recover_upright(motion: Motion, first_ground: int, up_now: np.ndarray, seconds: float, ce,
                     pin_feet: bool = True, contact: tuple[float, float] = (0.05, 0.12)):
     """Ease the landing tilt out after touchdown: frames from ``first_ground`` turn by a growing
@@ -123,6 +146,7 @@ def recover_upright(motion: Motion, first_ground: int, up_now: np.ndarray, secon
     Returns ``(motion, slide)``: ``slide`` (m) is the largest horizontal travel of a foot joint
     during a contact, from where that contact began (:func:`stance_slide`).
     """
+    from ._kernels import motion_fk
     from .legs import leg_chains, plant_feet
 
     fix = _shortest_arc(np.asarray(up_now, dtype=float), np.array([0.0, 1.0, 0.0]))
@@ -133,7 +157,7 @@ def recover_upright(motion: Motion, first_ground: int, up_now: np.ndarray, secon
     ident = np.broadcast_to([0.0, 0.0, 0.0, 1.0], (n, 4))
     q = slerp(ident, np.broadcast_to(fix, (n, 4)), s)
     c = ce(motion.root_positions[first_ground:first_ground + 1], motion.rotations[first_ground:first_ground + 1])[0]
-    low = motion[first_ground:first_ground + 1].positions[0, :, 1].min()
+    low = motion_fk(motion, first_ground, first_ground + 1)[0][0, :, 1].min()
     pivot = np.array([c[0], low, c[2]])
     rp = np.array(motion.root_positions)
     rot = np.array(motion.rotations)
@@ -143,19 +167,12 @@ def recover_upright(motion: Motion, first_ground: int, up_now: np.ndarray, secon
     feet = [j for j, nm in enumerate(motion.skeleton.names) if any(k in nm.lower() for k in ("toe", "foot", "ankle"))]
     if not feet:
         return out, 0.0
-    after = out[first_ground:].positions[:, feet]
+    after = motion_fk(out, first_ground)[0][:, feet]
     w = _contact_weights(after[..., 1], contact)
     if pin_feet:
-        before = motion[first_ground:].positions[:, feet]
+        before = motion_fk(motion, first_ground)[0][:, feet]
         err = before[..., [0, 2]] - after[..., [0, 2]]                    # (n, F, 2)
-        shift = np.zeros((n, 2))
-        held = np.zeros(2)
-        for i in range(n):
-            ws = w[i].sum()
-            if ws > 1e-9:
-                cw = w[i].max()
-                held = cw * (w[i] @ err[i]) / ws + (1.0 - cw) * held
-            shift[i] = held
+        shift = _held_shift(w, err)
         rp[first_ground:, 0] += shift[:, 0]
         rp[first_ground:, 2] += shift[:, 1]
         out = motion.replace(root_positions=rp, rotations=rot)
@@ -165,7 +182,7 @@ def recover_upright(motion: Motion, first_ground: int, up_now: np.ndarray, secon
             wa = w[:, [feet.index(ch[2]) for ch in chains]]
             out, solves = plant_feet(out, first_ground, wa, chains)
             if solves:
-                after = out[first_ground:].positions[:, feet]
+                after = motion_fk(out, first_ground)[0][:, feet]
                 return out, stance_slide(after, w)
         after[..., 0] += shift[:, None, 0]
         after[..., 2] += shift[:, None, 1]
