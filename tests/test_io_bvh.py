@@ -4,6 +4,7 @@ naming the line (specific cases and a hypothesis mutation test)."""
 from __future__ import annotations
 
 import itertools
+import math
 import re
 import warnings
 
@@ -17,7 +18,9 @@ from conftest import IN_CI, real_files
 from mocomp.core import EndSite, Motion, Skeleton, SourceInfo
 from mocomp.errors import MotionFormatError
 from mocomp.io import UnitWarning, format_bvh, parse_bvh, read_bvh, write_bvh
-from mocomp.io.bvh import _euler_columns_to_quat
+from mocomp.io import _bvh_kernels as kern
+from mocomp.io import bvh as bvh_module
+from mocomp.io.bvh import _euler_all_nb, _euler_columns_to_quat, _fast_frames
 
 ORDERS = ["".join(p) for p in itertools.permutations("XYZ")]
 
@@ -51,6 +54,16 @@ def synthetic_motion(T: int = 25, fps: float = 60.0, seed: int = 0, channels=Non
     rot = Rotation.from_rotvec(rotvec.reshape(-1, 3)).as_quat().reshape(T, J, 4)
     root = np.column_stack([0.7 * t, 0.95 + 0.1 * np.sin(5 * t), -0.2 * t])
     return Motion(sk, fps, root, rot, source=SourceInfo(format="synthetic"))
+
+
+@pytest.fixture(params=["numpy", "compiled"])
+def frame_path(request, monkeypatch):
+    """Run a test through the numpy frame reader and through the compiled one (which the
+    reader uses only for frame blocks of ``_FAST_MIN_BYTES`` and more; 0 forces it)."""
+    if request.param == "compiled":
+        assert kern.AVAILABLE, "numba is a dependency"
+        monkeypatch.setattr(bvh_module, "_FAST_MIN_BYTES", 0)
+    return request.param
 
 
 def assert_same_pose(a: Motion, b: Motion, atol: float = 1e-6):
@@ -104,7 +117,7 @@ def test_round_trip_six_channel_joints_and_single_axis_channels(tmp_path):
         format_bvh(m.replace(skeleton=m.skeleton.with_channels(ch)))
 
 
-def test_round_trip_crlf_cr_tabs_and_blank_lines():
+def test_round_trip_crlf_cr_tabs_and_blank_lines(frame_path):
     m = synthetic_motion()
     text = bvh_text(m)
     ref = parse_bvh(text, scale=0.01)
@@ -468,7 +481,7 @@ def parse(text):
         return parse_bvh(text, path="x.bvh", scale=0.01)
 
 
-def test_good_fixture_parses():
+def test_good_fixture_parses(frame_path):
     m = parse(GOOD)
     assert m.n_frames == 3 and m.skeleton.names == ("Hips", "Leg")
     assert m.root_positions[2, 1] == pytest.approx(0.92)
@@ -503,7 +516,7 @@ def _lines(text):
     (lambda L: L[:15], 15, "no MOTION section"),
     (lambda L: ["HIERARCH"] + L[1:], 1, "does not start with HIERARCHY"),
 ])
-def test_bad_input_names_the_line(mutate, line, words):
+def test_bad_input_names_the_line(mutate, line, words, frame_path):
     text = "\n".join(mutate(_lines(GOOD)))
     with pytest.raises(MotionFormatError) as e:
         parse(text)
@@ -669,7 +682,7 @@ def test_mutated_bvh_file_reads_or_raises_motion_format_error(data):
 
 @pytest.mark.parametrize("endings", ["\n", "\r\n", "\r"])
 @pytest.mark.parametrize("encoding", ["utf-8", "latin-1"])
-def test_seed_files_read_the_same_with_any_line_end_and_encoding(endings, encoding, tmp_path):
+def test_seed_files_read_the_same_with_any_line_end_and_encoding(endings, encoding, tmp_path, frame_path):
     """Unmutated seeds written as files (a latin-1 joint name included) read to the same motion
     as parse_bvh on the text."""
     for k, text in enumerate(SEED_TEXTS):
@@ -693,3 +706,196 @@ def test_embedded_synthetic_examples_round_trip(name, tmp_path):
     assert a.n_frames == b.n_frames == m.n_frames and a.fps == pytest.approx(m.fps, rel=1e-14) and b.fps == a.fps
     assert_same_pose(m, a, atol=1e-6)
     assert_same_pose(a, b, atol=1e-6)
+
+
+# ------------------------------------------------------------------ compiled frame parse and Euler conversion
+def _bits(a) -> np.ndarray:
+    return np.ascontiguousarray(a, dtype=float).view(np.int64)
+
+
+def _number_tokens(rng, n: int) -> list[str]:
+    """Decimal tokens of every shape a BVH writer produces: fixed point with 0-12
+    decimals over many magnitudes, C-style exponents (``-6.08778e-016``, ``e-023``: past
+    the exact fast range), 17-digit ``repr``, signs, leading zeros, no digits before or
+    after the point, integers past 2**53, subnormals and the largest double."""
+    v = rng.normal(size=n) * 10.0 ** rng.integers(-6, 7, n)
+    kind = rng.integers(0, 4, n)
+    toks = []
+    for x, k, p in zip(v, kind, rng.integers(0, 13, n)):
+        if k == 0:
+            toks.append(f"{x:.{p}f}")
+        elif k == 1:
+            toks.append(f"{x * 10.0 ** rng.integers(-30, 20):.{p % 7}e}".replace("e-", "e-0").replace("e+", "e+0"))
+        elif k == 2:
+            toks.append(repr(float(x)))
+        else:
+            toks.append(f"{x:.4f}")
+    toks += ["+.5", "5.", "-0", "-0.0", "+0", "0e999", "000123.4500", "1E5", "-1e-22", "1e22", "1e23", "-2.5E+3",
+             "9007199254740992", "9007199254740993", "1" * 25, "0." + "0" * 30 + "1", "1e-320", "4.9e-324",
+             "1.7976931348623157e308", "123456789012345678901234567890e-20"]
+    return toks
+
+
+def test_compiled_frame_parse_gives_the_bits_of_float():
+    """Every number the compiled reader returns is float(token), bit for bit (signed zeros
+    too), whether it took the exact one-operation path (m <= 2**53, |e| <= 22) or was
+    handed back to float() (exponent or mantissa out of that range)."""
+    rng = np.random.default_rng(11)
+    toks = _number_tokens(rng, 6000)
+    toks += ["0"] * (-len(toks) % 20)
+    rows = [toks[i:i + 20] for i in range(0, len(toks), 20)]
+    ref = np.array([[float(t) for t in r] for r in rows])
+    for sep, eol in [(" ", "\n"), ("\t", "\r\n"), ("  \t ", "\r"), (" ", " \n\n")]:
+        raw = ("Frame Time: 0.01\n" + eol.join(sep.join(r) for r in rows) + eol).encode()
+        got = _fast_frames(raw, 17, len(rows), 20)
+        assert got is not None
+        np.testing.assert_array_equal(_bits(got), _bits(ref))
+    # tokens where the naive arithmetic is off by one bit (so they must go to float()): an
+    # exponent past 1e22 done in two divisions, a mantissa past 2**53 rounded before dividing
+    assert float("175268e-28") != 175268 / 1e22 / 1e6
+    assert float("843488751069501777e-5") != float(843488751069501777) / 1e5
+    toks = ["175268e-28", "843488751069501777e-5", "1e23", "9007199254740993", "-0"]
+    one = _fast_frames(" ".join(toks).encode() + b"\n", 0, 1, 5)
+    np.testing.assert_array_equal(_bits(one[0]), _bits([float(t) for t in toks]))
+    assert np.signbit(one[0, 4])
+
+
+@pytest.mark.parametrize("block, why", [
+    (b"1 2\n3 nan\n", "nan"), (b"1 2\n3 inf\n", "inf"), (b"1 2\n3 1_0\n", "underscore"), (b"1 2\n3 0x10\n", "hex"),
+    (b"1 2\n3 1e\n", "no exponent digits"), (b"1 2\n3 -\n", "sign only"), (b"1 2\n3 .\n", "point only"),
+    (b"1 2\n3 1.2.3\n", "two points"), (b"1 2\n3\x0b4\n", "vertical tab"), (b"1 2\n3 4\xe9\n", "latin-1 byte"),
+    (b"1 2\n3 4\x00\n", "NUL"), (b"1 2\n3 4 5\n", "long row"), (b"1 2\n3\n", "short row"), (b"1 2\n", "few rows"),
+    (b"1 2\n3 4\n5 6\n", "many rows"), (b"1 2 3 4\n", "one long line"), (b"", "empty"),
+])
+def test_compiled_frame_parse_declines_what_it_does_not_handle(block, why):
+    """Anything but an exact (2, 2) table of decimal numbers: None (the numpy reader then
+    reports it, naming the line), never a wrong table."""
+    assert _fast_frames(block, 0, 2, 2) is None, why
+    assert _fast_frames(b"1 2\n3 4\n", 0, 2, 2) is not None
+
+
+def test_compiled_frame_parse_limits():
+    """A corrupt 'Frames:' count cannot make it allocate (each value needs two bytes),
+    and a block of mostly out-of-range numbers (more than one in four) goes back to
+    the numpy reader, which still gives float(token)."""
+    assert _fast_frames(b"1 2\n3 4\n", 0, 10 ** 12, 2) is None
+    vals = np.random.default_rng(2).normal(size=(40, 8))
+    block = "\n".join(" ".join(f"{x:.6f}e-30" for x in row) for row in vals)
+    raw = block.encode()
+    status, n_slow = kern.parse_table(np.frombuffer(raw, np.uint8), 0, np.empty((40, 8)), np.empty((80, 4), np.int64))
+    assert (status, n_slow) == (4, 80)  # the span list is full: too many slow tokens
+    assert _fast_frames(raw, 0, 40, 8) is None
+    assert kern.parse_table(np.frombuffer(raw, np.uint8), 0, np.empty((40, 8)), np.empty((320, 4), np.int64)) \
+        == (kern.OK, 320)
+    ref = np.array([float(t) for t in block.split()]).reshape(40, 8)
+    np.testing.assert_array_equal(_bits(bvh_module._parse_frames(raw)), _bits(ref))
+
+
+@pytest.mark.parametrize("seq", ORDERS + ["ZXZ", "XYX", "YZY", "XY", "ZX", "Z", "Y"])
+def test_compiled_euler_conversion_gives_the_numpy_bits(seq):
+    """The compiled Euler -> quaternion pass performs the numpy version's operations in its
+    order: the same bits (signed zeros included), for all joints of several channel
+    orders in one call, with still (zero, -0.0) channels and whole turns."""
+    rng = np.random.default_rng(len(seq) * 7 + ord(seq[0]))
+    T, J = 300, 6
+    ang = rng.uniform(-400, 400, (T, J, len(seq)))
+    ang[rng.random(ang.shape) < 0.2] = 0.0
+    ang[rng.random(ang.shape) < 0.05] = -0.0
+    ang[:, 2] = rng.choice([0.0, 90.0, -180.0, 360.0, 720.0], (T, len(seq)))
+    other = "ZYX" if seq != "ZYX" else "XZY"
+    ang2 = rng.uniform(-180, 180, (T, 2, 3))
+    # frame table: joint 0 no rotation channels; joints 1..J with seq; two more joints with `other`
+    data = np.concatenate([rng.normal(size=(T, 3)), ang.reshape(T, -1), ang2.reshape(T, -1)], axis=1)
+    js = list(range(1, J + 1))
+    cols = [[3 + j * len(seq) + k for k in range(len(seq))] for j in range(J)]
+    base = 3 + J * len(seq)
+    js2, cols2 = [J + 1, J + 2], [[base + k for k in range(3)], [base + 3 + k for k in range(3)]]
+    by_seq = {seq: (js, cols), other: (js2, cols2)}
+    ref = np.full((T, J + 3, 4), 7.0)
+    got = ref.copy()
+    for sq, (jj, cc) in by_seq.items():
+        ca = np.array(cc)
+        _euler_columns_to_quat(sq, [data[:, ca[:, k]] for k in range(ca.shape[1])], ref, jj)
+    assert _euler_all_nb(by_seq, data, got)
+    assert np.all(got[:, 0] == 7.0)  # joints without rotation channels are left alone
+    h = data[:, 3:] * (np.pi / 360.0)
+    same_libm = np.array_equal(_bits(np.sin(h)), _bits(np.vectorize(math.sin)(h)))
+    if same_libm:  # numpy's sin/cos are the C library's here (not a SIMD variant): exact
+        np.testing.assert_array_equal(_bits(got), _bits(ref))
+    else:  # pragma: no cover - e.g. numpy's AVX-512 sin/cos differ from libm in the last bit
+        np.testing.assert_array_max_ulp(got, ref, maxulp=4)
+    sc = Rotation.from_euler(seq, ang.reshape(-1, len(seq)), degrees=True).as_quat().reshape(T, J, 4)
+    d = np.minimum(np.abs(got[:, 1:J + 1] - sc).max(-1), np.abs(got[:, 1:J + 1] + sc).max(-1))
+    assert d.max() < 1e-14
+
+
+def _read_both(path_or_text, monkeypatch, **kw):
+    """(compiled, numpy) reads of the same input."""
+    fn = read_bvh if not isinstance(path_or_text, str) else parse_bvh
+    with monkeypatch.context() as mp:
+        mp.setattr(bvh_module, "_FAST_MIN_BYTES", 0)
+        a = fn(path_or_text, **kw)
+    with monkeypatch.context() as mp:
+        mp.setattr(kern, "AVAILABLE", False)
+        b = fn(path_or_text, **kw)
+    return a, b
+
+
+def _assert_same_bits(a: Motion, b: Motion):
+    assert a.skeleton.names == b.skeleton.names and a.skeleton.channels == b.skeleton.channels
+    for x, y in [(a.root_positions, b.root_positions), (a.rotations, b.rotations),
+                 (a.skeleton.offsets, b.skeleton.offsets)]:
+        np.testing.assert_array_equal(_bits(x), _bits(y))
+    assert a.fps == b.fps and a.source == b.source
+
+
+@pytest.mark.realdata
+@pytest.mark.parametrize("path", real_files("*/*.bvh"), ids=lambda p: p.name)
+def test_real_clips_compiled_and_numpy_readers_agree_bit_for_bit(path, monkeypatch):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UnitWarning)
+        _assert_same_bits(*_read_both(path, monkeypatch))
+
+
+def test_large_synthetic_file_takes_the_compiled_path_and_matches(tmp_path, monkeypatch):
+    """A file over the size threshold with every rotation order, in every line-end style:
+    the default read (compiled) equals the numpy read bit for bit."""
+    m = synthetic_motion(T=1200, seed=3)
+    text = bvh_text(m, precision=8)
+    assert len(text) > bvh_module._FAST_MIN_BYTES
+    calls = []
+    real = kern.parse_table
+    monkeypatch.setattr(kern, "parse_table", lambda *a: calls.append(1) or real(*a))
+    for eol in ["\n", "\r\n", "\r"]:
+        f = tmp_path / "big.bvh"
+        f.write_bytes(text.replace("\n", eol).encode())
+        a = read_bvh(f, scale=0.01, height_check=False)
+        with monkeypatch.context() as mp:
+            mp.setattr(kern, "AVAILABLE", False)
+            b = read_bvh(f, scale=0.01, height_check=False)
+        _assert_same_bits(a, b)
+    assert len(calls) == 3
+
+
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow,
+                                                                   HealthCheck.function_scoped_fixture])
+@given(mutated_bvh())
+def test_mutated_bvh_compiled_and_numpy_readers_agree(monkeypatch, text):
+    """On mutated input the compiled reader either gives the numpy reader's motion bit for
+    bit or raises the same MotionFormatError (same message, same line)."""
+    out = []
+    for use in (True, False):
+        with monkeypatch.context() as mp, warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            mp.setattr(bvh_module, "_FAST_MIN_BYTES", 0 if use else 1 << 62)
+            try:
+                out.append(parse_bvh(text, path="m.bvh", scale=0.01))
+            except MotionFormatError as e:
+                out.append((str(e), e.line))
+    a, b = out
+    if isinstance(a, tuple) or isinstance(b, tuple):
+        event("MotionFormatError")
+        assert a == b
+    else:
+        event("parsed")
+        _assert_same_bits(a, b)

@@ -236,7 +236,11 @@ def _parse(head: str, raw: bytes, start: int, path, scale, fps, height_check) ->
         raise MotionFormatError(f"Frame Time must be positive, got {frame_time}", path, ln)
     first_data = len(lines)  # 0-based index of the first line after "Frame Time:"
     nch = sum(len(c) for c in channels)
-    data = _parse_frames(raw, start)
+    # large frame blocks: the compiled parse and Euler conversion (same bits as the numpy code)
+    compiled = len(raw) - start >= _FAST_MIN_BYTES
+    data = _fast_frames(raw, start, n_frames, nch) if compiled else None
+    if data is None:  # not a plain table of exact numbers: the general reader (and its error reports)
+        data = _parse_frames(raw, start)
     if data is None or data.shape != (n_frames, nch):
         _frame_block_error(raw[start:], first_data, n_frames, nch, path)  # always raises, naming the line
     if not np.all(np.isfinite(data)):
@@ -279,9 +283,10 @@ def _parse(head: str, raw: bytes, start: int, path, scale, fps, height_check) ->
         else:
             rots[:, j] = (0.0, 0.0, 0.0, 1.0)
         col += len(ch)
-    for seq, (js, cols) in by_seq.items():
-        ca = np.array(cols)
-        _euler_columns_to_quat(seq, [data[:, _as_slice(ca[:, k])] for k in range(ca.shape[1])], rots, js)
+    if by_seq and not (compiled and _euler_all_nb(by_seq, data, rots)):
+        for seq, (js, cols) in by_seq.items():
+            ca = np.array(cols)
+            _euler_columns_to_quat(seq, [data[:, _as_slice(ca[:, k])] for k in range(ca.shape[1])], rots, js)
 
     notes = []
     removed = None
@@ -385,6 +390,40 @@ def _as_slice(idx: np.ndarray):
     return idx
 
 
+_EULER_PROGRAMS: dict = {}
+#: frame blocks from this size on (about 350 CMU frames) take the compiled path
+#: (:mod:`mocomp.io._bvh_kernels`; same bits as the numpy path). Below it numpy is
+#: faster overall: numba's import and cached-kernel load cost ~0.5-0.9 s once per
+#: process, loadtxt on 256 kB ~8 ms.
+_FAST_MIN_BYTES = 1 << 18
+
+
+def _euler_all_nb(by_seq: dict, data: np.ndarray, rots: np.ndarray) -> bool:
+    """All joints' Euler channels to quaternions in one compiled pass
+    (:func:`mocomp.io._bvh_kernels.euler_to_quat_nb`: the operations of
+    :func:`_euler_columns_to_quat`, same order, same bits; ~4x faster); False when
+    numba is missing (the caller then runs the numpy version)."""
+    from . import _bvh_kernels as kern
+
+    if not kern.AVAILABLE:  # pragma: no cover - numba is a dependency
+        return False
+    J = rots.shape[1]
+    cols = np.zeros((J, 3), dtype=np.int64)
+    axes = np.full((J, 3), -1, dtype=np.int64)
+    steps = np.zeros((J, 3, 16, 4), dtype=np.int64)
+    n_steps = np.zeros((J, 3), dtype=np.int64)
+    present = np.zeros((J, 4), dtype=np.bool_)
+    for seq, (js, cs) in by_seq.items():
+        prog = _EULER_PROGRAMS.get(seq)
+        if prog is None:
+            prog = _EULER_PROGRAMS[seq] = kern.euler_program(seq)
+        for j, c in zip(js, cs):
+            cols[j, :len(c)] = c
+            axes[j], steps[j], n_steps[j], present[j] = prog
+    kern.euler_to_quat_nb(data, cols, axes, steps, n_steps, present, rots)
+    return True
+
+
 def _euler_columns_to_quat(seq: str, angles_deg: list, out: np.ndarray, joints: list) -> None:
     """Intrinsic Euler angles (BVH channel order ``seq``, e.g. ``"ZYX"``; one
     ``(T, Jg)`` array of degrees per axis) to quaternions written into
@@ -408,6 +447,30 @@ def _euler_columns_to_quat(seq: str, angles_deg: list, out: np.ndarray, joints: 
         o = out[blk]
         for c in range(4):
             o[:, sel, c] = 0.0 if q[c] is None else q[c]
+
+
+def _fast_frames(raw: bytes, start: int, n_frames: int, nch: int) -> np.ndarray | None:
+    """The frame block as an ``(n_frames, nch)`` array by the compiled one-pass parser
+    (:func:`mocomp.io._bvh_kernels.parse_table`, ~10x faster than ``numpy.loadtxt``,
+    the same doubles as ``float(token)``), or ``None`` when the block is not exactly
+    such a table of decimal numbers (or numba is missing); the caller then uses
+    :func:`_parse_frames`, whose failures name the bad line."""
+    # every value takes at least two bytes (a digit and a separator), so a larger
+    # "Frames:" cannot be right; checked before allocating (a corrupt header may say 10**12)
+    if nch == 0 or n_frames * nch > (len(raw) - start + 1) // 2:
+        return None
+    from . import _bvh_kernels as kern
+
+    if not kern.AVAILABLE:  # pragma: no cover - numba is a dependency
+        return None
+    out = np.empty((n_frames, nch))
+    slow = np.empty((max(64, out.size // 4), 4), dtype=np.int64)  # more: loadtxt is as fast
+    status, n_slow = kern.parse_table(np.frombuffer(raw, dtype=np.uint8), start, out, slow)
+    if status != kern.OK:
+        return None
+    for r, c, a, b in slow[:n_slow].tolist():  # numbers outside the exact fast range: float() itself
+        out[r, c] = float(raw[a:b])
+    return out
 
 
 def _parse_frames(raw: bytes, start: int = 0) -> np.ndarray | None:
