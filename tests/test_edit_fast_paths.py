@@ -12,11 +12,14 @@ import functools
 
 import numpy as np
 import pytest
+import scipy.sparse as sp
+from scipy.sparse.linalg import splu
 
 from mocomp.core.kinematics import forward_kinematics
 from mocomp.core.motion import slerp
 from mocomp.core.rotations import quat_apply, quat_multiply
 from mocomp.edit import apply_preset, restore_momentum, seams
+from mocomp.edit import smooth_direction as sd
 from mocomp.edit._kernels import fk_arrays, motion_fk
 from mocomp.edit.legs import _descends, leg_chains, run_starts, two_bone_ik
 from mocomp.flips.reposition import ComEvaluator
@@ -159,3 +162,165 @@ def test_held_shift_known_answer():
     err = np.array([[[1.0, 2.0]], [[9.0, 9.0]], [[3.0, -1.0]], [[5.0, 5.0]]])
     np.testing.assert_allclose(seams._held_shift(w, err),
                                [[1.0, 2.0], [1.0, 2.0], [3.0, -1.0], [4.0, 2.0]], atol=1e-15)
+
+
+# ------------------------------------------------- step 1's joint solve: band LU vs sparse LU
+def _smooth_corrections_reference(m, I_local, X, Q, t, U, f0: int, init: np.ndarray, sigma: float = 1.5,
+                       tol: float = 1e-7, max_iter: int = 20, w1: float = 1.0, w0: float = 0.0) -> SmoothSolve:
+    # verbatim pre-speed-up body (sparse KKT, splu)
+    from scipy.ndimage import gaussian_filter1d
+
+    from mocomp.edit._kernels import interior_momentum, momentum_blocks, rotate_frames
+
+    n = X.shape[0]
+    pivots = np.ascontiguousarray(np.einsum("s,tsk->tk", m, X) / m.sum())
+    free = np.arange(f0 + 1, n)             # variables: frames f0+1 .. n-1
+    cons = np.arange(f0, n - 1)             # constraints: L at frames f0 .. n-2
+    nv, nc = free.size, cons.size
+    Uc = U[cons]
+    B = sd._basis(Uc)
+    # the metric: second differences over frames f0-1 .. n-1 (phi = 0 on frames <= f0)
+    D2 = sp.diags([np.ones(n), -2 * np.ones(n), np.ones(n)], [-1, 0, 1], shape=(n, n), format="csr")
+    D = sp.kron(D2[np.arange(f0, n - 1)][:, free], sp.identity(3), format="csr")
+    D1 = sp.diags([-np.ones(n), np.ones(n)], [0, 1], shape=(n, n), format="csr")
+    D1 = sp.kron(D1[np.arange(f0, n - 1)][:, free], sp.identity(3), format="csr")
+    DtD = (D.T @ D).tocsc()
+    H = DtD + w1 * (D1.T @ D1).tocsc() + (w0 + 1e-10 * DtD.diagonal().max()) * sp.identity(3 * nv, format="csc")
+    phi0 = sd.rotvecs_continuous(init)
+    phi0[:f0 + 1] = 0.0
+    phi = gaussian_filter1d(phi0, sigma, axis=0, mode="nearest") if sigma > 0 else phi0.copy()
+    phi[:f0 + 1] = 0.0
+    ref = phi[free].ravel().copy()
+    # sparsity of the constraint Jacobian: L_f couples frames f-1, f, f+1
+    off = np.repeat([-1, 0, 1], nc)
+    rows = np.tile(np.arange(nc), 3)
+    g = cons[rows] + off
+    keep = g >= free[0]
+    blk_r, blk_k, blk_g = rows[keep], off[keep] + 1, g[keep]
+    ii = np.broadcast_to(2 * blk_r[:, None, None] + np.arange(2)[None, :, None], (blk_r.size, 2, 3)).ravel()
+    jj = np.broadcast_to(3 * (blk_g - free[0])[:, None, None] + np.arange(3)[None, None, :],
+                         (blk_r.size, 2, 3)).ravel()
+    zeros = np.zeros(3 * nv)
+    # KKT [[H, A^T], [A, 0]] assembled from fixed index arrays (only A's values change)
+    H_coo = H.tocoo()
+    K_rows = np.concatenate([H_coo.row, 3 * nv + ii, jj])
+    K_cols = np.concatenate([H_coo.col, jj, 3 * nv + ii])
+    evals = 0
+
+    def state(ph):
+        return rotate_frames(X, Q, pivots, np.ascontiguousarray(sd._exp(ph)))
+
+    def errors(L):
+        Lc = L[cons]
+        return np.arctan2(np.linalg.norm(np.cross(Lc, Uc), axis=1), np.sum(Lc * Uc, axis=1))
+
+    def residual(L):
+        Lc = L[cons]
+        return np.einsum("fij,fj->fi", B, Lc / np.linalg.norm(Lc, axis=1, keepdims=True)).ravel()
+
+    Xc, Qc = state(phi)
+    L = interior_momentum(m, I_local, Xc, Qc, t)
+    evals += 1
+    err = errors(L)
+    it = 0
+    while err.max() > tol and it < max_iter:
+        it += 1
+        L, Jm, J0, Jp = momentum_blocks(m, I_local, Xc, Qc, t, pivots)
+        evals += 1
+        Lc = L[cons]
+        nL = np.linalg.norm(Lc, axis=1)
+        lu = Lc / nL[:, None]
+        G = np.einsum("fij,fjk->fik", B, (np.eye(3) - lu[:, :, None] * lu[:, None, :]) / nL[:, None, None])
+        Jb = np.stack([Jm[cons], J0[cons], Jp[cons]])                 # (3, nc, 3, 3)
+        vals = np.einsum("bij,bjk,bkl->bil", G[blk_r], Jb[blk_k, blk_r], sd._left_jacobian(phi[blk_g]))
+        v = vals.ravel()
+        K = sp.csc_matrix((np.concatenate([H_coo.data, v, v]), (K_rows, K_cols)), shape=(3 * nv + 2 * nc,) * 2)
+        try:
+            lu_K = splu(K)
+        except RuntimeError:
+            break
+        x = phi[free].ravel()
+        # Newton step onto the linearised constraints, smallest in the second-difference metric
+        dx = lu_K.solve(np.concatenate([zeros, -residual(L)]))[:3 * nv]
+        if not np.all(np.isfinite(dx)):
+            break
+        # backtrack on the summed direction error (angles: zero on the target only, not on its antipode)
+        alpha, e0 = 1.0, float(err.sum())
+        for _ in range(8):
+            trial = phi.copy()
+            trial[free] = (x + alpha * dx).reshape(nv, 3)
+            Xt, Qt = state(trial)
+            Lt = interior_momentum(m, I_local, Xt, Qt, t)
+            evals += 1
+            et = errors(Lt)
+            if np.all(np.isfinite(et)) and et.sum() < e0:
+                break
+            alpha *= 0.5
+        else:
+            break
+        phi, Xc, Qc, L, err = trial, Xt, Qt, Lt, et
+    change = D @ (phi[free].ravel() - ref)
+    return sd.SmoothSolve(corrections=sd._exp(phi), converged=bool(err.max() <= tol), iterations=it,
+                       evaluations=evals, max_error=float(err.max()) if err.size else 0.0,
+                       objective_start=float(np.sum((D @ phi0[free].ravel()) ** 2)),
+                       objective_end=float(np.sum((D @ phi[free].ravel()) ** 2)),
+                       projection=float(np.sqrt(change @ change)))
+
+
+def _smooth_inputs(name, ease=None):
+    """The arguments :func:`mocomp.edit.restore.correct_direction` gives the joint solve."""
+    from mocomp.edit._kernels import direction_sweep
+    from mocomp.edit.restore import segment_state
+
+    r, ed = case(name)
+    if ease is not None:
+        ed = apply_preset(r.motion, r.flight, "straight-legs", ease=ease)[0]
+    a, b = r.flight
+    X, Q = segment_state(r.body, ed[a:b])
+    t = np.ascontiguousarray(ed[a:b].times)
+    m = np.ascontiguousarray(r.body.masses, dtype=float)
+    I_loc = np.ascontiguousarray(r.body.inertias, dtype=float)
+    U = np.tile(r.L0 / np.linalg.norm(r.L0), (b - a, 1))
+    X0, Q0 = X.copy(), Q.copy()
+    corr, _, first, _ = direction_sweep(m, I_loc, X, Q, t, U, 0, b - a, 1e-7, 20)
+    return m, I_loc, X0, Q0, t, U, int(first), corr
+
+
+@pytest.mark.parametrize("name,ease", [("side-straight-legs", None), ("side-straight-legs", 0.2),
+                                       ("arms-twist", None)])
+def test_band_kkt_solve_equals_the_sparse_lu_reference(name, ease):
+    args = _smooth_inputs(name, ease)
+    new = sd.smooth_corrections(*args)
+    ref = _smooth_corrections_reference(*args)
+    assert ref.iterations >= 2 and ref.converged            # a real multi-step projection
+    assert new.iterations == ref.iterations and new.evaluations == ref.evaluations
+    assert new.converged == ref.converged
+    np.testing.assert_allclose(new.corrections, ref.corrections, rtol=0, atol=1e-12)
+    for k in ("max_error", "objective_start", "objective_end", "projection"):
+        assert abs(getattr(new, k) - getattr(ref, k)) <= 1e-12 * max(1.0, abs(getattr(ref, k))), k
+
+
+@pytest.mark.parametrize("n,f0,w1,w0", [(12, 1, 1.0, 0.0), (40, 7, 0.3, 0.05), (9, 5, 2.0, 0.0)])
+def test_kkt_band_layout_is_the_sparse_kkt_permuted(n, f0, w1, w0):
+    """The band triplets rebuild, after un-permuting, exactly the sparse metric H of the
+    reference; the permutation is a bijection and every nonzero lies inside the band."""
+    perm, lo, up, hr, hc, hv, ii, jj, _ = sd._kkt_layout(n, f0, w1, w0)
+    free = np.arange(f0 + 1, n)
+    nv, nc = free.size, n - 1 - f0
+    assert np.array_equal(np.sort(perm), np.arange(3 * nv + 2 * nc))
+    D2 = sp.diags([np.ones(n), -2 * np.ones(n), np.ones(n)], [-1, 0, 1], shape=(n, n), format="csr")
+    D = sp.kron(D2[np.arange(f0, n - 1)][:, free], sp.identity(3), format="csr")
+    D1 = sp.diags([-np.ones(n), np.ones(n)], [0, 1], shape=(n, n), format="csr")
+    D1 = sp.kron(D1[np.arange(f0, n - 1)][:, free], sp.identity(3), format="csr")
+    DtD = (D.T @ D).tocsc()
+    H = (DtD + w1 * (D1.T @ D1).tocsc() + (w0 + 1e-10 * DtD.diagonal().max())
+         * sp.identity(3 * nv, format="csc")).toarray()
+    inv = np.argsort(perm)
+    Hb = np.zeros((3 * nv, 3 * nv))
+    Hb[inv[hr], inv[hc]] = hv
+    assert np.array_equal(Hb, H)
+    # the second-difference rows helper is D @ x
+    x = np.random.default_rng(n).normal(size=(n, 3))
+    x[:f0 + 1] = 0.0
+    np.testing.assert_allclose(sd._second_diff_rows(x, f0), D @ x[free].ravel(), rtol=0, atol=1e-14)
+    assert np.all(np.abs(perm[3 * nv + ii] - perm[jj]) <= min(lo, up))
