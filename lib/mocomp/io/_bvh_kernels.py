@@ -240,11 +240,11 @@ if AVAILABLE:
         q = np.empty(4)
         b = np.zeros(4)
         nq = np.empty(4)
-        for t in range(T):
-            for j in range(J):
-                a0 = axes[j, 0]
-                if a0 < 0:
-                    continue
+        for j in range(J):  # joint outside: its program stays in cache and the branches predictable
+            a0 = axes[j, 0]
+            if a0 < 0:
+                continue
+            for t in range(T):
                 h = data[t, cols[j, 0]] * k
                 if h == 0.0:  # still joints: sin(+-0) = +-0 and cos(0) = 1 exactly, without the calls
                     q[a0] = h
