@@ -19,12 +19,18 @@ wall-time medians and minima too. ``read_bvh`` builds the full
 gives the largest difference between bvhio's local joint rotations and ours on
 every 50th frame (bvhio stores 32-bit floats, so ~1e-7 rad is agreement).
 
-Measured here (Nov 2026, 2 shared cores): real file ~13.5-15 ms against
-bvhio ~160-180 ms, 12.1-12.5x; synthetic file ~14.7 ms vs ~163 ms, 11.1x.
-Where our time goes: ``numpy.loadtxt`` ~8.5 ms (the exact float parse; no
-faster correct reader was found: ``np.fromstring`` 14 ms, pandas 10 ms,
-pyarrow 8 ms, a vectorised byte parser 12+ ms), Euler->quaternion ~2 ms,
-``Motion`` validation ~1.3 ms, the rest (header, file read) ~1.5 ms.
+Measured here (1 Dec 2026, 2 shared cores, slower than in Nov: bvhio took 313-569
+ms today against ~175 ms then; 5 full runs of ``benchmarks/run.py --only io``
+while another helper benchmarked): real file 11.1-17.7 ms (median 11.3) against
+bvhio 313-569 ms, ratio 25.5-34.2x (median 28.5x); synthetic file 12.3 ms vs
+314-322 ms, 25-26x (2 runs). Before the compiled path the same host gave 59-62 ms
+vs 521-537 ms, 8.6-8.8x (Nov: 15.4 vs 175 ms, 11.3x). Where our time goes (profile, warm): the compiled frame-block parse
+(:mod:`mocomp.io._bvh_kernels`, exact: ``float(token)`` bits) ~3.5-6 ms where
+``numpy.loadtxt`` took ~50 ms; the compiled Euler->quaternion pass ~4-6 ms (half
+of it ``sin``/``cos``; the numpy version took ~8 ms); ``Motion`` validation and
+copies, the height probe, the header and the file read ~4 ms. Not timed: the first
+read in a process also imports numba and loads the cached kernels, ~0.5-0.9 s
+once (files under 256 kB of frames skip the kernels, so short clips do not pay it).
 
 A second row times reading an AMC (``jumps/01_01.amc`` with ``01.asf``; no peer
 and no goal) when the real data are available.
