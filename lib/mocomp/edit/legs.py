@@ -108,15 +108,21 @@ def plant_feet(motion: Motion, start: int, weights: np.ndarray, chains, tol: flo
     are left alone. The chains must be disjoint (two legs). Returns the motion and the number
     of IK solves.
     """
-    parents = motion.skeleton.parents
+    from ._kernels import motion_fk
+
+    P, G = motion_fk(motion, start)                     # frames start.. only (compiled FK)
+    rot, solves = _plant_rotations(motion.skeleton.parents, motion.rotations, P, G, start, weights, chains, tol)
+    return motion.replace(rotations=rot), solves
+
+
+def _plant_rotations(parents, rotations, P, G, start, weights, chains, tol=1e-3) -> tuple[np.ndarray, int]:
+    """:func:`plant_feet` on arrays: ``rotations (T, J, 4)`` and the FK ``P``, ``G`` of frames
+    ``start..`` only; returns the new rotations (a copy) and the number of IK solves."""
     for c1 in chains:
         for c2 in chains:
             if c1 is not c2 and _descends(parents, c2[0], c1[0]):
                 raise ValueError(f"leg chains {c1} and {c2} overlap; plant_feet needs disjoint legs")
-    from ._kernels import motion_fk
-
-    rot = np.array(motion.rotations)
-    P, G = motion_fk(motion, start)                     # frames start.. only (compiled FK)
+    rot = np.array(rotations)
     solves = 0
     starts = run_starts(np.asarray(weights) >= 0.5)
     for c, chain in enumerate(chains):
@@ -131,4 +137,4 @@ def plant_feet(motion: Motion, start: int, weights: np.ndarray, chains, tol: flo
             f = start + idx
             rot[f], _ = two_bone_ik(P[idx], G[idx], rot[f], parents, chain, tgt[idx])
             solves += idx.size
-    return motion.replace(rotations=rot), solves
+    return rot, solves

@@ -255,6 +255,18 @@ def boundary_velocity_jumps(com: np.ndarray, flight, fps: float) -> tuple[np.nda
     return take, land
 
 
+def _root_orientation_at(motion: Motion, t: float) -> np.ndarray:
+    """``motion.sample([t]).rotations[0, 0]`` (the root's slerped orientation at time ``t``, the
+    frame's own on a frame time) without sampling every joint into a new motion."""
+    from ..core.motion import slerp
+    from .restore import _frame_weights
+
+    i0, i1, a = _frame_weights(motion, [t])
+    if a[0] == 0.0:
+        return np.array(motion.rotations[i0[0], 0])
+    return slerp(motion.rotations[i0[0], 0], motion.rotations[i1[0], 0], a[0])
+
+
 def _own_slide(motion: Motion, stop: int, contact=(0.05, 0.12)) -> float | None:
     """:func:`mocomp.edit.seams.stance_slide` of ``motion``'s foot joints from frame ``stop`` on
     (its landing as given), ``None`` when there are no foot joints or frames."""
@@ -537,8 +549,8 @@ def three_steps(body, edited: Motion, flight, L_const, fit: FlightFit, *, origin
         from .seams import landing_tilt, recover_upright
 
         fl_last = lin.flight[1] - 1
-        q_ref = upright_ref.sample([float(np.clip(src3(np.array([fl_last]))[0], 0.0, upright_ref.duration))]
-                                   ).rotations[0, 0]
+        q_ref = _root_orientation_at(upright_ref, float(np.clip(src3(np.array([fl_last]))[0], 0.0,
+                                                                  upright_ref.duration)))
         if upright_pre is not None:
             q_ref = quat_multiply(np.asarray(upright_pre, dtype=float), q_ref)
         tilt, up_now = landing_tilt(q_ref, final.rotations[fl_last, 0])

@@ -99,11 +99,12 @@ def _nan_rows(fn, L, ref):
     return out
 
 
-def segment_state(body, motion: Motion) -> tuple[np.ndarray, np.ndarray]:
-    """``(X (T, S, 3), Q (T, S, 4))``: segment COM positions and world orientations (contiguous)."""
+def segment_state(body, motion: Motion, start: int = 0, stop: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """``(X (n, S, 3), Q (n, S, 4))``: segment COM positions and world orientations (contiguous)
+    of frames ``start:stop`` (default all; a range needs FK of its own frames only)."""
     from ._kernels import motion_fk
 
-    P, G = motion_fk(motion)
+    P, G = motion_fk(motion, start, stop)
     Q = np.ascontiguousarray(G[:, body.segment_joint])
     X = np.ascontiguousarray(P[:, body.segment_joint] + quat_apply(Q, body.local_coms[None]))
     return X, Q
@@ -126,12 +127,17 @@ def _frame_weights(motion: Motion, times) -> tuple[np.ndarray, np.ndarray, np.nd
 
 def fast_sample(motion: Motion, times, fps: float | None = None) -> Motion:
     """:meth:`Motion.sample` with the slerp compiled (same results to rounding)."""
+    rp, rot = _sample_arrays(motion, times)
+    return motion.replace(root_positions=rp, rotations=rot, fps=motion.fps if fps is None else fps)
+
+
+def _sample_arrays(motion: Motion, times) -> tuple[np.ndarray, np.ndarray]:
+    """The ``(root_positions, rotations)`` :func:`fast_sample` builds its motion from."""
     from ._kernels import slerp_frames
 
     i0, i1, a = _frame_weights(motion, times)
     rp = (1 - a)[:, None] * motion.root_positions[i0] + a[:, None] * motion.root_positions[i1]
-    rot = slerp_frames(np.ascontiguousarray(motion.rotations), i0, i1, a)
-    return motion.replace(root_positions=rp, rotations=rot, fps=motion.fps if fps is None else fps)
+    return rp, slerp_frames(np.ascontiguousarray(motion.rotations), i0, i1, a)
 
 
 def sampled_L(body, motion: Motion, times) -> np.ndarray:
@@ -151,15 +157,17 @@ def sampled_L(body, motion: Motion, times) -> np.ndarray:
                              np.asarray(times, dtype=float).reshape(-1))
 
 
-def interior_L(body, motion: Motion) -> np.ndarray:
-    """``(T, 3)`` L about the COM (eq. 5.5) on frames ``1 .. T-2`` (NaN at the ends), compiled;
-    equals :func:`mocomp.dynamics.momentum`'s ``angular`` there (central differences)."""
+def interior_L(body, motion: Motion, start: int = 0, stop: int | None = None) -> np.ndarray:
+    """``(n, 3)`` L about the COM (eq. 5.5) of frames ``start:stop`` (default all) as a clip of
+    their own: rows ``1 .. n-2`` (NaN at the ends), compiled; equals :func:`mocomp.dynamics.momentum`'s
+    ``angular`` there (central differences)."""
     from ._kernels import interior_momentum
 
-    X, Q = segment_state(body, motion)
+    start, stop, _ = slice(start, stop).indices(motion.n_frames)
+    X, Q = segment_state(body, motion, start, stop)
     return interior_momentum(np.ascontiguousarray(body.masses, dtype=float),
                              np.ascontiguousarray(body.inertias, dtype=float), X, Q,
-                             np.ascontiguousarray(motion.times, dtype=float))
+                             np.arange(stop - start) / motion.fps)
 
 
 def flight_momentum(body, motion: Motion, flight) -> np.ndarray:
@@ -169,7 +177,7 @@ def flight_momentum(body, motion: Motion, flight) -> np.ndarray:
     a, b = int(flight[0]), int(flight[1])
     L = np.full((motion.n_frames, 3), np.nan)
     if b - a >= 3:
-        L[a + 1:b - 1] = interior_L(body, motion[a:b])[1:-1]
+        L[a + 1:b - 1] = interior_L(body, motion, a, b)[1:-1]
     return L
 
 
@@ -456,9 +464,8 @@ def correct_direction(body, motion: Motion, flight, L_star=None, method: str = "
     from ._kernels import interior_momentum
 
     # the sweep reads frames a .. b-1 only
-    sl = motion[a:b]
-    X, Q = segment_state(body, sl)
-    t = np.ascontiguousarray(sl.times, dtype=float)
+    X, Q = segment_state(body, motion, a, b)
+    t = np.arange(b - a) / motion.fps                   # the times of motion[a:b]
     m = np.ascontiguousarray(body.masses, dtype=float)
     I_loc = np.ascontiguousarray(body.inertias, dtype=float)
     L_before = np.full((motion.n_frames, 3), np.nan)
@@ -675,9 +682,9 @@ def correct_magnitude(body, motion: Motion, flight, L_star=None, oversample: int
     src[inside] = np.interp(tau_out[inside], tau_f, tf)
     src = np.clip(src, 0.0, motion.duration)
     # frames up to the take-off are the input's own (src = their times): copy them
-    tail = fast_sample(motion, src[a:])
-    out = motion.replace(root_positions=np.concatenate([motion.root_positions[:a], tail.root_positions]),
-                         rotations=np.concatenate([motion.rotations[:a], tail.rotations]))
+    tail_rp, tail_rot = _sample_arrays(motion, src[a:])
+    out = motion.replace(root_positions=np.concatenate([motion.root_positions[:a], tail_rp]),
+                         rotations=np.concatenate([motion.rotations[:a], tail_rot]))
     new_b = int(np.floor(tau_f[-1] * motion.fps + 1e-9)) + 1
     if L_before is None:
         L_before = flight_momentum(body, motion, (a, b))

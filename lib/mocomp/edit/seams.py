@@ -146,8 +146,8 @@ def recover_upright(motion: Motion, first_ground: int, up_now: np.ndarray, secon
     Returns ``(motion, slide)``: ``slide`` (m) is the largest horizontal travel of a foot joint
     during a contact, from where that contact began (:func:`stance_slide`).
     """
-    from ._kernels import motion_fk
-    from .legs import leg_chains, plant_feet
+    from ._kernels import fk_arrays, motion_fk
+    from .legs import _plant_rotations, leg_chains
 
     fix = _shortest_arc(np.asarray(up_now, dtype=float), np.array([0.0, 1.0, 0.0]))
     n = motion.n_frames - first_ground
@@ -163,11 +163,12 @@ def recover_upright(motion: Motion, first_ground: int, up_now: np.ndarray, secon
     rot = np.array(motion.rotations)
     rp[first_ground:] = pivot + quat_apply(q, rp[first_ground:] - pivot)
     rot[first_ground:, 0] = quat_multiply(q, rot[first_ground:, 0])
-    out = motion.replace(root_positions=rp, rotations=rot)
-    feet = [j for j, nm in enumerate(motion.skeleton.names) if any(k in nm.lower() for k in ("toe", "foot", "ankle"))]
+    sk = motion.skeleton
+    feet = [j for j, nm in enumerate(sk.names) if any(k in nm.lower() for k in ("toe", "foot", "ankle"))]
     if not feet:
-        return out, 0.0
-    after = motion_fk(out, first_ground)[0][:, feet]
+        return motion.replace(root_positions=rp, rotations=rot), 0.0
+    # FK of the frames from touchdown only, on the arrays (one motion is built, at the end)
+    after = fk_arrays(sk, rp[first_ground:], rot[first_ground:])[0][:, feet]
     w = _contact_weights(after[..., 1], contact)
     if pin_feet:
         before = motion_fk(motion, first_ground)[0][:, feet]
@@ -175,15 +176,15 @@ def recover_upright(motion: Motion, first_ground: int, up_now: np.ndarray, secon
         shift = _held_shift(w, err)
         rp[first_ground:, 0] += shift[:, 0]
         rp[first_ground:, 2] += shift[:, 1]
-        out = motion.replace(root_positions=rp, rotations=rot)
-        chains = [ch for ch in leg_chains(motion.skeleton) if ch[2] in feet]
+        chains = [ch for ch in leg_chains(sk) if ch[2] in feet]
         if chains:
             # heights are those after the rotation (the translation is horizontal)
             wa = w[:, [feet.index(ch[2]) for ch in chains]]
-            out, solves = plant_feet(out, first_ground, wa, chains)
+            P, G = fk_arrays(sk, rp[first_ground:], rot[first_ground:])
+            rot, solves = _plant_rotations(sk.parents, rot, P, G, first_ground, wa, chains)
             if solves:
-                after = motion_fk(out, first_ground)[0][:, feet]
-                return out, stance_slide(after, w)
+                after = fk_arrays(sk, rp[first_ground:], rot[first_ground:])[0][:, feet]
+                return motion.replace(root_positions=rp, rotations=rot), stance_slide(after, w)
         after[..., 0] += shift[:, None, 0]
         after[..., 2] += shift[:, None, 1]
-    return out, stance_slide(after, w)
+    return motion.replace(root_positions=rp, rotations=rot), stance_slide(after, w)
