@@ -25,6 +25,28 @@ Peer: the same pipeline with step 1 solved frame by frame by ``scipy.optimize.mi
 method="BFGS")`` -- the paper's method (it used Matlab's quasi-Newton BFGS) -- on the
 same L model; both reach < 1e-6 rad. The note gives both methods' largest direction error
 after step 1 and the largest difference between their per-frame corrections.
+
+Measured (2026-12-01, full run, median of 25, on a host about 2.7x slower than a week before --
+a pure-Python 10M-iteration loop takes 1.4 s there -- and shared with other jobs):
+
+=====================================  ==========  ==========
+row                                    before      after
+=====================================  ==========  ==========
+arms-twist back flip                   60.8 ms     24.0 ms
+straight-legs back flip                25.0 ms     15.6 ms
+side flip straight-legs (joint solve)  87.6 ms     30.3 ms
+=====================================  ==========  ==========
+
+Stage times of the arms-twist row before -> after (ms): direction 8.7 -> 4.9, magnitude 9.6 -> 6.7,
+linear 2.1 -> 2.6, polish 6.9 -> 3.9, evidence 1.2 -> 1.5, upright 23.8 -> 5.8 (single-run stage
+times, noisy at the 1 ms level); side flip direction stage 38.9 -> 17.1 ms. What changed:
+forward kinematics compiled (:func:`mocomp.edit._kernels.forward_kinematics`, bit-identical to
+the numpy one, whose ~1.5 ms per call on this host is its ~1200 array calls) and computed for
+the frames that are used only (the upright recovery needed frames after touchdown, not the whole
+motion); fewer intermediate :class:`~mocomp.core.Motion` objects (each validation ~0.4 ms); step
+1's joint KKT system solved as a band matrix by LAPACK ``dgbsv`` instead of a general sparse LU
+(same corrections to 2e-15). ``tests/test_edit_fast_paths.py`` pins each fast path to the code
+it replaced.
 """
 from __future__ import annotations
 
