@@ -166,7 +166,7 @@ def test_held_shift_known_answer():
 
 # ------------------------------------------------- step 1's joint solve: band LU vs sparse LU
 def _smooth_corrections_reference(m, I_local, X, Q, t, U, f0: int, init: np.ndarray, sigma: float = 1.5,
-                       tol: float = 1e-7, max_iter: int = 20, w1: float = 1.0, w0: float = 0.0) -> SmoothSolve:
+                       tol: float = 1e-7, max_iter: int = 20, w1: float = 1.0, w0: float = 0.0) -> sd.SmoothSolve:
     # verbatim pre-speed-up body (sparse KKT, splu)
     from scipy.ndimage import gaussian_filter1d
 
@@ -324,3 +324,20 @@ def test_kkt_band_layout_is_the_sparse_kkt_permuted(n, f0, w1, w0):
     x[:f0 + 1] = 0.0
     np.testing.assert_allclose(sd._second_diff_rows(x, f0), D @ x[free].ravel(), rtol=0, atol=1e-14)
     assert np.all(np.abs(perm[3 * nv + ii] - perm[jj]) <= min(lo, up))
+
+
+def test_range_paths_equal_the_sliced_motion():
+    """Frame-range L, segment state and root orientation equal those of a sliced / sampled motion."""
+    from mocomp.edit.pipeline import _root_orientation_at
+    from mocomp.edit.restore import interior_L, segment_state
+
+    r, ed = case("arms-twist")
+    a, b = r.flight
+    body = r.body
+    Xr, Qr = segment_state(body, ed, a, b)
+    Xs, Qs = segment_state(body, ed[a:b])
+    assert np.array_equal(Xr, Xs) and np.array_equal(Qr, Qs)
+    np.testing.assert_array_equal(interior_L(body, ed, a, b), interior_L(body, ed[a:b]))
+    for t in (0.0, a / ed.fps, (a + 0.37) / ed.fps, ed.duration):
+        want = ed.sample([t]).rotations[0, 0]
+        np.testing.assert_allclose(_root_orientation_at(ed, t), want, rtol=0, atol=1e-15)
