@@ -264,8 +264,7 @@ if AVAILABLE:
 def landing_seam_nb(rot, a, la, rb, w, qr, br, axis, theta, src, ref) -> bool:
     """In-place landing-seam smoothing of the gathered sequence rotations ``rot`` (see
     :func:`mocomp.flips.multiflip.multiflip`); False (``rot`` untouched) for a degenerate swing arc."""
-    def c(x, dtype=np.float64):        # small writable copies: one compiled signature (no read-only variants)
-        return np.array(x, dtype=dtype, copy=True, order="C")
+    c = _writable
 
     return bool(_landing_seam(rot, int(a), int(la), int(rb), int(w), c(qr), c(br), c(axis), c(theta),
                               c(src, np.int64), c(ref)))
@@ -275,7 +274,34 @@ def turn_roots_nb(rot, extra, axis) -> np.ndarray:
     """In place ``rot[:, 0] = axis_quat(axis, extra) * rot[:, 0]`` (``axis`` normalised here)."""
     a = np.asarray(axis, dtype=np.float64)
     a = np.ascontiguousarray(a / np.linalg.norm(a))
-    return _turn_roots(rot, np.array(extra, dtype=np.float64, copy=True, order="C"), a)
+    return _turn_roots(rot, _writable(extra), a)
+
+
+def _writable(x, dtype=np.float64):
+    """``x`` itself when it already is a writable C-contiguous ``dtype`` array (the kernels only read
+    it), else such a copy: one compiled signature per kernel (no read-only variants)."""
+    if isinstance(x, np.ndarray) and x.dtype == dtype and x.flags.c_contiguous and x.flags.writeable:
+        return x
+    return np.array(x, dtype=dtype, copy=True, order="C")
+
+
+_WEIGHTS_CACHE: dict = {}
+
+
+def _joint_weights(weights) -> tuple[np.ndarray, np.ndarray]:
+    """``(nz, wj)``: joints with a non-zero eq. 5.13 weight and those weights, for a
+    :class:`~mocomp.flips.similarity.SimilarityWeights`; the last few are kept, keyed by the
+    weights object and checked against its current joint weights (cheap next to rebuilding)."""
+    jw = np.asarray(weights.joints)
+    got = _WEIGHTS_CACHE.get(id(weights))
+    if got is not None and got[0] is weights and np.array_equal(got[1], jw):
+        return got[2], got[3]
+    nz = np.flatnonzero(jw).astype(np.int64)
+    wj = np.ascontiguousarray(jw[nz], dtype=np.float64)
+    if len(_WEIGHTS_CACHE) > 8:
+        _WEIGHTS_CACHE.clear()
+    _WEIGHTS_CACHE[id(weights)] = (weights, jw.copy(), nz, wj)
+    return nz, wj
 
 
 if AVAILABLE:
@@ -346,8 +372,7 @@ def landing_search_nb(rotations: np.ndarray, theta: np.ndarray, m: int, period: 
                       g0: int, g1: int, extra_total: float, max_delta: float, axis: np.ndarray, weights):
     """Compiled landing search (see ``_landing_search``); the same pairs, distances and choice as
     the array version in :func:`mocomp.flips.sequence.find_landing` (tested)."""
-    nz = np.flatnonzero(weights.joints).astype(np.int64)
-    wj = np.ascontiguousarray(weights.joints[nz], dtype=np.float64)
+    nz, wj = _joint_weights(weights)
     a = np.asarray(axis, dtype=np.float64)
     a = np.ascontiguousarray(a / np.linalg.norm(a))
     return _landing_search(np.ascontiguousarray(rotations, dtype=np.float64),

@@ -323,7 +323,7 @@ def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None 
     # ---------------------------------------------------------------- smooth
     src = seq.frames
     nseq = src.size
-    rot = P.rotations[src]                                  # (nseq, J, 4) gathered copy, zero extra rotation
+    rot = np.take(P.rotations, src, axis=0)                 # (nseq, J, 4) gathered copy, zero extra rotation
     w = P.default_window(seam_retime) if window is None else int(window)
     hi_u = seq.landing_seam + 1                             # repetitions end here (exclusive)
     if seq.loop_seams:
@@ -411,20 +411,22 @@ def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None 
     t3 = time.perf_counter()
     timings["retime"] = t3 - t2
     # ------------------------------------------------------------- reposition
-    rp_seq = P.motion.root_positions[src]
+    rp_seq = np.take(P.motion.root_positions, src, axis=0)
     if h0:                                                          # App. B: the take-off level y_start^new
         com0 = com0 + np.array([0.0, h0, 0.0])
         rp_seq[:seq.takeoff + 1, 1] += h0
     traj = flight_trajectory(com0, fit.a_x, fit.a_z, fit.a_y, kk, plan.vy_takeoff_new, plan.T_new)
     post = seq.landing + 1
+    end = traj.end
     if q_land is None:
-        rp_seq[post:] += traj.end - com_land                         # eq. 5.16 (offset incl. height)
+        rp_seq[post:] += end - com_land                              # eq. 5.16 (offset incl. height)
     else:                                                           # turned about the vertical
-        rp_seq[post:] = quat_apply(q_land, rp_seq[post:] - com_land) + traj.end
+        rp_seq[post:] = quat_apply(q_land, rp_seq[post:] - com_land) + end
     # the last flight frame where the parabola ends, so output frames between it and the first
     # ground frame interpolate between two repositioned roots
-    rp_seq[seq.landing] = traj.end - P.com_eval.relative(rot[seq.landing:seq.landing + 1])[0]
-    root_out = rp_seq[i0] + al[:, None] * (rp_seq[i0 + 1] - rp_seq[i0])
+    rp_seq[seq.landing] = end - P.com_eval.relative(rot[seq.landing:seq.landing + 1])[0]
+    r0 = np.take(rp_seq, i0, axis=0)
+    root_out = r0 + al[:, None] * (np.take(rp_seq, i0 + 1, axis=0) - r0)
     fl = np.flatnonzero((tau >= seq.takeoff - 1e-9) & (tau <= seq.landing + 1e-9))
     f0, f1 = int(fl[0]), int(fl[-1]) + 1
     if fl.size != f1 - f0:                                          # tau is non-decreasing: cannot happen
@@ -434,8 +436,8 @@ def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None 
     t4 = time.perf_counter()
     timings["reposition"] = t4 - t3
     # --------------------------------------------------------------- assemble
-    notes = (f"multi-flip ({flips if flips else 'extra rotation'}) by mocomp.flips from {P.name}: k={kk:.3f}",)
-    source = dataclasses.replace(P.motion.source, format="generated", notes=P.motion.source.notes + notes)
+    source = _generated_source(P, f"multi-flip ({flips if flips else 'extra rotation'}) by mocomp.flips from "
+                                  f"{P.name}: k={kk:.3f}")
     if unit and np.isfinite(root_out).all():
         new = _fresh_motion(P.motion, root_out, rot_out, source)
     else:                                                           # Motion's own checks (and its errors)
@@ -490,11 +492,11 @@ def _seam_speeds(P: PreparedFlip, seq: Sequence, rot: np.ndarray, w: int, hi_u: 
         mid = float(np.sqrt(lev_l * lev_r))
         if KERNELS and SEAM_NB:                                     # compiled, the same steps as below
             E = P.momentum_evaluator
-            ax = np.asarray(P.axis, dtype=float)
+            ax_unit, L_ang = _landing_speed_constants(P)
             speed[lo + 1:hi - 1] = _landing_speed_nb(
                 rot, lo, hi, E.parents, E.offsets, E.seg_joint, E.local_coms, E.masses, E.inertias, float(P.fps),
-                np.array(seq.frames, dtype=np.int64), np.array(seq.extra, dtype=float), ax / np.linalg.norm(ax),
-                np.array(P.momentum.angular, dtype=float), int(a), int(w), lev_l, lev_r, mid, *SPEED_BOUNDS)
+                _writable(seq.frames, np.int64), _writable(seq.extra, np.float64), ax_unit,
+                L_ang, int(a), int(w), lev_l, lev_r, mid, *SPEED_BOUNDS)
             return speed
         L_new = P.momentum_evaluator.angular(rot[lo:hi], P.fps)
         idx = np.arange(lo + 1, hi - 1)
@@ -506,6 +508,41 @@ def _seam_speeds(P: PreparedFlip, seq: Sequence, rot: np.ndarray, w: int, hi_u: 
             ref *= (np.where(left, mid / lev_l, mid / lev_r) ** ramp(np.abs(idx - a), w))[:, None]
         speed[idx] = seam_speed(L_new, ref)
     return speed
+
+
+def _writable(x: np.ndarray, dtype) -> np.ndarray:
+    """``x`` itself when it is already a writable C-contiguous array of ``dtype`` (what the
+    compiled kernels' one signature takes), else such a copy (``np.array(x, dtype)``)."""
+    if isinstance(x, np.ndarray) and x.dtype == dtype and x.flags.c_contiguous and x.flags.writeable:
+        return x
+    return np.array(x, dtype=dtype)
+
+
+def _landing_speed_constants(P: PreparedFlip) -> tuple[np.ndarray, np.ndarray]:
+    """Per-clip inputs of the compiled landing-seam speeds, made once and kept in the prepared
+    clip's cache (they depend only on ``P``): the unit axis of ``L`` and a writable copy of the
+    clip's angular momentum (the kernel reads it; the prepared arrays are read-only)."""
+    key = "runtime:landing_speed_constants"
+    got = P._cache.get(key)
+    if got is None or got[0] is not P.momentum:
+        ax = np.asarray(P.axis, dtype=float)
+        got = (P.momentum, ax / np.linalg.norm(ax), np.array(P.momentum.angular, dtype=float))
+        P._cache[key] = got
+    return got[1], got[2]
+
+
+def _generated_source(P: PreparedFlip, note: str):
+    """``P.motion.source`` marked ``generated`` with ``note`` appended (the new motion's
+    :class:`~mocomp.core.motion.SourceInfo`, frozen); the last one made is kept in the prepared
+    clip's cache, since repeated run-time calls with the same ``k`` make the same one."""
+    key = "runtime:source"
+    base = P.motion.source
+    got = P._cache.get(key)
+    if got is not None and got[0] is base and got[1] == note:
+        return got[2]
+    source = dataclasses.replace(base, format="generated", notes=base.notes + (note,))
+    P._cache[key] = (base, note, source)
+    return source
 
 
 def _fresh_motion(template: Motion, root_positions: np.ndarray, rotations: np.ndarray, source) -> Motion:

@@ -41,6 +41,7 @@ import numpy as np
 
 from ..errors import PhysicsError
 from .looping import SelfLoop
+from ._kernels import AVAILABLE, frame_distance_nb, landing_search_nb
 from .similarity import SimilarityWeights, frame_distance
 
 __all__ = ["loop_count", "LandingJoin", "Sequence", "find_landing", "build_sequence"]
@@ -142,8 +143,6 @@ def find_landing(rotations: np.ndarray, theta: np.ndarray, flight: tuple[int, in
     if max_delta is None:
         rate = (theta[e - 1] - theta[s]) / max(e - 1 - s, 1)
         max_delta = max(1.5 * abs(rate), np.deg2rad(2.0))
-    from ._kernels import AVAILABLE, frame_distance_nb, landing_search_nb
-
     if AVAILABLE and not weights.velocity_weight > 0:
         # the same pairs, scores and choice as below, without building the candidate arrays
         u, g, d, delta, n_pairs = landing_search_nb(rotations, theta, loop.m, loop.period, copies * loop.period,
@@ -209,16 +208,25 @@ def build_sequence(rotations: np.ndarray, theta: np.ndarray, flight: tuple[int, 
     u_idx = np.arange(join.u + 1)
     src_u = m + u_idx % P
     cp_u = u_idx // P
-    frames = np.concatenate([np.arange(0, m), src_u, np.arange(join.g + 1, T)])
-    copy = np.concatenate([np.full(m, -1), cp_u, np.full(T - join.g - 1, -2)])
-    extra = np.concatenate([np.zeros(m), cp_u * phi, np.full(T - join.g - 1, extra_total)])
+    # [F_S, the repetitions up to f, F_E after g] filled in place (eq. 5.11 cut at the landing join)
+    b = m + join.u + 1
+    N = b + T - join.g - 1
+    frames = np.empty(N, dtype=np.int64)
+    frames[:m] = np.arange(0, m)
+    frames[m:b] = src_u
+    frames[b:] = np.arange(join.g + 1, T)
+    copy = np.full(N, -1, dtype=np.int64)
+    copy[m:b] = cp_u
+    copy[b:] = -2
+    extra = np.zeros(N)
+    extra[m:b] = cp_u * phi
+    extra[b:] = extra_total
     f_idx = m + join.u
-    # spread the join mismatch over the flight frames up to f (linear in time from take-off)
+    # spread the join mismatch over the flight frames up to f (linear in time from take-off);
+    # in place on the slice: elsewhere the correction is +0, which adds nothing
     span = f_idx - s
-    corr = np.zeros(frames.size)
-    corr[s:f_idx + 1] = -join.delta * (np.arange(span + 1) / max(span, 1))
-    extra = extra + corr
-    loop_seams = tuple(int(m + j * P - 1) for j in range(1, int(cp_u[-1]) + 1))
+    extra[s:f_idx + 1] += -join.delta * (np.arange(span + 1) / max(span, 1))
+    loop_seams = tuple(range(m + P - 1, m + int(cp_u[-1]) * P, P))
     landing = f_idx + (e - 1 - join.g)
     notes = []
     if requested is not None and abs(theta_orig - 2 * np.pi) > np.deg2rad(20):
