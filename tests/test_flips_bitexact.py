@@ -216,3 +216,14 @@ def test_hash_sees_a_one_ulp_change():
     b = a.copy()
     b[3] = np.nextafter(b[3], 2.0)
     assert h(a) != h(b) and h(a) == h(a.copy())
+
+
+def test_trajectory_end_is_the_call_at_T_new_bit_for_bit():
+    from mocomp.flips.reposition import flight_trajectory
+
+    rng = np.random.default_rng(4)
+    for _ in range(50):
+        c0, (ax, az, ay, k, vy, T) = rng.normal(size=3), rng.normal(size=6)
+        tr = flight_trajectory(c0, ax, az, -abs(ay), abs(k) + 0.3, vy, abs(T) + 0.1)
+        ref = tr(np.array([tr.T_new]))[0]
+        assert tr.end.tobytes() == ref.tobytes()

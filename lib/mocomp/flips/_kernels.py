@@ -272,9 +272,7 @@ def landing_seam_nb(rot, a, la, rb, w, qr, br, axis, theta, src, ref) -> bool:
 
 def turn_roots_nb(rot, extra, axis) -> np.ndarray:
     """In place ``rot[:, 0] = axis_quat(axis, extra) * rot[:, 0]`` (``axis`` normalised here)."""
-    a = np.asarray(axis, dtype=np.float64)
-    a = np.ascontiguousarray(a / np.linalg.norm(a))
-    return _turn_roots(rot, _writable(extra), a)
+    return _turn_roots(rot, _writable(extra), _unit_axis(axis))
 
 
 def _writable(x, dtype=np.float64):
@@ -294,14 +292,30 @@ def _joint_weights(weights) -> tuple[np.ndarray, np.ndarray]:
     weights object and checked against its current joint weights (cheap next to rebuilding)."""
     jw = np.asarray(weights.joints)
     got = _WEIGHTS_CACHE.get(id(weights))
-    if got is not None and got[0] is weights and np.array_equal(got[1], jw):
+    if got is not None and got[0] is weights and (got[1] is jw if not jw.flags.writeable else
+                                                  np.array_equal(got[1], jw)):
         return got[2], got[3]
     nz = np.flatnonzero(jw).astype(np.int64)
     wj = np.ascontiguousarray(jw[nz], dtype=np.float64)
     if len(_WEIGHTS_CACHE) > 8:
         _WEIGHTS_CACHE.clear()
-    _WEIGHTS_CACHE[id(weights)] = (weights, jw.copy(), nz, wj)
+    _WEIGHTS_CACHE[id(weights)] = (weights, jw if not jw.flags.writeable else jw.copy(), nz, wj)
     return nz, wj
+
+
+_AXIS_CACHE: list = [None, None]
+
+
+def _unit_axis(axis) -> np.ndarray:
+    """``axis / |axis|`` as a C-contiguous float64 array; for a read-only array (a prepared clip's
+    ``L`` direction, which cannot change) the last result is reused while the same array comes in."""
+    if _AXIS_CACHE[0] is axis:
+        return _AXIS_CACHE[1]
+    a = np.asarray(axis, dtype=np.float64)
+    u = np.ascontiguousarray(a / np.linalg.norm(a))
+    if isinstance(axis, np.ndarray) and not axis.flags.writeable:
+        _AXIS_CACHE[0], _AXIS_CACHE[1] = axis, u
+    return u
 
 
 if AVAILABLE:
@@ -373,8 +387,7 @@ def landing_search_nb(rotations: np.ndarray, theta: np.ndarray, m: int, period: 
     """Compiled landing search (see ``_landing_search``); the same pairs, distances and choice as
     the array version in :func:`mocomp.flips.sequence.find_landing` (tested)."""
     nz, wj = _joint_weights(weights)
-    a = np.asarray(axis, dtype=np.float64)
-    a = np.ascontiguousarray(a / np.linalg.norm(a))
+    a = _unit_axis(axis)
     return _landing_search(np.ascontiguousarray(rotations, dtype=np.float64),
                            np.ascontiguousarray(theta, dtype=np.float64), int(m), int(period), int(n_u),
                            float(phi), int(g0), int(g1), float(extra_total), float(max_delta), a,

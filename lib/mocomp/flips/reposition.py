@@ -148,8 +148,12 @@ class FlightTrajectory:
 
     @property
     def end(self) -> np.ndarray:
-        """``(3,)`` COM at landing."""
-        return self(np.array([self.T_new]))[0]
+        """``(3,)`` COM at landing: :meth:`__call__` at ``T_new``, written for one instant (the same
+        operations, so the same bits, without the ``(1, 3)`` temporaries)."""
+        T = self.T_new
+        out = self.c0 + T * self.velocity
+        out[1] += self.a_y * T * T
+        return out
 
 
 def flight_trajectory(c0: np.ndarray, a_x: float, a_z: float, a_y: float, k: float, vy_takeoff: float,
