@@ -16,6 +16,19 @@ Rows
   all three alike; the note gives the median wall time and the per-stage medians.
   Peer: the paper's **published** 2007 timings (3.69, 4.60, 5.09 ms on 2007 hardware), quoted
   as reference numbers -- not re-run here. Goal for the double flip: under 1 ms.
+
+  Measured (2026-12-01, this host 2-3x slower than a week before, shared with a CI simulation;
+  5 full runs of ``benchmarks/run.py --only flips`` each, old and new code alternated): 2 flips
+  median CPU 0.95-1.19 ms (median of runs 1.03) before the overhead work of commits 4b0dedb and
+  296a2cb, 0.89-0.98 ms (median 0.94) after, i.e. about 10 % less (per-run 3-21 %); fastest
+  call 0.68 -> 0.59 ms. A week earlier the row read 0.49 ms. The outputs are bit for bit those of
+  before (``tests/test_flips_bitexact.py``). Where the time goes (cProfile, 1000 calls): the
+  compiled kernels' own arithmetic is about 330 us of a ~0.6 ms quiet-host call (retiming slerp
+  ~170 us for 405 x 31 quaternions, COM of the flight frames ~50, landing search ~40, landing
+  seam speeds ~40), so Python overhead is no longer the larger part and a 25-30 % cut would need
+  fewer floating-point operations in the kernels, which would change the bits. With the machine
+  this loaded the 1 ms goal was met in all 5 runs after (2 of 5 before), with only 2-11 % margin;
+  3 and 4 flips 0.92-1.03 / 0.98-1.07 ms after, growth ratio 1.11 unchanged.
 * ``flips run-time growth``: time per output frame of 4 flips over that of 2 flips (near-linear
   growth: at most 1.3).
 * ``flips self-loop search``: the cached eq. 5.9 search of that clip.
