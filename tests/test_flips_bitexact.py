@@ -227,3 +227,34 @@ def test_trajectory_end_is_the_call_at_T_new_bit_for_bit():
         tr = flight_trajectory(c0, ax, az, -abs(ay), abs(k) + 0.3, vy, abs(T) + 0.1)
         ref = tr(np.array([tr.T_new]))[0]
         assert tr.end.tobytes() == ref.tobytes()
+
+
+def test_compiled_reposition_equals_the_numpy_steps_bit_for_bit():
+    from mocomp import datasets
+    from mocomp.flips._kernels import AVAILABLE, reposition_nb
+    from mocomp.flips.reposition import flight_trajectory
+
+    if not AVAILABLE:
+        pytest.skip("numba not available")
+    P = prepare(datasets.load("backflip"))
+    rng = np.random.default_rng(7)
+    n_seq, N = 60, 80
+    rp = rng.normal(size=(n_seq, 3))
+    tau = np.sort(rng.uniform(0, n_seq - 1, N))
+    i0 = np.minimum(np.floor(tau).astype(int), n_seq - 2)
+    al = tau - i0
+    tw = tau * 1.01
+    rot_out = np.ascontiguousarray(P.rotations[rng.integers(0, P.rotations.shape[0], N)])
+    traj = flight_trajectory(rng.normal(size=3), 0.3, -0.2, -4.9, 0.9, 3.0, 1.2)
+    f0, f1, w_to, div = 10, 70, 9.5, 0.9 * 120.0
+    r0 = rp[i0]
+    ref = r0 + al[:, None] * (rp[i0 + 1] - r0)
+    ref[f0:f1] = traj((tw[f0:f1] - w_to) / div) - P.com_eval.relative_numpy(rot_out[f0:f1])
+    got, finite = reposition_nb(rp, i0, al, tw, f0, f1, w_to, div, traj, rot_out, P.com_eval)
+    assert finite
+    # the COM offset: compiled and numpy agree to rounding; with the compiled one, bit for bit
+    np.testing.assert_allclose(got, ref, rtol=0, atol=1e-12)
+    ref[f0:f1] = traj((tw[f0:f1] - w_to) / div) - P.com_eval.relative(rot_out[f0:f1])
+    assert got.tobytes() == ref.tobytes()
+    rp[i0[3], 1] = np.inf
+    assert not reposition_nb(rp, i0, al, tw, f0, f1, w_to, div, traj, rot_out, P.com_eval)[1]

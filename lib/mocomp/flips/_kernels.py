@@ -10,7 +10,9 @@
 * :func:`landing_search_nb` -- the landing search of :func:`mocomp.flips.sequence.find_landing`
   (eq. 5.12-5.13 over the candidate pairs, no pair arrays built); :func:`frame_distance_nb`;
 * :func:`landing_seam_nb` -- the landing seam smoothing (eq. 5.14) of
-  :func:`mocomp.flips.multiflip.multiflip`; :func:`turn_roots_nb` -- each frame's rotation about ``L``.
+  :func:`mocomp.flips.multiflip.multiflip`; :func:`turn_roots_nb` -- each frame's rotation about ``L``;
+  :func:`reposition_nb` -- the root positions of the retimed frames (interpolation, and on the
+  flight the parabola minus the COM offset, eq. 5.15/5.17).
 
 They give the numpy versions' results to rounding (tested, most bit for bit); they exist because
 the numpy versions are dominated by per-call overhead on small arrays (a few thousand
@@ -34,7 +36,7 @@ except Exception:  # pragma: no cover - numba is a dependency; keep the library 
 
 __all__ = ["AVAILABLE", "slerp_rows_nb", "com_relative_nb", "seam_block_nb", "frame_distance_nb", "slerp_gather_nb",
            "landing_search_nb", "landing_seam_nb",
-           "turn_roots_nb", "warmup"]
+           "turn_roots_nb", "reposition_nb", "warmup"]
 
 if AVAILABLE:
     @numba.njit(cache=True, nogil=True, inline="always")
@@ -132,6 +134,50 @@ if AVAILABLE:
             out[t, 1] = sy
             out[t, 2] = sz
         return out
+
+
+    @numba.njit(cache=True, nogil=True)
+    def _reposition(rp_seq, i0, al, tw, f0, f1, w_to, div, c0, vel, a_y, rot_out, joints, parent, u, out):
+        """Root positions of the retimed frames: linear interpolation of the sequence's root
+        positions ``rp_seq`` at ``i0 + al``, then on output frames ``f0 .. f1-1`` the position that
+        puts the COM on the eq. 5.15/5.17 parabola (``c0 + t vel``, ``+ a_y t^2`` vertically, at
+        ``t = (tw - w_to) / div``) minus the COM offset of ``rot_out``; the same operations in the
+        same order as the numpy version in :func:`mocomp.flips.multiflip.multiflip`. Returns whether
+        every position is finite."""
+        N = i0.shape[0]
+        for n in range(N):
+            k = i0[n]
+            t = al[n]
+            for c in range(3):
+                a = rp_seq[k, c]
+                out[n, c] = a + t * (rp_seq[k + 1, c] - a)
+        rel = _com_relative(rot_out[f0:f1], joints, parent, u, np.empty((f1 - f0, 3)))
+        for n in range(f0, f1):
+            t = (tw[n] - w_to) / div
+            x = c0[0] + t * vel[0]
+            y = c0[1] + t * vel[1]
+            z = c0[2] + t * vel[2]
+            y += a_y * t * t
+            r = n - f0
+            out[n, 0] = x - rel[r, 0]
+            out[n, 1] = y - rel[r, 1]
+            out[n, 2] = z - rel[r, 2]
+        ok = True
+        for n in range(N):
+            for c in range(3):
+                v = out[n, c]
+                if not (v - v == 0.0):
+                    ok = False
+        return ok
+
+
+def reposition_nb(rp_seq, i0, al, tw, f0, f1, w_to, div, traj, rot_out, com_eval):
+    """Compiled root positions of the run-time stage (see ``_reposition``): ``(out (N, 3), finite)``."""
+    out = np.empty((i0.shape[0], 3))
+    ok = _reposition(rp_seq, i0, al, tw, int(f0), int(f1), float(w_to), float(div), _writable(traj.c0),
+                     _writable(traj.velocity), float(traj.a_y), rot_out, com_eval._joints64, com_eval._parent_pos,
+                     com_eval._u, out)
+    return out, bool(ok)
 
 
 if AVAILABLE:
@@ -477,6 +523,9 @@ def warmup() -> None:
     landing_seam_nb(q.copy(), 0, 0, 2, 1, q[0], np.array([1.0, 0.0, 0.0]), np.array([1.0, 0.0, 0.0]), np.zeros(2),
                     np.arange(2), q[0, 0])
     turn_roots_nb(q.copy(), np.zeros(2), np.array([1.0, 0.0, 0.0]))
+    _reposition(np.zeros((2, 3)), np.zeros(1, dtype=np.int64), np.zeros(1), np.zeros(1), 0, 1, 0.0, 1.0,
+                np.zeros(3), np.zeros(3), 0.0, q.copy(), np.arange(2, dtype=np.int64), np.zeros(2, dtype=np.int64),
+                np.zeros((2, 3)), np.empty((1, 3)))
     ro = q.copy()
     ro.setflags(write=False)                          # the prepared clip's arrays are read-only
     th = np.zeros(2)

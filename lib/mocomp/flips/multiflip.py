@@ -43,7 +43,7 @@ from .sequence import Sequence, build_sequence
 from ..core.motion import slerp
 from .similarity import axis_quat, twist_angle
 from ._kernels import AVAILABLE as KERNELS
-from ._kernels import landing_seam_nb, slerp_gather_nb, turn_roots_nb
+from ._kernels import landing_seam_nb, reposition_nb, slerp_gather_nb, turn_roots_nb
 from ._quat import qapply, qconj, qmul, qpow, slerp_rows
 from .smoothing import compose_root, ramp, shortest_arc, split_root
 
@@ -425,20 +425,25 @@ def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None 
     # the last flight frame where the parabola ends, so output frames between it and the first
     # ground frame interpolate between two repositioned roots
     rp_seq[seq.landing] = end - P.com_eval.relative(rot[seq.landing:seq.landing + 1])[0]
-    r0 = np.take(rp_seq, i0, axis=0)
-    root_out = r0 + al[:, None] * (np.take(rp_seq, i0 + 1, axis=0) - r0)
     fl = np.flatnonzero((tau >= seq.takeoff - 1e-9) & (tau <= seq.landing + 1e-9))
     f0, f1 = int(fl[0]), int(fl[-1]) + 1
     if fl.size != f1 - f0:                                          # tau is non-decreasing: cannot happen
         raise AssertionError("retimed flight frames are not contiguous")
-    tf = (tw[f0:f1] - W_to) / (kk * fps)
-    root_out[f0:f1] = traj(tf) - P.com_eval.relative(rot_out[f0:f1])      # a view, no gather
+    if KERNELS:                                                     # the same operations, compiled
+        root_out, finite = reposition_nb(rp_seq, i0, al, _writable(tw, np.float64), f0, f1, W_to, kk * fps, traj,
+                                         rot_out, P.com_eval)
+    else:
+        r0 = np.take(rp_seq, i0, axis=0)
+        root_out = r0 + al[:, None] * (np.take(rp_seq, i0 + 1, axis=0) - r0)
+        tf = (tw[f0:f1] - W_to) / (kk * fps)
+        root_out[f0:f1] = traj(tf) - P.com_eval.relative(rot_out[f0:f1])  # a view, no gather
+        finite = bool(np.isfinite(root_out).all())
     t4 = time.perf_counter()
     timings["reposition"] = t4 - t3
     # --------------------------------------------------------------- assemble
     source = _generated_source(P, f"multi-flip ({flips if flips else 'extra rotation'}) by mocomp.flips from "
                                   f"{P.name}: k={kk:.3f}")
-    if unit and np.isfinite(root_out).all():
+    if unit and finite:
         new = _fresh_motion(P.motion, root_out, rot_out, source)
     else:                                                           # Motion's own checks (and its errors)
         new = P.motion.replace(root_positions=root_out, rotations=rot_out, source=source)
