@@ -17,18 +17,22 @@ Rows
   Peer: the paper's **published** 2007 timings (3.69, 4.60, 5.09 ms on 2007 hardware), quoted
   as reference numbers -- not re-run here. Goal for the double flip: under 1 ms.
 
-  Measured (2026-12-01, this host 2-3x slower than a week before, shared with a CI simulation;
-  5 full runs of ``benchmarks/run.py --only flips`` each, old and new code alternated): 2 flips
-  median CPU 0.95-1.19 ms (median of runs 1.03) before the overhead work of commits 4b0dedb and
-  296a2cb, 0.89-0.98 ms (median 0.94) after, i.e. about 10 % less (per-run 3-21 %); fastest
-  call 0.68 -> 0.59 ms. A week earlier the row read 0.49 ms. The outputs are bit for bit those of
-  before (``tests/test_flips_bitexact.py``). Where the time goes (cProfile, 1000 calls): the
-  compiled kernels' own arithmetic is about 330 us of a ~0.6 ms quiet-host call (retiming slerp
-  ~170 us for 405 x 31 quaternions, COM of the flight frames ~50, landing search ~40, landing
-  seam speeds ~40), so Python overhead is no longer the larger part and a 25-30 % cut would need
-  fewer floating-point operations in the kernels, which would change the bits. With the machine
-  this loaded the 1 ms goal was met in all 5 runs after (2 of 5 before), with only 2-11 % margin;
-  3 and 4 flips 0.92-1.03 / 0.98-1.07 ms after, growth ratio 1.11 unchanged.
+  Measured (2026-12-01; this host is 2-3x slower than a week before, when the row read 0.49 ms,
+  and shared with a CI simulation, so single runs swing by +-30 %). Before/after the run-time
+  overhead work (commits 4b0dedb, 296a2cb, b286739; outputs bit for bit as before,
+  ``tests/test_flips_bitexact.py``), 2 flips, CPU time:
+  old and new code run *at the same time* in two processes (same load; 3 x 1500 calls each, two
+  repetitions): median 0.70-1.06 ms (median 0.79) before, 0.58-0.78 ms (median 0.64) after;
+  fastest call 0.64-0.66 -> 0.50-0.52 ms, i.e. about 20 % less. Full ``benchmarks/run.py
+  --only flips`` runs alternated old/new: the row's median was 0.70-1.19 ms (median of 8 runs
+  1.03) before and 0.66-0.97 ms (3 runs) after, 3 and 4 flips likewise, growth ratio 1.11-1.14
+  both. What was removed: the fancy-index gathers (``np.take``), per-call copies of arrays the
+  kernels only read, per-call rebuilding of per-clip kernel inputs (unit ``L`` axis, joint
+  weights, angular momentum), the sequence's concatenations, and the repositioning's numpy
+  steps (now one compiled kernel). What is left (cProfile, 1000 calls): the kernels' own
+  arithmetic is about 330 us of a ~0.55 ms quiet call (retiming slerp ~170 us for 405 x 31
+  quaternions, COM of the flight frames ~50, landing search ~40, landing-seam speeds ~40), so a
+  further large cut needs fewer floating-point operations there, which would change the bits.
 * ``flips run-time growth``: time per output frame of 4 flips over that of 2 flips (near-linear
   growth: at most 1.3).
 * ``flips self-loop search``: the cached eq. 5.9 search of that clip.
