@@ -47,6 +47,17 @@ def _ro(a, dtype=np.float64) -> np.ndarray:
 
 
 if AVAILABLE:
+    @numba.njit(cache=True, nogil=True, inline="always")
+    def _qrot(qx, qy, qz, qw, vx, vy, vz):
+        """``R(q) v`` for a unit quaternion (scalar-last): ``v + w t + q_v x t`` with
+        ``t = 2 q_v x v``, the operations (and so the bits) of :func:`mocomp.core.rotations.quat_apply`."""
+        tx = 2.0 * (qy * vz - qz * vy)
+        ty = 2.0 * (qz * vx - qx * vz)
+        tz = 2.0 * (qx * vy - qy * vx)
+        return (vx + qw * tx + (qy * tz - qz * ty),
+                vy + qw * ty + (qz * tx - qx * tz),
+                vz + qw * tz + (qx * ty - qy * tx))
+
     @numba.njit(cache=True, nogil=True)
     def _sum_frame(t, masses, M, inertias, rot, pos, vel, omega, com, lin, ang):
         """eq. 5.4-5.5 for frame ``t`` from segment kinematics ``rot`` (T, S, 4), ``pos``, ``vel``,
@@ -78,23 +89,16 @@ if AVAILABLE:
             qx, qy, qz, qw = rot[t, s, 0], rot[t, s, 1], rot[t, s, 2], rot[t, s, 3]
             wx, wy, wz = omega[t, s, 0], omega[t, s, 1], omega[t, s, 2]
             # u = R^T w (conjugate quaternion: vector part negated)
-            tx = 2.0 * (-qy * wz + qz * wy)
-            ty = 2.0 * (-qz * wx + qx * wz)
-            tz = 2.0 * (-qx * wy + qy * wx)
-            ux = wx + qw * tx + (-qy * tz + qz * ty)
-            uy = wy + qw * ty + (-qz * tx + qx * tz)
-            uz = wz + qw * tz + (-qx * ty + qy * tx)
+            ux, uy, uz = _qrot(-qx, -qy, -qz, qw, wx, wy, wz)
             # I u in the segment frame
             ix = inertias[s, 0, 0] * ux + inertias[s, 0, 1] * uy + inertias[s, 0, 2] * uz
             iy = inertias[s, 1, 0] * ux + inertias[s, 1, 1] * uy + inertias[s, 1, 2] * uz
             iz = inertias[s, 2, 0] * ux + inertias[s, 2, 1] * uy + inertias[s, 2, 2] * uz
             # R (I u)
-            tx = 2.0 * (qy * iz - qz * iy)
-            ty = 2.0 * (qz * ix - qx * iz)
-            tz = 2.0 * (qx * iy - qy * ix)
-            sx += ix + qw * tx + (qy * tz - qz * ty)
-            sy += iy + qw * ty + (qz * tx - qx * tz)
-            sz += iz + qw * tz + (qx * ty - qy * tx)
+            ex, ey, ez = _qrot(qx, qy, qz, qw, ix, iy, iz)
+            sx += ex
+            sy += ey
+            sz += ez
             # m (c - COM) x v
             m = masses[s]
             rx, ry, rz = pos[t, s, 0] - cx, pos[t, s, 1] - cy, pos[t, s, 2] - cz
@@ -136,13 +140,7 @@ if AVAILABLE:
                 gw = aw * bw - ax * bx - ay * by - az * bz
                 G[t, j, 0], G[t, j, 1], G[t, j, 2], G[t, j, 3] = gx, gy, gz, gw
                 # P_j = P_p + G_p offset_j
-                vx, vy, vz = offsets[j, 0], offsets[j, 1], offsets[j, 2]
-                tx = 2.0 * (ay * vz - az * vy)
-                ty = 2.0 * (az * vx - ax * vz)
-                tz = 2.0 * (ax * vy - ay * vx)
-                dx = vx + aw * tx + (ay * tz - az * ty)
-                dy = vy + aw * ty + (az * tx - ax * tz)
-                dz = vz + aw * tz + (ax * ty - ay * tx)
+                dx, dy, dz = _qrot(ax, ay, az, aw, offsets[j, 0], offsets[j, 1], offsets[j, 2])
                 P[t, j, 0] = P[t, p, 0] + dx
                 P[t, j, 1] = P[t, p, 1] + dy
                 P[t, j, 2] = P[t, p, 2] + dz
@@ -152,25 +150,16 @@ if AVAILABLE:
                 V[t, j, 1] = V[t, p, 1] + (wpz * dx - wpx * dz)
                 V[t, j, 2] = V[t, p, 2] + (wpx * dy - wpy * dx)
                 # w_j = w_p + G_j w_j^local
-                rx, ry, rz = joint_rates[t, j, 0], joint_rates[t, j, 1], joint_rates[t, j, 2]
-                tx = 2.0 * (gy * rz - gz * ry)
-                ty = 2.0 * (gz * rx - gx * rz)
-                tz = 2.0 * (gx * ry - gy * rx)
-                W[t, j, 0] = wpx + (rx + gw * tx + (gy * tz - gz * ty))
-                W[t, j, 1] = wpy + (ry + gw * ty + (gz * tx - gx * tz))
-                W[t, j, 2] = wpz + (rz + gw * tz + (gx * ty - gy * tx))
+                ex, ey, ez = _qrot(gx, gy, gz, gw, joint_rates[t, j, 0], joint_rates[t, j, 1], joint_rates[t, j, 2])
+                W[t, j, 0] = wpx + ex
+                W[t, j, 1] = wpy + ey
+                W[t, j, 2] = wpz + ez
             for s in range(S):
                 j = seg_joint[s]
                 qx, qy, qz, qw = G[t, j, 0], G[t, j, 1], G[t, j, 2], G[t, j, 3]
                 rot[t, s, 0], rot[t, s, 1], rot[t, s, 2], rot[t, s, 3] = qx, qy, qz, qw
                 # c_i = P_j + R_i l_i
-                lx, ly, lz = local_coms[s, 0], local_coms[s, 1], local_coms[s, 2]
-                tx = 2.0 * (qy * lz - qz * ly)
-                ty = 2.0 * (qz * lx - qx * lz)
-                tz = 2.0 * (qx * ly - qy * lx)
-                dx = lx + qw * tx + (qy * tz - qz * ty)
-                dy = ly + qw * ty + (qz * tx - qx * tz)
-                dz = lz + qw * tz + (qx * ty - qy * tx)
+                dx, dy, dz = _qrot(qx, qy, qz, qw, local_coms[s, 0], local_coms[s, 1], local_coms[s, 2])
                 pos[t, s, 0] = P[t, j, 0] + dx
                 pos[t, s, 1] = P[t, j, 1] + dy
                 pos[t, s, 2] = P[t, j, 2] + dz
