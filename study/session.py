@@ -89,11 +89,19 @@ _ID_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$")
 
 
 def check_id(value: str, what: str) -> str:
-    """Participant and session ids become folder names: letters, digits, ``_.-``, at most 64."""
-    value = str(value).strip()
-    if not _ID_RE.match(value) or value in (".", ".."):
-        raise ValueError(f"{what} {value!r} is not valid: use 1-64 letters, digits, '_', '.', '-' "
-                         "(starting with a letter or digit)")
+    """Participant and session ids become folder names: letters, digits, ``_.-``, at most 64.
+
+    The id is checked as given, never normalised: ``" P01 "`` or ``"P01\\n"`` is refused (a
+    :class:`~mocomp.errors.StudyDataError`, also a ``ValueError``), not opened as ``P01``, so a
+    mistyped id can never land in (or resume) another participant's folder.
+    """
+    value = str(value)
+    if value != value.strip():
+        raise StudyDataError(f"{what} {value!r} is not valid: it has leading or trailing whitespace "
+                             "(ids are used exactly as given; remove it)")
+    if not _ID_RE.fullmatch(value):
+        raise StudyDataError(f"{what} {value!r} is not valid: use 1-64 letters, digits, '_', '.', '-' "
+                             "(starting with a letter or digit)")
     return value
 
 

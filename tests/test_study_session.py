@@ -208,3 +208,33 @@ def test_videos_are_verified_before_a_session_starts_or_resumes(tmp_path):
         Session.open(tmp_path / "d", "P1", "S1", stim)
     vid.write_bytes(good)
     Session.open(tmp_path / "d", "P1", "S1", stim).close()
+
+
+@pytest.mark.parametrize("bad", [" P01 ", "P01 ", " P01", "P01\n", "\tP01", "P 01", "P01/x", "../P01", "", "-P01",
+                                 "P" * 65])
+def test_ids_are_used_as_given_never_normalised(stimuli, tmp_path, bad):
+    """``" P01 "`` is refused (one line naming the id), never opened as P01's session."""
+    from study.session import check_id
+
+    Session.open(tmp_path / "d", "P01", "S1", stimuli).close()
+    before = sorted(p.relative_to(tmp_path) for p in (tmp_path / "d").rglob("*"))
+    events = (tmp_path / "d" / "P01" / "S1" / "events.jsonl").read_text()
+    for what, args in (("participant id", (bad, "S1")), ("session id", ("P01", bad))):
+        with pytest.raises(StudyDataError) as ei:
+            Session.open(tmp_path / "d", *args, stimuli)
+        msg = str(ei.value)
+        assert msg.startswith(f"{what} {bad!r} is not valid") and "\n" not in msg.replace(repr(bad), ""), msg
+        if bad != bad.strip():
+            assert "whitespace" in msg
+        with pytest.raises(ValueError):  # also a ValueError, as before
+            check_id(bad, what)
+    # nothing opened, created or logged
+    assert sorted(p.relative_to(tmp_path) for p in (tmp_path / "d").rglob("*")) == before
+    assert (tmp_path / "d" / "P01" / "S1" / "events.jsonl").read_text() == events
+
+
+def test_valid_ids_are_returned_unchanged():
+    from study.session import check_id
+
+    for good in ("P01", "p.1_a-b", "7", "A" * 64):
+        assert check_id(good, "participant id") == good
