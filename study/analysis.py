@@ -73,6 +73,10 @@ class ResponseData:
     header-only files. ``stimulus_set_ids``: the set(s) the sessions used.
     ``dropped_lines``: (file, line, reason) for torn last lines left out (a
     crash in the middle of writing a row, in a session never resumed).
+    ``mixed_files``: (file, participant ids) for files holding rows of more than
+    one participant (analysed per participant, with a warning).
+    ``sessions``: answered/planned trials per session (:func:`session_summary`);
+    ``incomplete``: the sessions that stopped early.
     """
 
     trials: pd.DataFrame
@@ -80,6 +84,15 @@ class ResponseData:
     skipped: list[tuple[str, str]] = field(default_factory=list)
     stimulus_set_ids: list[str] = field(default_factory=list)
     dropped_lines: list[tuple[str, int, str]] = field(default_factory=list)
+    mixed_files: list[tuple[str, list[str]]] = field(default_factory=list)
+    sessions: pd.DataFrame = field(default_factory=pd.DataFrame)
+
+    @property
+    def incomplete(self) -> pd.DataFrame:
+        """Sessions with fewer answers than planned (see :func:`session_summary`)."""
+        if not len(self.sessions):
+            return self.sessions
+        return self.sessions[~self.sessions["complete"]]
 
     @property
     def test(self) -> pd.DataFrame:
@@ -92,6 +105,144 @@ class ResponseData:
     @property
     def participants(self) -> list[str]:
         return sorted(self.trials["participant_id"].unique())
+
+
+class ResponseValueError(StudyDataError):
+    """One bad value in a responses CSV: ``FILE:LINE: column COL: value 'X' is ...`` (one line).
+
+    Attributes as :class:`~mocomp.errors.StudyDataError` (``path``, ``line``,
+    ``column``, ``reason``) plus ``value`` (the text found in the file).
+    """
+
+    def __init__(self, path, line: int, column: str, value, problem: str):
+        super().__init__(problem, path, line, column)
+        self.value = value
+        shown = str(value)
+        shown = shown if len(shown) <= 60 else shown[:57] + "..."
+        self.args = (f"{path}:{line}: column {column}: value {shown!r} is {problem}",)
+
+
+#: Largest trial_index accepted (a row of plan.csv; int32 range, as any plan is far smaller).
+MAX_TRIAL_INDEX = 2**31 - 1
+_ID_RE = r"^[A-Za-z0-9_.\-]{1,64}$"
+_INT_RE = r"^\s*\+?[0-9]+(\.0*)?\s*$"  # non-negative integer text ("12", "12.0"); no exponent, no sign
+
+
+def _decode_utf8(raw: bytes, path: Path) -> str:
+    """The file as text; a byte that is not UTF-8 gives a one-line error naming line and column."""
+    import csv
+    import io
+
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError as e:
+        line = raw[:e.start].count(b"\n") + 1
+        head = raw[:raw.find(b"\n")].decode("utf-8", "replace") if b"\n" in raw else ""
+        names = next(csv.reader([head])) if head else []
+        line_start = raw.rfind(b"\n", 0, e.start) + 1
+        before = raw[line_start:e.start].decode("utf-8", "replace")
+        field_no = len(next(csv.reader([before + "x"]))) - 1 if before else 0
+        col = names[field_no] if line > 1 and field_no < len(names) else f"{field_no + 1}"
+        end = raw.find(b"\n", e.start)
+        cell = raw[line_start:end if end >= 0 else len(raw)].decode("latin-1")
+        cells = next(csv.reader([cell])) if cell else [""]
+        value = cells[field_no] if field_no < len(cells) else cell
+        raise ResponseValueError(path, line, col, value,
+                                 f"not UTF-8 (byte 0x{raw[e.start]:02x}; responses files are UTF-8: re-save the "
+                                 f"file as UTF-8, e.g. iconv -f latin1 -t utf-8)") from None
+
+
+def _check_values(df: pd.DataFrame, path: Path, require: tuple[str, ...]) -> None:
+    """Every column of the data dictionary (study/DATA_DICTIONARY.md): types, ranges, allowed sets.
+
+    Typed columns are converted in place (``trial_index`` int64; levels, times
+    float64). The first bad value raises :class:`ResponseValueError`.
+    """
+    lines = df["source_line"].to_numpy()
+
+    def bad(mask, col, problem):
+        mask = np.asarray(mask, bool)
+        if mask.any():
+            i = int(np.flatnonzero(mask)[0])
+            v = df[col].iloc[i]
+            raise ResponseValueError(path, int(lines[i]), col, v, problem(v) if callable(problem) else problem)
+
+    def number(col, *, empty_ok: bool, nonneg: bool, what: str = "a number"):
+        txt = df[col].str.strip()
+        num = pd.to_numeric(txt.where(txt != "", np.nan), errors="coerce").to_numpy(float)
+        empty = (txt == "").to_numpy()
+        if not empty_ok:
+            bad(empty, col, f"empty ({col} must be {what})")
+        bad(~empty & np.isnan(num), col, f"not {what}")
+        bad(~empty & ~np.isfinite(num), col, f"not finite ({col} must be {what})")
+        if nonneg:
+            bad(~empty & (num < 0), col, f"negative ({col} must be >= 0)")
+        return num
+
+    for col in ("participant_id", "session_id", "stimulus_set_id", "stimulus_id"):
+        bad(df[col].str.strip() == "", col, "empty (every row needs one)")
+    bad(~df["participant_id"].str.match(_ID_RE), "participant_id",
+        "not a participant code (letters, digits, _ . -, at most 64)")
+    bad(~df["response"].isin(("correct", "incorrect")), "response", "not 'correct' or 'incorrect'")
+    bad(~df["kind"].isin(("practice", "test", "attention")), "kind", "not practice, test or attention")
+    bad(~df["perturbation"].isin(PERTURBATIONS), "perturbation",
+        f"not a known perturbation ({', '.join(PERTURBATIONS)})")
+    bad(~df["direction"].isin(DIRECTIONS), "direction", f"not a known direction ({', '.join(DIRECTIONS)})")
+    bad((df["perturbation"] == "none") != (df["direction"] == "none"), "direction",
+        "inconsistent with the perturbation (direction is 'none' exactly for unperturbed motions)")
+    bad((df["kind"] == "test") & (df["group"].str.strip() == ""), "group",
+        "empty (every test trial belongs to an error group)")
+    # trial_index: a non-negative integer (a plan row)
+    ti = df["trial_index"]
+    bad(~ti.str.match(_INT_RE), "trial_index", "not a non-negative integer (a row of plan.csv)")
+    num = pd.to_numeric(ti.str.strip(), errors="coerce").to_numpy(float)
+    bad(num > MAX_TRIAL_INDEX, "trial_index", f"out of range (trial_index must be 0..{MAX_TRIAL_INDEX})")
+    df["trial_index"] = num.astype(np.int64)
+    # levels
+    lv = number("nominal_level", empty_ok=False, nonneg=True, what="a finite number >= 0 (percent)")
+    bad((df["perturbation"] == "none").to_numpy() & (lv != 0), "nominal_level",
+        "not 0 for an unperturbed motion (perturbation 'none')")
+    df["nominal_level"] = lv
+    if "achieved_error" in df.columns:
+        df["achieved_error"] = number("achieved_error", empty_ok="achieved_error" not in require, nonneg=False,
+                                      what="a finite number (percent)")
+    for col in ("rt_s", "client_rt_s", "client_rt_end_s"):
+        if col in df.columns:
+            df[col] = number(col, empty_ok=col != "rt_s", nonneg=True, what="a finite time >= 0 in seconds")
+    if "repetition" in df.columns:
+        rep = df["repetition"].str.strip()
+        bad((rep != "") & ~rep.str.match(_INT_RE), "repetition", "not a non-negative integer (0, 1 or 2)")
+        df["repetition"] = pd.to_numeric(rep.where(rep != "", np.nan), errors="coerce")
+    if "seed" in df.columns:
+        sd = df["seed"].str.strip()
+        bad((sd != "") & ~sd.str.match(r"^[0-9]+$"), "seed", "not a non-negative integer")
+    if "plan_sha256" in df.columns:
+        h = df["plan_sha256"].str.strip()
+        bad((h != "") & ~h.str.match(r"^[0-9a-f]{64}$"), "plan_sha256", "not a SHA-256 (64 lower-case hex digits)")
+    for col, allowed in (("expected_response", ("", "correct", "incorrect")), ("input", ("", "button", "key", "observer")),
+                         ("must_watch", ("", "0", "1")), ("watched_to_end", ("", "0", "1"))):
+        if col in df.columns:
+            bad(~df[col].isin(allowed), col, f"not one of {', '.join(repr(a) for a in allowed)}")
+    if "rated_correct" in df.columns:
+        rc = (df["response"] == "correct").astype(int).astype(str)
+        bad(df["rated_correct"] != rc, "rated_correct", "inconsistent with the response column")
+    if "condition" in df.columns:
+        cond = df["condition"]
+        lab = np.array([condition_label(p, d_, x) for p, d_, x in zip(df["perturbation"], df["direction"], lv)],
+                       object)
+        bad((cond != "") & (cond != lab), "condition",
+            lambda v: "inconsistent with perturbation/direction/nominal_level")
+    for col in ("shown_utc", "responded_utc"):
+        if col in df.columns:
+            t = df[col].str.strip()
+            parsed = pd.to_datetime(t.where(t != "", None), utc=True, errors="coerce", format="ISO8601")
+            bad((t != "").to_numpy() & parsed.isna().to_numpy(), col, "not a UTC ISO 8601 time")
+    for col in require:
+        if col not in ("nominal_level", "achieved_error"):
+            number(col, empty_ok=False, nonneg=False)
+        elif col == "achieved_error":
+            bad((df["kind"] == "test").to_numpy() & np.isnan(df[col].to_numpy(float)), col,
+                "empty (needed as the level regressor: --level achieved_error)")
 
 
 def _read_one(path: Path, dropped: list | None = None, require: tuple[str, ...] = ()) -> pd.DataFrame | None:
@@ -115,8 +266,9 @@ def _read_one(path: Path, dropped: list | None = None, require: tuple[str, ...] 
         if dropped is not None:
             dropped.append((str(path), line, "torn last line (incomplete row) left out"))
         raw = raw[:cut]
+    text = _decode_utf8(raw, path)
     try:
-        df = pd.read_csv(io.BytesIO(raw), dtype=str, keep_default_na=False)
+        df = pd.read_csv(io.StringIO(text), dtype=str, keep_default_na=False)
     except pd.errors.EmptyDataError:
         raise StudyDataError("empty CSV (no header, no rows)", path) from None
     except pd.errors.ParserError as e:
@@ -134,36 +286,7 @@ def _read_one(path: Path, dropped: list | None = None, require: tuple[str, ...] 
         return None
     df["source_file"] = str(path)
     df["source_line"] = np.arange(len(df)) + 2
-
-    def bad(mask, col, msg):
-        if mask.any():
-            i = int(np.flatnonzero(np.asarray(mask))[0])
-            raise StudyDataError(msg(df[col].iloc[i]), path, int(df["source_line"].iloc[i]), col)
-
-    for col in ("participant_id", "session_id", "stimulus_set_id", "stimulus_id"):
-        bad(df[col].str.strip() == "", col, lambda v: "empty value")
-    bad(~df["response"].isin(("correct", "incorrect")), "response",
-        lambda v: f"{v!r} is not 'correct' or 'incorrect'")
-    bad(~df["kind"].isin(("practice", "test", "attention")), "kind",
-        lambda v: f"{v!r} is not practice, test or attention")
-    bad(~df["perturbation"].isin(PERTURBATIONS), "perturbation", lambda v: f"unknown perturbation {v!r}")
-    bad(~df["direction"].isin(DIRECTIONS), "direction", lambda v: f"unknown direction {v!r}")
-    for col, kind in (("trial_index", "integer"), ("nominal_level", "number")):
-        num = pd.to_numeric(df[col], errors="coerce")
-        bad(num.isna(), col, lambda v: f"not a {kind}: {v!r}")
-        df[col] = num
-    bad(df["trial_index"] != np.floor(df["trial_index"]), "trial_index", lambda v: f"not an integer: {v!r}")
-    df["trial_index"] = df["trial_index"].astype(int)
-    if "rated_correct" in df.columns:
-        rc = (df["response"] == "correct").astype(int).astype(str)
-        bad(df["rated_correct"] != rc, "rated_correct", lambda v: f"{v!r} disagrees with the response column")
-    for col in ("achieved_error", "rt_s", "client_rt_s", "client_rt_end_s", "repetition"):
-        if col in df.columns:
-            df[col] = pd.to_numeric(df[col].replace("", np.nan), errors="coerce")
-    for col in require:
-        if col != "nominal_level":
-            num = pd.to_numeric(df[col], errors="coerce")
-            bad(num.isna() & (df["kind"] == "test"), col, lambda v: f"not a number: {v!r} (needed as the level regressor)")
+    _check_values(df, path, tuple(require))
     if "expected_response" not in df.columns:
         df["expected_response"] = ""
     return df
@@ -187,12 +310,20 @@ def load_responses(path: str | Path, *, allow_mixed_sets: bool = False, require:
                                                   if p.name == "responses.csv" or p.name.endswith(".responses.csv"))
     if not files:
         raise StudyDataError("no responses.csv found (expected DATA/<participant>/<session>/responses.csv)", path)
-    frames, skipped, dropped = [], [], []
+    frames, skipped, dropped, mixed = [], [], [], []
     for f in files:
         df = _read_one(f, dropped, tuple(require))
         if df is None:
             skipped.append((str(f), "header only: no responses"))
         else:
+            ids = list(pd.unique(df["participant_id"]))
+            if len(ids) > 1:
+                # decided: a file holding several participants (e.g. a merged export, or sessions
+                # appended to one file) is analysed participant by participant, with a warning
+                shown = ", ".join(map(repr, ids[:10])) + (f", ... ({len(ids)} in all)" if len(ids) > 10 else "")
+                warnings.warn(f"{f}: rows of {len(ids)} participants in one file ({shown}); each participant's "
+                              "rows are analysed as that participant's own", stacklevel=2)
+                mixed.append((str(f), [str(i) for i in ids]))
             frames.append(df)
     if not frames:
         raise StudyDataError(f"all {len(files)} responses CSV(s) are empty (header only)", path)
@@ -213,9 +344,43 @@ def load_responses(path: str | Path, *, allow_mixed_sets: bool = False, require:
         raise StudyDataError(f"responses come from {len(sets)} different stimulus sets ({desc}); analyse them "
                              "separately, or pass --allow-mixed-sets (allow_mixed_sets=True)", path, column="stimulus_set_id")
     allr["incorrect"] = (allr["response"] == "incorrect").astype(int)
-    allr["condition"] = [condition_label(p, d, lv) for p, d, lv in
-                         zip(allr["perturbation"], allr["direction"], allr["nominal_level"])]
-    return ResponseData(trials=allr, files=files, skipped=skipped, stimulus_set_ids=sets, dropped_lines=dropped)
+    # one label per distinct (perturbation, direction, level), mapped back (not one call per row)
+    keys = allr[["perturbation", "direction", "nominal_level"]].drop_duplicates()
+    labels = {(p, d, lv): condition_label(p, d, lv) for p, d, lv in keys.itertuples(index=False)}
+    allr["condition"] = [labels[k] for k in zip(allr["perturbation"], allr["direction"], allr["nominal_level"])]
+    return ResponseData(trials=allr, files=files, skipped=skipped, stimulus_set_ids=sets, dropped_lines=dropped,
+                        mixed_files=mixed, sessions=session_summary(allr))
+
+
+def _planned_trials(folder: Path) -> int | None:
+    """Response trials planned for the session in ``folder`` (non-example rows of its plan.csv), or None."""
+    plan = folder / "plan.csv"
+    if not plan.is_file():
+        return None
+    try:
+        kinds = pd.read_csv(plan, usecols=["kind"], dtype=str, keep_default_na=False)["kind"]
+    except (ValueError, pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError):
+        return None  # an unreadable plan says nothing about the responses; the count is inferred instead
+    return int((kinds != "example").sum())
+
+
+def session_summary(trials: pd.DataFrame) -> pd.DataFrame:
+    """Per session (participant, session, file): trials answered and planned, and whether it is complete.
+
+    ``n_planned`` comes from the session's ``plan.csv`` (non-example rows) when it lies beside
+    ``responses.csv`` (``planned_from="plan.csv"``), otherwise from the longest session of the same
+    stimulus set (``"longest session"``). A session with fewer answers than planned (a participant who
+    stopped early) is ``complete=False``; it is analysed like the others and listed in the report.
+    """
+    g = (trials.groupby(["participant_id", "session_id", "source_file", "stimulus_set_id"], sort=True)
+         .size().rename("n_answered").reset_index())
+    plans = {f: _planned_trials(Path(f).parent) for f in g["source_file"].unique()}
+    g["n_planned"] = g["source_file"].map(plans)
+    g["planned_from"] = np.where(g["n_planned"].isna(), "longest session", "plan.csv")
+    longest = g.groupby("stimulus_set_id")["n_answered"].transform("max")
+    g["n_planned"] = g["n_planned"].fillna(longest).astype(int)
+    g["complete"] = g["n_answered"] >= g["n_planned"]
+    return g[["participant_id", "session_id", "n_answered", "n_planned", "planned_from", "complete", "source_file"]]
 
 
 # --------------------------------------------------------------------- tables
@@ -240,6 +405,66 @@ def _cells(test: pd.DataFrame, level: str) -> pd.DataFrame:
     return cells
 
 
+def _participant_codes(test: pd.DataFrame) -> tuple[list[str], np.ndarray]:
+    codes, uniq = pd.factorize(test["participant_id"], sort=True)
+    return [str(u) for u in uniq], codes
+
+
+def _count_matrix(sub: pd.DataFrame, codes: np.ndarray, keys: list[str], P: int):
+    """Per-participant counts of ``sub`` in one grouped pass.
+
+    Returns (cells, K, N): ``cells`` a DataFrame of the distinct ``keys`` (sorted),
+    ``K``/``N`` (len(cells), P) arrays of "incorrect" answers / trials per cell and participant.
+    """
+    if keys:
+        gb = sub.groupby(keys, sort=True)
+        cell = gb.ngroup().to_numpy()
+        cells = gb.size().index.to_frame(index=False)
+    else:
+        cell, cells = np.zeros(len(sub), np.int64), pd.DataFrame(index=[0])
+    R = len(cells)
+    flat = cell * P + codes
+    K = np.bincount(flat, weights=sub["incorrect"].to_numpy(float), minlength=R * P).reshape(R, P)
+    N = np.bincount(flat, minlength=R * P).astype(float).reshape(R, P)
+    return cells, K, N
+
+
+def cluster_bootstrap_dprime(K: np.ndarray, N: np.ndarray, cr: np.ndarray, *, correction: str, n_boot: int,
+                             seed: int, ci: float = 0.95, chunk: int = 256) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Participant (cluster) bootstrap of the pooled d' of every row.
+
+    ``K``/``N`` (R, P): "incorrect" answers and trials of each row (condition or control)
+    per participant; ``cr`` (R,): the control row of each row. Each resample draws P
+    participants with replacement (multinomial weights ``W``, (B, P)) and pools *their own*
+    counts and trials together, ``W @ K.T`` and ``W @ N.T``, so hits <= trials holds in every
+    resample whatever the participants did (incomplete sessions, conditions some never
+    saw). A resample in which no drawn participant saw a row (or its controls) leaves that
+    row undefined in that resample; quantiles are over the defined ones. Vectorised over
+    resamples in chunks of ``chunk`` (memory O(chunk x P)). Returns (ci_low, ci_high,
+    n_defined) per row.
+    """
+    R, P = K.shape
+    rng = np.random.default_rng(seed)
+    db = np.empty((n_boot, R))
+    for b0 in range(0, n_boot, chunk):
+        b = min(chunk, n_boot - b0)
+        W = rng.multinomial(P, np.full(P, 1.0 / P), size=b).astype(float)  # (b, P)
+        Kb, Nb = W @ K.T, W @ N.T  # (b, R): counts and trials resampled together
+        valid = (Nb > 0) & (Nb[:, cr] > 0)
+        kh, nh = np.where(valid, Kb, 0.0), np.where(valid, Nb, 1.0)
+        kf, nf = np.where(valid, Kb[:, cr], 0.0), np.where(valid, Nb[:, cr], 1.0)
+        with np.errstate(divide="ignore"):
+            d = dprime_counts(kh, nh, kf, nf, correction).dprime
+        db[b0:b0 + b] = np.where(valid, d, np.nan)
+    a = (1 - ci) / 2
+    n_def = np.isfinite(db).sum(0) + np.isinf(db).sum(0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        lo = np.nanquantile(db, a, axis=0)
+        hi = np.nanquantile(db, 1 - a, axis=0)
+    return lo, hi, n_def
+
+
 def condition_table(data: ResponseData | pd.DataFrame, *, level: str = "nominal_level", control: str = "group",
                     correction: str = "loglinear", n_boot: int = 2000, seed: int = 0,
                     ci: float = 0.95) -> pd.DataFrame:
@@ -250,65 +475,65 @@ def condition_table(data: ResponseData | pd.DataFrame, *, level: str = "nominal_
     (Wilson), hit_rate (P incorrect), fa_rate, n_control, control_source,
     dprime (corrected), dprime_uncorrected (the paper's z(r0) - z(r) from the
     pooled rates; +-inf at 0 or 1), correction, ceiling, at_ceiling,
-    dprime_ci_low/high (participant bootstrap, percentile).
+    dprime_ci_low/high (participant bootstrap, percentile,
+    :func:`cluster_bootstrap_dprime`), n_boot, n_boot_defined (resamples in which
+    the row was defined: fewer than n_boot when few participants saw it).
+
+    Cost is linear in the number of trials and participants: one grouped pass
+    builds a (rows x participants) count matrix; the bootstrap is matrix products.
     """
     if correction not in CORRECTIONS:
         raise ValueError(f"correction must be one of {CORRECTIONS}")
+    if control not in ("group", "pooled"):
+        raise ValueError(f"control must be 'group' or 'pooled', got {control!r}")
     test = data.test if isinstance(data, ResponseData) else data[data["kind"] == "test"]
     if not len(test):
         raise StudyDataError("no test trials to analyse")
-    parts = sorted(test["participant_id"].unique())
-    pidx = {p: i for i, p in enumerate(parts)}
-    rows = []
-    # per-participant counts for every row, for the cluster bootstrap
-    K, N = [], []
-
-    def counts(sub):
-        k = np.zeros(len(parts))
-        n = np.zeros(len(parts))
-        g = sub.groupby("participant_id")["incorrect"].agg(["sum", "size"])
-        for p, r in g.iterrows():
-            k[pidx[p]] = r["sum"]
-            n[pidx[p]] = r["size"]
-        return k, n
-
-    groups = sorted(test.loc[test["perturbation"] != "none", "group"].unique())
-    ctl_rows = {}
-    for g in groups:
-        ctl, src = _controls_for(test, g, control)
-        key = g if src == "group" else "(pooled)"
+    parts, codes = _participant_codes(test)
+    P = len(parts)
+    is_none = (test["perturbation"] == "none").to_numpy()
+    ctl, ctl_codes = test[is_none], codes[is_none]
+    pert, pert_codes = test[~is_none], codes[~is_none]
+    cg, Kg, Ng = _count_matrix(ctl, ctl_codes, ["group"], P) if len(ctl) else (pd.DataFrame(columns=["group"]),
+                                                                                np.zeros((0, P)), np.zeros((0, P)))
+    own = {g: i for i, g in enumerate(cg["group"])} if len(ctl) else {}
+    _, Kp, Np = _count_matrix(ctl, ctl_codes, [], P) if len(ctl) else (None, None, None)
+    cells, Kc, Nc = _count_matrix(pert, pert_codes, ["group", "perturbation", "direction", level], P)
+    rows, K, N = [], [], []
+    ctl_rows: dict[str, int] = {}
+    for g in sorted(cells["group"].unique()):
+        if control == "group" and g in own:
+            key, src, kk, nn = g, "group", Kg[own[g]], Ng[own[g]]
+        else:
+            if Kp is None:
+                raise StudyDataError("no test trials of unperturbed motions: d' needs them as the false-alarm baseline")
+            key, src, kk, nn = "(pooled)", "pooled", Kp[0], Np[0]
         if key not in ctl_rows:
-            k, n = counts(ctl)
             ctl_rows[key] = len(rows)
             rows.append(dict(group=g if src == "group" else "(all)", perturbation="none", direction="none",
-                             level=0.0, condition="none", n_trials=int(n.sum()),
-                             n_participants=int((n > 0).sum()), n_incorrect=int(k.sum()), control_row=None,
-                             control_source=src))
-            K.append(k)
-            N.append(n)
-        cells = _cells(test[test["group"] == g], level)
-        sub_all = test[test["group"] == g]
-        for _, c in cells.iterrows():
-            sub = sub_all[(sub_all["perturbation"] == c["perturbation"]) & (sub_all["direction"] == c["direction"])
-                          & (sub_all[level] == c["level"])]
-            k, n = counts(sub)
+                             level=0.0, condition="none", control_row=len(rows), control_source=src))
+            K.append(kk)
+            N.append(nn)
+        for i in np.flatnonzero((cells["group"] == g).to_numpy()):
+            c = cells.iloc[i]
             rows.append(dict(group=g, perturbation=c["perturbation"], direction=c["direction"],
-                             level=float(c["level"]),
-                             condition=condition_label(c["perturbation"], c["direction"], c["level"]),
-                             n_trials=int(n.sum()), n_participants=int((n > 0).sum()), n_incorrect=int(k.sum()),
+                             level=float(c[level]), condition=condition_label(c["perturbation"], c["direction"], c[level]),
                              control_row=ctl_rows[key], control_source=src))
-            K.append(k)
-            N.append(n)
+            K.append(Kc[i])
+            N.append(Nc[i])
     tab = pd.DataFrame(rows)
     K = np.array(K)
     N = np.array(N)
     k_tot, n_tot = K.sum(1), N.sum(1)
+    tab["n_trials"] = n_tot.astype(int)
+    tab["n_participants"] = (N > 0).sum(1)
+    tab["n_incorrect"] = k_tot.astype(int)
     tab["n_rated_correct"] = (n_tot - k_tot).astype(int)
     tab["pct_rated_correct"] = 100 * (n_tot - k_tot) / n_tot
     lo, hi = wilson_interval(n_tot - k_tot, n_tot, ci)
     tab["pct_ci_low"], tab["pct_ci_high"] = 100 * lo, 100 * hi
     tab["hit_rate"] = k_tot / n_tot
-    cr = np.array([r if r is not None and not pd.isna(r) else i for i, r in enumerate(tab["control_row"])], int)
+    cr = tab["control_row"].to_numpy(int)
     tab["fa_rate"] = tab["hit_rate"].to_numpy()[cr]
     tab["n_control"] = n_tot[cr].astype(int)
     dp = dprime_counts(k_tot, n_tot, k_tot[cr], n_tot[cr], correction)
@@ -320,27 +545,16 @@ def condition_table(data: ResponseData | pd.DataFrame, *, level: str = "nominal_
     tab["correction"] = correction
     tab["ceiling"] = dp.ceiling
     tab["at_ceiling"] = np.where(is_ctl, False, dp.at_ceiling)
-    # cluster bootstrap over participants
-    rng = np.random.default_rng(seed)
-    P = len(parts)
-    W = rng.multinomial(P, np.full(P, 1.0 / P), size=n_boot).astype(float)  # (B, P)
-    Kb, Nb = W @ K.T, W @ N.T  # (B, rows)
-    valid = (Nb > 0) & (Nb[:, cr] > 0)
-    Nb_safe = np.where(valid, Nb, 1.0)
-    Kb_safe = np.where(valid, Kb, 0.0)
-    db = dprime_counts(Kb_safe, Nb_safe, Kb_safe[:, cr], np.where(valid, Nb[:, cr], 1.0), correction).dprime
-    db = np.where(valid, db, np.nan)
-    a = (1 - ci) / 2
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)
-        tab["dprime_ci_low"] = np.where(is_ctl, np.nan, np.nanquantile(db, a, axis=0))
-        tab["dprime_ci_high"] = np.where(is_ctl, np.nan, np.nanquantile(db, 1 - a, axis=0))
+    blo, bhi, n_def = cluster_bootstrap_dprime(K, N, cr, correction=correction, n_boot=n_boot, seed=seed, ci=ci)
+    tab["dprime_ci_low"] = np.where(is_ctl, np.nan, blo)
+    tab["dprime_ci_high"] = np.where(is_ctl, np.nan, bhi)
     tab["n_boot"] = n_boot
+    tab["n_boot_defined"] = n_def
     return tab.drop(columns=["control_row"])[
         ["group", "perturbation", "direction", "level", "condition", "n_trials", "n_participants",
          "n_rated_correct", "n_incorrect", "pct_rated_correct", "pct_ci_low", "pct_ci_high", "hit_rate", "fa_rate",
          "n_control", "control_source", "dprime", "dprime_uncorrected", "correction", "ceiling", "at_ceiling",
-         "dprime_ci_low", "dprime_ci_high", "n_boot"]]
+         "dprime_ci_low", "dprime_ci_high", "n_boot", "n_boot_defined"]]
 
 
 def participant_dprimes(data: ResponseData | pd.DataFrame, *, by: str = "condition", level: str = "nominal_level",
@@ -364,46 +578,80 @@ def participant_dprimes(data: ResponseData | pd.DataFrame, *, by: str = "conditi
     the corrected-rate bootstrap). With ``correction="none"`` a rate of 0 or 1
     makes d' infinite: its interval is undefined (NaN) and ``ci_note`` says so.
     ``ci_degenerate`` flags intervals of zero width (none with a correction).
+
+    The interval is a function of the four counts (hits, signal trials, false
+    alarms, control trials) only, so it is drawn once per distinct tuple of counts
+    (a few hundred in a study, however many participants) and shared by every
+    cell with those counts: the cost is linear in the participants, and cells with
+    equal counts get equal intervals (no Monte-Carlo scatter between them).
+    A participant without a single control trial in the baseline gets no row.
     """
     if by not in ("condition", "series"):
         raise ValueError("by must be 'condition' or 'series'")
+    if control not in ("group", "pooled"):
+        raise ValueError(f"control must be 'group' or 'pooled', got {control!r}")
     test = data.test if isinstance(data, ResponseData) else data[data["kind"] == "test"]
+    cols = ["participant_id", "group", "perturbation", "direction", "level", "n_signal", "hits", "n_control",
+            "false_alarms", "control_source", "hit_rate", "fa_rate", "dprime", "ceiling", "correction", "ci_low",
+            "ci_high", "ci_degenerate", "ci_note", "n_boot", "condition"]
+    is_none = test["perturbation"] == "none"
+    keys = ["participant_id", "group"] + SERIES + ([level] if by == "condition" else [])
+    cells = test[~is_none].groupby(keys, sort=True)["incorrect"].agg(["sum", "size"]).reset_index()
+    if not len(cells):
+        return pd.DataFrame(columns=cols)
+    ctl = test[is_none]
+    own = ctl.groupby(["participant_id", "group"])["incorrect"].agg(["sum", "size"])
+    pooled = ctl.groupby("participant_id")["incorrect"].agg(["sum", "size"])
+    pid = cells["participant_id"]
+    pk = pooled["sum"].reindex(pid).to_numpy(float)
+    pn = pooled["size"].reindex(pid).to_numpy(float)
+    if control == "group":
+        idx = pd.MultiIndex.from_arrays([pid, cells["group"]])
+        ok = own["sum"].reindex(idx).to_numpy(float)
+        on = own["size"].reindex(idx).to_numpy(float)
+        has = ~np.isnan(on)
+        kf, nf = np.where(has, ok, pk), np.where(has, on, pn)
+        src = np.where(has, "group", "pooled")
+    else:
+        kf, nf, src = pk, pn, np.full(len(cells), "pooled")
+    keep = ~np.isnan(nf)  # participants with no control trial at all have no d'
+    cells = cells[keep].reset_index(drop=True)
+    kf, nf, src = kf[keep].astype(int), nf[keep].astype(int), src[keep]
+    k, n = cells["sum"].to_numpy(int), cells["size"].to_numpy(int)
+    d = dprime_counts(k, n, kf, nf, correction)
+    # one parametric bootstrap per distinct (k, n, kf, nf)
+    tup = np.stack([k, n, kf, nf], axis=1)
+    uniq, inv = np.unique(tup, axis=0, return_inverse=True)
+    inv = inv.ravel()
+    du = dprime_counts(uniq[:, 0], uniq[:, 1], uniq[:, 2], uniq[:, 3], correction)
     rng = np.random.default_rng(seed)
-    out = []
-    for p, tp in test.groupby("participant_id", sort=True):
-        pert = tp[tp["perturbation"] != "none"]
-        keys = ["group"] + SERIES + ([level] if by == "condition" else [])
-        for key, sub in pert.groupby(keys, sort=True):
-            g = key[0]
-            try:
-                ctl, src = _controls_for(tp, g, control)
-            except StudyDataError:
-                continue
-            k, n = int(sub["incorrect"].sum()), len(sub)
-            kf, nf = int(ctl["incorrect"].sum()), len(ctl)
-            d = dprime_counts(k, n, kf, nf, correction)
-            kb = rng.binomial(n, float(d.hit_used), size=n_boot)
-            fb = rng.binomial(nf, float(d.fa_used), size=n_boot)
-            note = ""
-            if correction == "none" and (k in (0, n) or kf in (0, nf)):
-                lo = hi = np.nan
-                note = "undefined: a rate of 0 or 1 without a correction (d' is infinite)"
-            else:
-                with np.errstate(divide="ignore", invalid="ignore"):  # no correction: draws of 0 or n give +-inf
-                    db = dprime_counts(kb, n, fb, nf, correction).dprime
-                a = (1 - ci) / 2
-                # order statistics (no interpolation): draws can be +-inf without a correction
-                lo, hi = np.quantile(db, [a, 1 - a], method="inverted_cdf")
-            row = dict(participant_id=p, group=g, perturbation=key[1], direction=key[2],
-                       level=float(key[3]) if by == "condition" else np.nan,
-                       n_signal=n, hits=k, n_control=nf, false_alarms=kf, control_source=src,
-                       hit_rate=k / n, fa_rate=kf / nf, dprime=float(d.dprime), ceiling=float(d.ceiling),
-                       correction=correction, ci_low=lo, ci_high=hi, ci_degenerate=bool(hi - lo < 1e-12),
-                       ci_note=note, n_boot=n_boot)
-            row["condition"] = (condition_label(key[1], key[2], key[3]) if by == "condition"
-                                else f"{key[1]}/{key[2]}")
-            out.append(row)
-    return pd.DataFrame(out)
+    kb = rng.binomial(uniq[:, 1:2], np.asarray(du.hit_used)[:, None], size=(len(uniq), n_boot))
+    fb = rng.binomial(uniq[:, 3:4], np.asarray(du.fa_used)[:, None], size=(len(uniq), n_boot))
+    with np.errstate(divide="ignore", invalid="ignore"):  # no correction: draws of 0 or n give +-inf
+        db = dprime_counts(kb, uniq[:, 1:2], fb, uniq[:, 3:4], correction).dprime
+    a = (1 - ci) / 2
+    # order statistics (no interpolation): draws can be +-inf without a correction
+    qlo, qhi = np.quantile(db, [a, 1 - a], axis=1, method="inverted_cdf")
+    lo, hi = qlo[inv], qhi[inv]
+    note = np.full(len(cells), "", object)
+    if correction == "none":
+        und = (k == 0) | (k == n) | (kf == 0) | (kf == nf)
+        lo, hi = np.where(und, np.nan, lo), np.where(und, np.nan, hi)
+        note[und] = "undefined: a rate of 0 or 1 without a correction (d' is infinite)"
+    with np.errstate(invalid="ignore"):
+        degenerate = ~(hi - lo >= 1e-12)
+    out = pd.DataFrame(dict(
+        participant_id=cells["participant_id"], group=cells["group"], perturbation=cells["perturbation"],
+        direction=cells["direction"], level=cells[level].astype(float) if by == "condition" else np.nan,
+        n_signal=n, hits=k, n_control=nf, false_alarms=kf, control_source=src, hit_rate=k / n, fa_rate=kf / nf,
+        dprime=np.asarray(d.dprime, float), ceiling=np.asarray(d.ceiling, float), correction=correction,
+        ci_low=lo, ci_high=hi, ci_degenerate=degenerate, ci_note=note, n_boot=n_boot))
+    if by == "condition":
+        lab = {t: condition_label(*t) for t in set(zip(out["perturbation"], out["direction"], out["level"]))}
+        out["condition"] = [lab[t] for t in zip(out["perturbation"], out["direction"], out["level"])]
+    else:
+        out["condition"] = out["perturbation"] + "/" + out["direction"]
+    return out[cols]
 
 
 def attention_summary(data: ResponseData) -> pd.DataFrame:
@@ -665,7 +913,8 @@ def analyze(responses: str | Path | ResponseData, out_dir: str | Path | None = N
         if excluded:
             keep = ~data.trials["participant_id"].isin(excluded)
             data = ResponseData(trials=data.trials[keep], files=data.files, skipped=data.skipped,
-                                stimulus_set_ids=data.stimulus_set_ids, dropped_lines=data.dropped_lines)
+                                stimulus_set_ids=data.stimulus_set_ids, dropped_lines=data.dropped_lines,
+                                mixed_files=data.mixed_files, sessions=data.sessions)
             if not len(data.test):
                 raise StudyDataError(f"every participant failed the attention criterion {min_attention}")
     kw = dict(level=level, control=control, correction=correction)
@@ -694,6 +943,9 @@ def analyze(responses: str | Path | ResponseData, out_dir: str | Path | None = N
                     stimulus_set_ids=data.stimulus_set_ids, n_files=len(data.files),
                     skipped_files=[f for f, _ in data.skipped],
                     dropped_lines=[f"{f}:{ln}: {why}" for f, ln, why in data.dropped_lines],
+                    incomplete_sessions=[f"{r.participant_id}/{r.session_id}: {r.n_answered} of {r.n_planned} trials "
+                                         f"(planned: {r.planned_from})" for r in data.incomplete.itertuples()],
+                    mixed_participant_files=[f"{f}: {', '.join(ids)}" for f, ids in data.mixed_files],
                     observer_model=bool(observer_model), observer_ci=observer_ci, observer_model_note=obs_note)
     res = AnalysisResult(data=data, conditions=cond, participants_condition=pc, participants_series=ps,
                          psychometric=psy, mixed=mm, attention=att, settings=settings, observer_model=obs_tab)
@@ -762,6 +1014,11 @@ def report_markdown(res: AnalysisResult) -> str:
         + f"; test trials: {s['n_test_trials']}; files: {s['n_files']}"
         + (f" ({len(s['skipped_files'])} header-only skipped)" if s["skipped_files"] else ""),
         *[f"- **left out**: {d}" for d in s.get("dropped_lines", [])],
+        *([f"- **incomplete sessions** (stopped early; analysed with the trials they have): "
+           f"{len(s['incomplete_sessions'])}"] + [f"  - {d}" for d in s["incomplete_sessions"]]
+          if s.get("incomplete_sessions") else []),
+        *[f"- **file with several participants** (each analysed as their own): {d}"
+          for d in s.get("mixed_participant_files", [])],
         f"- stimulus set(s): {', '.join(s['stimulus_set_ids'])}",
         f"- d' = z(H) - z(F), H = P(\"incorrect\" | perturbed), F = P(\"incorrect\" | unperturbed, "
         f"{'same error group' if s['control'] == 'group' else 'all groups pooled'}); correction: "

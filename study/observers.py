@@ -140,3 +140,90 @@ def simulate_cohort(stimuli: StimulusSet, observers: list[Observer] | Observer, 
 # The fit lives in study.observer_fit (likelihood, profile-likelihood / bootstrap CIs);
 # re-exported here, where the observer model is defined.
 from .observer_fit import ObserverFit, fit_observer_model  # noqa: E402
+
+
+def simulate_responses(stimuli: StimulusSet, observers: list[Observer] | Observer, *, n: int | None = None,
+                       design: DesignConfig | None = None, session_id: str = "S1", prefix: str = "SIM",
+                       seed: int = 0, n_done: np.ndarray | list | None = None) -> pd.DataFrame:
+    """Responses of many simulated participants at once, as the rows of their ``responses.csv`` files.
+
+    The fast path for large cohorts (benchmarks, scaling tests): it does not run the
+    harness (:func:`simulate_cohort` does, 0.1-0.3 s per participant). One plan is
+    made with :func:`study.design.make_plan` (participant ``{prefix}000``'s seed);
+    every participant answers its response trials in an order of their own (a
+    random permutation, seeded by ``seed``), with the observer model of the module
+    docstring (attention checks: the instructed answer, or a guess with probability
+    ``lapse``), log-normal response times. ``observers``: one per participant, or
+    one repeated ``n`` times. ``n_done``: trials answered per participant (a
+    session stopped early keeps its first ``n_done[i]`` rows); default all.
+    Columns: :data:`study.session.RESPONSE_COLUMNS` (times in ``shown_utc`` /
+    ``responded_utc`` left empty), in trial order per participant.
+    """
+    from .design import make_plan, participant_seed
+    from .session import RESPONSE_COLUMNS
+
+    obs = list(observers) if isinstance(observers, (list, tuple)) else [observers] * int(n or 1)
+    if not obs:
+        raise ValueError("no observers")
+    P = len(obs)
+    plan = make_plan(stimuli, design, participant_id=f"{prefix}000", seed=participant_seed(0, f"{prefix}000"))
+    rt_tab = plan.response_trials.reset_index(drop=True)
+    T = len(rt_tab)
+    rng = np.random.default_rng(seed)
+    order = np.argsort(rng.random((P, T)), axis=1)  # (P, T): which plan row each position shows
+    pert = rt_tab["perturbation"].to_numpy(object)
+    dirs = rt_tab["direction"].to_numpy(object)
+    lev = rt_tab["nominal_level"].to_numpy(float)
+    kind = rt_tab["kind"].to_numpy(object)
+    expected = rt_tab["expected_response"].fillna("").to_numpy(object)
+    # P(incorrect) per (observer, plan row); identical observers share one row of probabilities
+    cache: dict[int, np.ndarray] = {}
+    pinc = np.empty((P, T))
+    for i, ob in enumerate(obs):
+        key = id(ob)
+        if key not in cache:
+            cache[key] = np.array([float(ob.p_incorrect(p, d, x)) for p, d, x in zip(pert, dirs, lev)])
+        pinc[i] = cache[key]
+    lapse = np.array([ob.lapse for ob in obs])[:, None]
+    u = rng.random((P, T))
+    p_shown = np.take_along_axis(pinc, order, axis=1)
+    incorrect = u < p_shown
+    is_att = (kind == "attention")[order]
+    if is_att.any():
+        guess = rng.random((P, T)) < lapse
+        coin = rng.random((P, T)) < 0.5
+        exp_inc = (expected == "incorrect")[order]
+        incorrect = np.where(is_att, np.where(guess, coin, exp_inc), incorrect)
+    med = np.array([ob.rt_median_s for ob in obs])[:, None]
+    sig = np.array([ob.rt_sigma for ob in obs])[:, None]
+    rt = med * np.exp(sig * rng.standard_normal((P, T)))
+    done = np.full(P, T) if n_done is None else np.asarray(n_done, int)
+    if done.shape != (P,) or np.any((done < 0) | (done > T)):
+        raise ValueError(f"n_done must give 0..{T} answered trials for each of the {P} participants")
+    keep = (np.arange(T)[None, :] < done[:, None]).ravel()
+    flat = order.ravel()[keep]
+    pid = np.repeat(np.array([f"{prefix}{i:03d}" for i in range(P)], object), T)[keep]
+    resp = np.where(incorrect.ravel()[keep], "incorrect", "correct")
+    out = {c: np.full(len(flat), "", object) for c in RESPONSE_COLUMNS}
+    out.update(participant_id=pid, session_id=session_id, stimulus_set_id=plan.meta["stimulus_set_id"],
+               plan_sha256=plan.sha256, seed=str(plan.meta["seed"]),
+               trial_index=rt_tab["trial_index"].to_numpy()[flat], response=resp,
+               rated_correct=(resp == "correct").astype(int), input="observer", must_watch=0,
+               rt_s=np.round(rt.ravel()[keep], 4))
+    for c in ("kind", "group", "repetition", "stimulus_id", "condition", "perturbation", "direction",
+              "nominal_level", "base_clip", "expected_response"):
+        out[c] = rt_tab[c].to_numpy()[flat]
+    out["achieved_error"] = stimuli.table["achieved_error"].reindex(out["stimulus_id"]).to_numpy()
+    # rows in the order each participant answered (trial_index is the plan row, as in real files)
+    return pd.DataFrame(out, columns=list(RESPONSE_COLUMNS))
+
+
+def write_responses(df: pd.DataFrame, data_dir: str | Path) -> list[Path]:
+    """Write :func:`simulate_responses` rows as ``DATA/<participant>/<session>/responses.csv`` files."""
+    folders = []
+    for (pid, sid), sub in df.groupby(["participant_id", "session_id"], sort=True):
+        f = Path(data_dir) / str(pid) / str(sid)
+        f.mkdir(parents=True, exist_ok=True)
+        sub.to_csv(f / "responses.csv", index=False, lineterminator="\n")
+        folders.append(f)
+    return folders

@@ -195,7 +195,7 @@ def test_schema_errors_are_clear(tmp_path):
     rows = list(csv.DictReader(io.StringIO((tmp_path / "P1" / "S1" / "responses.csv").read_text())))
     rows[4]["response"] = "maybe"
     _write(tmp_path / "v" / "responses.csv", rows)
-    with pytest.raises(StudyDataError, match=r"responses\.csv:6 \[response\].*'maybe'"):
+    with pytest.raises(StudyDataError, match=r"responses\.csv:6: column response: value 'maybe' is "):
         load_responses(tmp_path / "v")
     # duplicate trial within a file
     rows = list(csv.DictReader(io.StringIO((tmp_path / "P1" / "S1" / "responses.csv").read_text())))
@@ -356,3 +356,157 @@ def test_psychometric_glm_cluster_robust_ses():
     r = fit_psychometric_glms(hom).iloc[0], fit_psychometric_glms(hom, se="model").iloc[0]
     assert r[0]["intercept_se"] == pytest.approx(r[1]["intercept_se"], rel=0.35)
     assert fit_psychometric_glms(het.assign(participant_id="P1")).iloc[0]["se_type"] == "model"  # one cluster
+
+
+# ------------------------------------------- incomplete sessions, mixed files (issue 12, section 4)
+def _rows_of(path: Path) -> list[dict]:
+    return list(csv.DictReader(io.StringIO(path.read_text())))
+
+
+def test_incomplete_session_is_analysed_and_listed(tmp_path):
+    """A participant who stopped early (after the take-off controls, before the take-off
+    condition): the participant bootstrap used to compare resampled control counts with
+    the trials of a condition nobody drawn had seen ("counts must satisfy 0 <= k <= n")."""
+    _known_dataset(tmp_path / "data")
+    f = tmp_path / "data" / "P1" / "S1" / "responses.csv"
+    rows = _rows_of(f)
+    _write(f, rows[:30])  # ctlA, a25, ctlT done; t20 and the attention check never reached
+    res = analyze(tmp_path / "data", tmp_path / "rep", n_boot=300, figures=False, observer_model=False)
+    t = res.conditions.set_index("condition").loc["takeoff/increase/20"]
+    assert t["n_participants"] == 1 and t["n_trials"] == 10
+    # P2 alone is drawn in ~3/4 of the resamples; only those define the take-off condition
+    assert 150 < t["n_boot_defined"] < 300
+    assert np.isfinite(t["dprime_ci_low"]) and t["dprime_ci_low"] <= t["dprime"] <= t["dprime_ci_high"]
+    inc = res.data.incomplete
+    assert inc[["participant_id", "n_answered", "n_planned"]].values.tolist() == [["P1", 30, 41]]
+    assert res.settings["incomplete_sessions"] == ["P1/S1: 30 of 41 trials (planned: longest session)"]
+    assert "P1/S1: 30 of 41 trials" in (tmp_path / "rep" / "report.md").read_text()
+    # with the session's plan.csv the planned count comes from it
+    plan = pd.DataFrame(dict(trial_index=range(43), kind=["example"] * 2 + ["test"] * 40 + ["attention"]))
+    plan.to_csv(f.parent / "plan.csv", index=False)
+    d = load_responses(tmp_path / "data")
+    assert d.incomplete[["n_planned", "planned_from"]].values.tolist() == [[41, "plan.csv"]]
+
+
+def test_bootstrap_counts_never_exceed_trials_with_ragged_sessions():
+    """Random cohorts of sessions stopped anywhere: every row's interval is computed (k <= n in
+    every resample), and the point estimate agrees with the pooled counts."""
+    rng = np.random.default_rng(3)
+    for rep in range(5):
+        rows = []
+        for p in range(int(rng.integers(2, 7))):
+            stop = int(rng.integers(1, 60))
+            for ti in range(stop):
+                cell = ti % 4
+                pert, d, lv, g = [("none", "none", 0, "angular_momentum"), ("am_abrupt", "increase", 25, "angular_momentum"),
+                                  ("none", "none", 0, "takeoff"), ("takeoff", "increase", 20, "takeoff")][cell]
+                rows.append(dict(participant_id=f"P{p}", kind="test", group=g, perturbation=pert, direction=d,
+                                 nominal_level=float(lv), incorrect=int(rng.random() < 0.5)))
+        df = pd.DataFrame(rows)
+        tab = condition_table(df, n_boot=200, seed=rep)
+        pert = tab[tab["perturbation"] != "none"]
+        assert (pert["n_boot_defined"] > 0).all()
+        assert (pert["dprime_ci_low"] <= pert["dprime_ci_high"]).all()
+
+
+def test_file_mixing_two_participants_is_split_with_a_warning(tmp_path):
+    _known_dataset(tmp_path / "ok")
+    both = _rows_of(tmp_path / "ok" / "P1" / "S1" / "responses.csv") + _rows_of(tmp_path / "ok" / "P2" / "S1" / "responses.csv")
+    _write(tmp_path / "mixed" / "P1" / "S1" / "responses.csv", both)
+    f = tmp_path / "mixed" / "P1" / "S1" / "responses.csv"
+    with pytest.warns(UserWarning, match=rf"{f}: rows of 2 participants in one file \('P1', 'P2'\)"):
+        res = analyze(tmp_path / "mixed", tmp_path / "rep", n_boot=100, figures=False, observer_model=False)
+    ref = analyze(tmp_path / "ok", None, n_boot=100, figures=False, observer_model=False)
+    assert res.data.participants == ["P1", "P2"]
+    pd.testing.assert_frame_equal(res.conditions, ref.conditions)
+    assert res.settings["mixed_participant_files"] == [f"{f}: P1, P2"]
+    assert "P1, P2" in (tmp_path / "rep" / "report.md").read_text()
+
+
+# ------------------------------------------------------ every bad value: one line, file:line:column
+@pytest.mark.parametrize("col, value, problem", [
+    ("nominal_level", "inf", "not finite"),
+    ("nominal_level", "-5", "negative"),
+    ("nominal_level", "abc", "not a finite number"),
+    ("nominal_level", "", "empty"),
+    ("trial_index", "1e30", "not a non-negative integer"),
+    ("trial_index", "inf", "not a non-negative integer"),
+    ("trial_index", "-3", "not a non-negative integer"),
+    ("trial_index", "2.5", "not a non-negative integer"),
+    ("trial_index", "99999999999", "out of range"),
+    ("rt_s", "abc", "not a finite time"),
+    ("rt_s", "nan", "not a finite time"),
+    ("rt_s", "-0.2", "negative"),
+    ("rt_s", "", "empty"),
+    ("client_rt_s", "inf", "not finite"),
+    ("achieved_error", "x", "not a finite number"),
+    ("repetition", "-1", "not a non-negative integer"),
+    ("kind", "tset", "not practice, test or attention"),
+    ("direction", "sideways", "not a known direction"),
+    ("response", "", "not 'correct' or 'incorrect'"),
+    ("participant_id", "P 1", "not a participant code"),
+    ("input", "mouse", "not one of"),
+    ("condition", "takeoff/increase/99", "inconsistent"),
+    ("rated_correct", "2", "inconsistent with the response"),
+])
+def test_every_bad_value_is_one_line_naming_file_line_column(tmp_path, col, value, problem):
+    _known_dataset(tmp_path / "ok")
+    rows = _rows_of(tmp_path / "ok" / "P2" / "S1" / "responses.csv")
+    rows[15][col] = value  # an am_abrupt trial; file line 17
+    f = tmp_path / "bad" / "responses.csv"
+    _write(f, rows)
+    with pytest.raises(StudyDataError) as ei:
+        load_responses(f.parent)
+    msg = str(ei.value)
+    assert "\n" not in msg
+    assert msg.startswith(f"{f}:17: column {col}: value {value!r} is "), msg
+    assert problem in msg, msg
+    assert ei.value.line == 17 and ei.value.column == col and ei.value.path == str(f)
+    # and the CLI prints it as its one error line, exit status 2
+    from mocomp.cli import main
+
+    assert main(["study", "analyze", str(f.parent), "-o", str(tmp_path / "r"), "--no-figures"]) == 2
+
+
+def test_unperturbed_level_must_be_zero_and_direction_match(tmp_path):
+    _known_dataset(tmp_path / "ok")
+    rows = _rows_of(tmp_path / "ok" / "P1" / "S1" / "responses.csv")
+    rows[0]["nominal_level"] = "5"  # a control (perturbation none)
+    _write(tmp_path / "a" / "responses.csv", rows)
+    with pytest.raises(StudyDataError, match=r"responses\.csv:2: column nominal_level: value '5' is not 0"):
+        load_responses(tmp_path / "a")
+    rows = _rows_of(tmp_path / "ok" / "P1" / "S1" / "responses.csv")
+    rows[12]["direction"] = "none"  # a perturbed motion without direction
+    _write(tmp_path / "b" / "responses.csv", rows)
+    with pytest.raises(StudyDataError, match=r"responses\.csv:14: column direction: value 'none' is inconsistent"):
+        load_responses(tmp_path / "b")
+
+
+def test_latin1_byte_is_one_line_naming_file_line_column(tmp_path, capsys):
+    _known_dataset(tmp_path / "ok")
+    f = tmp_path / "ok" / "P1" / "S1" / "responses.csv"
+    lines = f.read_bytes().split(b"\n")
+    lines[5] = lines[5].replace(b"P1,S1", "Pé,S1".encode("latin-1"), 1)  # a Latin-1 e-acute in participant_id
+    f.write_bytes(b"\n".join(lines))
+    with pytest.raises(StudyDataError) as ei:
+        load_responses(tmp_path / "ok")
+    msg = str(ei.value)
+    assert msg.startswith(f"{f}:6: column participant_id: value 'Pé' is not UTF-8 (byte 0xe9"), msg
+    assert "\n" not in msg
+    from mocomp.cli import main
+
+    assert main(["study", "analyze", str(tmp_path / "ok"), "-o", str(tmp_path / "r"), "--no-figures"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"{f}:6: column participant_id" in err[0], err
+
+
+def test_valid_optional_values_are_accepted(tmp_path):
+    """Empty optional fields, '12.0' trial indices and harness-style times load; types are numeric."""
+    _known_dataset(tmp_path / "ok")
+    f = tmp_path / "ok" / "P1" / "S1" / "responses.csv"
+    rows = _rows_of(f)
+    rows[3].update(trial_index="3.0", client_rt_s="", shown_utc="2026-11-22T02:46:00.178+00:00", condition="none")
+    _write(f, rows)
+    d = load_responses(tmp_path / "ok")
+    assert d.trials["trial_index"].dtype == np.int64 and d.trials["rt_s"].dtype == float
+    assert d.trials.loc[3, "trial_index"] == 3
