@@ -9,7 +9,7 @@ from mocomp.body import BodyModel, detect_convention
 
 EXPECTED = {  # file-name prefix -> naming convention
     "cmu_": "cmu_bvh", "01_01.bvh": "cmu_bvh", "131_": "cmu_3dsmax", "sfu_": "sfu", "bandai": "bandai",
-    "mass_": "mass", "deepmimic_": "deepmimic", ".amc": "cmu_asf",
+    "mass_": "mass", "deepmimic_": "deepmimic", ".amc": "cmu_asf", "ase_rl_": "ase",
 }
 
 

@@ -4,9 +4,11 @@
 one from the de Leva (1996) or Dempster (via Winter) tables
 (:mod:`~mocomp.body.tables`) through a bone -> segment mapping
 (:mod:`~mocomp.body.mapping`); :mod:`~mocomp.body.inertia` has the solids,
-:mod:`~mocomp.body.mjcf` the MuJoCo export. A DeepMimic character file's own
+:mod:`~mocomp.body.mjcf` the MuJoCo export. The ASE humanoid's own MJCF bodies
+(and its sword and shield props) are in :mod:`~mocomp.body.ase`. A DeepMimic character file's own
 bodies load with :func:`mocomp.io.deepmimic.read_deepmimic_body`.
 """
+from .ase import ase_body
 from .inertia import inertia_for_masses
 from .mapping import CONVENTIONS, SegmentMap, detect_convention
 from .model import BodyModel
@@ -15,6 +17,7 @@ from .tables import TABLES, get_table, mass_fractions
 
 __all__ = [
     "BodyModel",
+    "ase_body",
     "inertia_for_masses",
     "symmetric_groups",
     "expand_symmetric",

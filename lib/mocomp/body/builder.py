@@ -50,13 +50,16 @@ def density_of(kind: str, source: str) -> float:
 
 
 def build_from_table(cls, skeleton: Skeleton, total_mass: float, table, shape: str, mapping,
-                     densities: str | None = None):
+                     densities: str | None = None, props: str = "massless"):
     if not (np.isfinite(total_mass) and total_mass > 0):
         raise ValueError(f"total_mass must be a positive number of kilograms, got {total_mass!r}")
     if shape not in SHAPES:
         raise ValueError(f"unknown shape {shape!r}; choose one of {SHAPES}")
     if densities is not None and densities not in DENSITY_SOURCES:
         raise ValueError(f"unknown density source {densities!r}; choose one of {DENSITY_SOURCES}")
+    from .ase import _check_props
+
+    _check_props(props)
     t = get_table(table)
     rm = resolve_mapping(skeleton, mapping)
     rest = skeleton.rest_positions()
@@ -100,14 +103,36 @@ def build_from_table(cls, skeleton: Skeleton, total_mass: float, table, shape: s
                      "width/depth ratios: dissertation Table C.1")
     if abs(fsum - 1.0) > 1e-12:
         notes.append(f"table mass fractions sum to {fsum:.6f}; normalised to 1")
+    carriers, massless = rm.carriers, rm.massless_joints
+    if props == "ase":
+        # the sword and shield of ASE's humanoid, with ASE's MJCF masses, on top of total_mass
+        from .ase import prop_segments
+
+        extra = prop_segments(skeleton)
+        segs = tuple(segs) + tuple(e[0] for e in extra)
+        carriers = np.concatenate([carriers, [e[1] for e in extra]])
+        masses = np.concatenate([masses, [e[2] for e in extra]])
+        local_coms = np.concatenate([local_coms, [e[3] for e in extra]])
+        inertias = np.concatenate([inertias, [e[4] for e in extra]])
+        n = len(extra)
+        geom = SegmentGeometry(geom.kinds + ("given",) * n, np.concatenate([geom.lengths, np.full(n, np.nan)]),
+                               np.concatenate([geom.densities, np.full(n, np.nan)]),
+                               np.concatenate([geom.ratios, np.full(n, np.nan)]),
+                               np.concatenate([geom.axes, np.broadcast_to(np.eye(3), (n, 3, 3))]),
+                               np.concatenate([geom.gyration, np.full((n, 3), np.nan)]))
+        massless = tuple(j for j in massless if j not in {e[0] for e in extra})
+        notes.append("props: " + ", ".join(f"{e[0]} {e[2]:.3f} kg" for e in extra) + " from ASE's MJCF geoms, "
+                     f"added to the body's {total_mass:g} kg (mocomp.body.ase)")
+    elif any(p in massless for p in ("sword", "shield")) and rm.convention.name == "ase":
+        notes.append("props: sword and shield massless (props='ase' gives them ASE's MJCF masses)")
     return cls(
         skeleton=skeleton,
         segment_names=segs,
-        segment_joint=rm.carriers,
+        segment_joint=carriers,
         masses=masses,
         local_coms=local_coms,
         inertias=inertias,
-        massless_joints=rm.massless_joints,
+        massless_joints=massless,
         table=t.citation,
         shape=shape,
         geometry=geom,

@@ -251,6 +251,25 @@ CONVENTIONS["deepmimic"] = _convention(
      "foot box 0.177 m long, 0.045 m ahead of the ankle)",),
 )
 
+# ASE humanoid (NVIDIA ASE / AMP, Reallusion sword-and-shield clips): pelvis, torso, head,
+# {side}_upper_arm, {side}_lower_arm, {side}_hand, {side}_thigh, {side}_shin, {side}_foot, plus the
+# prop joints sword (under right_hand) and shield (under left_lower_arm). Offsets and body shapes
+# from ASE's MJCF (amp_humanoid_sword_shield.xml; Z-up there, Y-up x-forward in the derived BVH).
+CONVENTIONS["ase"] = _convention(
+    "ase",
+    {**_trunk(("mid", "left_thigh", "right_thigh"), "head"), "VERT": ("offset", "head", (0.0, 0.27, 0.0))},
+    {"SJC": "{side}_upper_arm", "EJC": "{side}_lower_arm", "WJC": "{side}_hand",
+     "MET3": ("extend", "{side}_lower_arm", "{side}_hand", 0.32),
+     "HJC": "{side}_thigh", "KJC": "{side}_shin", "AJC": "{side}_foot",
+     "TTIP": ("offset", "{side}_foot", (0.1335, -0.05, 0.0))},
+    "head", ("torso", "pelvis", "pelvis"),
+    ("{side}_upper_arm", "{side}_lower_arm", "{side}_hand", "{side}_thigh", "{side}_shin", "{side}_foot"),
+    ("head top and toe tip from ASE's MJCF body shapes (head sphere r 0.095 m centred 0.175 m above the head "
+     "joint; foot box 0.177 m long, 0.045 m ahead of and 0.05 m below the ankle); CERV = the head joint "
+     "(at shoulder level); trunk split as for DeepMimic (upper on torso, middle and lower on pelvis)",
+     "props: the sword and shield joints carry no mass unless props='ase' "
+     "(BodyModel.from_skeleton; masses, COMs and inertias of ASE's MJCF prop geoms, mocomp.body.ase)"),
+)
 
 # SFU's carrier names are a subset of the CMU BVH ones: try it last.
 CONVENTIONS["sfu"] = CONVENTIONS.pop("sfu")

@@ -121,7 +121,8 @@ class BodyModel:
     # ------------------------------------------------------------ constructors
     @classmethod
     def from_skeleton(cls, skeleton: Skeleton, total_mass: float = 70.0, table: str = "de_leva_male",
-                      shape: str = "ellipsoid", mapping=None, densities: str | None = None) -> "BodyModel":
+                      shape: str = "ellipsoid", mapping=None, densities: str | None = None,
+                     props: str = "massless") -> "BodyModel":
         """Segment masses, COMs and inertias for ``skeleton`` from a parameter table.
 
         Parameters
@@ -142,6 +143,13 @@ class BodyModel:
             default ``None``: ``"winter"`` for the ellipsoid, ``"table_c1"`` for the cuboid
             (why the ellipsoid keeps Winter's by default: :mod:`mocomp.body.tables`). The
             width/depth ratios are Table C.1's for both solids. Ignored for ``"gyration"``.
+        props: hand-held props of the skeleton (the ASE humanoid's ``sword`` and ``shield``
+            joints): ``"massless"`` (default; they carry nothing and are listed in
+            ``massless_joints``) or ``"ase"`` (two extra segments named ``"sword"`` and
+            ``"shield"`` with ASE's MJCF masses 0.70 and 2.12 kg, COMs and inertias, added
+            on top of ``total_mass``, which stays the body's own mass; see
+            :mod:`~mocomp.body.ase`, whose :func:`~mocomp.body.ase.ase_body` gives ASE's own
+            body masses instead of a table's).
 
         Each anatomical segment is one rigid body carried by one joint; its COM lies
         at the table's fraction along the proximal -> distal landmark line. Joints
@@ -149,7 +157,7 @@ class BodyModel:
         """
         from .builder import build_from_table
 
-        return build_from_table(cls, skeleton, total_mass, table, shape, mapping, densities)
+        return build_from_table(cls, skeleton, total_mass, table, shape, mapping, densities, props)
 
     # ---------------------------------------------------------------- helpers
     def symmetric_groups(self) -> list[list[int]]:
