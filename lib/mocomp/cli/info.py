@@ -1,4 +1,4 @@
-"""``mocomp info FILE_OR_NAME``: joints, frames, fps, duration, units, height, root travel."""
+"""``mocomp info FILE_OR_NAME``: joints, frames, fps, duration, units, height (and how it was estimated), root travel."""
 from __future__ import annotations
 
 import json

@@ -10,8 +10,6 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from .units import standing_height
-
 __all__ = ["MotionSummary", "summarize", "joint_speeds"]
 
 
@@ -41,8 +39,12 @@ class MotionSummary:
         ``"generated at this rate"`` (synthetic), ``"the file states none"`` (ASF/AMC).
     duration: seconds from first to last frame.
     unit_scale: metres per file length unit the loader applied; unit_reason: why.
-    standing_height: 95th percentile over frames of the vertical extent of joints
-        and end sites, m; rest_height: the same for the rest pose, m.
+    standing_height: the performer's height, m (:func:`mocomp.body.height.estimate_height`:
+        the measured head-top to foot extent, 95th percentile over frames, when the clip
+        stands upright; the skeleton's straight-chain stature from its bone lengths when
+        it never does; the vertical extent of all joints and end sites when no
+        body-segment mapping fits); height_basis: which of the three and why, in words;
+        rest_height: vertical extent of the rest pose, m.
     root_path_length: length of the root's path on the ground (x-z) plane, m.
     root_displacement: straight-line ground-plane distance first -> last frame, m.
     root_height_range: ``(min, max)`` root height (y), m.
@@ -71,6 +73,7 @@ class MotionSummary:
     peak_time: float
     notes: tuple[str, ...]
     fps_basis: str = ""
+    height_basis: str = ""
 
     def to_dict(self) -> dict:
         d = asdict(self)
@@ -90,7 +93,8 @@ class MotionSummary:
             ("fps", f"{self.fps:.6g}{hdr}"),
             ("duration", f"{self.duration:.3f} s"),
             ("unit scale", f"{self.unit_scale:.6g} m per file unit: {self.unit_reason}"),
-            ("height", f"{self.standing_height:.3f} m standing (rest pose {self.rest_height:.3f} m)"),
+            ("height", f"{self.standing_height:.3f} m standing (rest pose {self.rest_height:.3f} m)"
+                       + (f"; {self.height_basis}" if self.height_basis else "")),
             ("root travel", f"{self.root_path_length:.3f} m along the ground, {self.root_displacement:.3f} m "
                             f"start to end; root height {lo:.3f}-{hi:.3f} m"),
             ("peak speed", f"{self.peak_joint_speed:.2f} m/s ({self.peak_joint} at {self.peak_time:.3f} s)"),
@@ -133,6 +137,9 @@ def summarize(motion, name: str | None = None) -> MotionSummary:
     speeds = joint_speeds(motion)
     t, j = np.unravel_index(int(np.argmax(speeds)), speeds.shape)
     rest = sk.rest_positions(include_end_sites=True)
+    from ..body.height import estimate_height
+
+    height = estimate_height(motion)
     return MotionSummary(
         source=str(src.path) if src.path else (name or src.format),
         format=src.format,
@@ -146,7 +153,7 @@ def summarize(motion, name: str | None = None) -> MotionSummary:
         duration=float(motion.duration),
         unit_scale=float(src.unit_scale),
         unit_reason=src.unit_reason,
-        standing_height=standing_height(motion),
+        standing_height=height.value,
         rest_height=float(rest[:, 1].max() - rest[:, 1].min()),
         root_path_length=path,
         root_displacement=float(np.linalg.norm(ground[-1] - ground[0])),
@@ -156,4 +163,5 @@ def summarize(motion, name: str | None = None) -> MotionSummary:
         peak_time=float(t / motion.fps),
         notes=tuple(src.notes),
         fps_basis=fps_basis(src.format, float(motion.fps), src.header_fps),
+        height_basis=height.reason,
     )
