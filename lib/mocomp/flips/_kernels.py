@@ -7,8 +7,9 @@
   need not be validated again);
 * :func:`com_relative_nb` -- :meth:`mocomp.flips.reposition.ComEvaluator.relative`, the
   mass-weighted forward kinematics collapsed to one vector per joint;
-* :func:`landing_search_nb` -- the landing search of :func:`mocomp.flips.sequence.find_landing`
-  (eq. 5.12-5.13 over the candidate pairs, no pair arrays built); :func:`frame_distance_nb`;
+* :func:`landing_search_nb` -- the candidate pairs of :func:`mocomp.flips.sequence.find_landing`
+  and their eq. 5.12-5.13 distances (no (G, U) arrays built; the choice is made by the caller);
+  :func:`frame_distance_nb`;
 * :func:`landing_seam_nb` -- the landing seam smoothing (eq. 5.14) of
   :func:`mocomp.flips.multiflip.multiflip`; :func:`turn_roots_nb` -- each frame's rotation about ``L``;
   :func:`reposition_nb` -- the root positions of the retimed frames (interpolation, and on the
@@ -399,39 +400,45 @@ if AVAILABLE:
 
     @numba.njit(cache=True, nogil=True)
     def _landing_search(rot, theta, m, period, n_u, phi, g0, g1, extra_total, max_delta, axis, wr, nz, wj):
-        """The landing search of :func:`mocomp.flips.sequence.find_landing` without the
-        candidate arrays: over ``g`` in ``g0 .. g1-1`` (outer) and ``u`` in ``0 .. n_u-1`` (inner,
-        source frame ``m + u % period``, copy ``u // period`` turned by ``copy * phi``), pairs
-        whose rotation about ``L`` is within ``max_delta`` of ``theta[g] + extra_total`` are
-        scored by eq. 5.13 plus ``1e-6 |mismatch|``; the first lowest score wins.
-        Returns ``(u, g, D, mismatch, n_pairs)`` (``n_pairs = 0``: none)."""
+        """The candidate pairs of :func:`mocomp.flips.sequence.find_landing` without the (G, U)
+        arrays: over ``g`` in ``g0 .. g1-1`` (outer) and ``u`` in ``0 .. n_u-1`` (inner, source
+        frame ``m + u % period``, copy ``u // period`` turned by ``copy * phi``), the pairs whose
+        rotation about ``L`` is within ``max_delta`` of ``theta[g] + extra_total``, with their
+        eq. 5.13 distance. Returns ``(u, g, D, mismatch)`` arrays (empty: none); the caller
+        chooses among them."""
         ax, ay, az = axis[0], axis[1], axis[2]
-        best = math.inf
-        bu, bg, bd, bdiff = -1, -1, 0.0, 0.0
-        n_pairs = 0
         th_u = np.empty(n_u)                       # rotation about L of each unrolled frame
         for u in range(n_u):
             cp = u // period
             th_u[u] = theta[m + u - cp * period] + cp * phi
+        n_pairs = 0
+        for g in range(g0, g1):
+            want = theta[g] + extra_total
+            for u in range(n_u):
+                if abs(th_u[u] - want) <= max_delta:
+                    n_pairs += 1
+        us = np.empty(n_pairs, dtype=np.int64)
+        gs = np.empty(n_pairs, dtype=np.int64)
+        ds = np.empty(n_pairs)
+        diffs = np.empty(n_pairs)
+        k = 0
         for g in range(g0, g1):
             want = theta[g] + extra_total
             for u in range(n_u):
                 diff = th_u[u] - want
                 if abs(diff) <= max_delta:
                     f = m + u % period
-                    n_pairs += 1
                     d, _ = _pair_distance(rot, f, rot, g, ax, ay, az, wr, nz, wj)
-                    score = d + 1e-6 * abs(diff)
-                    if score < best or bu < 0:
-                        best = score
-                        bu, bg, bd, bdiff = u, g, d, diff
-        return bu, bg, bd, bdiff, n_pairs
+                    us[k], gs[k], ds[k], diffs[k] = u, g, d, diff
+                    k += 1
+        return us, gs, ds, diffs
 
 
 def landing_search_nb(rotations: np.ndarray, theta: np.ndarray, m: int, period: int, n_u: int, phi: float,
                       g0: int, g1: int, extra_total: float, max_delta: float, axis: np.ndarray, weights):
-    """Compiled landing search (see ``_landing_search``); the same pairs, distances and choice as
-    the array version in :func:`mocomp.flips.sequence.find_landing` (tested)."""
+    """Compiled landing-search candidates (see ``_landing_search``): ``(u, g, D, mismatch)``, the
+    same pairs and distances as the array version in :func:`mocomp.flips.sequence.find_landing`
+    (tested)."""
     nz, wj = _joint_weights(weights)
     a = _unit_axis(axis)
     return _landing_search(np.ascontiguousarray(rotations, dtype=np.float64),

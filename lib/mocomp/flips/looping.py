@@ -10,7 +10,27 @@ Choice among similar pairs: every pair of flight frames (away from take-off and
 landing) whose rotation about ``L`` is at least ``min_angle`` is scored by
 ``D(m, n) / phi``, the seam discontinuity per radian of rotation gained: a
 multi-flip needs about ``extra / phi`` seams, so this minimises the total seam
-discontinuity for a given extra rotation. A pair "exists" when its mean
+discontinuity for a given extra rotation.
+
+Ties (a robust choice): pairs whose cost is within :data:`TIE_RTOL` (relative) plus
+:data:`TIE_ATOL` (mean joint mismatch, radians per radian of ``phi``) of the lowest are
+equally good, and the choice among them does not follow the cost's rounding noise. Without
+this the choice is ill-conditioned wherever several pairs are (near-)perfect loops: in a held
+tuck all poses coincide up to the rotation about ``L``, every pair's ``D`` is rounding noise
+(~1e-17, ~1e-8 after a 1e-7 relative perturbation of the input) and the pick jumped between
+hosts and seeds (synthetic back flip: ``m`` 141-144 and periods 24-29 frames over five
+seeded 1e-7 perturbations). Among the tied pairs the rule is, in order:
+
+1. the largest ``phi`` (to within :data:`PHI_TOL` rad): the fewest seams for the extra
+   rotation, which is what ``D / phi`` itself prefers between pairs of equal ``D``;
+2. the pair centred nearest the middle of the flight (the apex of the ballistic COM path:
+   ``|m + n - (start + stop - 1)|`` smallest), farthest from take-off and landing poses;
+3. the earliest ``m``.
+
+Steps 2-3 compare integers, so a perturbation well below the tolerances cannot change the
+result (``tests/test_flips_tolerances.py`` perturbs the input by seeded 1e-7 noise).
+
+A pair "exists" when its mean
 weighted joint-angle difference is below ``max_mean_angle`` degrees; otherwise
 the best pair is still returned with ``found=False`` and the caller falls back
 (section 5.2: "the transition between any two chosen frames ... automatically by
@@ -27,7 +47,18 @@ import numpy as np
 from ..errors import PhysicsError
 from .similarity import SimilarityWeights, frame_distance
 
-__all__ = ["SelfLoop", "find_self_loop"]
+__all__ = ["SelfLoop", "find_self_loop", "TIE_RTOL", "TIE_ATOL", "PHI_TOL", "choose_tied"]
+
+#: relative tolerance within which two candidate costs are tied (the loop's ``D / phi`` and the
+#: landing join's ``D``)
+TIE_RTOL = 1e-4
+#: absolute tolerance of a tie, in radians of mean weighted joint mismatch (``D / sum(weights)``;
+#: per radian of ``phi`` for the loop cost): ~1.7e-4 degrees, far below anything visible and
+#: ~100x above the cost noise of a 1e-7 relative perturbation of the input (~2e-8)
+TIE_ATOL = 3e-6
+#: radians; loop angles closer than this count as equal for the largest-``phi`` rule (one frame
+#: of a flip turns ~0.05-0.1 rad; rounding and 1e-7 input noise move ``phi`` by ~1e-7)
+PHI_TOL = 1e-4
 
 
 @dataclass(frozen=True)
@@ -47,7 +78,8 @@ class SelfLoop:
     found: ``True`` when a pair met the similarity threshold; ``False`` means the
         fallback of section 5.2 (join the best pair by wider smoothing).
     n_pairs: number of pairs scored.
-    candidates: ``(k, 5)`` the best few pairs ``[m, n, phi, D, cost]`` (evidence).
+    candidates: ``(k, 5)`` the best few pairs ``[m, n, phi, D, cost]`` (evidence): the chosen
+        pair first, then the others by increasing cost (tied pairs may precede it in cost).
     seconds: time the search took.
     note: plain-words remark (e.g. why the fallback was used).
     """
@@ -68,6 +100,26 @@ class SelfLoop:
     def period(self) -> int:
         """Frames per repetition (``n - m``)."""
         return self.n - self.m
+
+
+def choose_tied(cost: np.ndarray, scale: float, rtol: float = TIE_RTOL, atol: float = TIE_ATOL) -> np.ndarray:
+    """Indices of the candidates tied with the lowest ``cost``: ``cost <= min (1 + rtol) + atol scale``
+    (``scale`` converts ``atol``, radians of mean joint mismatch, to the cost's units, e.g. the
+    sum of the eq. 5.13 weights). Non-finite costs are never tied."""
+    c = np.asarray(cost, dtype=float)
+    fin = np.isfinite(c)
+    if not np.any(fin):
+        return np.zeros(0, dtype=np.int64)
+    best = float(np.min(c[fin]))
+    return np.flatnonzero(fin & (c <= best * (1.0 + rtol) + atol * scale))
+
+
+def _pick_loop(cost, phi, mi, ni, pool, wsum, mid2):
+    """The tie rule of the module docstring over candidates ``pool``: index of the chosen pair."""
+    tied = pool[choose_tied(cost[pool], wsum)]
+    tied = tied[phi[tied] >= phi[tied].max() - PHI_TOL]
+    key = np.lexsort((mi[tied], np.abs(mi[tied] + ni[tied] - mid2)))
+    return int(tied[key[0]])
 
 
 def find_self_loop(rotations: np.ndarray, theta: np.ndarray, flight: tuple[int, int], axis: np.ndarray,
@@ -135,8 +187,9 @@ def find_self_loop(rotations: np.ndarray, theta: np.ndarray, flight: tuple[int, 
     good = mean_deg <= max_mean_angle
     found = bool(np.any(good))
     pool = np.flatnonzero(good) if found else np.arange(D.size)
-    best = pool[np.argmin(cost[pool])]
-    order = pool[np.argsort(cost[pool])[:keep]]
+    best = _pick_loop(cost, phi, mi, ni, pool, wsum, s + e - 1)
+    order = pool[np.argsort(cost[pool], kind="stable")]
+    order = np.concatenate([[best], order[order != best]])[:keep]     # the chosen pair first
     cands = np.column_stack([mi[order], ni[order], phi[order], D[order], cost[order]])
     note = ""
     if not found:
