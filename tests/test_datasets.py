@@ -404,7 +404,12 @@ def test_real_list_names_resolve(real_data_dir):
 
 
 REAL_MOTIONS = [p for p in real_files("**/*.bvh") + real_files("**/*.amc") + real_files("**/deepmimic_*.txt")
-                if "character" not in p.name]
+                if "character" not in p.name and p.parent.name not in ("skeletons", "metadata")]
+
+#: frame rates the data MANIFEST states for ASE clips (3 decimals; "Added 2026-12-01" table)
+ASE_MANIFEST_FPS = {"ase_rl_Dodge_Backward": 29.857, "ase_rl_Atk_Kick": 29.901, "ase_rl_Atk_SlashDown": 29.897,
+                    "ase_rl_Fall_Left": 29.962, "ase_rl_Atk_4xCombo01": 29.97, "ase_rl_Dodgle_Left": 30.0,
+                    "ase_rl_Fall_SpinRight": 29.999, "ase_rl_Fall_Backward": 29.998, "ase_rl_Atk_2xCombo01": 29.925}
 
 
 @pytest.fixture(scope="module")
@@ -415,7 +420,7 @@ def real_names(real_data_dir):
 
 @pytest.mark.parametrize("path", REAL_MOTIONS, ids=lambda p: p.name)
 def test_every_real_clip_loads_by_its_listed_name(path, real_names, real_data_dir):
-    from mocomp.io.units import standing_height
+    from mocomp.body.height import standing_height
 
     name = real_names[path.relative_to(real_data_dir).as_posix()]
     with warnings.catch_warnings():
@@ -423,8 +428,66 @@ def test_every_real_clip_loads_by_its_listed_name(path, real_names, real_data_di
         m = datasets.load(name)
     assert m.source.path == str(path)
     assert np.all(np.isfinite(m.positions))
-    assert 1.2 < standing_height(m) < 2.4, "implausible body height: wrong unit?"
-    assert m.fps in (16.0, 30.0, 60.0, 120.0) or m.source.format == "deepmimic"
+    # the performer's height (measured when upright, from the bone lengths when never upright)
+    assert 1.3 < standing_height(m) < 2.0, "implausible body height: wrong unit?"
+    if path.name.startswith("ase_rl_"):
+        # ASE clips keep their source's own non-integer rate (Frame Time = 1/fps), never rounded
+        # (a whole 30 Hz the source wrote as Frame Time 0.0333333 is 30 Hz, as for every BVH)
+        whole = datasets.rounded_frame_rate(m.source.header_fps)
+        assert m.fps == (float(whole) if whole else m.source.header_fps) and 29.8 < m.fps <= 30.0
+        stem = path.name.split(".")[0]
+        if stem in ASE_MANIFEST_FPS:
+            assert m.fps == pytest.approx(ASE_MANIFEST_FPS[stem], abs=6e-4)
+    else:
+        assert m.fps in (16.0, 30.0, 60.0, 120.0) or m.source.format == "deepmimic"
+
+
+def test_registry_lists_exactly_the_motion_files(real_data_dir):
+    """Walking the data folder (new folders reactions/, attacks/, combos/, runs/, idle/ ...) finds
+    every motion file and nothing else (no licence text, MJCF model or CSV from skeletons/, metadata/)."""
+    found = datasets.real_clips(real_data_dir)
+    assert set(found) == set(REAL_MOTIONS)
+    folders = {p.parent.name for p in found}
+    assert {"reactions", "attacks", "combos", "runs", "idle", "kicks_punches", "walks"} <= folders
+    assert not folders & {"skeletons", "metadata"}
+    names = datasets.list().query("kind == 'real'").name
+    assert names.is_unique and len(names) == len(found)
+
+
+def test_ase_clips_load_by_source_stem(real_data_dir):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # metres by the clip facts: no unit warning
+        m = datasets.load("ase_rl_Fall_Left")
+    assert m.source.path == str(real_data_dir / "reactions" / "ase_rl_Fall_Left.derived.bvh")
+    assert m.source.unit_scale == 1.0 and "ASE" in m.source.unit_reason
+    assert m.fps == pytest.approx(29.962, abs=6e-4)
+    assert any("kept as written" in n for n in m.source.notes)
+    f = clips.facts_for("attacks/ase_rl_Atk_ShieldCharge.derived.bvh")
+    assert (f.source, f.unit, f.fps) == ("ase", "m", None)
+
+
+@pytest.mark.parametrize("frame_time, whole", [
+    (".0083333", 120), ("0.008333", 120), ("0.00833333", 120), (".0166667", 60), ("0.0333333", 30),
+    ("0.033333", 30), ("0.0333333333", 30), ("0.0625", 16),
+    # ASE's own rates, printed to the digits that distinguish them from 30 Hz
+    ("0.0334925", None), ("0.0333346008", None), ("0.0333349", None), ("0.0333351", None), ("0.0334111922", None),
+])
+def test_rounded_frame_rate(frame_time, whole):
+    assert datasets.rounded_frame_rate(1.0 / float(frame_time)) == whole
+
+
+def test_non_integer_bvh_rate_is_kept(tmp_path):
+    """A BVH whose Frame Time states 29.857 Hz (ASE's Dodge_Backward) keeps that rate exactly;
+    the previous relative 1e-4 snap turned 29.998 Hz into 30."""
+    from mocomp.io import write_bvh
+
+    for ft, want in (("0.0333355", 1 / 0.0333355), ("0.0334925", 1 / 0.0334925), ("0.0333333", 30.0)):
+        f = tmp_path / f"ase_rl_Test_{ft[-4:]}.derived.bvh"
+        write_bvh(small_motion(), f)
+        f.write_text(re.sub(r"Frame Time: \S+", f"Frame Time: {ft}", f.read_text()))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            assert datasets.load(str(f)).fps == want, ft
 
 
 @pytest.mark.parametrize("name", ["backflip", "frontflip", "sideflip", "twist180", "twist360", "jump"])

@@ -9,8 +9,8 @@
 
 Lookup order for ``load(name)``: an embedded example name; an existing file
 path; a clip in the data directory (``$MOCOMP_DATA_DIR``) by file stem
-(``01_01``), file name (``01_01.amc``), path relative to the directory
-(``jumps/01_01.amc``) or CMU trial id (``88_01`` finds ``cmu_88_01_backflip.bvh``).
+(``01_01``; a derived file ``ase_rl_Fall_Left.derived.bvh`` also by ``ase_rl_Fall_Left``),
+file name (``01_01.amc``), path relative to the directory (``jumps/01_01.amc``) or CMU trial id (``88_01`` finds ``cmu_88_01_backflip.bvh``).
 When several files share a name, BVH wins over ASF/AMC over DeepMimic.
 
 Real clips get the known corrections of :mod:`mocomp.datasets.clips` (true
@@ -36,7 +36,7 @@ from .download import CMU_REGISTRY, fetch_cmu, normalize_trial
 from .examples import EXAMPLES, Example, register
 
 __all__ = ["load", "load_example", "list", "find_clip", "real_clips", "examples", "data_dir", "ENV_VAR",
-           "fetch_cmu", "facts_for", "ClipFacts", "Example", "register", "EXAMPLES"]
+           "fetch_cmu", "facts_for", "ClipFacts", "Example", "register", "EXAMPLES", "rounded_frame_rate"]
 
 #: file kinds that hold a skeleton motion, in order of preference when names collide
 _PREFERENCE = (".bvh", ".amc", ".txt", ".json")
@@ -123,6 +123,8 @@ def find_clip(name: str, root: str | Path | None = None) -> Path:
     hits = [p for p in clips if p.relative_to(root).as_posix().lower() == low or p.name.lower() == low]
     if not hits:
         hits = [p for p in clips if p.stem.lower() == low]
+    if not hits:  # derived files (ase_rl_Fall_Left.derived.bvh) also answer to their source's stem
+        hits = [p for p in clips if p.stem.lower().endswith(".derived") and p.stem.lower()[:-8] == low]
     if not hits and re.fullmatch(r"\d{1,3}_\d{1,3}", key):
         tid = normalize_trial(key)
         hits = [p for p in clips if _trial_of(p.stem) == tid]
@@ -171,12 +173,13 @@ _SOURCE_NAMES = {
     "deepmimic": "DeepMimic motion (its character file goes in skeletons/)",
     "mass": "MASS (retargeted BVH)",
     "hdm05": "HDM05 (ASF/AMC, C3D markers)",
+    "ase": "ASE / Reallusion sword-and-shield library (BVH derived from ASE's npy motions)",
 }
 
 
 def _source_hint(name: str, root: Path | None) -> str:
     """How to obtain a non-CMU clip: its data set (from the name's prefix: ``sfu_``,
-    ``bandai``, ``deepmimic_``, ``mass_``, ``hdm05``/``HDM_``) and where its origin is
+    ``bandai``, ``deepmimic_``, ``mass_``, ``hdm05``/``HDM_``, ``ase_``) and where its origin is
     recorded (the data MANIFEST.md's source column; quoted when a row names the clip)."""
     stem = Path(name.strip().replace("\\", "/")).name
     low = stem.lower()
@@ -232,6 +235,37 @@ def _read(path: Path, scale=None, fps=None, **kw):
     raise MotionFormatError(f"no reader for {path.suffix or 'extension-less'} files", path)
 
 
+def _printed_decimals(x: float) -> int | None:
+    """Decimals of the shortest decimal text that reads back as ``x`` (to 4 ulp), ``None`` past 15."""
+    import numpy as np
+
+    for d in range(1, 16):
+        if abs(round(x, d) - x) <= 4 * np.spacing(x):
+            return d
+    return None
+
+
+def rounded_frame_rate(header_fps: float) -> int | None:
+    """The whole frame rate ``N`` whose frame time ``1/N``, cut or rounded to the decimals the
+    header printed, is the header's frame time (``.0083333`` -> 120, ``0.033333`` -> 30), else ``None``.
+
+    The header's frame time is ``1/header_fps``; the decimals it was printed with are those of
+    its shortest decimal text. It is a rounded ``1/N`` when it differs from ``1/N`` by less than
+    one unit of its last printed digit. Rates a source states on purpose with more digits than a
+    rounded whole rate would need (ASE's ``Frame Time: 0.0334925`` = 29.857 Hz, ``0.0333346008``
+    = 29.9988 Hz) are not whole rates.
+    """
+    if not (header_fps > 0) or header_fps != header_fps:
+        return None
+    n = round(header_fps)
+    if n < 1:
+        return None
+    ft = 1.0 / header_fps
+    d = _printed_decimals(ft)
+    tol = 10.0 ** -d if d is not None else 1e-15
+    return int(n) if abs(ft - 1.0 / n) < tol else None
+
+
 def _apply_facts(path: Path, fps, scale, raw: bool, **kw):
     facts = facts_for(path)
     use_scale = scale if (scale is not None or raw) else facts.unit
@@ -252,9 +286,9 @@ def _apply_facts(path: Path, fps, scale, raw: bool, **kw):
             notes.append(f"frame rate {facts.fps:g} Hz used instead of the header's "
                          f"{hdr:.6g} Hz: {facts.fps_reason}; override with fps= or raw=True" if hdr else
                          f"frame rate {facts.fps:g} Hz: {facts.fps_reason}")
-    elif (fps is None and hdr and src.format == "bvh" and round(hdr) != hdr
-          and abs(hdr - round(hdr)) <= 1e-4 * hdr):
-        # BVH "Frame Time: .0083333" means 120 Hz: snap rates that are whole numbers up to the rounding
+    elif fps is None and hdr and src.format == "bvh" and round(hdr) != hdr and rounded_frame_rate(hdr):
+        # BVH "Frame Time: .0083333" means 120 Hz: snap rates that are whole numbers up to the printed
+        # digits of the frame time; a rate such as ASE's 29.857 Hz (Frame Time 0.0334925) is kept
         if abs(hdr - round(hdr)) > 1e-7 * hdr:
             notes.append(f"frame rate {round(hdr)} Hz (the header's {hdr:.7g} Hz is a rounded frame time)")
         m = m.replace(fps=float(round(hdr)))

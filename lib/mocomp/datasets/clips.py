@@ -16,6 +16,11 @@ where each was checked on the clips themselves:
 * **T-pose frame.** The cgspeed "MotionBuilder-friendly" CMU BVH files start
   with a T-pose frame that is not part of the take (the real motion starts at
   file frame 1); finite differences across it are meaningless.
+* **ASE clips** (``ase_rl_*.derived.bvh``: the Reallusion sword-and-shield library of NVIDIA's
+  ASE, retargeted to ASE's 17-body humanoid with ``sword`` and ``shield`` prop joints) are in
+  metres and carry their source's own frame rates (the npy ``fps`` field, 29.857-30.000 Hz,
+  written as ``Frame Time = 1/fps``); the rate is kept as written, never rounded. Some joint
+  centres go 0.10-0.19 m below the floor while lying after the falls (retargeting penetration).
 * **MASS clips** are retargeted and their 120 Hz header is not physical (the
   back flip's flight implies ~50-60 Hz); no fps is imposed, a note says so.
 
@@ -58,7 +63,7 @@ class ClipFacts:
     Attributes
     ----------
     source: data source (``"cmu"``, ``"sfu"``, ``"bandai"``, ``"mass"``, ``"deepmimic"``,
-        ``"hdm05"`` or ``"unknown"``).
+        ``"hdm05"``, ``"ase"`` or ``"unknown"``).
     unit: length unit of the file (a key of :data:`mocomp.io.UNITS`), ``None`` when the
         format itself says (ASF ``units`` block) or the source is unknown.
     unit_reason: where that unit comes from.
@@ -90,6 +95,12 @@ def facts_for(path: str | Path) -> ClipFacts:
         return ClipFacts("mass", "cm", "MASS BVH files are in centimetres", notes=(
             "MASS clips are retargeted and their 120 Hz header is not physical (the back flip's flight implies "
             "~50-60 Hz); check timing with a gravity-from-flight fit before momentum work",))
+    if low.startswith("ase_"):
+        return ClipFacts("ase", "m", "ASE derived BVH files are in metres (data MANIFEST)", notes=(
+            "ASE clip: the source's own frame rate (npy fps field, Frame Time = 1/fps) is kept as written",
+            "ASE humanoid: the sword and shield joints are props (massless in BodyModel.from_skeleton unless "
+            "props='ase'); lying after a fall, some joint centres go 0.10-0.19 m below the floor (retargeting "
+            "penetration, data MANIFEST)"))
     if low.startswith("deepmimic_"):
         return ClipFacts("deepmimic", "m", "DeepMimic motions are in metres")
     if low.startswith("hdm_"):
