@@ -6,14 +6,25 @@
 from __future__ import annotations
 
 import argparse
+import errno
 import json
 import os
+import secrets
 import signal
+import socket
 import subprocess
 import sys
+import threading
+import time
 from pathlib import Path
 
-__all__ = ["register_run", "register_analyze", "voila_command", "app_notebook", "cull_interval", "KERNEL_CULL_S"]
+from mocomp.errors import MocompError
+
+__all__ = ["register_run", "register_analyze", "voila_command", "app_notebook", "cull_interval", "KERNEL_CULL_S",
+           "HOST", "check_port_free", "free_port", "StudyServer", "ServerStopped"]
+
+#: The only interface the participant app is served on.
+HOST = "127.0.0.1"
 
 
 def app_notebook() -> Path:
@@ -47,16 +58,278 @@ def voila_command(port: int, notebook: str | Path | None = None, *, python: str 
     page's "Try again" opens the session where it stopped; two windows never
     write at once (the lock is an exclusive ``flock``, held until the old
     kernel's process has exited).
+
+    The server binds exactly ``port`` (``--Voila.port_retries=0``: if that port is
+    taken it exits instead of moving to another one, so the printed address is
+    always the served one) and requires a token (``--token``, Voila's
+    ``auto_token`` flag: jupyter_server's ``IdentityProvider`` then takes the
+    token from ``$JUPYTER_TOKEN``, which :class:`StudyServer` sets, so the
+    secret never appears on a command line that ``ps`` shows). Requests without
+    it are redirected to the login page and start no kernel; the page opened
+    with ``?token=...`` gets a login cookie (named for the port, signed with a
+    per-server secret), which its websocket and the ``beforeunload`` beacon
+    (with its ``_xsrf`` field) carry.
     """
     nb = Path(notebook) if notebook is not None else app_notebook()
     cull = int(cull_idle_s)
     if cull < 1:
         raise ValueError(f"cull_idle_s must be >= 1 s, got {cull_idle_s}")
-    return [python or sys.executable, "-m", "voila", "--no-browser", f"--port={int(port)}", "--Voila.ip=127.0.0.1",
-            "--show_tracebacks=False", "--theme=light",
+    port = int(port)
+    if not 1 <= port <= 65535:
+        raise ValueError(f"port must be 1-65535, got {port}")
+    return [python or sys.executable, "-m", "voila", "--no-browser", f"--port={port}", "--Voila.port_retries=0",
+            f"--Voila.ip={HOST}", "--token", "--show_tracebacks=False", "--theme=light",
             f"--MappingKernelManager.cull_idle_timeout={cull}",
             f"--MappingKernelManager.cull_interval={cull_interval(cull)}",
             "--MappingKernelManager.cull_connected=False", "--MappingKernelManager.cull_busy=False", str(nb)]
+
+
+def check_port_free(port: int, host: str = HOST) -> None:
+    """Refuse a port that is taken on ``host`` (bind a socket to it, as the server will).
+
+    ``SO_REUSEADDR`` as tornado sets it, so a port only in ``TIME_WAIT`` counts as free
+    while any socket bound or listening there (also on the wildcard address) counts as taken.
+    """
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            s.bind((host, int(port)))
+        except OSError as e:
+            why = "is already in use" if e.errno == errno.EADDRINUSE else f"cannot be used ({e.strerror})"
+            raise MocompError(f"port {port} on {host} {why}: the study server would not be reachable at the "
+                              f"address it prints; stop what uses it, or choose another --port (--port 0 picks a "
+                              f"free one)") from None
+
+
+def free_port(host: str = HOST) -> int:
+    """A port that is free on ``host`` now (the kernel's choice for port 0)."""
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.bind((host, 0))
+        return int(s.getsockname()[1])
+
+
+class ServerStopped(BaseException):
+    """Raised in the main thread by SIGTERM/SIGINT/SIGHUP while :class:`StudyServer` serves."""
+
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = int(signum)
+
+
+def _proc_start(pid: int) -> str | None:
+    """The start time of process ``pid`` (field 22 of /proc/PID/stat), to tell a reused pid apart."""
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[19]
+    except (OSError, IndexError):
+        return None
+
+
+def _tree(pid: int) -> dict[int, str | None]:
+    """``pid`` and all its descendants (kernels run in sessions of their own, so a process-group
+    kill misses them), each with its start time: {pid: start}. psutil where installed, else /proc."""
+    try:
+        import psutil
+    except ImportError:  # pragma: no cover - psutil comes with ipykernel
+        psutil = None
+    if psutil is not None:
+        try:
+            root = psutil.Process(pid)
+            procs = [root] + root.children(recursive=True)
+        except psutil.Error:
+            return {}
+        out = {}
+        for p in procs:
+            try:
+                out[p.pid] = repr(p.create_time())
+            except psutil.Error:
+                pass
+        return out
+    children: dict[int, list[int]] = {}  # pragma: no cover
+    for d in Path("/proc").iterdir():
+        if d.name.isdigit():
+            try:
+                ppid = int(Path(d, "stat").read_text().rsplit(")", 1)[1].split()[1])
+            except (OSError, IndexError, ValueError):
+                continue
+            children.setdefault(ppid, []).append(int(d.name))
+    out, stack = {}, [pid]
+    while stack:
+        q = stack.pop()
+        if (st := _proc_start(q)) is not None:
+            out[q] = st
+        stack.extend(children.get(q, []))
+    return out
+
+
+def _alive(pid: int, start: str | None) -> bool:
+    """The process (pid with that start time) still runs and is not a zombie."""
+    try:
+        import psutil
+    except ImportError:  # pragma: no cover
+        psutil = None
+    if psutil is not None:
+        try:
+            p = psutil.Process(pid)
+            return repr(p.create_time()) == start and p.status() != psutil.STATUS_ZOMBIE
+        except psutil.Error:
+            return False
+    st = _proc_start(pid)  # pragma: no cover
+    if st is None or st != start:
+        return False
+    return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+
+
+def _listening_ports(pids) -> set[int]:
+    """TCP ports on which one of ``pids`` listens (psutil; empty set without it)."""
+    try:
+        import psutil
+    except ImportError:  # pragma: no cover
+        return set()
+    ports = set()
+    for pid in pids:
+        try:
+            conns = psutil.Process(pid).net_connections(kind="tcp")
+        except psutil.Error:
+            continue
+        ports.update(c.laddr.port for c in conns if c.status == psutil.CONN_LISTEN)
+    return ports
+
+
+class StudyServer:
+    """The Voila server of one session, and every process it starts (its kernels).
+
+    Started in a session of its own (``start_new_session``), so a Ctrl-C in the
+    terminal reaches only ``mocomp study run``, which then stops the server
+    itself. The process tree (the server and its kernels, which jupyter_client
+    starts in sessions of their own) is recorded while it serves, and
+    :meth:`stop` ends all of it on every exit path: first SIGINT to the server
+    (Voila then shuts its kernels down, which release their session locks), then
+    SIGTERM and finally SIGKILL to every recorded process that is still there.
+    Used as a context manager, with SIGTERM/SIGINT/SIGHUP turned into
+    :class:`ServerStopped` while inside (so they unwind through ``finally``).
+    """
+
+    def __init__(self, cmd: list[str], env: dict, port: int, token: str, host: str = HOST, *,
+                 grace_s: float = 15.0, term_s: float = 5.0):
+        self.cmd, self.env, self.port, self.token, self.host = list(cmd), dict(env), int(port), token, host
+        self.grace_s, self.term_s = float(grace_s), float(term_s)
+        self.env["JUPYTER_TOKEN"] = token
+        self.env.pop("JUPYTER_TOKEN_FILE", None)
+        self.proc: subprocess.Popen | None = None
+        self._known: dict[int, str | None] = {}
+        self._old_handlers: dict[int, object] = {}
+
+    @property
+    def url(self) -> str:
+        """The address to open: this server's port and its token."""
+        return f"http://{self.host}:{self.port}/?token={self.token}"
+
+    # -------------------------------------------------------------- lifecycle
+    def __enter__(self) -> "StudyServer":
+        if threading.current_thread() is threading.main_thread():
+            for sig in (signal.SIGTERM, signal.SIGINT, signal.SIGHUP):
+                self._old_handlers[sig] = signal.signal(sig, self._on_signal)
+        try:
+            self.start()
+        except BaseException:
+            self.__exit__(None, None, None)
+            raise
+        return self
+
+    def __exit__(self, *exc) -> None:
+        try:
+            for sig in self._old_handlers:  # a second signal must not interrupt the shutdown
+                signal.signal(sig, signal.SIG_IGN)
+            self.stop()
+        finally:
+            for sig, h in self._old_handlers.items():
+                signal.signal(sig, h)
+            self._old_handlers = {}
+
+    @staticmethod
+    def _on_signal(signum, frame):
+        raise ServerStopped(signum)
+
+    def start(self) -> None:
+        self.proc = subprocess.Popen(self.cmd, env=self.env, stdin=subprocess.DEVNULL, start_new_session=True)
+        self._known = _tree(self.proc.pid)
+
+    def _remember(self) -> None:
+        if self.proc is not None and self.proc.poll() is None:
+            self._known.update(_tree(self.proc.pid))
+
+    def wait_ready(self, timeout: float = 180.0) -> None:
+        """Wait until the server listens on ``self.port`` (it must be that process tree listening
+        there); refuse if it exits first or does not listen within ``timeout`` seconds."""
+        deadline = time.monotonic() + timeout
+        while True:
+            rc = self.proc.poll()
+            if rc is not None:
+                raise MocompError(f"the study server (Voila) exited with code {rc} before serving on "
+                                  f"{self.host}:{self.port} (was the port taken meanwhile? its output is above)")
+            self._remember()
+            try:
+                with socket.create_connection((self.host, self.port), timeout=1):
+                    pass
+            except OSError:
+                pass
+            else:
+                ports = _listening_ports(self._known)
+                if not ports or self.port in ports:  # (empty: psutil missing; the port was free before)
+                    return
+                raise MocompError(f"something else answers on {self.host}:{self.port}, while the study server "
+                                  f"listens on {sorted(ports)}; refusing to print an address it does not serve")
+            if time.monotonic() > deadline:
+                raise MocompError(f"the study server did not listen on {self.host}:{self.port} within "
+                                  f"{timeout:.0f} s")
+            time.sleep(0.25)
+
+    def wait(self) -> int:
+        """Serve until the server exits on its own; its exit code."""
+        while True:
+            try:
+                return self.proc.wait(timeout=0.5)
+            except subprocess.TimeoutExpired:
+                # kernels come and go with pages; one started less than 0.5 s before a server
+                # crash is not recorded, but ipykernel ends itself when its parent changes
+                self._remember()
+
+    def stop(self) -> None:
+        """End the server and every process it started (see the class docstring); idempotent.
+
+        SIGINT, then up to ``grace_s`` for Voila to shut its kernels down; then SIGTERM to what is
+        left, ``term_s`` later SIGKILL."""
+        if self.proc is None:
+            return
+        self._remember()
+        if self.proc.poll() is None:
+            try:
+                self.proc.send_signal(signal.SIGINT)  # Voila: stop serving, shut every kernel down
+                self.proc.wait(timeout=self.grace_s)
+            except subprocess.TimeoutExpired:
+                pass
+        for sig, wait_s in ((signal.SIGTERM, self.term_s), (signal.SIGKILL, 5.0)):
+            left = {p: st for p, st in self._known.items() if _alive(p, st)}
+            if not left:
+                break
+            for p in left:
+                try:
+                    os.kill(p, sig)
+                except (ProcessLookupError, PermissionError):
+                    pass
+            try:
+                os.killpg(self.proc.pid, sig)  # anything else in the server's own group
+            except (ProcessLookupError, PermissionError):
+                pass
+            deadline = time.monotonic() + wait_s
+            while time.monotonic() < deadline and any(_alive(p, st) for p, st in left.items()):
+                self.proc.poll()
+                time.sleep(0.1)
+        try:
+            self.proc.wait(timeout=5)
+        except subprocess.TimeoutExpired:  # pragma: no cover
+            pass
+        self.proc = None
 
 
 def register_run(subparsers) -> argparse.ArgumentParser:
@@ -70,7 +343,8 @@ def register_run(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--session", required=True, help="session id, e.g. S1")
     p.add_argument("--manifest", required=True, help="stimulus manifest CSV (from `mocomp study render`)")
     p.add_argument("--data", required=True, metavar="DIR", help="folder for session data")
-    p.add_argument("--port", type=int, default=8866, help="port on 127.0.0.1 (default 8866)")
+    p.add_argument("--port", type=int, default=8866,
+                   help="port on 127.0.0.1 (default 8866; 0 = a free port); refused if it is taken")
     p.add_argument("--design", metavar="JSON", help="trial-design settings (JSON file, fields of study.design.DesignConfig)")
     p.add_argument("--study-seed", type=int, default=0, help="study seed; the participant seed derives from it and the id")
     p.add_argument("--seed", type=int, default=None, help="explicit participant seed (overrides --study-seed)")
@@ -152,21 +426,29 @@ def run_run(args) -> int:
     if args.print_config:
         print(json.dumps(cfg, indent=2))
         return 0
+    if not 0 <= args.port <= 65535:
+        raise ValueError(f"--port must be 0-65535, got {args.port}")
+    port = free_port() if args.port == 0 else args.port
+    check_port_free(port)  # refuse now, in one line; the server itself never moves to another port
     env = dict(os.environ)
     env["MOCOMP_STUDY_CONFIG"] = json.dumps(cfg)
-    cmd = voila_command(args.port, cull_idle_s=args.kernel_cull_s)
-    print(f"participant {args.participant}, session {args.session}: open http://127.0.0.1:{args.port}/ "
-          f"(data -> {data / args.participant / args.session}); Ctrl-C stops the server", flush=True)
-    proc = subprocess.Popen(cmd, env=env)
+    cmd = voila_command(port, cull_idle_s=args.kernel_cull_s)
+    token = secrets.token_urlsafe(24)  # this session's; only the printed address carries it
     try:
-        return proc.wait()
-    except KeyboardInterrupt:
-        proc.send_signal(signal.SIGINT)
-        try:
-            return proc.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            return proc.wait()
+        with StudyServer(cmd, env, port, token) as server:
+            server.wait_ready()
+            print(f"participant {args.participant}, session {args.session}: open {server.url} "
+                  f"(data -> {data / args.participant / args.session}); Ctrl-C stops the server", flush=True)
+            rc = server.wait()
+            if rc != 0:
+                raise MocompError(f"the study server (Voila) on {HOST}:{port} exited with code {rc} (its output "
+                                  "is above); the responses written so far are kept")
+            return 0
+    except ServerStopped as e:
+        print(f"participant {args.participant}, session {args.session}: server on {HOST}:{port} stopped "
+              f"({signal.Signals(e.signum).name}); the responses so far are saved, the same command resumes",
+              file=sys.stderr, flush=True)
+        return 128 + e.signum
 
 
 def register_analyze(subparsers) -> argparse.ArgumentParser:

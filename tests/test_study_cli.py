@@ -105,3 +105,297 @@ def test_package_docstring_lists_every_module():
     mods = sorted(p.stem for p in Path(study.__file__).parent.glob("*.py") if p.stem != "__init__")
     missing = [m for m in mods if f":mod:`study.{m}`" not in study.__doc__]
     assert not missing, missing
+
+
+# ------------------------------------------------------------------ the server of `mocomp study run`
+import os  # noqa: E402
+import signal  # noqa: E402
+import socket  # noqa: E402
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import pytest  # noqa: E402
+
+IN_CI = os.environ.get("CI", "").lower() in ("1", "true", "yes")
+
+
+def _need_voila():
+    import importlib.util
+
+    if importlib.util.find_spec("voila") is None:
+        if IN_CI:
+            pytest.fail("CI=true but voila is not installed (the study-server tests must run in CI)")
+        pytest.skip("voila not installed")
+
+
+def _occupied(host="127.0.0.1"):
+    s = socket.socket()
+    s.bind((host, 0))
+    s.listen(1)
+    return s
+
+
+def _run_args(stim, data, *extra):
+    return ["study", "run", "--participant", "P1", "--session", "S1", "--manifest", str(stim.path),
+            "--data", str(data), *extra]
+
+
+def test_run_refuses_a_taken_port_and_never_starts_a_server(tmp_path, capsys, monkeypatch):
+    """The printed address must be the served one: a taken port is refused in one line naming it."""
+    import study.study_cli as sc
+
+    stim = make_placeholder_set(tmp_path / "s", {("takeoff", "increase"): (20,)}, base_clips=("a",), n_frames=4)
+
+    def no_server(*a, **k):
+        raise AssertionError("a server was started")
+
+    monkeypatch.setattr(sc.subprocess, "Popen", no_server)
+    for host in ("127.0.0.1", "0.0.0.0"):  # also a listener on every interface
+        with _occupied(host) as s:
+            port = s.getsockname()[1]
+            assert main(_run_args(stim, tmp_path / "d", "--port", str(port))) == 2
+            err = capsys.readouterr().err
+            assert f"port {port} on 127.0.0.1 is already in use" in err and "--port 0" in err, err
+            assert len(err.strip().splitlines()) == 1
+    with socket.socket() as s:  # bound, not listening: the server could not bind it either
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+        assert main(_run_args(stim, tmp_path / "d", "--port", str(port))) == 2
+        assert f"port {port} on 127.0.0.1 is already in use" in capsys.readouterr().err
+    for bad in ("-1", "65536"):
+        assert main(_run_args(stim, tmp_path / "d", "--port", bad)) == 2
+        assert "--port must be 0-65535" in capsys.readouterr().err
+    # a whitespace-padded id is refused, not opened as P1
+    assert main(["study", "run", "--participant", " P1 ", "--session", "S1", "--manifest", str(stim.path),
+                 "--data", str(tmp_path / "d")]) == 2
+    err = capsys.readouterr().err
+    assert "participant id ' P1 ' is not valid" in err and "whitespace" in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "d" / "P1").exists()
+
+
+def test_port_zero_and_voila_command():
+    from study.study_cli import check_port_free, free_port, voila_command
+
+    p = free_port()
+    check_port_free(p)  # free: no error
+    cmd = voila_command(p)
+    assert f"--port={p}" in cmd and "--Voila.port_retries=0" in cmd and "--Voila.ip=127.0.0.1" in cmd
+    assert "--token" in cmd and not any("token=" in c.lower() for c in cmd)  # the secret is not on the command line
+    with pytest.raises(ValueError, match="port must be 1-65535"):
+        voila_command(0)
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(240)
+def test_voila_exits_instead_of_moving_to_another_port(tmp_path):
+    """The server side of the rule (for a port taken between the check and the bind)."""
+    _need_voila()
+    from study.study_cli import _listening_ports, _tree, voila_command
+
+    env = dict(os.environ, JUPYTER_TOKEN="t" * 32, JUPYTER_PLATFORM_DIRS="1")
+    for k in ("DATA", "RUNTIME", "CONFIG"):
+        env[f"JUPYTER_{k}_DIR"] = str(tmp_path / k)
+    with _occupied() as s:
+        port = s.getsockname()[1]
+        proc = subprocess.Popen(voila_command(port), env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                                start_new_session=True)
+        try:
+            seen = set()
+            deadline = time.monotonic() + 150
+            while proc.poll() is None and time.monotonic() < deadline:
+                seen |= _listening_ports(_tree(proc.pid))
+                time.sleep(0.2)
+            assert proc.poll() is not None, "Voila kept running although its port was taken"
+            out = proc.stdout.read().decode(errors="replace")
+            assert proc.returncode != 0 and not seen, (seen, out[-2000:])
+            assert "no available port" in out, out[-2000:]
+        finally:
+            if proc.poll() is None:
+                os.killpg(proc.pid, signal.SIGKILL)
+                proc.wait()
+
+
+def _get(port, path):
+    import http.client
+
+    c = http.client.HTTPConnection("127.0.0.1", port, timeout=120)
+    try:
+        c.request("GET", path)
+        r = c.getresponse()
+        return r.status, r.getheader("Location") or "", r.read().decode(errors="replace")
+    finally:
+        c.close()
+
+
+def _events(folder):
+    return [json.loads(x)["event"] for x in (folder / "events.jsonl").read_text().splitlines()]
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(300)
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
+def test_served_address_token_and_shutdown_on_signal(tmp_path, sig):
+    """`mocomp study run --port 0`: it listens on exactly the printed port; without the printed token a
+    request is sent to the login page and starts no kernel; with it the app opens the session. SIGTERM or
+    SIGINT to `mocomp study run` ends the server and its kernel (no orphan, the port and the session lock
+    are free again) and leaves the rows written so far untouched."""
+    _need_voila()
+    import psutil
+
+    from mocomp.errors import SessionLockedError
+    from study.controller import TrialController
+    from study.session import Session
+    from study.study_cli import _tree, check_port_free
+
+    stim = make_placeholder_set(tmp_path / "s", {("takeoff", "increase"): (20, 40)}, base_clips=("a",),
+                                n_frames=4)
+    data = tmp_path / "data"
+    folder = data / "P1" / "S1"
+    sess = Session.open(data, "P1", "S1", stim)
+    ctl = TrialController(sess)
+    for _ in range(2):
+        ctl.show()
+        assert ctl.respond("correct", input="test") is not None
+    sess.close()
+    before = (folder / "responses.csv").read_bytes()
+    n_events = len(_events(folder))
+
+    env = dict(os.environ, JUPYTER_PLATFORM_DIRS="1")
+    for k in ("DATA", "RUNTIME", "CONFIG"):
+        env[f"JUPYTER_{k}_DIR"] = str(tmp_path / k)
+    env.pop("MOCOMP_STUDY_CONFIG", None)
+    env.pop("JUPYTER_TOKEN", None)
+    log = tmp_path / "out.log"
+    with open(log, "w") as f:
+        proc = subprocess.Popen([sys.executable, "-m", "mocomp", *_run_args(stim, data, "--port", "0",
+                                                                           "--lock-timeout", "2")],
+                                env=env, stdout=f, stderr=subprocess.STDOUT, start_new_session=True, cwd=tmp_path)
+    tree: dict = {}
+    try:
+        deadline = time.monotonic() + 180
+        url = None
+        while url is None:
+            assert proc.poll() is None, log.read_text()[-3000:]
+            assert time.monotonic() < deadline, log.read_text()[-3000:]
+            for line in log.read_text().splitlines():
+                if ": open http://" in line:
+                    url = line.split(": open ", 1)[1].split()[0]
+            time.sleep(0.2)
+        assert url.startswith("http://127.0.0.1:") and "?token=" in url
+        port = int(url.split(":")[2].split("/")[0])
+        token = url.split("?token=", 1)[1]
+        assert port > 0 and len(token) >= 24
+        # the printed port is the one a process of this server listens on (and only it)
+        tree = _tree(proc.pid)
+        listeners = {c.pid for c in psutil.net_connections(kind="tcp")
+                     if c.status == psutil.CONN_LISTEN and c.laddr.port == port}
+        assert listeners and listeners <= set(tree), (listeners, tree)
+        # no token, a wrong one: sent to the login page, no kernel, the session is not touched
+        for path in ("/", "/?token=wrong", "/?token=" + token[:-1]):
+            status, loc, body = _get(port, path)
+            assert status in (302, 403) and (status == 403 or "/login" in loc), (path, status, loc)
+            assert "mocomp" not in body
+        time.sleep(1.0)
+        assert len(_events(folder)) == n_events
+        # with the token: the page, whose kernel resumes the session and holds its lock
+        status, _, body = _get(port, "/?token=" + token)
+        assert status == 200 and "voila" in body.lower()
+        deadline = time.monotonic() + 60
+        while "resumed" not in _events(folder):
+            assert time.monotonic() < deadline, _events(folder)
+            time.sleep(0.2)
+        with pytest.raises(SessionLockedError):
+            Session.open(data, "P1", "S1", stim, lock_timeout=0.5)
+        tree = _tree(proc.pid)
+        assert len(tree) >= 3  # mocomp, voila, the page's kernel
+
+        os.kill(proc.pid, sig)  # to `mocomp study run` only, as `kill PID` or a terminal's Ctrl-C does
+        rc = proc.wait(timeout=90)
+        assert rc == 128 + sig, log.read_text()[-3000:]
+        deadline = time.monotonic() + 15
+        while True:
+            alive = [p for p in tree if psutil.pid_exists(p) and psutil.Process(p).status() != psutil.STATUS_ZOMBIE]
+            if not alive or time.monotonic() > deadline:
+                break
+            time.sleep(0.2)
+        assert not alive, [psutil.Process(p).cmdline() for p in alive]
+        check_port_free(port)  # the port is free again
+        assert "stopped (" + signal.Signals(sig).name + ")" in log.read_text()
+        assert (folder / "responses.csv").read_bytes() == before  # the rows so far, unchanged
+        sess = Session.open(data, "P1", "S1", stim, lock_timeout=5)  # the kernel released the lock
+        assert sess.state.n_answered == 2
+        sess.close()
+    finally:
+        for p in [proc.pid, *tree]:
+            try:
+                os.kill(p, signal.SIGKILL)
+            except (ProcessLookupError, PermissionError):
+                pass
+        try:
+            os.killpg(proc.pid, signal.SIGKILL)
+        except (ProcessLookupError, PermissionError):
+            pass
+        proc.wait(timeout=30)
+
+
+_FAKE_SERVER = r"""
+import os, signal, subprocess, sys, time
+signal.signal(signal.SIGINT, signal.SIG_IGN)  # a server that does not stop on SIGINT
+kid = subprocess.Popen([sys.executable, "-c",
+    "import signal, time; signal.signal(signal.SIGTERM, signal.SIG_IGN); time.sleep(600)"],
+    start_new_session=True)  # like a kernel: a session of its own, survives a group kill
+open(sys.argv[1], "w").write(str(kid.pid))
+if sys.argv[2] == "crash":
+    time.sleep(1.5)
+    os._exit(3)
+time.sleep(600)
+"""
+
+
+def _wait_file(p: Path, timeout=30) -> int:
+    deadline = time.monotonic() + timeout
+    while not (p.exists() and p.read_text()):
+        assert time.monotonic() < deadline
+        time.sleep(0.05)
+    return int(p.read_text())
+
+
+def _gone(pid: int) -> bool:
+    import psutil
+
+    try:
+        return psutil.Process(pid).status() == psutil.STATUS_ZOMBIE
+    except psutil.NoSuchProcess:
+        return True
+
+
+@pytest.mark.timeout(120)
+def test_server_tree_is_ended_on_every_exit_path(tmp_path):
+    """StudyServer ends the server and processes it started in sessions of their own (kernels):
+    after an exception while serving, and after the server crashed and left its child behind."""
+    from study.study_cli import StudyServer
+
+    handlers = {sig: signal.getsignal(sig) for sig in (signal.SIGTERM, signal.SIGINT, signal.SIGHUP)}
+    # an exception while serving (a server ignoring SIGINT, a child ignoring SIGTERM: SIGKILL ends them)
+    pidf = tmp_path / "kid1"
+    with pytest.raises(RuntimeError, match="boom"):
+        with StudyServer([sys.executable, "-c", _FAKE_SERVER, str(pidf), "serve"], dict(os.environ), 1, "t",
+                         grace_s=1, term_s=1) as s:
+            kid = _wait_file(pidf)
+            server_pid = s.proc.pid
+            s._remember()
+            raise RuntimeError("boom")
+    assert _gone(server_pid) and _gone(kid)
+    assert s.proc is None
+    # the server crashes on its own and its child is re-parented: still ended
+    pidf = tmp_path / "kid2"
+    with StudyServer([sys.executable, "-c", _FAKE_SERVER, str(pidf), "crash"], dict(os.environ), 1, "t",
+                     grace_s=1, term_s=1) as s:
+        kid = _wait_file(pidf)
+        assert s.wait() == 3
+        assert not _gone(kid)  # orphaned, until the server object ends it
+    assert _gone(kid)
+    # the caller's signal handlers are back
+    assert {sig: signal.getsignal(sig) for sig in handlers} == handlers
