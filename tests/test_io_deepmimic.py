@@ -362,3 +362,69 @@ def test_mutated_deepmimic_parses_or_raises_motion_format_error(tmp_path, case):
             event("MotionFormatError")
             return
     event("parsed")
+
+
+# ------------------------------------------------------------------ corrupt numbers and sizes (issue 12)
+def test_corrupt_dt_is_refused_before_resampling(tmp_path, monkeypatch):
+    """One key frame with dt = 1e4 s made the resampler allocate 160,000 frames (1e6 s: GiBs)."""
+    ch = read_deepmimic_character(small_character(tmp_path))
+    for bad_dt in (1e4, 1e6, 11.0):
+        dts = [0.05, bad_dt, 0.05, 0.0]
+        f = write_motion(tmp_path, motion_doc(T=4, dts=dts), "dt.txt")
+        with pytest.raises(MotionFormatError, match=re.escape(f"frame 1 has duration dt = {bad_dt:g} s (more than "
+                                                              "the 10 s")) as e:
+            quiet(read_deepmimic, f, character=ch)
+        assert e.value.line == 6 and "dt.txt" in str(e.value)
+    # a long but plausible hold (9 s) still resamples, to the frame count it should
+    m = quiet(read_deepmimic, write_motion(tmp_path, motion_doc(T=4, dts=[0.05, 9.0, 0.05, 0.0])), character=ch)
+    assert m.fps == pytest.approx(20.0) and m.n_frames == int(np.floor(9.1 * 20 + 1e-9)) + 1
+    # a resampling that would exceed the frame limit is refused before allocating
+    import mocomp.io.deepmimic as dm
+
+    monkeypatch.setattr(dm, "MAX_FRAMES", 50_000)
+    f = write_motion(tmp_path, motion_doc(T=4, dts=[0.05, 9.0, 0.05, 0.0]), "many.txt")
+    with pytest.raises(MotionFormatError, match=r"at 10000 fps would make 91001 frames \(more than the 50,000"):
+        quiet(read_deepmimic, f, character=ch, fps=10000)
+    monkeypatch.undo()
+    with pytest.raises(MotionFormatError, match=r"key-frame rate 1/dt 1e\+06 Hz is outside the accepted 1-10000 Hz"):
+        quiet(read_deepmimic, write_motion(tmp_path, motion_doc(T=4, dt=1e-6), "fast.txt"), character=ch)
+    with pytest.raises(MotionFormatError, match="fps argument 0 Hz"):
+        quiet(read_deepmimic, write_motion(tmp_path, motion_doc(T=4)), character=ch, fps=0)
+
+
+def test_json_nesting_huge_integers_and_extreme_values_are_motion_format_errors(tmp_path):
+    ch = read_deepmimic_character(small_character(tmp_path))
+    fr = [list(x) for x in motion_doc(T=4)["Frames"]]
+    good = write_motion(tmp_path, {"Frames": fr}, "g.txt").read_text()
+    lines = good.split("\n")
+    cases = {
+        "nested": ("[" * 100_000, "nested too deeply", None),
+        "int400": ("\n".join(lines[:6] + [lines[6].replace(json.dumps(fr[2][2]), str(10 ** 400), 1)] + lines[7:]),
+                   "frame 2 value 2 is inf (not finite)", 7),
+        "int5001": ("\n".join(lines[:5] + [lines[5].replace(json.dumps(fr[1][1]), "1" * 5001, 1)] + lines[6:]),
+                    "frame 1 value 1 is inf (not finite)", 6),
+        "root_far": ("\n".join(lines[:7] + [lines[7].replace(json.dumps(fr[3][1]), "-1e308", 1)] + lines[8:]),
+                     "frame 3: root position x = -1e+308 m is beyond the accepted +-10000 m", 8),
+    }
+    for name, (text, words, line) in cases.items():
+        f = tmp_path / f"{name}.txt"
+        f.write_text(text)
+        with pytest.raises(MotionFormatError) as e:
+            quiet(read_deepmimic, f, character=ch)
+        assert words in str(e.value) and f"{name}.txt" in str(e.value), (name, str(e.value))
+        if line is not None:
+            assert e.value.line == line, (name, str(e.value))
+        with pytest.raises(MotionFormatError):  # the text parser too
+            quiet(parse_deepmimic, text, ch, path=f"{name}.txt")
+    # character files: huge ints, deep nesting, extreme attach offsets
+    cf = small_character(tmp_path)
+    ctext = cf.read_text()
+    for name, text, words in (
+            ("c_int", ctext.replace('"Parent": 0', '"Parent": ' + "9" * 5001, 1), "field 'Parent'"),
+            ("c_nest", '{"Skeleton": ' + "[" * 100_000, "nested too deeply"),
+            ("c_far", ctext.replace('"AttachY": 0.3', '"AttachY": 1e300', 1), "beyond the accepted")):
+        f = tmp_path / f"{name}.txt"
+        f.write_text(text)
+        with pytest.raises(MotionFormatError) as e:
+            read_deepmimic_character(f)
+        assert words in str(e.value) and f"{name}.txt" in str(e.value), (name, str(e.value))

@@ -43,6 +43,7 @@ from ..core.rotations import make_continuous, quat_multiply
 from ..core.skeleton import EndSite, Skeleton
 from ..errors import MotionFormatError
 from .units import check_height, resolve_scale, standing_height
+from .validate import MAX_FRAMES, MAX_LENGTH_M, check_counts, check_fps, check_motion
 
 __all__ = [
     "DeepMimicCharacter", "read_deepmimic_character", "read_deepmimic", "parse_deepmimic",
@@ -86,16 +87,38 @@ class DeepMimicCharacter:
         return sum(_PARAM_SIZE[t] for t in self.joint_types)
 
 
+#: longest accepted key-frame duration ``dt``, seconds (DeepMimic's clips use 1/60-1/16 s;
+#: a corrupt ``dt`` of 1e4 s would otherwise be resampled into 160,000 frames)
+MAX_KEY_DT = 10.0
+
+
 # ------------------------------------------------------------------ JSON helpers
+def _json_int(s: str):
+    """JSON integers: Python ints up to 308 digits (all convertible to float); longer
+    ones become float (inf), which the value checks then report with their frame and
+    line, instead of ``int()``'s ValueError (> 4300 digits) or an OverflowError
+    later when the frame table is converted to floats."""
+    return int(s) if len(s) <= 308 else float(s)
+
+
+def _parse_json(text: str, path, what: str):
+    """``json.loads`` whose every failure is a MotionFormatError naming the file (and line)."""
+    try:
+        return json.loads(text, parse_int=_json_int)
+    except json.JSONDecodeError as e:
+        raise MotionFormatError(f"not valid JSON ({what}): {e.msg}", path, e.lineno) from None
+    except RecursionError:
+        raise MotionFormatError(f"not a {what}: JSON nested too deeply (thousands of '[' or '{{')", path) from None
+    except (ValueError, OverflowError) as e:
+        raise MotionFormatError(f"not valid JSON ({what}): {e}", path) from None
+
+
 def _load_json(path: Path, what: str):
     try:
         text = path.read_text(encoding="utf-8", errors="replace")
     except OSError as e:
         raise MotionFormatError(f"cannot read file: {e.strerror}", path) from None
-    try:
-        return json.loads(text), text
-    except json.JSONDecodeError as e:
-        raise MotionFormatError(f"not valid JSON ({what}): {e.msg}", path, e.lineno) from None
+    return _parse_json(text, path, what), text
 
 
 def _element_line(text: str, key: str, k: int) -> int | None:
@@ -158,6 +181,7 @@ def read_deepmimic_character(path) -> DeepMimicCharacter:
     joints = doc["Skeleton"]["Joints"]
     if not joints:
         raise MotionFormatError("character file has no joints", path, 1)
+    check_counts(1, len(joints), path, 1)
     names, parents, offsets, types, attach = [], [], [], [], []
     for k, jd in enumerate(joints):
         line = _element_line(text, "Joints", k)
@@ -183,6 +207,9 @@ def read_deepmimic_character(path) -> DeepMimicCharacter:
             raise MotionFormatError(f"{what}: only the root (joint 0) may have type 'none'", path, line)
         off = [_num(jd, f"Attach{a}", path, line, what, 0.0) for a in "XYZ"]
         th = [_num(jd, f"AttachTheta{a}", path, line, what, 0.0) for a in "XYZ"]
+        if max(abs(v) for v in off + th) > MAX_LENGTH_M:
+            raise MotionFormatError(f"{what}: Attach position/angle {max(off + th, key=abs):.6g} is beyond the "
+                                    f"accepted +-{MAX_LENGTH_M:g} (metres, radians)", path, line)
         if k == 0 and (any(off) or any(th)):
             raise MotionFormatError("a root with a non-zero Attach position/rotation is not supported", path, line)
         names.append(name)
@@ -213,7 +240,10 @@ def read_deepmimic_character(path) -> DeepMimicCharacter:
     ends = []
     for k, n in enumerate(names):
         if k not in parents and bodies[k] is not None:
-            c = [float(bodies[k].get(f"Attach{a}", 0.0)) for a in "XYZ"]
+            c = [_num(bodies[k], f"Attach{a}", path, bodies[k]["_line"], f"body {k}", 0.0) for a in "XYZ"]
+            if max(abs(v) for v in c) > MAX_LENGTH_M:
+                raise MotionFormatError(f"body {k}: Attach {max(c, key=abs):.6g} m is beyond the accepted "
+                                        f"+-{MAX_LENGTH_M:g} m", path, bodies[k]["_line"])
             if any(c):
                 ends.append(EndSite(k, np.array(c), f"{n}_end"))
     sk = Skeleton(tuple(names), np.array(parents), np.array(offsets), tuple(chans), tuple(ends))
@@ -265,10 +295,7 @@ def parse_deepmimic(text: str, character, path: str | None = None, fps: float | 
                     height_check: bool = True) -> Motion:
     """Parse DeepMimic motion JSON text (see :func:`read_deepmimic`)."""
     char = character if isinstance(character, DeepMimicCharacter) else read_deepmimic_character(character)
-    try:
-        doc = json.loads(text)
-    except json.JSONDecodeError as e:
-        raise MotionFormatError(f"not valid JSON (motion file): {e.msg}", path, e.lineno) from None
+    doc = _parse_json(text, path, "motion file")
     return _motion_from_doc(doc, text, char, path, fps, scale, height_check)
 
 
@@ -284,6 +311,7 @@ def _motion_from_doc(doc, text, char: DeepMimicCharacter, path, fps, scale, heig
         raise MotionFormatError("'Frames' must be a non-empty list of frames (zero frames)", path,
                                 _element_line(text, "Frames", 0) or 1)
     width = 1 + char.n_params
+    check_counts(len(frames), char.skeleton.n_joints, path, _element_line(text, "Frames", 0), what="key frames")
     for k, f in enumerate(frames):
         if not isinstance(f, list) or len(f) != width:
             n = len(f) if isinstance(f, list) else type(f).__name__
@@ -305,6 +333,14 @@ def _motion_from_doc(doc, text, char: DeepMimicCharacter, path, fps, scale, heig
         k = int(np.argmax(dt[:-1] <= 0))
         raise MotionFormatError(f"frame {k} has duration dt = {dt[k]} (must be > 0)", path,
                                 _element_line(text, "Frames", k))
+    if T > 1 and np.any(dt[:-1] > MAX_KEY_DT):
+        k = int(np.argmax(dt[:-1] > MAX_KEY_DT))
+        raise MotionFormatError(f"frame {k} has duration dt = {dt[k]:.6g} s (more than the {MAX_KEY_DT:g} s accepted "
+                                "for one key frame)", path, _element_line(text, "Frames", k))
+    if np.any(np.abs(F[:, 1:4]) > MAX_LENGTH_M):
+        k, c = (int(i) for i in np.argwhere(np.abs(F[:, 1:4]) > MAX_LENGTH_M)[0])
+        raise MotionFormatError(f"frame {k}: root position {'xyz'[c]} = {F[k, 1 + c]:.6g} m is beyond the accepted "
+                                f"+-{MAX_LENGTH_M:g} m", path, _element_line(text, "Frames", k))
     # ---- pose
     J = char.skeleton.n_joints
     rots = np.empty((T, J, 4))
@@ -355,6 +391,8 @@ def _motion_from_doc(doc, text, char: DeepMimicCharacter, path, fps, scale, heig
     notes.append(f"character {char.path}")
 
     # ---- timing
+    if fps is not None:
+        fps = check_fps(fps, path, what="fps argument")
     key_dt = dt[:-1] if T > 1 else np.array([])
     if key_dt.size == 0:
         header_fps = None
@@ -364,16 +402,25 @@ def _motion_from_doc(doc, text, char: DeepMimicCharacter, path, fps, scale, heig
     else:
         vals, counts = np.unique(np.round(key_dt, 9), return_counts=True)
         mode_dt = float(vals[np.argmax(counts)])
+        if mode_dt <= 0:  # every dt rounds to 0 at 1e-9 s
+            mode_dt = float(np.median(key_dt))
         header_fps = 1.0 / mode_dt
         uniform = np.all(np.abs(key_dt - key_dt[0]) <= 1e-4 * key_dt[0])
         if uniform:
-            out_fps = 1.0 / float(np.mean(key_dt)) if fps is None else fps
+            out_fps = check_fps(1.0 / float(np.mean(key_dt)), path, _element_line(text, "Frames", 0),
+                                "key-frame rate 1/dt") if fps is None else fps
             if fps is not None:
                 notes.append(f"key frames every {key_dt[0]:.6g} s ({1 / key_dt[0]:.6g} fps); caller set {fps:g} fps")
         else:
             times = np.concatenate([[0.0], np.cumsum(key_dt)])
-            out_fps = header_fps if fps is None else fps
-            n = int(np.floor(times[-1] * out_fps + 1e-9)) + 1
+            out_fps = check_fps(header_fps, path, _element_line(text, "Frames", 0),
+                                "most common key-frame rate 1/dt") if fps is None else fps
+            n_float = np.floor(times[-1] * out_fps + 1e-9) + 1
+            if n_float > MAX_FRAMES:  # checked before allocating
+                raise MotionFormatError(f"resampling {times[-1]:.6g} s of key frames at {out_fps:.6g} fps would make "
+                                        f"{n_float:.0f} frames (more than the {MAX_FRAMES:,} accepted)", path)
+            n = int(n_float)
+            check_counts(n, J, path, what="resampled frames")
             tq = np.arange(n) / out_fps
             i = np.clip(np.searchsorted(times, tq, side="right") - 1, 0, T - 2)
             a = np.clip((tq - times[i]) / (times[i + 1] - times[i]), 0.0, 1.0)
@@ -386,6 +433,7 @@ def _motion_from_doc(doc, text, char: DeepMimicCharacter, path, fps, scale, heig
     motion = Motion(sk, out_fps, root_pos * s, rots,
                     source=SourceInfo(path=path, format="deepmimic", unit_scale=s, unit_reason=reason,
                                       header_fps=header_fps, notes=tuple(notes)))
+    check_motion(motion, path)
     if height_check:
         check_height(standing_height(motion), path or "<deepmimic text>")
     return motion
