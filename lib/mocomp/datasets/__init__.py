@@ -255,7 +255,7 @@ def rounded_frame_rate(header_fps: float) -> int | None:
     rounded whole rate would need (ASE's ``Frame Time: 0.0334925`` = 29.857 Hz, ``0.0333346008``
     = 29.9988 Hz) are not whole rates.
     """
-    if not (header_fps > 0) or header_fps != header_fps:
+    if not (0 < header_fps < float("inf")):  # also NaN
         return None
     n = round(header_fps)
     if n < 1:
