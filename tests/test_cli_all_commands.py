@@ -143,3 +143,93 @@ def test_every_parser_reports_errors_in_one_line(path):
     from mocomp.cli import Parser
 
     assert isinstance(LEAVES[path], Parser)
+
+
+# ------------------------------------------------------------------ numeric option values
+def _numeric_options(parser):
+    """Options whose type function turns "2" into a number: the float and int options (and unit/
+    number mixes such as --scale). Discovered from the parser, so a new option is covered."""
+    out = []
+    for a in parser._actions:
+        if not a.option_strings or a.type is None or a.choices:
+            continue
+        try:
+            v = a.type("2")
+        except Exception:  # noqa: BLE001 - not a numeric option (paths, B:H matching points, ...)
+            continue
+        if isinstance(v, (int, float)) and not isinstance(v, bool):
+            out.append(a)
+    return out
+
+
+def _complete_argv(path, parser, tmp_path):
+    """argv that parses: every positional and required option given a plausible value."""
+    argv = list(path)
+    for a in parser._actions:
+        if isinstance(a, (argparse._HelpAction, argparse._VersionAction)):
+            continue
+        n = a.nargs if isinstance(a.nargs, int) else 1
+        if not a.option_strings:
+            argv += [str(tmp_path / "in.bvh")] * n
+        elif a.required:
+            value = str(next(iter(a.choices))) if a.choices else ("1" if a.type is not None else
+                                                                  str(tmp_path / "out.bvh"))
+            argv += [a.option_strings[-1], *[value] * n]
+    return argv
+
+
+NUMERIC = [(path, a.option_strings[-1]) for path in sorted(LEAVES) for a in _numeric_options(LEAVES[path])]
+
+#: options of the study sub-commands (study/study_cli.py, study/render_cli.py, edited by others:
+#: issue #12) that still accept nan/inf; strict, so fixing one makes its entry fail here until removed
+STUDY_ACCEPTS_NONFINITE = {("study analyze", "--min-attention"), ("study run", "--lock-timeout")}
+
+
+def test_numeric_options_are_discovered():
+    found = {(p[0], o) for p, o in NUMERIC}
+    assert {("flips", "--height-change"), ("flips", "--k"), ("edit", "--k"), ("edit", "--fps"),
+            ("convert", "--scale"), ("twist", "--degrees"), ("join", "--max-tilt"), ("splice", "--phase-width"),
+            ("plot", "--dpi")} <= found
+
+
+@pytest.mark.parametrize("value", ["nan", "inf", "-inf", "NaN", "-Infinity"])
+@pytest.mark.parametrize("path,option", NUMERIC, ids=[" ".join(p) + " " + o for p, o in NUMERIC])
+def test_numeric_options_reject_nonfinite_values_at_parse_time(path, option, value, tmp_path, capsys, request):
+    """nan/inf never reach a command: argparse stops with exit 2 and one line naming the option
+    (the value given as --opt=VALUE, so -inf is not taken for an option)."""
+    if (" ".join(path), option) in STUDY_ACCEPTS_NONFINITE:
+        request.applymarker(pytest.mark.xfail(strict=True, reason="study CLI accepts non-finite values"))
+    parser = build_parser()
+    action = next(a for a in LEAVES[path]._actions if option in a.option_strings)
+    n = action.nargs if isinstance(action.nargs, int) else 1
+    base = _complete_argv(path, LEAVES[path], tmp_path)
+    good = base + ([f"{option}=2"] if n == 1 else [option, *["2"] * n])
+    parser.parse_args(good)                                 # the argv is otherwise complete
+    capsys.readouterr()
+    bad = base + ([f"{option}={value}"] if n == 1 else [option, *[value] * n])
+    with pytest.raises(SystemExit) as e:
+        parser.parse_args(bad)
+    assert e.value.code == 2
+    cap = capsys.readouterr()
+    lines = cap.err.strip().splitlines()
+    assert cap.out == "" and len(lines) == 1, cap.err
+    assert lines[0].startswith(f"mocomp {' '.join(path)}: error: argument ") and option in lines[0], lines[0]
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["edit", "backflip", "--preset", "arms-twist", "-o", "x.bvh", "--k-ratio=-1"], "--k-ratio: must be a positive"),
+    (["edit", "backflip", "--preset", "arms-twist", "-o", "x.bvh", "--fps", "0"], "--fps: frame rate must be positive"),
+    (["flips", "backflip", "-o", "x.bvh", "--fps=-120"], "--fps: frame rate must be positive"),
+    (["flips", "backflip", "-o", "x.bvh", "--total-mass", "0"], "--total-mass: must be a positive"),
+    (["twist", "twist180", "--degrees", "200", "-o", "x.bvh", "--max-k", "1"], "--max-k: must be a number above 1"),
+    (["join", "backflip", "sideflip", "-o", "x.bvh", "--max-tilt", "181"], "--max-tilt: must be a number at least 0 "
+                                                                          "and at most 180"),
+    (["convert", "backflip", "x.bvh", "--scale=-1"], "--scale: scale must be a positive number"),
+    (["splice", "a", "b", "-o", "x.bvh", "--phase-width", "0"], "--phase-width: band width must be a positive"),
+])
+def test_out_of_range_option_values_are_refused_at_parse_time(argv, message, capsys):
+    with pytest.raises(SystemExit) as e:
+        build_parser().parse_args(argv)
+    assert e.value.code == 2
+    err = capsys.readouterr().err.strip()
+    assert message in err and err.count("\n") == 0, err

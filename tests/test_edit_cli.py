@@ -116,3 +116,140 @@ def test_join_help_states_the_seam_limitation(capsys):
         main(["join", "--help"])
     out = " ".join(capsys.readouterr().out.split())
     assert "Limitation" in out and "--direction-step" in out and "velocity jumps" in out
+
+
+# ------------------------------------------------------------- plausibility of the flight
+def _parabola_fit(duration_s: float, g: float, fps: float = 120.0, start: int = 10):
+    """The ballistic fit of an exact COM parabola lasting ``duration_s`` (take-off frame to last
+    airborne frame) under gravity ``g``."""
+    from mocomp.flips.mass import fit_ballistic
+
+    n = int(round(duration_s * fps)) + 1
+    t = np.arange(n) / fps
+    com = np.column_stack([0.5 * t, 1.0 + 2.0 * t - 0.5 * g * t * t, 0.0 * t])
+    return fit_ballistic(com, fps, start)
+
+
+def test_flight_check_rules_on_exact_parabolas():
+    """Known answers: the duration rule at 0.25 s, the flight's own gravity interval (floor sd 0.08 in
+    log s, 95 %: x/÷ 1.17) against 7.00-13.73 m/s^2, the clip's combined gravity against the same band."""
+    from mocomp.flips.mass import G, diagnose_timing
+    from mocomp.flips.plausibility import GRAVITY_BAND, MIN_FLIGHT_S, check_flight
+
+    assert GRAVITY_BAND == pytest.approx((G / 1.4, G * 1.4)) and MIN_FLIGHT_S == 0.25
+    ok = check_flight(_parabola_fit(0.4, 9.81), 120.0)
+    assert ok.ok and ok.duration == pytest.approx(0.4) and ok.gravity == pytest.approx(9.81, rel=1e-9)
+    short = check_flight(_parabola_fit(0.2, 9.81), 120.0)
+    assert not short.ok and len(short.problems) == 1 and "0.200 s, shorter than the 0.25 s" in short.problems[0]
+    assert check_flight(_parabola_fit(0.25, 9.81), 120.0).ok                     # the minimum itself passes
+    lo = check_flight(_parabola_fit(0.4, 5.0), 120.0)                            # 5.0 x 1.17 = 5.85 < 7.00
+    assert not lo.ok and "gravity 5.00 m/s^2" in lo.problems[0] and "7.00-13.73" in lo.problems[0]
+    assert lo.gravity_interval[1] == pytest.approx(5.0 * np.exp(1.959964 * 0.08), rel=1e-4)
+    edge = _parabola_fit(0.4, 6.5)                                               # interval reaches 7.6
+    assert check_flight(edge, 120.0).ok
+    clip = check_flight(edge, 120.0, diagnose_timing([edge], 120.0))             # ... but the clip's 6.5 does not
+    assert not clip.ok and "the clip's 1 flight combined gives gravity 6.50" in clip.problems[0]
+    hi = check_flight(_parabola_fit(0.4, 4 * 9.81), 120.0, diagnose_timing([_parabola_fit(0.4, 4 * 9.81)], 120.0))
+    assert not hi.ok and hi.suggested_fps == 60.0                                # a 60 Hz capture labelled 120 Hz
+    assert "reload it at 60 Hz (fps=60)" in hi.describe()
+
+
+def test_flight_check_on_a_synthetic_jump_at_a_wrong_frame_rate():
+    """The synthetic jump (exact g = 9.81) passes; labelled 60 Hz instead of 120 Hz its flight lasts
+    twice as long and its gravity is a quarter: refused, pointing at 120 Hz."""
+    from mocomp import datasets
+    from mocomp.flips.plausibility import check_detected
+    from mocomp.flips.preprocess import clip_prior
+    from mocomp.flips.phases import detect_flights
+
+    m = datasets.load("jump")
+    body = clip_prior(m)
+    det = detect_flights(m, body)
+    c = check_detected(m, body, det.flight, det)
+    assert c.ok and c.gravity == pytest.approx(9.81, rel=2e-3) and c.clip_gravity == pytest.approx(9.81, rel=2e-3)
+    slow = m.with_fps(60.0)
+    c2 = check_detected(slow, body, det.flight)
+    assert not c2.ok and c2.gravity == pytest.approx(9.81 / 4, rel=2e-3) and c2.suggested_fps == 120.0
+    assert c2.duration == pytest.approx(2 * c.duration)
+
+
+def test_edit_explicit_short_flight_is_used_with_a_one_line_warning(tmp_path, capsys):
+    out = tmp_path / "e.bvh"
+    assert main(["edit", "backflip", "--preset", "straight-legs", "--flight", "130", "155", "-o", str(out)]) == 0
+    cap = capsys.readouterr()
+    warn = [ln for ln in cap.err.splitlines() if "warning" in ln]
+    assert len(warn) == 1 and warn[0].startswith("mocomp edit: warning: backflip: the given flight, frames 130-154")
+    assert "0.200 s, shorter than the 0.25 s minimum" in warn[0] and "used anyway" in warn[0]
+    assert out.exists()
+
+
+def test_edit_detected_synthetic_flight_passes_without_warning(tmp_path, capsys):
+    assert main(["edit", "jump", "--preset", "straight-legs", "-o", str(tmp_path / "e.bvh")]) == 0
+    assert "warning" not in capsys.readouterr().err
+
+
+def test_walk_131_01_is_refused_by_edit(tmp_path, capsys, real_data_dir):
+    """CMU 131_01 (a walk): the detector's 0.200 s 'flight' (frames 321-345, COM gravity 4.50 m/s^2)
+    used to be edited into a 34 m/s knee and a 0.6 m foot slide with exit 0."""
+    out = tmp_path / "w.bvh"
+    assert main(["edit", "131_01", "--preset", "straight-legs", "-o", str(out)]) == 2
+    assert not out.exists()
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("mocomp edit: error: 131_01: the detected flight, frames "
+                                                   "321-345 (0.200 s at 120 Hz), is not plausible free flight")
+    for part in ("shorter than the 0.25 s minimum", "gravity 4.50 m/s^2", "outside the accepted 7.00-13.73 m/s^2",
+                 "Refused", "(--flight START STOP)"):
+        assert part in lines[0], part
+
+
+def test_join_refuses_a_walk_naming_its_option(tmp_path, capsys, real_data_dir):
+    out = tmp_path / "j.bvh"
+    assert main(["join", "131_01", "131_02", "-o", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "131_01: the detected flight, frames 321-345" in err
+    assert "(--takeoff-flight START STOP)" in err and "flights=(" not in err and not out.exists()
+
+
+def test_flips_refuses_a_clip_at_a_wrong_frame_rate_and_says_how_to_fix_it(tmp_path, capsys, real_data_dir):
+    """MASS back flip: 120 Hz header, really ~50 Hz (MANIFEST): gravity ~59 m/s^2 at the header rate."""
+    out = tmp_path / "f.bvh"
+    assert main(["flips", "mass_backflip", "-o", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "frames 45-75" in err and "outside the accepted 7.00-13.73" in err
+    assert "(--fix-timing, or --fps 50)" in err and not out.exists()
+
+
+REAL_FLIGHTS = ["cmu_88_01_backflip", "cmu_88_05_cartwheel_backflip", "cmu_90_08_sideflip", "deepmimic_backflip",
+                "deepmimic_sideflip", "deepmimic_spinkick", "deepmimic_jump", "cmu_83_58_hopturn270", "131_03",
+                "01_01"]
+
+
+@pytest.mark.parametrize("name", REAL_FLIGHTS)
+def test_every_real_flight_of_the_data_passes_the_check(name, real_data_dir):
+    """With the prior masses (edit, twist, join) and with the estimated ones (flips), after the
+    loaders' frame-rate corrections; the DeepMimic side flip's own fit (14.8 / 13.0 m/s^2) lies above
+    the band but its interval reaches into it (its clip's flights combined: 10.9)."""
+    from mocomp.flips.plausibility import check_prepared
+    from mocomp.flips.preprocess import prepare_cached
+
+    for estimate in (False, True):
+        P = prepare_cached(name, estimate=estimate, loop_options={"min_angle": 0.0})
+        c = check_prepared(P)
+        assert c.ok, c.describe(name)
+        assert 7.0 < c.clip_gravity < 11.5 and c.duration >= 0.25
+
+
+@pytest.mark.parametrize("name,rule", [("131_01", ("shorter", "parabola", "combined")), ("131_02", ("shorter",)),
+                                       ("sfu_0005_Jogging001", ("shorter",)),
+                                       ("mass_backflip", ("parabola", "combined"))])
+def test_walks_runs_and_a_mislabelled_clip_are_refused(name, rule, real_data_dir):
+    from mocomp.flips.plausibility import check_prepared
+    from mocomp.flips.preprocess import prepare_cached
+
+    P = prepare_cached(name, estimate=False, loop_options={"min_angle": 0.0})
+    c = check_prepared(P)
+    assert len(c.problems) == len(rule)
+    for problem, word in zip(c.problems, rule):
+        assert word in problem
+    if name == "mass_backflip":       # at 50 Hz it is a flight
+        assert check_prepared(prepare_cached(name, fps=50.0, estimate=False)).ok

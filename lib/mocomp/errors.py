@@ -91,3 +91,16 @@ class JoinError(PhysicsError):
 
 class TwistRangeError(PhysicsError):
     """A twist-jump target rotation lies outside the range reachable from the clip."""
+
+
+class ImplausibleFlightError(NoFlightPhaseError):
+    """A detected flight phase is not plausible free flight: shorter than the minimum duration,
+    or its centre-of-mass parabola implies a gravity far from 9.81 m/s^2 (a walk's double-support
+    gap, a roll, a wrong frame rate). ``check`` holds the measurements
+    (:class:`mocomp.flips.plausibility.FlightCheck`), ``source`` which input it concerns (when a
+    command takes several)."""
+
+    def __init__(self, message: str, check=None, source: str | None = None):
+        self.check = check
+        self.source = source
+        super().__init__(message)

@@ -1,12 +1,75 @@
-"""Argument helpers shared by the ``mocomp`` commands that load one motion."""
+"""Argument helpers shared by the ``mocomp`` commands: option types that reject what a
+command cannot use (NaN, infinities, values out of the option's range) at parse time, with
+one line naming the option (argparse prefixes ``argument --OPTION:``), the loading options,
+output-path checks and the flight plausibility check."""
 from __future__ import annotations
 
 import argparse
 import math
 import os
+import sys
 from pathlib import Path
 
 from ..io.units import UNITS
+
+
+def _number(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not math.isfinite(v):
+        raise argparse.ArgumentTypeError(f"must be a finite number, got {text}")
+    return v
+
+
+def finite_float(text: str) -> float:
+    """A finite number (NaN and +-inf refused)."""
+    return _number(text)
+
+
+def positive_float(text: str) -> float:
+    """A finite number above 0."""
+    v = _number(text)
+    if not v > 0:
+        raise argparse.ArgumentTypeError(f"must be a positive number, got {text}")
+    return v
+
+
+def float_in(lo: float | None = None, hi: float | None = None, *, lo_open: bool = False, hi_open: bool = False,
+             what: str = "number"):
+    """Type function: a finite number in ``[lo, hi]`` (open ends with ``lo_open`` / ``hi_open``;
+    ``None`` = unbounded)."""
+    def parse(text: str) -> float:
+        v = _number(text)
+        bad = ((lo is not None and (v <= lo if lo_open else v < lo))
+               or (hi is not None and (v >= hi if hi_open else v > hi)))
+        if bad:
+            rng = []
+            if lo is not None:
+                rng.append(f"{'above' if lo_open else 'at least'} {lo:g}")
+            if hi is not None:
+                rng.append(f"{'below' if hi_open else 'at most'} {hi:g}")
+            raise argparse.ArgumentTypeError(f"must be a {what} {' and '.join(rng)}, got {text}")
+        return v
+
+    return parse
+
+
+def int_in(lo: int | None = None, hi: int | None = None):
+    """Type function: an integer in ``[lo, hi]`` (``None`` = unbounded)."""
+    def parse(text: str) -> int:
+        try:
+            v = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+        if (lo is not None and v < lo) or (hi is not None and v > hi):
+            rng = " and ".join(([f"at least {lo}"] if lo is not None else []) +
+                               ([f"at most {hi}"] if hi is not None else []))
+            raise argparse.ArgumentTypeError(f"must be an integer {rng}, got {text}")
+        return v
+
+    return parse
 
 
 def scale_arg(text: str):
@@ -75,3 +138,18 @@ def load_from_args(args):
     from .. import datasets
 
     return datasets.load(args.motion, fps=args.fps, scale=args.scale, raw=args.raw)
+
+
+def check_flight(prep, args, command: str, *, override: str = "--flight START STOP",
+                 fps_hint: str = "--fps F", explicit: bool | None = None) -> None:
+    """Refuse an implausible detected flight of ``prep`` (a prepared clip), or warn on stderr
+    (``mocomp COMMAND: warning: ...``, one line) about an implausible flight the user gave with
+    ``--flight`` (:mod:`mocomp.flips.plausibility`: duration, fitted gravity against its band)."""
+    from ..flips.plausibility import check_prepared, enforce_flight
+
+    if explicit is None:
+        explicit = getattr(args, "flight", None) is not None
+    warning = enforce_flight(check_prepared(prep), prep.name, explicit=explicit, override=override,
+                             fps_hint=fps_hint)
+    if warning:
+        print(f"mocomp {command}: warning: {' '.join(warning.split())}", file=sys.stderr)

@@ -3,18 +3,10 @@ section 5.5; dissertation section 5.5)."""
 from __future__ import annotations
 
 import argparse
-import math
 from pathlib import Path
 
-
-def _positive(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not (math.isfinite(v) and v > 0):
-        raise argparse.ArgumentTypeError(f"must be a positive number, got {text}")
-    return v
+from ._common import finite_float, fps_arg
+from ._common import positive_float as _positive
 
 
 def add_restore_args(p: argparse.ArgumentParser, k_default: str = "1 (k = k*)") -> None:
@@ -23,7 +15,7 @@ def add_restore_args(p: argparse.ArgumentParser, k_default: str = "1 (k = k*)") 
     k.add_argument("--k-ratio", type=_positive, default=None,
                    help=f"uniform retiming factor as a fraction of k* (App. B; default {k_default})")
     k.add_argument("--k", type=_positive, default=None, help="explicit uniform retiming factor (>1 = faster)")
-    p.add_argument("--takeoff-height", type=float, default=0.0, metavar="H",
+    p.add_argument("--takeoff-height", type=finite_float, default=0.0, metavar="H",
                    help="raise the take-off by H metres (a dive from a platform; the body is kept clear of it)")
 
 
@@ -61,9 +53,12 @@ def register(subparsers) -> None:
                         "per-frame sweep alone, or per frame by scipy's quasi-Newton BFGS (as the paper)")
     add_restore_args(p)
     p.add_argument("--up-side", choices=("l", "r"), default="l", help="arms-twist: which arm goes up")
-    p.add_argument("--fps", type=_positive, default=None, help="frame rate to use instead of the file's")
+    p.add_argument("--fps", type=fps_arg, default=None, help="frame rate to use instead of the file's")
     p.add_argument("--flight", type=int, nargs=2, metavar=("START", "STOP"), default=None,
-                   help="flight frames [START, STOP) instead of detecting them")
+                   help="flight frames [START, STOP) instead of detecting them. A detected flight shorter than "
+                        "0.25 s or whose centre-of-mass parabola gives a gravity outside 7.0-13.7 m/s^2 is refused "
+                        "(a walk's double-support gaps look like flights); a flight given here is measured the "
+                        "same way but only warned about")
     p.add_argument("--estimate-masses", action="store_true",
                    help="estimate the mass distribution from the flight (eq. 5.1-5.2) instead of the table prior")
     p.set_defaults(func=run)
@@ -73,11 +68,13 @@ def run(args: argparse.Namespace) -> int:
     from ..edit import apply_preset, restore_momentum
     from ..flips.preprocess import prepare
     from ..io.bvh import write_bvh
+    from ._common import check_flight
 
     out = check_output(args.output)
     edited_out = check_output(args.edited) if args.edited else None
     P = prepare(args.input, fps=args.fps, flight=tuple(args.flight) if args.flight else None,
                 estimate=args.estimate_masses, loop_options={"min_angle": 0.0})
+    check_flight(P, args, "edit")
     body = P.body if args.estimate_masses else P.prior
     edited, plan = apply_preset(P.motion, P.flight, args.preset, up_side=args.up_side)
     res = restore_momentum(body, P.motion, edited, P.flight, k_ratio=args.k_ratio, k=args.k,

@@ -4,6 +4,8 @@ from __future__ import annotations
 import argparse
 import math
 
+from ._common import finite_float, fps_arg, positive_float
+
 
 def register(subparsers) -> None:
     p = subparsers.add_parser(
@@ -16,20 +18,25 @@ def register(subparsers) -> None:
                                                   "(e.g. backflip, 88_01)")
     p.add_argument("--flips", type=int, default=2, help="total number of somersaults (default 2)")
     k = p.add_mutually_exclusive_group()
-    k.add_argument("--k-ratio", type=float, default=None, help="retiming factor as a fraction of k* (default 0.7)")
-    k.add_argument("--k", type=float, default=None, help="explicit retiming factor (>1 = faster)")
-    p.add_argument("--height-change", type=float, default=0.0, metavar="DY",
+    k.add_argument("--k-ratio", type=finite_float, default=None,
+                   help="retiming factor as a fraction of k* (default 0.7)")
+    k.add_argument("--k", type=finite_float, default=None, help="explicit retiming factor (>1 = faster)")
+    p.add_argument("--height-change", type=finite_float, default=0.0, metavar="DY",
                    help="change of the landing level in metres (negative = land lower)")
-    p.add_argument("--takeoff-height-change", type=float, default=0.0, metavar="DY0",
+    p.add_argument("--takeoff-height-change", type=finite_float, default=0.0, metavar="DY0",
                    help="change of the take-off level in metres (positive = take off from higher up; App. B)")
     p.add_argument("-o", "--output", required=True, metavar="OUT.bvh", help="where to write the new motion (BVH)")
     p.add_argument("--report", metavar="report.json", help="also write the physics report as JSON")
-    p.add_argument("--fps", type=float, default=None, help="frame rate to use instead of the file's")
+    p.add_argument("--fps", type=fps_arg, default=None, help="frame rate to use instead of the file's")
     p.add_argument("--fix-timing", action="store_true",
                    help="relabel the frame rate when the flight's gravity fit shows it is wrong")
     p.add_argument("--flight", type=int, nargs=2, metavar=("START", "STOP"), default=None,
-                   help="flight frames [START, STOP) instead of detecting them")
-    p.add_argument("--total-mass", type=float, default=70.0, help="body mass in kg for the prior (default 70)")
+                   help="flight frames [START, STOP) instead of detecting them. A detected flight shorter than "
+                        "0.25 s or whose centre-of-mass parabola gives a gravity outside 7.0-13.7 m/s^2 (after "
+                        "--fix-timing) is refused; a flight given here is measured the same way but only warned "
+                        "about")
+    p.add_argument("--total-mass", type=positive_float, default=70.0,
+                   help="body mass in kg for the prior (default 70)")
     p.add_argument("--no-mass-estimate", action="store_true", help="keep the table's mass distribution")
     p.add_argument("--joint-flights", action="store_true",
                    help="estimate the masses from every flight of the clip jointly (e.g. hops beside the flip)")
@@ -75,6 +82,7 @@ def run(args: argparse.Namespace) -> int:
 def _run(args: argparse.Namespace) -> int:
     from ..flips import multiflip, prepare
     from ..io.bvh import write_bvh
+    from ._common import check_flight
 
     if args.flips < 2:
         raise ValueError(f"--flips must be at least 2 (the input is one flip), got {args.flips}")
@@ -85,6 +93,7 @@ def _run(args: argparse.Namespace) -> int:
     prep = prepare(args.input, fps=args.fps, fix_timing=args.fix_timing, total_mass=args.total_mass,
                    flight=tuple(args.flight) if args.flight else None, estimate=not args.no_mass_estimate,
                    joint_flights=args.joint_flights, shape=args.shape)
+    check_flight(prep, args, "flips", fps_hint="--fix-timing, or --fps F")
     res = multiflip(prep, flips=args.flips, k=args.k, k_ratio=args.k_ratio, height_change=args.height_change,
                     takeoff_height_change=args.takeoff_height_change, seam_retime=not args.no_seam_retime)
     out = write_bvh(res.motion, args.output)

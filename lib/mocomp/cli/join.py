@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import json
 
+from ._common import float_in
+
 
 def register(subparsers) -> None:
     from .edit import add_restore_args
@@ -29,13 +31,19 @@ def register(subparsers) -> None:
     p.add_argument("--report", metavar="report.json", help="write the report (alignment, seam, errors)")
     p.add_argument("--match", choices=("takeoff", "landing", "mean"), default="takeoff",
                    help="which |L| both parts are retimed to (default: A's)")
-    p.add_argument("--max-tilt", type=float, default=45.0, metavar="DEG",
+    p.add_argument("--max-tilt", type=float_in(0.0, 180.0), default=45.0, metavar="DEG",
                    help="largest landing tilt accepted for a full alignment of L (default 45)")
     p.add_argument("--no-full-alignment", action="store_true",
                    help="refuse flights whose L differ after the turn about the vertical")
     p.add_argument("--direction-step", action="store_true",
                    help="also restore L's direction across the transition (eq. 5.21; turns the landing)")
     p.add_argument("--no-upright", action="store_true", help="keep a tilted landing instead of easing it out")
+    for role, letter in (("takeoff", "A"), ("landing", "B")):
+        p.add_argument(f"--{role}-flight", type=int, nargs=2, metavar=("START", "STOP"), default=None,
+                       help=f"{letter}'s flight frames [START, STOP) instead of detecting them. A detected flight "
+                            "shorter than 0.25 s or whose centre-of-mass parabola gives a gravity outside "
+                            "7.0-13.7 m/s^2 is refused; a flight given here is measured the same way but only "
+                            "noted")
     add_restore_args(p)
     p.set_defaults(func=run)
 
@@ -45,11 +53,21 @@ def run(args: argparse.Namespace) -> int:
     from ..io.bvh import write_bvh
     from .edit import check_output
 
+    from ..errors import ImplausibleFlightError
+
     out = check_output(args.output)
-    res = join_flights(args.takeoff, args.landing, match=args.match, full_alignment=not args.no_full_alignment,
-                       max_tilt_deg=args.max_tilt, k_ratio=args.k_ratio, k=args.k,
-                       takeoff_height=args.takeoff_height, upright=not args.no_upright,
-                       direction_step=args.direction_step)
+    flights = tuple(None if f is None else tuple(f) for f in (args.takeoff_flight, args.landing_flight))
+    try:
+        res = join_flights(args.takeoff, args.landing, flights=flights, match=args.match,
+                           full_alignment=not args.no_full_alignment, max_tilt_deg=args.max_tilt,
+                           k_ratio=args.k_ratio, k=args.k, takeoff_height=args.takeoff_height,
+                           upright=not args.no_upright, direction_step=args.direction_step)
+    except ImplausibleFlightError as e:         # the Python API's override hint -> the CLI option
+        if e.check is not None and e.source in ("takeoff", "landing"):
+            name = args.takeoff if e.source == "takeoff" else args.landing
+            e.args = (e.check.describe(str(name), override=f"--{e.source}-flight START STOP",
+                                       fps_hint="convert it first: mocomp convert IN OUT.bvh --fps F"),)
+        raise
     write_bvh(res.motion, out)
     print(res.summary())
     print(f"wrote {out} ({res.motion.n_frames} frames at {res.motion.fps:g} Hz)")

@@ -6,6 +6,8 @@ import argparse
 import json
 import math
 
+from ._common import finite_float, float_in
+
 
 def register(subparsers) -> None:
     p = subparsers.add_parser(
@@ -16,23 +18,28 @@ def register(subparsers) -> None:
                     "speed, rotation rate and jump height grow with the angle. Prints the reachable range when "
                     "the angle is out of it.")
     p.add_argument("input", metavar="INPUT", help="twist jump: motion file or clip/example name (e.g. twist180)")
-    p.add_argument("--degrees", type=float, required=True, help="total rotation of the new jump, degrees")
+    p.add_argument("--degrees", type=finite_float, required=True, help="total rotation of the new jump, degrees")
     p.add_argument("-o", "--output", required=True, metavar="OUT.bvh", help="new motion (BVH)")
     p.add_argument("--report", metavar="report.json", help="write the report as JSON")
-    p.add_argument("--max-k", type=float, default=1.5,
-                   help="largest uniform speed-up (and 1/x slow-down) of the take-off accepted (default 1.5)")
+    p.add_argument("--max-k", type=float_in(1.0, lo_open=True), default=1.5,
+                   help="largest uniform speed-up (and 1/x slow-down) of the take-off accepted, above 1 "
+                        "(default 1.5)")
+    p.add_argument("--flight", type=int, nargs=2, metavar=("START", "STOP"), default=None,
+                   help="flight frames [START, STOP) instead of detecting them. A detected flight shorter than "
+                        "0.25 s or whose centre-of-mass parabola gives a gravity outside 7.0-13.7 m/s^2 is refused; "
+                        "a flight given here is measured the same way but only warned about")
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     from ..edit.twist import prepare_twist, reachable_range, twist_jump
     from ..io.bvh import write_bvh
+    from ._common import check_flight
     from .edit import check_output
 
     out = check_output(args.output)
-    if not (math.isfinite(args.max_k) and args.max_k > 1):
-        raise ValueError(f"--max-k must be a number above 1, got {args.max_k}")
-    P = prepare_twist(args.input)
+    P = prepare_twist(args.input, flight=tuple(args.flight) if args.flight else None)
+    check_flight(P, args, "twist")
     lo, hi = reachable_range(P, args.max_k)
     print(f"{P.name}: {abs(math.degrees(P.total_rotation)):.0f} deg twist jump, flight frames "
           f"{P.flight[0]}-{P.flight[1] - 1}; reachable about {lo:.0f}-{hi:.0f} deg")

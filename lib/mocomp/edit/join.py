@@ -338,16 +338,25 @@ def _skeleton_difference(sa, sb, atol: float = 1e-4) -> str:
     return f"same {sa.n_joints} joint names, but " + " and ".join(parts)
 
 
-def _detect(motion, body, flight):
+def _detect(motion, body, flight, name: str = "the clip", role: str | None = None):
+    """``(flight, warning)``: the flight of ``motion`` (given, or detected), checked for plausible
+    free flight (:mod:`mocomp.flips.plausibility`): a detected one that is not is refused
+    (:class:`~mocomp.errors.ImplausibleFlightError`), a given one gets a warning (``None`` if fine)."""
+    from ..flips.phases import detect_flights
+    from ..flips.plausibility import check_detected, enforce_flight
+
+    det = detect_flights(motion, body)
     if flight is not None:
         a, b = int(flight[0]), int(flight[1])
         if not (0 <= a < b <= motion.n_frames and b - a >= 6):
             raise JoinError(f"flight {flight} is not a usable flight of this {motion.n_frames}-frame motion "
                             "(need at least 6 airborne frames)")
-        return a, b
-    from ..flips.phases import detect_flights
-
-    return detect_flights(motion, body).flight
+    else:
+        a, b = det.flight
+    override = "flights=((start, stop), None)" if role == "takeoff" else "flights=(None, (start, stop))"
+    warning = enforce_flight(check_detected(motion, body, (a, b), det), name, explicit=flight is not None,
+                             override=override, source=role)
+    return (a, b), warning
 
 
 def _retimed(motion: Motion, flight, speed: float):
@@ -417,8 +426,9 @@ def join_flights(takeoff, landing, *, body=None, flights=(None, None), match: st
         from ..flips.preprocess import clip_prior
 
         body = clip_prior(mA)
-    flA = _detect(mA, body, flights[0])
-    flB = _detect(mB, body, flights[1])
+    flA, warnA = _detect(mA, body, flights[0], nameA, "takeoff")
+    flB, warnB = _detect(mB, body, flights[1], nameB, "landing")
+    notes += [w for w in (warnA, warnB) if w]
     LA0, LB0 = _mean_L(body, mA, flA), _mean_L(body, mB, flB)
     for nm, L in ((nameA, LA0), (nameB, LB0)):
         if not np.linalg.norm(L) > 1e-3:

@@ -132,9 +132,11 @@ class TwistResult:
         return json.loads(json.dumps(d, default=float))
 
 
-def prepare_twist(source, body=None, min_angle_deg: float = 20.0, root_weight: float = 10.0):
+def prepare_twist(source, body=None, min_angle_deg: float = 20.0, root_weight: float = 10.0,
+                  flight: tuple[int, int] | None = None):
     """Pre-process a twist jump (:func:`mocomp.flips.prepare` without mass estimation, the
-    self-loop search allowing small rotations per fragment); cached per clip.
+    self-loop search allowing small rotations per fragment); cached per clip. ``flight``:
+    ``(start, stop)`` frames to use instead of the detected flight.
 
     The root's weight in the similarity (eq. 5.13) is raised from 2 to ``root_weight``: a twist
     jump turns about a near-vertical L with a small moment of inertia, so |L| is small, and a
@@ -146,6 +148,8 @@ def prepare_twist(source, body=None, min_angle_deg: float = 20.0, root_weight: f
             "weight_overrides": {"root": float(root_weight)}}
     if body is not None:
         opts["body"] = body
+    if flight is not None:
+        opts["flight"] = (int(flight[0]), int(flight[1]))
     return prepare_cached(source, **opts)
 
 
