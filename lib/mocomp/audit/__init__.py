@@ -1,0 +1,31 @@
+"""Is this motion physically valid? Measured from its frames only (issue #13, section 1).
+
+``audit(motion, body=None, *, thresholds=AuditThresholds(), against=None) -> AuditReport``
+takes any :class:`~mocomp.core.Motion` and, with no knowledge of the method that made
+it, measures:
+
+* contacts and phases (the project's detector), floor penetration and foot slide per
+  contact (:mod:`~mocomp.audit.contacts`);
+* COM velocity and linear momentum jumps at every frame against one-sided local fits,
+  with take-off and landing singled out (:mod:`~mocomp.audit.com`);
+* per flight, the ballistic fit of the COM (fitted g with its t-interval, the residual
+  to a g = 9.81 parabola), the spread of the L direction and the variation of |L|
+  (the paper's error measures) and the take-off angle (:mod:`~mocomp.audit.flights`);
+* per ground stage, the ZMP distance outside the support polygon (touch-up paper
+  eq. 4; :mod:`~mocomp.audit.zmp`);
+* kinematic sanity: bone lengths, joint rotation rates, root and joint jumps between
+  frames (:mod:`~mocomp.audit.kinematics`).
+
+Each :class:`Finding` states its frames, size and the threshold it exceeds;
+:class:`AuditThresholds` documents every default. ``report.violations``,
+``report.verdict`` (``"pass"``/``"fail"``), ``report.to_dict()``, ``report.summary_lines()``;
+with ``against=original`` the report carries an :class:`AuditComparison` (each measure
+of both motions side by side, flagged where the edit is worse).
+"""
+from .findings import Finding
+from .report import AuditComparison, AuditReport, Measure
+from .run import audit, default_body
+from .thresholds import G_STANDARD, AuditConfigError, AuditThresholds
+
+__all__ = ["audit", "default_body", "AuditReport", "AuditComparison", "AuditThresholds", "AuditConfigError",
+           "Finding", "Measure", "G_STANDARD"]

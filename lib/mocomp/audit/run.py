@@ -1,0 +1,100 @@
+"""``audit(motion, body=None, ...)``: every measure of :mod:`mocomp.audit`, one report."""
+from __future__ import annotations
+
+import dataclasses
+import time
+
+import numpy as np
+
+from ..body.model import BodyModel
+from ..dynamics.com import center_of_mass, check_compatible
+from ..dynamics.contacts import detect_contacts
+from ..errors import MotionFormatError
+from .com import com_audit
+from .contacts import body_support, contact_audits, floor_level, lowest_points, penetration, phases_of
+from .flights import flight_audits
+from .kinematics import kinematics_audit
+from .report import AuditReport
+from .thresholds import AuditThresholds
+from .zmp import zmp_audit
+
+__all__ = ["audit", "default_body", "MIN_FRAMES"]
+
+#: the shortest motion the audit measures (two one-sided quadratic fits of 3 frames share one frame)
+MIN_FRAMES = 5
+
+
+def default_body(motion) -> BodyModel:
+    """The body model the audit uses when none is given: a DeepMimic clip's own character
+    (its bodies' masses, from the character file the loader recorded), else de Leva's (1996)
+    male table on the skeleton at 70 kg with constant-density ellipsoids."""
+    if motion.source.format == "deepmimic":
+        from ..io.deepmimic import read_deepmimic_body
+
+        for note in motion.source.notes:
+            if note.startswith("character "):
+                return read_deepmimic_body(note[len("character "):], motion.skeleton)
+    return BodyModel.from_skeleton(motion.skeleton, total_mass=70.0)
+
+
+def _body_text(body) -> str:
+    table = str(getattr(body, "table", "") or "").split(" (")[0]
+    return f"{body.n_segments} segments, {table or 'given masses'}"
+
+
+def audit(motion, body=None, *, thresholds: AuditThresholds = AuditThresholds(), against=None,
+          name: str | None = None, against_name: str | None = None, against_body=None) -> AuditReport:
+    """Measure the physical validity of ``motion`` from its frames alone.
+
+    Parameters
+    ----------
+    motion: a :class:`~mocomp.core.Motion` (at least :data:`MIN_FRAMES` frames).
+    body: its :class:`~mocomp.body.BodyModel` (default :func:`default_body`).
+    thresholds: :class:`~mocomp.audit.AuditThresholds` (documented defaults).
+    against: optionally the motion this one was made from; it is audited with the same
+        thresholds (and ``against_body``, default :func:`default_body` of it) and the report's
+        ``comparison`` lists each measure of both side by side.
+    name, against_name: labels for the reports.
+
+    Measures (see each module): phases and contacts, floor penetration and foot slide
+    (:mod:`~mocomp.audit.contacts`), COM velocity / linear momentum jumps
+    (:mod:`~mocomp.audit.com`), per flight the ballistic fit, L spread and take-off angle
+    (:mod:`~mocomp.audit.flights`), ZMP outside the support polygon (:mod:`~mocomp.audit.zmp`),
+    bone lengths, joint rates and frame-to-frame jumps (:mod:`~mocomp.audit.kinematics`).
+    Nothing of the method that made the motion is used.
+    """
+    t0 = time.perf_counter()
+    if not isinstance(thresholds, AuditThresholds):
+        raise TypeError(f"thresholds must be an AuditThresholds, got {type(thresholds).__name__}")
+    label = name or (motion.source.path if getattr(motion, "source", None) and motion.source.path else "motion")
+    if motion.n_frames < MIN_FRAMES:
+        raise MotionFormatError(f"{label}: the audit needs at least {MIN_FRAMES} frames, got {motion.n_frames}")
+    body = default_body(motion) if body is None else body
+    check_compatible(body, motion)
+    contacts = detect_contacts(motion)
+    low, low_i, names = lowest_points(motion)
+    floor_y, floor_src = floor_level(low, contacts, phases_of(contacts, motion.n_frames), thresholds.floor_y)
+    com = center_of_mass(body, motion)
+    support = body_support(motion, low, low_i, floor_y, thresholds.support_clearance, contacts.speed_tol)
+    phases = phases_of(contacts, motion.n_frames, com[:, 1] - floor_y, thresholds.flight_com_height, support)
+    findings = []
+    pen, f = penetration(low, low_i, names, floor_y, floor_src, thresholds)
+    findings += f
+    cons, f = contact_audits(contacts, pen.depth, thresholds)
+    findings += f
+    ca, f = com_audit(com, motion.fps, body.total_mass, phases, thresholds)
+    findings += f
+    fl, f = flight_audits(body, motion, com, phases, thresholds)
+    findings += f
+    za, f = zmp_audit(body, motion, contacts, floor_y, phases, thresholds)
+    findings += f
+    ka, f = kinematics_audit(motion, thresholds, body)
+    findings += f
+    findings.sort(key=lambda x: (x.frames[0], x.check))
+    rep = AuditReport(str(label), motion.n_frames, float(motion.fps), float(body.total_mass), _body_text(body),
+                      thresholds, phases, tuple(contacts.notes), pen, cons, ca, fl, za, ka, tuple(findings),
+                      times=motion.times)
+    if against is not None:
+        other = audit(against, against_body, thresholds=thresholds, name=against_name or "original")
+        rep = dataclasses.replace(rep, comparison=rep.compare(other), against=other)
+    return dataclasses.replace(rep, seconds=time.perf_counter() - t0)
