@@ -464,3 +464,29 @@ def test_mutated_asf_parses_or_raises_motion_format_error(text):
             return
     event("parsed")
     assert m.n_frames == 2
+
+
+# ------------------------------------------------------------------ unicode digits, extreme values (issue 12)
+@pytest.mark.parametrize("mutate, line, words", [
+    (lambda L: L[:9] + ["²"] + L[10:], 10, "bone '²' is not in the skeleton"),     # str.isdigit('²') is True
+    (lambda L: L[:9] + ["٣"] + L[10:], 10, "bone '٣' is not in the skeleton"),     # Arabic-Indic three
+    (lambda L: L[:10] + ["root 1e308 15 0 0 0 0"] + L[11:], 11, "root position x = 5.64444e+306 m at frame 1"),
+    (lambda L: L[:10] + ["root 1e6 15 0 0 0 0"] + L[11:], 11, "beyond the accepted +-10000 m"),
+    (lambda L: L[:11] + ["lfemur 1 1e300 3"] + L[12:], 12, "bone 'lfemur' dof ry: angle 1e+300 deg is beyond"),
+])
+def test_unicode_frame_numbers_and_extreme_values_name_the_line(mutate, line, words):
+    text = "\n".join(mutate(_amc_lines()))
+    with pytest.raises(MotionFormatError) as e:
+        load(text)
+    assert e.value.line == line and f"t.amc:{line}: " in str(e.value) and words in str(e.value), str(e.value)
+
+
+def test_extreme_bone_length_and_fps_are_refused():
+    bad = ASF.replace("length 6", "length 1e300")
+    with pytest.raises(MotionFormatError) as e:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            parse_amc(amc_text(), parse_asf(bad, path="t.asf"), path="t.amc")
+    assert "t.asf:" in str(e.value) and "bone 'lowerback' is 5.64444e+298 m long after scaling" in str(e.value) and e.value.line == 36, str(e.value)
+    with pytest.raises(MotionFormatError, match=r"t.amc: fps argument 20000 Hz is outside the accepted 1-10000 Hz"):
+        load(fps=20000)

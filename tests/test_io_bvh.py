@@ -899,3 +899,99 @@ def test_mutated_bvh_compiled_and_numpy_readers_agree(monkeypatch, text):
     else:
         event("parsed")
         _assert_same_bits(a, b)
+
+
+# ------------------------------------------------------------------ extreme values, sizes, depth (issue 12)
+@pytest.mark.parametrize("mutate, line, words", [
+    (lambda L: L[:7] + ["\t\tOFFSET 0 -1e308 0"] + L[8:], 8, "offset of joint 'Leg' is"),     # finite but extreme
+    (lambda L: L[:11] + ["\t\t\tOFFSET 0 -4e6 0"] + L[12:], 12, "End Site 'Leg_end' offset"),  # 40 km end site
+    (lambda L: L[:17] + ["Frame Time: 1e-300"] + L[18:], 18, "gives a frame rate of 1e+300 Hz is outside the "
+                                                              "accepted 1-10000 Hz"),
+    (lambda L: L[:17] + ["Frame Time: 3600"] + L[18:], 18, "outside the accepted"),
+    (lambda L: L[:16] + ["Frames: 1000000000"] + L[17:], 17, "Frames: 1000000000 (more than the 1,000,000"),
+    (lambda L: L[:19] + ["0 91 0 1e300 2 3 4 5 6"] + L[20:], 20, "rotation channel 3 is beyond the accepted"),
+    (lambda L: L[:20] + ["2e9 92 0 1 2 3 4 5 6"] + L[21:], 21, "root position x = 2e+07 m at frame 2"),
+])
+def test_extreme_values_and_counts_name_the_line(mutate, line, words):
+    with pytest.raises(MotionFormatError) as e:
+        parse("\n".join(mutate(_lines(GOOD))))
+    assert words in str(e.value) and e.value.line == line and e.value.path == "x.bvh", str(e.value)
+
+
+def test_extreme_offset_with_guessed_unit_is_refused(tmp_path):
+    """OFFSET -1e308 gave NaN joint positions and exit status 0 (the unit guess, FK overflow)."""
+    L = _lines(GOOD)
+    f = tmp_path / "far.bvh"
+    f.write_text("\n".join(L[:7] + ["\t\tOFFSET 0 -1e308 0"] + L[8:]))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with pytest.raises(MotionFormatError, match=r"far.bvh:8: offset of joint 'Leg'"):
+            read_bvh(f)
+        with pytest.raises(MotionFormatError, match=r"fps argument 1e\+06 Hz"):
+            read_bvh(tmp_path / "ok.bvh" if (tmp_path / "ok.bvh").write_text(GOOD) else None, fps=1e6)
+
+
+def test_non_bvh_file_is_refused_from_its_first_bytes(tmp_path, monkeypatch):
+    """A large file of digits used to be read and decoded whole (15 s, 0.9 GB for 200 MB)
+    before 'does not start with HIERARCHY'. Now only the first 64 kB are read."""
+    f = tmp_path / "digits.bvh"
+    f.write_bytes(b"1234567890 " * 200_000)  # 2.2 MB
+    reads = []
+    real_open = open
+
+    class Spy:
+        def __init__(self, fh):
+            self.fh = fh
+
+        def read(self, n=-1):
+            out = self.fh.read(n)
+            reads.append(len(out))
+            return out
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *a):
+            self.fh.close()
+
+    monkeypatch.setattr("builtins.open", lambda p, mode="r", *a, **k: Spy(real_open(p, mode, *a, **k))
+                        if str(p) == str(f) else real_open(p, mode, *a, **k))
+    with pytest.raises(MotionFormatError, match=r"digits.bvh:1: file does not start with HIERARCHY \(starts with "
+                                                r"'1234567890'"):
+        read_bvh(f)
+    assert reads == [1 << 16]
+    monkeypatch.undo()
+    bom = tmp_path / "bom.bvh"
+    bom.write_bytes(b"\xef\xbb\xbf\r\n\r\n" + GOOD.encode())  # a BOM and blank lines are fine
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        assert read_bvh(bom, scale=0.01).n_frames == 3
+    (tmp_path / "late.bvh").write_bytes(b"\n\n\nMOTION\n")
+    with pytest.raises(MotionFormatError, match=r"late.bvh:4: file does not start with HIERARCHY"):
+        read_bvh(tmp_path / "late.bvh")
+
+
+def test_deep_hierarchy_writes_without_recursion_and_reads_back_with_a_clear_error(tmp_path):
+    """format_bvh recursed once per level and died at depth ~1000 (RecursionError)."""
+    J = 10_000
+    sk = Skeleton(tuple(f"j{k}" for k in range(J)), np.arange(-1, J - 1), np.tile([0.0, 0.01, 0.0], (J, 1)),
+                  tuple([("Xposition", "Yposition", "Zposition", "Zrotation", "Xrotation", "Yrotation")]
+                        + [("Zrotation", "Xrotation", "Yrotation")] * (J - 1)), (EndSite(J - 1, [0, 0.01, 0], "tip"),))
+    m = Motion(sk, 30.0, np.zeros((2, 3)), np.tile([0.0, 0.0, 0.0, 1.0], (2, J, 1)))
+    text = format_bvh(m, precision=3)
+    lines = text.split("\n")
+    assert lines[1] == "ROOT j0" and sum(ln.strip().startswith("JOINT") for ln in lines) == J - 1
+    assert max(len(ln) - len(ln.lstrip("\t")) for ln in lines) == 66  # indentation capped at 64 levels (+2)
+    assert len(text) < 8_000_000  # uncapped indentation: ~200 MB of tabs
+    # a small deep chain (depth 1000 < the joint limit) round-trips exactly
+    small = Motion(Skeleton(sk.names[:1000], sk.parents[:1000], sk.offsets[:1000], sk.channels[:1000]), 30.0,
+                   np.zeros((2, 3)), np.tile([0.0, 0.0, 0.0, 1.0], (2, 1000, 1)))
+    back = parse_bvh(format_bvh(small), path="deep.bvh", scale=1.0, height_check=False)
+    assert back.skeleton.names == small.skeleton.names
+    np.testing.assert_array_equal(back.skeleton.parents, small.skeleton.parents)
+    f = tmp_path / "deep.bvh"
+    f.write_text(text)
+    with pytest.raises(MotionFormatError) as e:
+        read_bvh(f, scale=1.0, height_check=False)
+    assert "more than 1000 joints" in str(e.value) and "deep.bvh" in str(e.value)
+    assert lines[e.value.line - 1].strip() == "JOINT j1000"

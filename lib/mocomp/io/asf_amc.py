@@ -57,6 +57,7 @@ from ..core.skeleton import EndSite, Skeleton
 from ..errors import MotionFormatError
 from .bvh import _euler_columns_to_quat
 from .units import check_height, resolve_scale, standing_height
+from .validate import MAX_ANGLE_DEG, MAX_JOINTS, MAX_LENGTH_M, check_counts, check_fps, check_motion
 
 __all__ = ["Asf", "AsfBone", "read_asf", "parse_asf", "read_amc", "parse_amc", "find_asf", "DEFAULT_AMC_FPS"]
 
@@ -409,6 +410,9 @@ def parse_asf(text: str, path: str | None = None) -> Asf:
         raise MotionFormatError("limits list ended early (file truncated?)", path, n_lines)
     if not bones:
         raise MotionFormatError("no :bonedata bones (file truncated or not an ASF file?)", path, n_lines)
+    if len(bones) + 1 > MAX_JOINTS:
+        raise MotionFormatError(f"{len(bones)} bones (more than the {MAX_JOINTS - 1} accepted)", path,
+                                bones[MAX_JOINTS - 1].line)
     if not children:
         raise MotionFormatError("no :hierarchy section (file truncated?)", path, n_lines)
     known = {b.name for b in bones} | {"root"}
@@ -536,7 +540,7 @@ def parse_amc(text: str, asf: Asf, path: str | None = None, scale=None, fps: flo
             elif k == ":RADIANS":
                 angle = "rad"
             continue  # :FULLY-SPECIFIED and others carry no data
-        if len(toks) == 1 and key.isdigit():
+        if len(toks) == 1 and key.isascii() and key.isdigit():  # not '²' or '٣' (str.isdigit accepts them)
             n = int(key)
             if frame_no is not None and n != frame_no + 1:
                 raise MotionFormatError(f"frame number {n} follows frame {frame_no} (frames must be consecutive)",
@@ -590,6 +594,13 @@ def parse_amc(text: str, asf: Asf, path: str | None = None, scale=None, fps: flo
         data[n] = a
     angle = angle or asf.angle_unit
     to_rad = (math.pi / 180.0) if angle == "deg" else 1.0
+    check_counts(T, len(dof_of), path, frame_lines[-1])
+    for n, a in data.items():  # rotation values: a corrupt 1e308 is not an angle
+        rc = [k for k, d in enumerate(dof_of[n]) if d.startswith("r")]
+        if rc and np.abs(a[:, rc]).max() * to_rad > MAX_ANGLE_DEG * math.pi / 180.0:
+            r, c = (int(i) for i in np.argwhere(np.abs(a[:, rc]) * to_rad > MAX_ANGLE_DEG * math.pi / 180.0)[0])
+            raise MotionFormatError(f"bone {n!r} dof {dof_of[n][rc[c]]}: angle {a[r, rc[c]]:.6g} {angle} is beyond the "
+                                    f"accepted +-{MAX_ANGLE_DEG:g} degrees", path, lines_of[n][r])
 
     # ---- kinematics
     sk_file = asf.skeleton(scale=1.0)
@@ -632,12 +643,26 @@ def parse_amc(text: str, asf: Asf, path: str | None = None, scale=None, fps: flo
                   f"inch (CMU/Vicon convention)" + ("" if "length" in asf.units else "; no length in :units, 1 assumed"))
     else:
         s, reason = resolve_scale(scale, height_units)
+    # lengths in metres within +-1e4 m (validate.MAX_LENGTH_M), named by their line
+    for b in asf.bones:
+        if b.length * s > MAX_LENGTH_M:
+            raise MotionFormatError(f"bone {b.name!r} is {b.length * s:.6g} m long after scaling by {s:g} m/unit "
+                                    f"(beyond the accepted {MAX_LENGTH_M:g} m; a corrupt number or wrong unit?)",
+                                    asf.path, b.line)
+    far = np.abs(root_pos * s) > MAX_LENGTH_M
+    if far.any():
+        r, k = (int(i) for i in np.argwhere(far)[0])
+        ln = lines_of["root"][r] if lines_of["root"] else None
+        raise MotionFormatError(f"root position {'xyz'[k]} = {root_pos[r, k] * s:.6g} m at frame {r} (beyond the "
+                                f"accepted +-{MAX_LENGTH_M:g} m)", path if ln else asf.path, ln)
     if height_check:
         check_height(height_units * s, path or "<amc text>")
     if fps is None:
         fps = DEFAULT_AMC_FPS
         notes.append(f"AMC files state no frame rate; {DEFAULT_AMC_FPS:g} Hz assumed (CMU/HDM05 rate)")
+    else:
+        fps = check_fps(fps, path, what="fps argument")
     notes.append(f"skeleton from {asf.path or 'ASF text'}; AMC angles in {angle}")
     src = SourceInfo(path=path, format="asf/amc", unit_scale=s, unit_reason=reason, header_fps=None,
                      notes=tuple(notes))
-    return Motion(sk_file.scaled(s), fps, root_pos * s, rots, source=src)
+    return check_motion(Motion(sk_file.scaled(s), fps, root_pos * s, rots, source=src))

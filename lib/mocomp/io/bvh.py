@@ -34,6 +34,7 @@ from ..core.rotations import euler_sequence
 from ..core.skeleton import EndSite, RemovedRoot, Skeleton
 from ..errors import MotionFormatError
 from .units import HEIGHT_RANGE, check_height, resolve_scale, standing_height
+from .validate import MAX_ANGLE_DEG, MAX_FRAMES, MAX_JOINTS, MAX_LENGTH_M, check_counts, check_fps, check_motion
 
 __all__ = ["read_bvh", "write_bvh", "parse_bvh", "format_bvh"]
 
@@ -66,7 +67,10 @@ def read_bvh(path, scale=None, fps: float | None = None, height_check: bool = Tr
     """
     path = Path(path)
     try:
-        raw = path.read_bytes()
+        with open(path, "rb") as f:  # the first bytes first: a 200 MB file of anything else is refused at once
+            first = f.read(_SNIFF_BYTES)
+            _check_starts_with_hierarchy(first, str(path))
+            raw = first + f.read()
     except OSError as e:
         raise MotionFormatError(f"cannot read file: {e.strerror}", path) from None
     # Only the header is decoded and split into lines; the frame block stays bytes
@@ -78,6 +82,25 @@ def read_bvh(path, scale=None, fps: float | None = None, height_check: bool = Tr
     except UnicodeDecodeError:
         head = raw[:head_end].decode("latin-1")
     return _parse(head, raw, head_end, str(path), scale, fps, height_check)
+
+
+#: bytes read before anything else to check that the file starts with HIERARCHY
+_SNIFF_BYTES = 1 << 16
+_FIRST_WORD = re.compile(rb"\A(?:\xef\xbb\xbf)?(\s*)(\S{0,40})")
+
+
+def _check_starts_with_hierarchy(first: bytes, path) -> None:
+    """Refuse a file whose first word (after a UTF-8 byte-order mark and blank lines)
+    is not ``HIERARCHY``, from its first bytes only."""
+    m = _FIRST_WORD.match(first)
+    word = m.group(2)
+    if word.upper() == b"HIERARCHY" or (not word and len(first) == _SNIFF_BYTES):
+        return  # (64 kB of white space: let the parser decide)
+    line = m.group(1).count(b"\n") + 1 if m.group(1).count(b"\n") else (m.group(1).count(b"\r") + 1)
+    if not word:
+        raise MotionFormatError("file does not start with HIERARCHY (it is empty or blank)", path)
+    raise MotionFormatError(f"file does not start with HIERARCHY (starts with {word.decode('latin-1')[:20]!r}; "
+                            "not a BVH file?)", path, line)
 
 
 # the "Frame Time:" line with its line end (LF, CRLF or old-Mac CR)
@@ -99,12 +122,17 @@ def parse_bvh(text: str, path: str | None = None, scale=None, fps: float | None 
 def _parse(head: str, raw: bytes, start: int, path, scale, fps, height_check) -> Motion:
     """Header text (through the ``Frame Time:`` line) + the frame block, which is
     ``raw[start:]`` (not sliced: a 2 MB copy is measurable) -> Motion."""
+    if head.startswith(("\ufeff", "\xef\xbb\xbf")):  # a UTF-8 byte-order mark (decoded as UTF-8 or latin-1)
+        head = head[1 if head[0] == "\ufeff" else 3:]
     lines = head.splitlines()
     names: list[str] = []
     parents: list[int] = []
     offsets: list[list[float]] = []
     channels: list[tuple[str, ...]] = []
     end_sites: list[tuple[int, list[float], str]] = []
+    offset_lines: dict[int, int] = {}  # joint -> line of its OFFSET
+    end_lines: list[int] = []  # line of each End Site OFFSET, in end_sites order
+    end_line = 0
     stack: list[int] = []  # joint indices; -2 marks an End Site block
     pending: int | None = None  # index of the joint/end-site awaiting "{"
     pending_end = False
@@ -137,6 +165,8 @@ def _parse(head: str, raw: bytes, start: int, path, scale, fps, height_check) ->
             if ukey == "JOINT" and not stack:
                 raise MotionFormatError("JOINT outside any ROOT block", path, ln)
             name = " ".join(toks[1:])
+            if len(names) >= MAX_JOINTS:
+                raise MotionFormatError(f"more than {MAX_JOINTS} joints (the most accepted)", path, ln)
             if name in names:
                 raise MotionFormatError(f"duplicate joint name {name!r}", path, ln)
             names.append(name)
@@ -168,6 +198,7 @@ def _parse(head: str, raw: bytes, start: int, path, scale, fps, height_check) ->
                 if current_end is None or current_end[1] is None:
                     raise MotionFormatError("End Site without OFFSET", path, ln)
                 end_sites.append(tuple(current_end))  # type: ignore[arg-type]
+                end_lines.append(end_line)
                 current_end = None
             else:
                 if offsets[top] is None:
@@ -180,8 +211,10 @@ def _parse(head: str, raw: bytes, start: int, path, scale, fps, height_check) ->
             vals = [_num(t, path, ln, "OFFSET") for t in toks[1:]]
             if stack and stack[-1] == -2:
                 current_end[1] = vals  # type: ignore[index]
+                end_line = ln
             elif stack:
                 offsets[stack[-1]] = vals
+                offset_lines[stack[-1]] = ln
             else:
                 raise MotionFormatError("OFFSET outside a joint block", path, ln)
         elif ukey == "CHANNELS":
@@ -237,10 +270,14 @@ def _parse(head: str, raw: bytes, start: int, path, scale, fps, height_check) ->
         raise MotionFormatError(f"Frames: {val!r} is not a whole number", path, ln) from None
     if n_frames <= 0:
         raise MotionFormatError(f"Frames: {n_frames} (a motion needs at least one frame)", path, ln)
+    if n_frames > MAX_FRAMES:
+        raise MotionFormatError(f"Frames: {n_frames} (more than the {MAX_FRAMES:,} accepted)", path, ln)
+    check_counts(n_frames, len(names), path, ln)
     val, ln = header("Frame Time:")
     frame_time = _num(val, path, ln, "Frame Time")
     if frame_time <= 0:
         raise MotionFormatError(f"Frame Time must be positive, got {frame_time}", path, ln)
+    check_fps(1.0 / frame_time, path, ln, f"Frame Time {val} s gives a frame rate of")
     first_data = len(lines)  # 0-based index of the first line after "Frame Time:"
     nch = sum(len(c) for c in channels)
     # large frame blocks: the compiled parse and Euler conversion (same bits as the numpy code)
@@ -254,6 +291,12 @@ def _parse(head: str, raw: bytes, start: int, path, scale, fps, height_check) ->
         r, c = np.argwhere(~np.isfinite(data))[0]
         line = _nth_data_line(raw[start:], r) + first_data + 1
         raise MotionFormatError(f"frame value {data[r, c]} in channel {c} is not finite", path, line)
+    rot_cols = [k for k, c in enumerate(c for ch in channels for c in ch) if c in _ROT]
+    if rot_cols and np.abs(data[:, rot_cols]).max() > MAX_ANGLE_DEG:
+        r, k = (int(i) for i in np.argwhere(np.abs(data[:, rot_cols]) > MAX_ANGLE_DEG)[0])
+        line = _nth_data_line(raw[start:], r) + first_data + 1
+        raise MotionFormatError(f"frame value {data[r, rot_cols[k]]:.6g} in rotation channel {rot_cols[k]} is beyond "
+                                f"the accepted +-{MAX_ANGLE_DEG:g} degrees", path, line)
 
     # ---- assemble (vectorized over frames; joints with the same rotation order in one batch)
     J = len(names)
@@ -319,6 +362,7 @@ def _parse(head: str, raw: bytes, start: int, path, scale, fps, height_check) ->
         notes.append(f"root joint {names[0]!r} removed; its transform was folded into {names[j]!r}, which "
                      "carries the root motion and became the root (kept as skeleton.removed_root: "
                      "write_bvh writes it again)")
+        end_lines = [ln for (p, _, _), ln in zip(end_sites, end_lines) if p != 0]
         end_sites = [(p - 1, o, nm) for p, o, nm in end_sites if p != 0]
         names = [names[k] for k in keep]
         parents_arr = np.array([-1] + [parents[k] - 1 for k in keep[1:]])
@@ -348,13 +392,30 @@ def _parse(head: str, raw: bytes, start: int, path, scale, fps, height_check) ->
         # standing height decides whether to warn.
         if height_check and not (HEIGHT_RANGE[0] <= sk_file.height() * s <= HEIGHT_RANGE[1]):
             check_height(motion_height() * s, where)
+    # lengths in metres within +-1e4 m (validate.MAX_LENGTH_M), named by their line
+    for j, o in enumerate(sk_file.offsets):
+        if not np.all(np.abs(o * s) <= MAX_LENGTH_M):
+            ln = offset_lines.get(j + (1 if removed is not None else 0), motion_line)
+            raise MotionFormatError(f"offset of joint {names[j]!r} is {o * s} m after scaling by {s:g} m/unit (beyond the "
+                                    f"accepted +-{MAX_LENGTH_M:g} m; a corrupt number or wrong unit?)", path, ln)
+    for e, ln in zip(sk_file.end_sites, end_lines):
+        if not np.all(np.abs(e.offset * s) <= MAX_LENGTH_M):
+            raise MotionFormatError(f"End Site {e.name!r} offset is {e.offset * s} m (beyond the accepted "
+                                    f"+-{MAX_LENGTH_M:g} m)", path, ln)
+    far = np.abs(root_pos * s) > MAX_LENGTH_M
+    if far.any():
+        r, k = (int(i) for i in np.argwhere(far)[0])
+        line = _nth_data_line(raw[start:], r) + first_data + 1
+        raise MotionFormatError(f"root position {'xyz'[k]} = {root_pos[r, k] * s:.6g} m at frame {r} (beyond the "
+                                f"accepted +-{MAX_LENGTH_M:g} m)", path, line)
     sk = sk_file.scaled(s)
     header_fps = 1.0 / frame_time
     if fps is not None:
+        fps = check_fps(fps, path, what="fps argument")
         notes.append(f"header says {header_fps:.6g} fps; caller set {fps:g} fps")
     src = SourceInfo(path=path, format="bvh", unit_scale=s, unit_reason=reason, header_fps=header_fps,
                      notes=tuple(notes))
-    return Motion(sk, fps if fps is not None else header_fps, root_pos * s, rots, source=src)
+    return check_motion(Motion(sk, fps if fps is not None else header_fps, root_pos * s, rots, source=src))
 
 
 # (output component, a component, b component, sign) of the Hamilton product a*b in (x, y, z, w) order
@@ -550,6 +611,10 @@ def _fmt(values: np.ndarray, precision: int) -> list[str]:
     return [row % tuple(r) for r in values.tolist()]
 
 
+#: indentation levels written at most by :func:`format_bvh`
+_MAX_INDENT = 64
+
+
 def format_bvh(motion: Motion, scale: float = 1.0, precision: int = 8, channels=None,
                restore_root: bool = True) -> str:
     """BVH text for ``motion``. Lengths are written in file units of ``scale``
@@ -602,22 +667,31 @@ def format_bvh(motion: Motion, scale: float = 1.0, precision: int = 8, channels=
 
     order: list[int] = []  # joints in the order the hierarchy lists them = frame column order
 
-    def emit(j: int, depth: int):
-        order.append(j)
-        ind = "\t" * depth
-        out.append(f"{ind}{'ROOT' if depth == 0 else 'JOINT'} {sk.names[j]}")
-        out.append(f"{ind}{{")
-        o = (rr.child_offset if (rr is not None and j == 0) else sk.offsets[j]) * inv
-        out.append(f"{ind}\tOFFSET " + " ".join(num % v for v in o))
-        out.append(f"{ind}\tCHANNELS {len(chans[j])} " + " ".join(chans[j]))
-        for c in kids[j]:
-            emit(c, depth + 1)
-        for e in ends[j]:
-            out.append(f"{ind}\tEnd Site")
-            out.append(f"{ind}\t{{")
-            out.append(f"{ind}\t\tOFFSET " + " ".join(num % v for v in e.offset * inv))
-            out.append(f"{ind}\t}}")
-        out.append(f"{ind}}}")
+    def emit(j0: int, depth0: int):
+        """The block of joint ``j0`` and everything below it, depth first, with an explicit
+        stack (no recursion: any depth works). Indentation is one tab per level up to
+        :data:`_MAX_INDENT` levels (deeper blocks are not indented further, so a
+        10,000-deep chain does not write 10,000**2 tabs)."""
+        stack: list[tuple[int, int, bool]] = [(j0, depth0, False)]  # (joint, depth, children done)
+        while stack:
+            j, depth, done = stack.pop()
+            ind = "\t" * min(depth, _MAX_INDENT)
+            if not done:
+                order.append(j)
+                out.append(f"{ind}{'ROOT' if depth == 0 else 'JOINT'} {sk.names[j]}")
+                out.append(f"{ind}{{")
+                o = (rr.child_offset if (rr is not None and j == 0) else sk.offsets[j]) * inv
+                out.append(f"{ind}\tOFFSET " + " ".join(num % v for v in o))
+                out.append(f"{ind}\tCHANNELS {len(chans[j])} " + " ".join(chans[j]))
+                stack.append((j, depth, True))
+                stack.extend((c, depth + 1, False) for c in reversed(kids[j]))
+                continue
+            for e in ends[j]:
+                out.append(f"{ind}\tEnd Site")
+                out.append(f"{ind}\t{{")
+                out.append(f"{ind}\t\tOFFSET " + " ".join(num % v for v in e.offset * inv))
+                out.append(f"{ind}\t}}")
+            out.append(f"{ind}}}")
 
     T = motion.n_frames
     cols = []

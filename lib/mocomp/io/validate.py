@@ -15,6 +15,7 @@ frame rate          1 Hz - 10,000 Hz       key-framed clips run at >= 8 Hz, high
 lengths (offsets,   ``|x| <= 1e4 m``       bones are < 10 m; a root may travel kilometres
 root positions,     per component          but not 10 km in one clip. The bound also keeps
 markers, end sites) after unit conversion  every forward-kinematics position finite
+angles in files     ``|a| <= 1e6 deg``     unwrapped real angles stay within a few thousand
 joints              1 - 1,000              full-body rigs with fingers and face have < 300
 frames              1 - 1,000,000          2.3 h at 120 Hz
 frames x joints     <= 50,000,000          1.6 GB of quaternions: the memory budget of a Motion
@@ -33,13 +34,16 @@ import numpy as np
 
 from ..errors import MotionFormatError
 
-__all__ = ["FPS_RANGE", "MAX_LENGTH_M", "MAX_JOINTS", "MAX_FRAMES", "MAX_SAMPLES",
+__all__ = ["FPS_RANGE", "MAX_LENGTH_M", "MAX_ANGLE_DEG", "MAX_JOINTS", "MAX_FRAMES", "MAX_SAMPLES",
            "check_fps", "check_counts", "check_lengths", "check_motion", "check_markers"]
 
 #: accepted frame rates, Hz (inclusive)
 FPS_RANGE = (1.0, 10_000.0)
 #: largest accepted |coordinate| of an offset, end site, root position or marker, metres
 MAX_LENGTH_M = 1e4
+#: largest accepted |angle| in a file's rotation channels, degrees (real files stay within
+#: a few thousand even when unwrapped; 1e308 is a corrupt number, not an angle)
+MAX_ANGLE_DEG = 1e6
 #: most joints a skeleton may have
 MAX_JOINTS = 1000
 #: most frames a motion may have
