@@ -62,6 +62,16 @@ _JS = r"""
   if (window.__mocompHarness) { return; }
   window.__mocompHarness = true;
   var KC = "%KC%", KI = "%KI%";
+  // Voila's beforeunload beacon (shut this page's kernel down) sends the _xsrf cookie's value, but the
+  // page is streamed, so the server never sets that cookie and the beacon is refused (403). Set one
+  // (double-submit: another site can neither read nor set it), so a closed or reloaded page frees the
+  // session at once instead of after the server's idle-kernel cull.
+  if (!/(^|;\s*)_xsrf=[^;]+/.test(document.cookie)) {
+    var rnd = new Uint8Array(16), hex = "";
+    window.crypto.getRandomValues(rnd);
+    for (var j = 0; j < rnd.length; j++) { hex += ("0" + rnd[j].toString(16)).slice(-2); }
+    document.cookie = "_xsrf=" + hex + "; path=/; SameSite=Strict";
+  }
   var onset = null, endAt = null;
   function visible(el) { return el && el.offsetParent !== null && !el.disabled; }
   function first(sel) {

@@ -336,9 +336,11 @@ def register_run(subparsers) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
         "run", help="serve the participant app (Voila on 127.0.0.1) for one participant session",
         description="Serve the perception-study app for one participant and session with Voila on "
-                    "127.0.0.1 (open the printed address in a browser). The plan is written to "
+                    "127.0.0.1 (open the printed address, which carries this session's access token, in a "
+                    "browser; it is printed once the server listens on exactly that port). The plan is written to "
                     "DATA/<participant>/<session>/ before the first trial; re-running the same command "
-                    "resumes the session where it stopped. Stop with Ctrl-C.")
+                    "resumes the session where it stopped. Stop with Ctrl-C or SIGTERM (the server and its "
+                    "kernels are shut down).")
     p.add_argument("--participant", required=True, help="participant id (letters, digits, _ . -)")
     p.add_argument("--session", required=True, help="session id, e.g. S1")
     p.add_argument("--manifest", required=True, help="stimulus manifest CSV (from `mocomp study render`)")

@@ -16,6 +16,13 @@ participant app served by Voila (``mocomp study run``) on 127.0.0.1.
    browser extensions): the old kernel lives on, so the reloaded page is told the
    session is open elsewhere; the server culls the orphaned kernel and "Try
    again" resumes the session where it stopped, nothing lost or duplicated.
+5. The page needs the token of the printed address: without it the browser lands
+   on the login page and no kernel opens the session; with it, a plain reload's
+   ``beforeunload`` beacon (which carries the login cookie and ``_xsrf``) shuts
+   the old kernel down at once, so the reloaded page resumes without waiting
+   for the culler.
+
+Every page is opened at the address ``mocomp study run`` prints (its port and token).
 
 Skips locally when Chromium (/usr/bin/chromium), Playwright or Voila is
 missing; under CI=true it fails instead (``.ci/run`` installs Chromium).
@@ -26,6 +33,7 @@ import csv
 import io
 import json
 import os
+import re
 import shutil
 import signal
 import socket
@@ -135,23 +143,27 @@ class Server:
         return p
 
     def start(self, timeout: float = 90.0) -> str:
+        """Start the server; the address it prints (port and this session's token)."""
         self.port = _free_port()
         self.args[self.args.index("--port") + 1] = str(self.port)
+        offset = self.log.stat().st_size if self.log.exists() else 0
         logf = open(self.log, "a")
         self.proc = subprocess.Popen(self.args, env=self.env, stdout=logf, stderr=subprocess.STDOUT,
                                      start_new_session=True, cwd=self.tmp)
-        url = f"http://127.0.0.1:{self.port}/"
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:
             if self.proc.poll() is not None:
                 raise AssertionError(f"server exited early ({self.proc.returncode}):\n{self.log.read_text()[-3000:]}")
-            # a TCP connect only: a page request would start a kernel (and open the session)
-            try:
+            # the address is printed once the server listens on it
+            m = re.search(r": open (http://127\.0\.0\.1:(\d+)/\?token=[A-Za-z0-9_-]{24,}) ",
+                          self.log.read_bytes()[offset:].decode(errors="replace"))
+            if m:
+                assert int(m.group(2)) == self.port, m.group(1)  # the requested port, never another
+                # a TCP connect only: a page request would start a kernel (and open the session)
                 with socket.create_connection(("127.0.0.1", self.port), timeout=2):
-                    return url
-            except OSError:
-                time.sleep(0.3)
-        raise AssertionError(f"server did not answer on {url} within {timeout} s:\n{self.log.read_text()[-3000:]}")
+                    return m.group(1)
+            time.sleep(0.3)
+        raise AssertionError(f"server did not print its address within {timeout} s:\n{self.log.read_text()[-3000:]}")
 
     def kill(self) -> None:
         """SIGKILL the server and every descendant (the kernels run in their own sessions)."""
@@ -456,6 +468,58 @@ def test_reload_with_lost_shutdown_beacon_resumes_after_the_orphan_is_culled(bro
         rec = next(e for e in ev if e["event"] == "stale_lock_recovered")
         assert rec["previous_holder"]["pid"] == holder
         assert waited < 60, waited
+        page.close()
+    finally:
+        srv.stop()
+
+
+def test_token_required_and_the_shutdown_beacon_works_with_it(browser, stimuli, tmp_path):
+    data = tmp_path / "data"
+    folder = data / "P05" / "S1"
+    srv = Server(tmp_path, stimuli, data, "P05")  # default --kernel-cull-s 30
+    k = 1
+    try:
+        url = srv.start()
+        bare = url.split("?", 1)[0]
+        for wrong in (bare, bare + "?token=x" + url.split("?token=", 1)[1][1:]):
+            ctx = browser.new_context()  # no cookie of an earlier page
+            p0 = ctx.new_page()
+            p0.goto(wrong, timeout=60_000, wait_until="domcontentloaded")
+            assert "/login" in p0.url and not p0.query_selector(".mocomp-app"), p0.url
+            ctx.close()
+        time.sleep(1.0)
+        assert not (data / "P05").exists()  # no kernel ran the app: no session was opened
+        page = browser.new_page()
+        _open(page, url)
+        expected_idx = _plan_response_indices(folder)
+        script = _script(len(expected_idx))
+        _intro(page)
+        _examples(page)
+        log: list = []
+        _answer_trials(page, k, script, log)
+        page.wait_for_selector(".mocomp-screen-trial .mocomp-btn-correct:not([disabled]), .mocomp-screen-break")
+        holder = json.loads((folder / "session.lock").read_text())["pid"]
+        t0 = time.monotonic()
+        page.reload(wait_until="domcontentloaded", timeout=90_000)  # the beacon is sent as usual
+        page.wait_for_selector(".mocomp-screen-error, .mocomp-screen-welcome_back", timeout=90_000)
+        while not page.query_selector(".mocomp-screen-welcome_back"):  # the old kernel was still exiting
+            assert time.monotonic() - t0 < 25, "the beacon did not shut the old kernel down"
+            page.click(".mocomp-btn-retry")
+            try:
+                page.wait_for_selector(".mocomp-screen-welcome_back", timeout=3_000)
+            except Exception:
+                pass
+        assert time.monotonic() - t0 < 25  # well before the culler (30 s idle) could have acted
+        text = srv.log.read_text()
+        assert "Kernel shutdown:" in text and "Culling 'idle' kernel" not in text, text[-2000:]
+        assert "403 POST /voila/api/shutdown/" not in text, text[-2000:]  # the beacon was accepted
+        assert not Path(f"/proc/{holder}").exists() or _state(holder) == "Z"
+        assert f"trial {k + 1} of {len(expected_idx)}" in page.inner_text(".mocomp-screen-welcome_back")
+        page.click(".mocomp-screen-welcome_back .mocomp-btn-next")
+        _answer_trials(page, 1, script[k:], log2 := [])
+        rows = _wait_rows(folder / "responses.csv", k + 1)
+        assert [int(r["trial_index"]) for r in rows] == expected_idx[:k + 1]
+        assert [r["response"] for r in rows] == [a[1] for a in log + log2 if a != "break"]
         page.close()
     finally:
         srv.stop()
