@@ -28,6 +28,7 @@ COMMAND_MODULES: list[str] = [
     "flips",
     "demo",
     "edit", "join", "twist",
+    "audit",
 ]
 
 
