@@ -995,3 +995,22 @@ def test_deep_hierarchy_writes_without_recursion_and_reads_back_with_a_clear_err
         read_bvh(f, scale=1.0, height_check=False)
     assert "more than 1000 joints" in str(e.value) and "deep.bvh" in str(e.value)
     assert lines[e.value.line - 1].strip() == "JOINT j1000"
+
+
+def test_frame_parser_without_the_jit_equals_the_compiled_one():
+    """The frame-table kernel run as plain Python (what ``NUMBA_DISABLE_JIT=1`` runs) reads the
+    same numbers: its digit arithmetic on ``uint8`` bytes once wrapped around (``b'0' - 48`` fine,
+    ``b' ' - 48`` = 240 instead of -16), so every value after the first separator was garbage and
+    real clips lost their flights, silently."""
+    from mocomp.io import _bvh_kernels as kern
+
+    if not kern.AVAILABLE:
+        pytest.skip("numba not available")
+    raw = b"0.5 -12.25 3e-2\n7 +0.125 -1.5E1\n"
+    buf = np.frombuffer(raw, dtype=np.uint8)
+    want = np.array([[0.5, -12.25, 0.03], [7.0, 0.125, -15.0]])
+    for parse in (kern.parse_table, kern.parse_table.py_func):
+        out = np.empty((2, 3))
+        status, n_slow = parse(buf, 0, out, np.empty((8, 4), dtype=np.int64))
+        assert status == kern.OK and n_slow == 0
+        np.testing.assert_allclose(out, want, rtol=1e-15)

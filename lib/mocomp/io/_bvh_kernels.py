@@ -99,7 +99,7 @@ if AVAILABLE:
             frac = 0
             big = False
             while i < n:
-                d = buf[i] - 48
+                d = np.int64(buf[i]) - 48  # int64 as under numba: uint8 - 48 wraps with the JIT off
                 if d < 0 or d > 9:
                     break
                 if m > _TWO53:
@@ -111,7 +111,7 @@ if AVAILABLE:
             if i < n and buf[i] == 46:  # '.'
                 i += 1
                 while i < n:
-                    d = buf[i] - 48
+                    d = np.int64(buf[i]) - 48  # int64 as under numba: uint8 - 48 wraps with the JIT off
                     if d < 0 or d > 9:
                         break
                     if m > _TWO53:
@@ -132,7 +132,7 @@ if AVAILABLE:
                     i += 1
                 ne = 0
                 while i < n:
-                    d = buf[i] - 48
+                    d = np.int64(buf[i]) - 48  # int64 as under numba: uint8 - 48 wraps with the JIT off
                     if d < 0 or d > 9:
                         break
                     if e < 100000:
