@@ -64,6 +64,18 @@ def test_clean_synthetic_examples_pass_with_the_true_flight_and_g(name):
     assert rep.flights[0].takeoff_angle == pytest.approx(math.atan2(math.hypot(v[0], v[2]), v[1]), abs=1e-6)
 
 
+def test_flight_L_from_the_clip_fk_equals_momentum_of_the_sliced_flight(bf):
+    from mocomp.audit.flights import flight_L
+    from mocomp.dynamics import momentum, segment_positions
+
+    m, body = bf.motion, bf.body
+    a, b = bf.flight
+    pos = segment_positions(body, m)
+    rot = np.asarray(m.global_rotations[:, body.segment_joint])
+    np.testing.assert_allclose(flight_L(body, m.times[a:b], pos[a:b], rot[a:b]),
+                               momentum(body, m[a:b]).angular, rtol=1e-12, atol=1e-12)
+
+
 def test_synthetic_flight_L_measures_are_small_and_judged(bf_report, bf):
     f = bf_report.flights[0]
     assert f.L_judged

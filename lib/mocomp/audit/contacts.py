@@ -27,7 +27,7 @@ import numpy as np
 from ..dynamics.contacts import airborne_intervals, label_intervals
 from .findings import Finding, runs_above
 
-__all__ = ["Phases", "ContactAudit", "PenetrationAudit", "phases_of", "lowest_points", "floor_level", "body_support",
+__all__ = ["Phases", "ContactAudit", "PenetrationAudit", "phases_of", "body_points", "lowest_points", "floor_level", "body_support",
            "penetration", "contact_audits"]
 
 
@@ -69,37 +69,39 @@ def phases_of(contacts, n_frames: int, com_height: np.ndarray | None = None,
                   tuple(b if b < n_frames else None for _, b in fl))
 
 
-def lowest_points(motion) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]:
-    """``(heights (T,), index (T,), names)``: the lowest y of all joints and end sites per
-    frame, which point it is, and the point names (joints, then end sites)."""
-    P, G = motion.fk()
-    pts = P[..., 1]
+def body_points(motion) -> tuple[np.ndarray, tuple[str, ...]]:
+    """``(points (T, J + E, 3), names)``: every joint and end site of the forward kinematics."""
+    P, _ = motion.fk()
     names = tuple(motion.skeleton.names)
     sites = motion.skeleton.end_sites
-    if sites:
-        E = motion.end_site_positions()
-        pts = np.concatenate([pts, E[..., 1]], axis=1)
-        names = names + tuple(f"{e.name or motion.skeleton.names[e.parent] + ' end'}" for e in sites)
-    k = np.argmin(pts, axis=1)
-    return pts[np.arange(pts.shape[0]), k], k, names
+    if not sites:
+        return P, names
+    return (np.concatenate([P, motion.end_site_positions()], axis=1),
+            names + tuple(f"{e.name or motion.skeleton.names[e.parent] + ' end'}" for e in sites))
 
 
-def body_support(motion, lowest: np.ndarray, lowest_index: np.ndarray, floor_y: float, clearance: float,
-                 speed: float) -> np.ndarray:
+def lowest_points(motion, points=None) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]:
+    """``(heights (T,), index (T,), names)``: the lowest y of all joints and end sites per
+    frame, which point it is, and the point names (joints, then end sites). ``points``: the
+    output of :func:`body_points`, if already computed."""
+    pts, names = body_points(motion) if points is None else points
+    y = pts[..., 1]
+    k = np.argmin(y, axis=1)
+    return y[np.arange(y.shape[0]), k], k, names
+
+
+def body_support(pts: np.ndarray, fps: float, lowest: np.ndarray, lowest_index: np.ndarray, floor_y: float,
+                 clearance: float, speed: float) -> np.ndarray:
     """``(T,)`` bool: the body's lowest point (any joint or end site) lies within ``clearance`` of
     the floor and moves slower than ``speed`` (central difference of that point's track) -- the body
     rests on the floor there, whether or not the contact detector's effectors see it (a knee, a hip,
-    a foot lying on its side)."""
-    P, _ = motion.fk()
-    pts = P
-    if motion.skeleton.end_sites:
-        pts = np.concatenate([P, motion.end_site_positions()], axis=1)
+    a foot lying on its side). ``pts``: ``(T, N, 3)`` every body point (:func:`body_points`)."""
     T = pts.shape[0]
     if T < 3:
         return np.zeros(T, bool)
     i = np.arange(T)
     lo, hi = np.clip(i - 1, 0, T - 1), np.clip(i + 1, 0, T - 1)
-    v = np.linalg.norm(pts[hi, lowest_index] - pts[lo, lowest_index], axis=-1) * motion.fps / (hi - lo)
+    v = np.linalg.norm(pts[hi, lowest_index] - pts[lo, lowest_index], axis=-1) * fps / (hi - lo)
     return (lowest - floor_y <= clearance) & (v < speed)
 
 

@@ -29,7 +29,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-from ..dynamics.momentum import momentum
+from ..dynamics.derivatives import angular_velocity, central_difference
+from ..dynamics.momentum import assemble_momentum, momentum
 from .findings import Finding
 from .thresholds import G_STANDARD
 
@@ -143,7 +144,17 @@ class FlightAudit:
         }
 
 
-def flight_audits(body, motion, com: np.ndarray, phases, thresholds) -> tuple[tuple[FlightAudit, ...], list]:
+def flight_L(body, times, seg_pos, seg_rot) -> np.ndarray:
+    """``(n, 3)`` L about the COM (eq. 5.5) of a frame range from its segment COMs and orientations
+    (central differences on those frames only): what :func:`mocomp.dynamics.momentum` gives for the
+    range sliced as a motion of its own, without its forward kinematics again."""
+    vel = central_difference(seg_pos, times)
+    omega = angular_velocity(seg_rot, times)
+    return assemble_momentum(body, times, seg_pos, seg_rot, vel, omega, velocity_mode="finite_difference").angular
+
+
+def flight_audits(body, motion, com: np.ndarray, phases, thresholds, seg_pos=None,
+                  seg_rot=None) -> tuple[tuple[FlightAudit, ...], list]:
     t = motion.times
     out, findings = [], []
     nan = float("nan")
@@ -164,8 +175,11 @@ def flight_audits(body, motion, com: np.ndarray, phases, thresholds) -> tuple[tu
         c2, c1, c0 = fit.coef
         y0 = c2 * tau0 ** 2 + c1 * tau0 + c0
         apex = c0 - c1 ** 2 / (4 * c2) if c2 < 0 else float(np.max(com[a:b, 1]))
-        mo = momentum(body, motion[a:b])
-        L = mo.angular[1:-1] if n >= 5 else mo.angular
+        if seg_pos is None:
+            Lf = momentum(body, motion[a:b]).angular
+        else:
+            Lf = flight_L(body, t[a:b], seg_pos[a:b], seg_rot[a:b])
+        L = Lf[1:-1] if n >= 5 else Lf
         spread, var, Labs, Lm = L_spread(L)
         judged = Labs >= thresholds.L_min
         fa = FlightAudit(k, (a, b), n / motion.fps, fit, v0, angle, float(np.linalg.norm(v0)), float(apex - y0), Lm,

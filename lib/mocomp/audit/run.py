@@ -7,11 +7,11 @@ import time
 import numpy as np
 
 from ..body.model import BodyModel
-from ..dynamics.com import center_of_mass, check_compatible
+from ..dynamics.com import check_compatible, segment_positions
 from ..dynamics.contacts import detect_contacts
 from ..errors import MotionFormatError
 from .com import com_audit
-from .contacts import body_support, contact_audits, floor_level, lowest_points, penetration, phases_of
+from .contacts import body_points, body_support, contact_audits, floor_level, lowest_points, penetration, phases_of
 from .flights import flight_audits
 from .kinematics import kinematics_audit
 from .report import AuditReport
@@ -71,11 +71,16 @@ def audit(motion, body=None, *, thresholds: AuditThresholds = AuditThresholds(),
         raise MotionFormatError(f"{label}: the audit needs at least {MIN_FRAMES} frames, got {motion.n_frames}")
     body = default_body(motion) if body is None else body
     check_compatible(body, motion)
+    if not body.total_mass > 0:
+        raise MotionFormatError(f"{label}: the body model has no mass")
     contacts = detect_contacts(motion)
-    low, low_i, names = lowest_points(motion)
+    pts = body_points(motion)
+    low, low_i, names = lowest_points(motion, pts)
     floor_y, floor_src = floor_level(low, contacts, phases_of(contacts, motion.n_frames), thresholds.floor_y)
-    com = center_of_mass(body, motion)
-    support = body_support(motion, low, low_i, floor_y, thresholds.support_clearance, contacts.speed_tol)
+    seg_rot = np.asarray(motion.global_rotations[:, body.segment_joint])
+    seg_pos = segment_positions(body, motion)
+    com = np.einsum("s,tsk->tk", body.masses, seg_pos) / body.total_mass
+    support = body_support(pts[0], motion.fps, low, low_i, floor_y, thresholds.support_clearance, contacts.speed_tol)
     phases = phases_of(contacts, motion.n_frames, com[:, 1] - floor_y, thresholds.flight_com_height, support)
     findings = []
     pen, f = penetration(low, low_i, names, floor_y, floor_src, thresholds)
@@ -84,7 +89,7 @@ def audit(motion, body=None, *, thresholds: AuditThresholds = AuditThresholds(),
     findings += f
     ca, f = com_audit(com, motion.fps, body.total_mass, phases, thresholds)
     findings += f
-    fl, f = flight_audits(body, motion, com, phases, thresholds)
+    fl, f = flight_audits(body, motion, com, phases, thresholds, seg_pos, seg_rot)
     findings += f
     za, f = zmp_audit(body, motion, contacts, floor_y, phases, thresholds)
     findings += f
