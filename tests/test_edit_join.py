@@ -181,3 +181,125 @@ def test_real_join_seam_evidence_bounds_and_flags(real_data_dir, landing, dir_ma
     assert "direction error" in flagged
     assert ("take-off" in flagged) == (s["velocity_jump_takeoff_excess_m_s"] > 0.5)
     assert ("at landing" in flagged) == (s["velocity_jump_landing_excess_m_s"] > 0.5)
+
+
+# --- the seam's discrete choice under 1e-7 noise (issue 12, section 1) ----------------------------
+
+def _perturb(motion, seed, eps=1e-7):
+    """``motion`` with root positions and quaternion components scaled by ``1 + eps N(0, 1)``
+    (seeded), quaternions renormalised: the size of the differences between hosts."""
+    rng = np.random.default_rng(seed)
+    rp = np.asarray(motion.root_positions) * (1 + eps * rng.normal(size=motion.root_positions.shape))
+    q = np.asarray(motion.rotations) * (1 + eps * rng.normal(size=motion.rotations.shape))
+    q /= np.linalg.norm(q, axis=-1, keepdims=True)
+    return motion.replace(root_positions=rp, rotations=q)
+
+
+def _seam_under_noise(mA, mB, body=None, seeds=range(5)):
+    """(f, g) of the join of ``mA`` and ``mB``, then of the join of copies perturbed by seed
+    ``100 + s`` (take-off part) and ``s`` (landing part)."""
+    base = join_flights(mA, mB, body=body)
+    out = []
+    for s in seeds:
+        r = join_flights(_perturb(mA, 100 + s), _perturb(mB, s), body=body)
+        out.append((r.seam["f"], r.seam["g"], r.takeoff.flight, r.landing.flight))
+    return (base.seam["f"], base.seam["g"], base.takeoff.flight, base.landing.flight), out
+
+
+@pytest.mark.parametrize("a,b,ref", [("backflip", "backflip", (157, 157)), ("backflip", "sideflip", (177, 182)),
+                                     ("sideflip", "sideflip", (156, 156))])
+def test_synthetic_seam_survives_1e_7_noise(a, b, ref):
+    """Before the tie rule the back flip joined with perturbed copies of itself took seams 183, 144,
+    143, 155, 150, 146 (the held tuck makes every f = g pair a perfect match); then 157/158 from the
+    retimed flights' ends moving by a frame. Now one seam for all five seeds."""
+    base, noisy = _seam_under_noise(example(a).motion, example(b).motion, example(a).body)
+    assert base[:2] == ref
+    for s, got in enumerate(noisy):
+        assert got == base, s
+
+
+@pytest.mark.parametrize("a,b,ref", [("deepmimic_backflip", "deepmimic_backflip", (112, 112)),
+                                     ("cmu_88_01_backflip", "cmu_88_01_backflip", (62, 62)),
+                                     ("cmu_88_01_backflip", "cmu_88_05_cartwheel_backflip", (60, 94)),
+                                     ("deepmimic_backflip", "deepmimic_sideflip", (114, 111))])
+def test_real_seam_survives_1e_7_noise(real_data_dir, a, b, ref):
+    """The self-joins took seams 106 / 97-121 (DeepMimic) and 70 / 52-67 (CMU 88_01) before the tie
+    rule; the joins of different clips had no ties and keep their seams."""
+    from mocomp.edit.join import load_part
+
+    base, noisy = _seam_under_noise(load_part(a)[0], load_part(b)[0])
+    assert base[:2] == ref
+    for s, got in enumerate(noisy):
+        assert got == base, s
+
+
+def test_join_with_an_exact_copy_takes_the_mid_flight_diagonal():
+    """Known answer: joining a flight with an exact copy of itself, the brute-force cost (eq. 5.13 plus
+    the |phi| penalty, every pair of the search windows) is zero on the diagonal f = g and larger
+    everywhere else; all diagonal pairs tie, and the rule's second criterion takes the one nearest
+    the flight's middle (the earlier of the two frames either side of it)."""
+    from mocomp.core.rotations import make_continuous, quat_inverse, quat_multiply
+    from mocomp.edit.join import FRAME_TOL
+    from mocomp.flips.looping import TIE_ATOL
+    from mocomp.flips.similarity import frame_distance, similarity_weights, twist_angle
+
+    E = example("backflip")
+    r = joined("backflip", "backflip")
+    a0, a1 = r.takeoff.flight
+    assert r.landing.flight == (a0, a1) and r.landing.speed == 1.0 and FRAME_TOL < 0.01
+    assert (r.seam["f"], r.seam["g"]) == ((a0 + a1 - 1) // 2,) * 2
+    assert r.seam["distance"] < 1e-9 and abs(r.seam["phi_deg"]) < 1e-6 and r.seam["tied_pairs"] > 10
+    # brute force over the search window (15 % margins, as join_flights' default)
+    mg = max(2, int(np.ceil(0.15 * (a1 - a0))))
+    idx = np.arange(a0 + mg, a1 - 1 - mg)
+    w = similarity_weights(E.motion.skeleton)
+    wsum = w.root + float(np.sum(w.joints))
+    rot = make_continuous(np.asarray(r.takeoff.motion.rotations), axis=0)
+    u = r.takeoff.L / np.linalg.norm(r.takeoff.L)
+    cost = np.empty((idx.size, idx.size))
+    for i, f in enumerate(idx):
+        D, _ = frame_distance(np.repeat(rot[f:f + 1], idx.size, axis=0), rot[idx], u, w)
+        tw = twist_angle(quat_multiply(rot[idx, 0], quat_inverse(np.repeat(rot[f:f + 1, 0], idx.size, axis=0))), u)
+        tw = (tw + np.pi) % (2 * np.pi) - np.pi
+        cost[i] = D + w.root * np.abs(tw)
+    tied = cost <= cost.min() + TIE_ATOL * wsum
+    assert np.all(np.diag(tied)) and not np.any(tied & ~np.eye(idx.size, dtype=bool))
+    assert tied.sum() == r.seam["tied_pairs"]
+
+
+def test_seam_tie_rule_order_and_that_ties_never_beat_a_better_cost():
+    """cost first (a pair better by more than the tolerance wins whatever its phi or position), then
+    the smallest |phi|, then nearest both flights' middles, then the earliest f, then g."""
+    from mocomp.edit.join import _pick_seam
+    from mocomp.flips.looping import PHI_TOL, TIE_ATOL
+
+    from mocomp.flips.looping import TIE_RTOL
+
+    wsum = 4.0
+    tol = 0.01 * TIE_RTOL + TIE_ATOL * wsum            # the tie width about a best cost of 0.01
+    fa, fb = (100, 201), (50, 151)                     # middles 150 and 100
+    cost = np.array([0.01, 0.01 + 0.3 * tol, 0.01, 0.01 - 3 * tol, np.inf])
+    phi = np.array([0.2, 0.1, 0.1 + 0.5 * PHI_TOL, 0.9, 0.0])
+    f = np.array([150, 120, 140, 110, 150])
+    g = np.array([100, 100, 100, 70, 100])
+    assert _pick_seam(cost, phi, f, g, fa, fb, wsum) == (3, 1)            # strictly best
+    assert _pick_seam(cost[:3], phi[:3], f[:3], g[:3], fa, fb, wsum) == (2, 3)   # |phi| tie, nearer the middle
+    same = np.full(3, 0.1)
+    assert _pick_seam(cost[:3], same, f[:3], g[:3], fa, fb, wsum)[0] == 0      # at the middle
+    # equal distance from the middles: the earliest f, then the earliest g
+    f2, g2 = np.array([151, 149, 149]), np.array([101, 101, 99])   # all 2 + 2 frames off the middles
+    assert _pick_seam(np.full(3, 0.01), same, f2, g2, fa, fb, wsum)[0] == 2
+
+
+def test_retimed_flight_frames_do_not_move_with_a_1e_7_speed():
+    """|L| matched between a motion and a 1e-7-perturbed copy retimes by 1 +- ~7e-8: the flight keeps
+    its frames (it lost the last one above 1 and the first one below 1)."""
+    from mocomp.edit.join import _retimed
+
+    m = example("backflip").motion
+    for speed in (1 + 7e-8, 1 - 5e-8, 1 + 1e-6):
+        assert _retimed(m, (118, 198), speed)[1] == (118, 198), speed
+    # a real retiming still maps the flight by j = i / speed
+    m2, fl = _retimed(m, (118, 198), 1.25)
+    assert fl == (95, 158)                  # ceil(118 / 1.25) = 95, floor(197 / 1.25) = 157 (the last)
+    assert m2.n_frames == int(np.floor((m.n_frames - 1) / 1.25 + 1e-9)) + 1

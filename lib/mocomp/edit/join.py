@@ -26,13 +26,37 @@ and the rest of the flight and the landing of motion ``B``:
    flight frames are turned about ``L`` by a ramp reaching ``phi`` at ``f`` (so the take-off
    and ``B``'s landing keep their orientation), joint angles are blended over a window
    around the seam and the root's remaining mismatch (perpendicular to ``L``) is split
-   between the two sides.
+   between the two sides. The choice is robust (see *The seam's tie rule* below).
 4. **Retime and reposition the whole**: the joined flight goes through section 5.5's steps
    (:func:`~mocomp.edit.pipeline.three_steps`) with the target ``L_A``: the magnitude of L is
    restored across the transition by non-uniform retiming (step 1, the direction, only on
    request: section 5.2 adjusts transitions by retiming), then uniform retiming by ``k*``
    and COM repositioning onto the parabola from ``A``'s take-off, with an optional raised
    take-off (App. B; ``takeoff_height``) and the platform clearance of Fig. 5.10.
+
+**The seam's tie rule.** Where several pairs fit equally well the plain argmin of the cost is
+ill-conditioned: joining a flight with a copy of itself makes every pair ``f = g`` of a held
+tuck a perfect match (cost at rounding level, ~5e-7 after a 1e-7 relative perturbation), and the argmin
+picked ``f = g`` = 183 for the synthetic back flip with itself and 144, 143, 155, 150, 146 when
+both inputs were perturbed with five seeds (side flip 176 and 174-140; DeepMimic back flip 106
+and 97-121; CMU 88_01 70 and 52-67); now 157, 156, 112 and 62 throughout. As in
+:mod:`mocomp.flips.looping` (whose tolerances are shared), pairs whose cost is within
+:data:`~mocomp.flips.looping.TIE_RTOL` (relative) plus :data:`~mocomp.flips.looping.TIE_ATOL`
+(radians of mean weighted joint mismatch, times the sum of the eq. 5.13 weights) of the lowest
+are tied, and among them, in order:
+
+1. the smallest rotation about L ``|phi|`` (to within :data:`~mocomp.flips.looping.PHI_TOL`
+   rad): the least twist to spread over the take-off part's flight;
+2. the pair nearest the middle of both flights (the apex of the ballistic COM path:
+   ``|2f - (a0 + a1 - 1)| + |2g - (b0 + b1 - 1)|`` smallest, with ``(a0, a1)`` and ``(b0, b1)``
+   the retimed parts' flights), farthest from the take-off and landing poses, with the
+   widest blend window;
+3. the earliest ``f``, then the earliest ``g``.
+
+Steps 2-3 compare integers. The retimed flights' frames are themselves taken with a
+tolerance (:data:`FRAME_TOL`), so that the |L| matching's ``1 +- 1e-7`` speeds do not move
+a flight's end by a frame (which moved the middle, step 2). ``seam["tied_pairs"]`` says how
+many pairs tied. ``tests/test_edit_join.py`` perturbs the inputs by seeded 1e-7 noise.
 
 **Limitation: the seam.** After step 1 the two flights' mean L point the same way, but at
 the matched pair of frames the *bodies* are still oriented differently about an axis
@@ -66,6 +90,7 @@ import numpy as np
 from ..core.motion import Motion
 from ..core.rotations import make_continuous, quat_apply, quat_inverse, quat_multiply
 from ..errors import JoinError
+from ..flips.looping import PHI_TOL, TIE_ATOL, TIE_RTOL, choose_tied
 from .pipeline import RestoreResult, boundary_velocity_jumps, three_steps
 from .restore import flight_momentum
 
@@ -166,6 +191,8 @@ class JoinResult:
         (deg), the L elevations/azimuths before.
     seam: ``f`` (take-off part frame), ``g`` (landing part frame), ``distance`` (eq. 5.13),
         ``mean_angle_deg``, ``phi_deg`` (rotation about L spread over the take-off part),
+        ``pairs`` (candidates scored), ``tied_pairs`` (candidates tied on cost, decided by the
+        module docstring's tie rule),
         ``window`` (frames), ``index`` (frame of the joined motion where ``B`` starts),
         ``root_mismatch_deg`` (body orientation difference perpendicular to L, removed by the
         blend), and the evidence on the output: ``direction_error_seam_rad`` (largest angle
@@ -359,12 +386,36 @@ def _detect(motion, body, flight, name: str = "the clip", role: str | None = Non
     return (a, b), warning
 
 
+def _pick_seam(cost, phi, f, g, flight_a, flight_b, wsum: float) -> tuple[int, int]:
+    """The seam's tie rule (see :func:`join_flights`) over candidate pairs ``(f, g)`` with costs
+    ``cost`` (eq. 5.13 distance plus the ``|phi|`` penalty; ``inf`` where refused) and rotations
+    about L ``phi`` (rad): ``(index of the chosen pair, number of pairs tied on cost)``."""
+    tied = choose_tied(cost, wsum, TIE_RTOL, TIE_ATOL)
+    n_tied = int(tied.size)
+    ap = np.abs(phi[tied])
+    tied = tied[ap <= ap.min() + PHI_TOL]
+    off_apex = (np.abs(2 * f[tied] - (flight_a[0] + flight_a[1] - 1))
+                + np.abs(2 * g[tied] - (flight_b[0] + flight_b[1] - 1)))
+    key = np.lexsort((g[tied], f[tied], off_apex))
+    return int(tied[key[0]]), n_tied
+
+
+#: frames; a retimed frame whose source time is within this of a flight's first or last frame
+#: counts as that frame (:func:`_retimed`), so a speed of ``1 +- 1e-7`` keeps the flight's frames
+FRAME_TOL = 1e-3
+
+
 def _retimed(motion: Motion, flight, speed: float):
+    """``motion`` retimed by ``speed`` (eq. 5.8) and its flight's frames there: frame ``j`` shows
+    source frame ``j speed``; the flight is the ``j`` with ``a - tol <= j speed <= b - 1 + tol``
+    (``tol`` = :data:`FRAME_TOL`). Without the tolerance a speed of ``1 + 7e-8`` (|L| matched between
+    a motion and a copy perturbed by 1e-7) dropped the last flight frame and ``1 - 5e-8`` the
+    first, moving the seam's apex criterion by a frame."""
     if abs(speed - 1.0) < 1e-12:
         return motion, flight
     m = motion.retime(speed)
-    a = int(np.ceil(flight[0] / speed - 1e-9))
-    b = int(np.floor((flight[1] - 1) / speed + 1e-9)) + 1
+    a = int(np.ceil((flight[0] - FRAME_TOL) / speed))
+    b = int(np.floor((flight[1] - 1 + FRAME_TOL) / speed)) + 1
     return m, (a, min(b, m.n_frames))
 
 
@@ -403,6 +454,10 @@ def join_flights(takeoff, landing, *, body=None, flights=(None, None), match: st
         non-uniform motion retiming" (section 5.2); the transition's brief direction change is
         reported. Step 1 would turn the whole landing part to absorb it (a tilted landing).
     polish: final direction sweep when ``direction_step`` (see :func:`~mocomp.edit.restore_momentum`).
+
+    The transition pair is the lowest-cost one up to the documented tie rule (module docstring,
+    *The seam's tie rule*: cost ties within ``TIE_RTOL``/``TIE_ATOL``, then the smallest ``|phi|``,
+    then nearest both flights' middle, then the earliest frames).
 
     The seam's direction error and the take-off/landing velocity jumps are not removed (see
     the module docstring's *Limitation*); they are measured and reported in ``seam``, and the
@@ -516,12 +571,12 @@ def join_flights(takeoff, landing, *, body=None, flights=(None, None), match: st
         raise JoinError(f"no frame pair of the two flights is within {max_phi_deg:g} deg of rotation about L "
                         f"(closest {np.degrees(np.abs(tw).min()):.0f} deg)")
     cost = np.where(ok, cost, np.inf)
-    k_best = int(np.argmin(cost))
+    wsum = weights.root + float(np.sum(weights.joints))
+    k_best, n_tied = _pick_seam(cost, tw, FA.ravel(), GB.ravel(), flA2, flB2, wsum)
     f, g = int(FA.ravel()[k_best]), int(GB.ravel()[k_best])
     phi_f = float(tw[k_best])
-    wsum = weights.root + float(np.sum(weights.joints))
     seam = {"f": f, "g": g, "distance": float(D[k_best]), "mean_angle_deg": float(np.degrees(D[k_best] / wsum)),
-            "phi_deg": float(np.degrees(phi_f)), "pairs": int(D.size)}
+            "phi_deg": float(np.degrees(phi_f)), "pairs": int(D.size), "tied_pairs": n_tied}
     timings["search"] = time.perf_counter() - t
     # ---------------------------------------------------------------- assemble + blend
     t = time.perf_counter()
