@@ -89,3 +89,62 @@ def test_real_hop_turn_270(real_data_dir):
     np.testing.assert_allclose(rates, [r.angular_speed for r in rs], rtol=1e-9)
     assert rates[0] < rs[0].angular_speed_original < rates[1] < rates[2]
     assert rates[2] > 1.15 * rates[0]
+
+
+# --- the cut's discrete choice under 1e-7 noise (issue 12, section 1) -----------------------------
+
+def _perturb(motion, seed, eps=1e-7):
+    """``motion`` with root positions and quaternion components scaled by ``1 + eps N(0, 1)``
+    (seeded), quaternions renormalised: the size of the differences between hosts."""
+    rng = np.random.default_rng(seed)
+    rp = np.asarray(motion.root_positions) * (1 + eps * rng.normal(size=motion.root_positions.shape))
+    q = np.asarray(motion.rotations) * (1 + eps * rng.normal(size=motion.rotations.shape))
+    q /= np.linalg.norm(q, axis=-1, keepdims=True)
+    return motion.replace(root_positions=rp, rotations=q)
+
+
+def test_cut_tie_rule_known_answer_under_1e_7_noise():
+    """Joint angles exactly periodic (24 frames = 90 degrees about L at a constant rate) through the
+    flight 40-159: every pair 24 frames apart is an exact 90 degree cut (D and the remainder are
+    rounding noise). Candidates 52..147 (10 % margins); centred nearest the middle (m + n = 199) are
+    m = 87 and 88, the earliest 87. A plain argmin took m = 65, 73, 113, 89, 87, 114 for the motion
+    and five seeded 1e-7 perturbations."""
+    from types import SimpleNamespace
+
+    from _flips_data import spinning_motion
+    from mocomp.edit.twist import _cut_sequence
+    from mocomp.flips.similarity import similarity_weights
+    from mocomp.flips.smoothing import split_root
+
+    axis, flight = np.array([1.0, 0.0, 0.0]), (40, 160)
+    m = spinning_motion(T=200, flight=flight, rate=2.5 * np.pi, period=24)
+    w = similarity_weights(m.skeleton)
+    for seed in (None, 0, 1, 2, 3, 4):
+        mm = m if seed is None else _perturb(m, seed)
+        theta, _ = split_root(np.asarray(mm.rotations)[:, 0], axis)
+        P = SimpleNamespace(flight=flight, theta=theta, rotations=np.asarray(mm.rotations), axis=axis, weights=w)
+        mi, ni, ang, mean_deg = _cut_sequence(P, np.radians(90.0))
+        assert (mi, ni) == (87, 111), seed
+        assert ang == pytest.approx(np.radians(90.0), abs=1e-6) and mean_deg < 1e-4
+
+
+def test_twist_choices_survive_1e_7_noise():
+    """The synthetic 180 degree twist made into 150 (cut) and 210 (repeat): the cut frames, the loop,
+    the output flight and the achieved angle do not move under five seeded 1e-7 perturbations."""
+    from mocomp import datasets
+
+    E = datasets.load_example("twist180")
+
+    def choices(motion, deg):
+        P = prepare_twist(motion, body=E.body)
+        r = twist_jump(motion, deg, body=E.body, prepared=P)
+        cut = tuple(n for n in r.notes if n.startswith("cut frames"))
+        return (r.method, (P.loop.m, P.loop.n), [c.split(" (")[0] for c in cut], r.flight_out), r.achieved_deg
+
+    for deg in (150.0, 210.0):
+        ref, ach = choices(E.motion, deg)
+        assert ref[0] == ("cut" if deg < 180 else "repeat")
+        for seed in range(5):
+            got, ach_s = choices(_perturb(E.motion, seed), deg)
+            assert got == ref, (deg, seed)
+            assert ach_s == pytest.approx(ach, abs=1e-3), (deg, seed)
