@@ -398,7 +398,7 @@ def test_json_nesting_huge_integers_and_extreme_values_are_motion_format_errors(
     good = write_motion(tmp_path, {"Frames": fr}, "g.txt").read_text()
     lines = good.split("\n")
     cases = {
-        "nested": ("[" * 100_000, "nested too deeply", None),
+        "nested": ("{\"Frames\": " + "[" * 100_000, "nested too deeply", None),
         "int400": ("\n".join(lines[:6] + [lines[6].replace(json.dumps(fr[2][2]), str(10 ** 400), 1)] + lines[7:]),
                    "frame 2 value 2 is inf (not finite)", 7),
         "int5001": ("\n".join(lines[:5] + [lines[5].replace(json.dumps(fr[1][1]), "1" * 5001, 1)] + lines[6:]),

@@ -187,22 +187,54 @@ class Asf:
 
 
 # ---------------------------------------------------------------------------- ASF
-def _read_text(path) -> tuple[Path, str]:
-    path = Path(path)
+#: longest line accepted in an ASF/AMC file (real lines are < 200 characters)
+MAX_LINE_BYTES = 1 << 16
+
+
+def _file_lines(path: Path):
+    """The lines of a file, as ``str.splitlines`` of the decoded text would give them
+    (LF, CRLF, CR, ...), read one at a time so that a 200 MB file of junk is refused at
+    its first line instead of being decoded and split whole. Each line is UTF-8, or
+    latin-1 where it is not (HDM05 headers have German umlauts). A line longer than
+    :data:`MAX_LINE_BYTES` raises MotionFormatError."""
     try:
-        raw = path.read_bytes()
+        f = open(path, "rb")  # opened now, so that a missing file is reported before anything else
     except OSError as e:
         raise MotionFormatError(f"cannot read file: {e.strerror}", path) from None
-    try:
-        return path, raw.decode("utf-8")
-    except UnicodeDecodeError:
-        return path, raw.decode("latin-1")  # e.g. HDM05 headers with German umlauts
+    return _iter_lines(f, path)
+
+
+def _iter_lines(f, path):
+    with f:
+        ln = 0
+        while True:
+            try:
+                b = f.readline(MAX_LINE_BYTES + 1)
+            except OSError as e:
+                raise MotionFormatError(f"cannot read file: {e.strerror}", path) from None
+            if not b:
+                return
+            if len(b) > MAX_LINE_BYTES and not b.endswith(b"\n"):
+                if b"\r" not in b:
+                    raise MotionFormatError(f"line {ln + 1} is longer than {MAX_LINE_BYTES} bytes (not an ASF/AMC "
+                                            "file?)", path, ln + 1)
+                b += f.read()  # old-Mac CR line ends: the rest in one go (such files are small)
+            try:
+                text = b.decode("utf-8")
+            except UnicodeDecodeError:
+                text = b.decode("latin-1")
+            for part in text.splitlines():
+                ln += 1
+                if len(part) > MAX_LINE_BYTES:
+                    raise MotionFormatError(f"line {ln} is longer than {MAX_LINE_BYTES} characters (not an ASF/AMC "
+                                            "file?)", path, ln)
+                yield part
 
 
 def read_asf(path) -> Asf:
     """Read an ASF skeleton file (see the module docstring for conventions)."""
-    path, text = _read_text(path)
-    return parse_asf(text, path=str(path))
+    path = Path(path)
+    return _parse_asf_lines(_file_lines(path), str(path))
 
 
 def _float(tok: str, path, line: int, what: str, allow_inf: bool = False) -> float:
@@ -230,6 +262,10 @@ def _axis_order(tok: str, path, line: int, what: str) -> str:
 
 def parse_asf(text: str, path: str | None = None) -> Asf:
     """Parse ASF text (see :func:`read_asf`)."""
+    return _parse_asf_lines(text.splitlines(), path)
+
+
+def _parse_asf_lines(lines, path) -> Asf:
     section = None
     units: dict = {}
     name = ""
@@ -272,7 +308,7 @@ def parse_asf(text: str, path: str | None = None) -> Asf:
             limits=None if lim is None else np.array(lim, dtype=float).reshape(-1, 2), line=b["line"]))
         cur = None
 
-    for ln, raw in enumerate(text.splitlines(), 1):
+    for ln, raw in enumerate(lines, 1):
         n_lines = ln
         line = raw.split("#", 1)[0]
         toks = line.replace(",", " ").replace("(", " ").replace(")", " ").split()
@@ -483,12 +519,13 @@ def read_amc(path, asf=None, scale=None, fps: float | None = None, height_check:
     fps: frame rate; AMC files state none, default :data:`DEFAULT_AMC_FPS`.
     height_check: warn (:class:`~mocomp.io.UnitWarning`) if the standing height is outside 1.2-2.2 m.
     """
-    path, text = _read_text(path)
+    path = Path(path)
+    lines = _file_lines(path)
     if asf is None:
         asf = find_asf(path)
     if not isinstance(asf, Asf):
         asf = read_asf(asf)
-    return parse_amc(text, asf, path=str(path), scale=scale, fps=fps, height_check=height_check)
+    return _parse_amc_lines(lines, asf, str(path), scale, fps, height_check)
 
 
 def _dof_columns(dofs: tuple[str, ...]):
@@ -515,6 +552,10 @@ def _extrinsic_quats(axes: str, angles_rad: list[np.ndarray], T: int) -> np.ndar
 def parse_amc(text: str, asf: Asf, path: str | None = None, scale=None, fps: float | None = None,
               height_check: bool = True) -> Motion:
     """Parse AMC text against a parsed :class:`Asf` (see :func:`read_amc`)."""
+    return _parse_amc_lines(text.splitlines(), asf, path, scale, fps, height_check)
+
+
+def _parse_amc_lines(lines, asf: Asf, path, scale, fps, height_check) -> Motion:
     dof_of = {b.name: b.dof for b in asf.bones}
     dof_of["root"] = tuple(t.lower() for t in asf.root_order)
     expected = {n: len(d) for n, d in dof_of.items()}
@@ -525,8 +566,9 @@ def parse_amc(text: str, asf: Asf, path: str | None = None, scale=None, fps: flo
     frame_no: int | None = None
     angle = None
     fi = -1
-    split_lines = text.splitlines()
-    for ln, raw in enumerate(split_lines, 1):
+    n_lines = 0
+    for ln, raw in enumerate(lines, 1):
+        n_lines = ln
         toks = raw.split("#", 1)[0].split() if "#" in raw else raw.split()
         if not toks:
             continue
@@ -566,7 +608,7 @@ def parse_amc(text: str, asf: Asf, path: str | None = None, scale=None, fps: flo
     T = fi + 1
     if T <= 0:
         raise MotionFormatError("no frames (an AMC file needs frame numbers followed by bone lines)", path,
-                                len(split_lines) or None)
+                                n_lines or None)
     for n, d in dof_of.items():
         if d and last[n] != T - 1:
             f = last[n] + 1  # first frame where the bone is missing (earlier gaps were caught above)
@@ -581,8 +623,8 @@ def parse_amc(text: str, asf: Asf, path: str | None = None, scale=None, fps: flo
         try:
             a = np.array(vals[n], dtype=float).reshape(T, len(d))
         except ValueError:
-            for ln in lines_of[n]:
-                for t in split_lines[ln - 1].split()[1:]:
+            for r, ln in enumerate(lines_of[n]):
+                for t in vals[n][r * len(d):(r + 1) * len(d)]:
                     try:
                         float(t)
                     except ValueError:

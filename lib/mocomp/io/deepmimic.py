@@ -115,9 +115,19 @@ def _parse_json(text: str, path, what: str):
 
 def _load_json(path: Path, what: str):
     try:
-        text = path.read_text(encoding="utf-8", errors="replace")
+        with open(path, "rb") as f:
+            first = f.read(1 << 16)
+            # both file kinds are JSON objects: anything else (e.g. 200 MB of junk) is refused from its first bytes
+            lead = first.lstrip()
+            if lead and not lead.startswith(b"{"):
+                line = first[:len(first) - len(lead)].count(b"\n") + 1
+                raise MotionFormatError(f"not valid JSON ({what}): it starts with "
+                                        f"{lead[:20].decode('latin-1')!r}, not with an object '{{'", path, line)
+            raw = first + f.read()
     except OSError as e:
         raise MotionFormatError(f"cannot read file: {e.strerror}", path) from None
+    text = raw.decode("utf-8", errors="replace")
+    del raw
     return _parse_json(text, path, what), text
 
 
