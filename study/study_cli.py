@@ -18,6 +18,7 @@ import threading
 import time
 from pathlib import Path
 
+from mocomp.cli._common import float_in
 from mocomp.errors import MocompError
 
 __all__ = ["register_run", "register_analyze", "voila_command", "app_notebook", "cull_interval", "KERNEL_CULL_S",
@@ -359,7 +360,7 @@ def register_run(subparsers) -> argparse.ArgumentParser:
                    help="allow answers before the video has played to its end (default: buttons and keys "
                         "stay disabled until it has, once per presentation)")
     p.add_argument("--texts", metavar="JSON", help="participant-facing texts (JSON file, fields of HarnessTexts)")
-    p.add_argument("--lock-timeout", type=float, default=None, metavar="S",
+    p.add_argument("--lock-timeout", type=float_in(0, 3600, what="number of seconds"), default=None, metavar="S",
                    help="seconds a new window waits for a session held by another window (default 15)")
     p.add_argument("--kernel-cull-s", type=int, default=KERNEL_CULL_S, metavar="S",
                    help="shut down the kernel of a closed or reloaded page after S idle seconds without a "
@@ -471,8 +472,8 @@ def register_analyze(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--link", choices=("probit", "logit"), default="probit")
     p.add_argument("--n-boot", type=int, default=2000)
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--min-attention", type=float, default=None,
-                   help="exclude participants whose attention-check pass rate is below this")
+    p.add_argument("--min-attention", type=float_in(0, 1, what="pass rate"), default=None, metavar="RATE",
+                   help="exclude participants whose attention-check pass rate (0-1) is below this")
     p.add_argument("--allow-mixed-sets", action="store_true", help="accept sessions from different stimulus sets")
     p.add_argument("--observer-ci", choices=("profile", "bootstrap", "wald"), default="profile",
                    help="CIs of the observer-model fit (observer_model.csv; default profile likelihood)")
