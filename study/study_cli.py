@@ -196,6 +196,28 @@ def _listening_ports(pids) -> set[int]:
     return ports
 
 
+def _die_with_parent(parent: int):
+    """``preexec_fn`` for the server: on Linux, ask the kernel to send the server SIGINT when
+    ``mocomp study run`` dies, however it dies (``prctl(PR_SET_PDEATHSIG)``), so even a SIGKILL,
+    which no handler sees, leaves no orphaned server (Voila stops on SIGINT and shuts its kernels
+    down). A parent that died before the call is caught by comparing ``getppid``. Elsewhere: None."""
+    if not sys.platform.startswith("linux"):
+        return None
+
+    def preexec() -> None:
+        import ctypes
+
+        try:
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(1, int(signal.SIGINT), 0, 0, 0)  # PR_SET_PDEATHSIG = 1
+        except (OSError, AttributeError):
+            return
+        if os.getppid() != parent:  # the parent is already gone
+            os._exit(1)
+
+    return preexec
+
+
 class StudyServer:
     """The Voila server of one session, and every process it starts (its kernels).
 
@@ -206,7 +228,8 @@ class StudyServer:
     :meth:`stop` ends all of it on every exit path: first SIGINT to the server
     (Voila then shuts its kernels down, which release their session locks), then
     SIGTERM and finally SIGKILL to every recorded process that is still there.
-    Used as a context manager, with SIGTERM/SIGINT/SIGHUP turned into
+    If ``mocomp study run`` is killed outright (SIGKILL), the kernel sends the server
+    SIGINT (:func:`_die_with_parent`, Linux). Used as a context manager, with SIGTERM/SIGINT/SIGHUP turned into
     :class:`ServerStopped` while inside (so they unwind through ``finally``).
     """
 
@@ -252,7 +275,8 @@ class StudyServer:
         raise ServerStopped(signum)
 
     def start(self) -> None:
-        self.proc = subprocess.Popen(self.cmd, env=self.env, stdin=subprocess.DEVNULL, start_new_session=True)
+        self.proc = subprocess.Popen(self.cmd, env=self.env, stdin=subprocess.DEVNULL, start_new_session=True,
+                                     preexec_fn=_die_with_parent(os.getpid()))
         self._known = _tree(self.proc.pid)
 
     def _remember(self) -> None:

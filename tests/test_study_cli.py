@@ -399,3 +399,36 @@ def test_server_tree_is_ended_on_every_exit_path(tmp_path):
     assert _gone(kid)
     # the caller's signal handlers are back
     assert {sig: signal.getsignal(sig) for sig in handlers} == handlers
+
+
+_KILLED_PARENT = r"""
+import os, sys, time
+from study.study_cli import StudyServer
+s = StudyServer([sys.executable, "-c", "import time; time.sleep(600)"], dict(os.environ), 1, "t")
+s.start()
+print(s.proc.pid, flush=True)
+time.sleep(600)
+"""
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="parent-death signal is Linux-only")
+@pytest.mark.timeout(60)
+def test_server_dies_with_a_parent_killed_by_sigkill(tmp_path):
+    """SIGKILL to `mocomp study run` reaches no handler: the kernel's parent-death signal
+    (SIGINT) still ends the server it started, instead of leaving it orphaned on its port."""
+    parent = subprocess.Popen([sys.executable, "-c", _KILLED_PARENT], stdout=subprocess.PIPE, text=True)
+    try:
+        server = int(parent.stdout.readline())
+        assert not _gone(server)
+        parent.kill()
+        parent.wait(timeout=10)
+        deadline = time.monotonic() + 10
+        while not _gone(server) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert _gone(server)
+    finally:
+        parent.kill()
+        try:
+            os.kill(server, signal.SIGKILL)
+        except (ProcessLookupError, PermissionError, UnboundLocalError):
+            pass
