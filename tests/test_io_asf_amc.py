@@ -490,3 +490,36 @@ def test_extreme_bone_length_and_fps_are_refused():
     assert "t.asf:" in str(e.value) and "bone 'lowerback' is 5.64444e+298 m long after scaling" in str(e.value) and e.value.line == 36, str(e.value)
     with pytest.raises(MotionFormatError, match=r"t.amc: fps argument 20000 Hz is outside the accepted 1-10000 Hz"):
         load(fps=20000)
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.sampled_from(["", "root 1 2", "12", "é ü", "\x85", "\u2028", "a" * 40]), max_size=30),
+       st.lists(st.sampled_from(["\n", "\r\n", "\r", "\x0c"]), min_size=1, max_size=30), st.integers(1, 64),
+       st.booleans())
+def test_file_lines_are_the_lines_of_the_decoded_text(tmp_path_factory, pieces, ends, block, latin1):
+    """The block-wise line reader (any block size, CRLF split across blocks, CR-only files)
+    gives exactly ``text.splitlines()`` of the whole file."""
+    import itertools
+
+    from mocomp.io.asf_amc import _line_blocks
+
+    text = "".join(p + ends[k % len(ends)] for k, p in enumerate(pieces)) + ("tail" if latin1 else "")
+    data = text.encode("latin-1", "replace") if latin1 else text.encode("utf-8")
+    f = tmp_path_factory.mktemp("lines") / "t.amc"
+    f.write_bytes(data)
+    got = list(itertools.chain.from_iterable(_line_blocks(open(f, "rb"), f, block=block)))
+    expect = data.decode("latin-1" if latin1 else "utf-8").splitlines()
+    if latin1:  # per-block decoding: a block that happens to be valid UTF-8 decodes as UTF-8
+        assert len(got) == len(expect)
+    else:
+        assert got == expect
+
+
+def test_overlong_lines_are_refused(tmp_path):
+    from mocomp.io.asf_amc import MAX_LINE_BYTES
+
+    f = tmp_path / "long.amc"
+    f.write_bytes(b":DEGREES\n1\n" + b"root " + b"1 " * MAX_LINE_BYTES + b"\n")
+    (tmp_path / "s.asf").write_text(ASF)
+    with pytest.raises(MotionFormatError, match=r"long.amc:3: line 3 is longer than 65536"):
+        read_amc(f, asf=tmp_path / "s.asf")

@@ -44,6 +44,7 @@ site matches within 0.005 mm. Flight phases of ``01_01.amc`` at 120 Hz with
 """
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -194,41 +195,56 @@ MAX_LINE_BYTES = 1 << 16
 def _file_lines(path: Path):
     """The lines of a file, as ``str.splitlines`` of the decoded text would give them
     (LF, CRLF, CR, ...), read one at a time so that a 200 MB file of junk is refused at
-    its first line instead of being decoded and split whole. Each line is UTF-8, or
-    latin-1 where it is not (HDM05 headers have German umlauts). A line longer than
-    :data:`MAX_LINE_BYTES` raises MotionFormatError."""
+    its first line instead of being decoded and split whole. Read in 1 MB blocks cut at
+    line ends; each block is UTF-8, or latin-1 where it is not (HDM05 headers have
+    German umlauts). A line longer than :data:`MAX_LINE_BYTES` raises MotionFormatError."""
     try:
         f = open(path, "rb")  # opened now, so that a missing file is reported before anything else
     except OSError as e:
         raise MotionFormatError(f"cannot read file: {e.strerror}", path) from None
-    return _iter_lines(f, path)
+    return itertools.chain.from_iterable(_line_blocks(f, path))
 
 
-def _iter_lines(f, path):
+def _line_blocks(f, path, block: int = 1 << 20):
+    """Lists of the lines of the open binary file ``f``, read in blocks of ``block`` bytes
+    cut at line ends."""
     with f:
         ln = 0
+        buf = b""
         while True:
             try:
-                b = f.readline(MAX_LINE_BYTES + 1)
+                chunk = f.read(block)
             except OSError as e:
                 raise MotionFormatError(f"cannot read file: {e.strerror}", path) from None
-            if not b:
+            buf += chunk
+            if chunk:
+                cut = max(buf.rfind(b"\n"), buf.rfind(b"\r"))
+                if cut == len(buf) - 1 and buf[cut] == 13:  # a CR that may be the first half of CRLF
+                    cut = max(buf.rfind(b"\n", 0, cut), buf.rfind(b"\r", 0, cut))
+                if cut < 0:
+                    if len(buf) > MAX_LINE_BYTES:
+                        raise MotionFormatError(f"line {ln + 1} is longer than {MAX_LINE_BYTES} bytes (not an "
+                                                "ASF/AMC file?)", path, ln + 1)
+                    continue
+                part, buf = buf[:cut + 1], buf[cut + 1:]
+            else:
+                part, buf = buf, b""
+            if not part:
                 return
-            if len(b) > MAX_LINE_BYTES and not b.endswith(b"\n"):
-                if b"\r" not in b:
-                    raise MotionFormatError(f"line {ln + 1} is longer than {MAX_LINE_BYTES} bytes (not an ASF/AMC "
-                                            "file?)", path, ln + 1)
-                b += f.read()  # old-Mac CR line ends: the rest in one go (such files are small)
             try:
-                text = b.decode("utf-8")
+                text = part.decode("utf-8")
             except UnicodeDecodeError:
-                text = b.decode("latin-1")
-            for part in text.splitlines():
-                ln += 1
-                if len(part) > MAX_LINE_BYTES:
-                    raise MotionFormatError(f"line {ln} is longer than {MAX_LINE_BYTES} characters (not an ASF/AMC "
-                                            "file?)", path, ln)
-                yield part
+                text = part.decode("latin-1")
+            lines = text.splitlines()
+            if lines and max(map(len, lines)) > MAX_LINE_BYTES:
+                k = next(k for k, line in enumerate(lines) if len(line) > MAX_LINE_BYTES)
+                raise MotionFormatError(f"line {ln + k + 1} is longer than {MAX_LINE_BYTES} characters (not an "
+                                        "ASF/AMC file?)", path, ln + k + 1)
+            ln += len(lines)
+            yield lines
+            if len(buf) > MAX_LINE_BYTES:
+                raise MotionFormatError(f"line {ln + 1} is longer than {MAX_LINE_BYTES} bytes (not an ASF/AMC "
+                                        "file?)", path, ln + 1)
 
 
 def read_asf(path) -> Asf:
