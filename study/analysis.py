@@ -152,56 +152,82 @@ def _decode_utf8(raw: bytes, path: Path) -> str:
                                  f"file as UTF-8, e.g. iconv -f latin1 -t utf-8)") from None
 
 
-def _check_values(df: pd.DataFrame, path: Path, require: tuple[str, ...]) -> None:
+def _check_values(df: pd.DataFrame, require: tuple[str, ...]) -> None:
     """Every column of the data dictionary (study/DATA_DICTIONARY.md): types, ranges, allowed sets.
 
     Typed columns are converted in place (``trial_index`` int64; levels, times
     float64). The first bad value raises :class:`ResponseValueError`.
+
+    All files are checked together, and each check runs on the *distinct* values of a
+    column (``pd.factorize``; a study has few distinct levels, kinds, ids ...), mapped
+    back to the rows: the cost is one hash pass per column, whatever the number of rows.
     """
     lines = df["source_line"].to_numpy()
+    cache: dict[str, tuple[np.ndarray, pd.Series]] = {}
+
+    def col_u(col):
+        """(codes per row, distinct values as a str Series)."""
+        if col not in cache:
+            codes, uniq = pd.factorize(df[col].to_numpy(object))
+            cache[col] = codes, pd.Series(np.asarray(uniq, object), dtype=object).astype(str)
+        return cache[col]
+
+    def rows_of(col, mask_u):
+        codes, _ = col_u(col)
+        return np.asarray(mask_u, bool)[codes]
 
     def bad(mask, col, problem):
         mask = np.asarray(mask, bool)
         if mask.any():
             i = int(np.flatnonzero(mask)[0])
             v = df[col].iloc[i]
-            raise ResponseValueError(path, int(lines[i]), col, v, problem(v) if callable(problem) else problem)
+            raise ResponseValueError(df["source_file"].iloc[i], int(lines[i]), col, v,
+                                     problem(v) if callable(problem) else problem)
+
+    def bad_u(col, mask_u, problem):
+        if np.asarray(mask_u, bool).any():
+            bad(rows_of(col, mask_u), col, problem)
 
     def number(col, *, empty_ok: bool, nonneg: bool, what: str = "a number"):
-        txt = df[col].str.strip()
-        num = pd.to_numeric(txt.where(txt != "", np.nan), errors="coerce").to_numpy(float)
+        codes, u = col_u(col)
+        txt = u.str.strip()
         empty = (txt == "").to_numpy()
+        num = pd.to_numeric(txt.where(~empty, np.nan), errors="coerce").to_numpy(float)
         if not empty_ok:
-            bad(empty, col, f"empty ({col} must be {what})")
-        bad(~empty & np.isnan(num), col, f"not {what}")
-        bad(~empty & ~np.isfinite(num), col, f"not finite ({col} must be {what})")
+            bad_u(col, empty, f"empty ({col} must be {what})")
+        bad_u(col, ~empty & np.isnan(num), f"not {what}")
+        bad_u(col, ~empty & ~np.isfinite(num), f"not finite ({col} must be {what})")
         if nonneg:
-            bad(~empty & (num < 0), col, f"negative ({col} must be >= 0)")
-        return num
+            bad_u(col, ~empty & (num < 0), f"negative ({col} must be >= 0)")
+        return num[codes]
+
+    def in_set(col, allowed, problem):
+        bad_u(col, ~col_u(col)[1].isin(allowed).to_numpy(), problem)
 
     for col in ("participant_id", "session_id", "stimulus_set_id", "stimulus_id"):
-        bad(df[col].str.strip() == "", col, "empty (every row needs one)")
-    bad(~df["participant_id"].str.match(_ID_RE), "participant_id",
-        "not a participant code (letters, digits, _ . -, at most 64)")
-    bad(~df["response"].isin(("correct", "incorrect")), "response", "not 'correct' or 'incorrect'")
-    bad(~df["kind"].isin(("practice", "test", "attention")), "kind", "not practice, test or attention")
-    bad(~df["perturbation"].isin(PERTURBATIONS), "perturbation",
-        f"not a known perturbation ({', '.join(PERTURBATIONS)})")
-    bad(~df["direction"].isin(DIRECTIONS), "direction", f"not a known direction ({', '.join(DIRECTIONS)})")
-    bad((df["perturbation"] == "none") != (df["direction"] == "none"), "direction",
+        bad_u(col, (col_u(col)[1].str.strip() == "").to_numpy(), "empty (every row needs one)")
+    bad_u("participant_id", ~col_u("participant_id")[1].str.match(_ID_RE).to_numpy(bool),
+          "not a participant code (letters, digits, _ . -, at most 64)")
+    in_set("response", ("correct", "incorrect"), "not 'correct' or 'incorrect'")
+    in_set("kind", ("practice", "test", "attention"), "not practice, test or attention")
+    in_set("perturbation", PERTURBATIONS, f"not a known perturbation ({', '.join(PERTURBATIONS)})")
+    in_set("direction", DIRECTIONS, f"not a known direction ({', '.join(DIRECTIONS)})")
+    p_none = rows_of("perturbation", (col_u("perturbation")[1] == "none").to_numpy())
+    d_none = rows_of("direction", (col_u("direction")[1] == "none").to_numpy())
+    bad(p_none != d_none, "direction",
         "inconsistent with the perturbation (direction is 'none' exactly for unperturbed motions)")
-    bad((df["kind"] == "test") & (df["group"].str.strip() == ""), "group",
+    is_test = rows_of("kind", (col_u("kind")[1] == "test").to_numpy())
+    bad(is_test & rows_of("group", (col_u("group")[1].str.strip() == "").to_numpy()), "group",
         "empty (every test trial belongs to an error group)")
     # trial_index: a non-negative integer (a plan row)
-    ti = df["trial_index"]
-    bad(~ti.str.match(_INT_RE), "trial_index", "not a non-negative integer (a row of plan.csv)")
-    num = pd.to_numeric(ti.str.strip(), errors="coerce").to_numpy(float)
-    bad(num > MAX_TRIAL_INDEX, "trial_index", f"out of range (trial_index must be 0..{MAX_TRIAL_INDEX})")
-    df["trial_index"] = num.astype(np.int64)
+    codes, u = col_u("trial_index")
+    bad_u("trial_index", ~u.str.match(_INT_RE).to_numpy(bool), "not a non-negative integer (a row of plan.csv)")
+    num = pd.to_numeric(u.str.strip(), errors="coerce").to_numpy(float)
+    bad_u("trial_index", num > MAX_TRIAL_INDEX, f"out of range (trial_index must be 0..{MAX_TRIAL_INDEX})")
+    df["trial_index"] = num.astype(np.int64)[codes]
     # levels
     lv = number("nominal_level", empty_ok=False, nonneg=True, what="a finite number >= 0 (percent)")
-    bad((df["perturbation"] == "none").to_numpy() & (lv != 0), "nominal_level",
-        "not 0 for an unperturbed motion (perturbation 'none')")
+    bad(p_none & (lv != 0), "nominal_level", "not 0 for an unperturbed motion (perturbation 'none')")
     df["nominal_level"] = lv
     if "achieved_error" in df.columns:
         df["achieved_error"] = number("achieved_error", empty_ok="achieved_error" not in require, nonneg=False,
@@ -210,42 +236,55 @@ def _check_values(df: pd.DataFrame, path: Path, require: tuple[str, ...]) -> Non
         if col in df.columns:
             df[col] = number(col, empty_ok=col != "rt_s", nonneg=True, what="a finite time >= 0 in seconds")
     if "repetition" in df.columns:
-        rep = df["repetition"].str.strip()
-        bad((rep != "") & ~rep.str.match(_INT_RE), "repetition", "not a non-negative integer (0, 1 or 2)")
-        df["repetition"] = pd.to_numeric(rep.where(rep != "", np.nan), errors="coerce")
-    if "seed" in df.columns:
-        sd = df["seed"].str.strip()
-        bad((sd != "") & ~sd.str.match(r"^[0-9]+$"), "seed", "not a non-negative integer")
-    if "plan_sha256" in df.columns:
-        h = df["plan_sha256"].str.strip()
-        bad((h != "") & ~h.str.match(r"^[0-9a-f]{64}$"), "plan_sha256", "not a SHA-256 (64 lower-case hex digits)")
+        codes, u = col_u("repetition")
+        rep = u.str.strip()
+        bad_u("repetition", ((rep != "") & ~rep.str.match(_INT_RE).astype(bool)).to_numpy(),
+              "not a non-negative integer (0, 1 or 2)")
+        df["repetition"] = pd.to_numeric(rep.where(rep != "", np.nan), errors="coerce").to_numpy(float)[codes]
+    for col, pat, what in (("seed", r"^[0-9]+$", "not a non-negative integer"),
+                           ("plan_sha256", r"^[0-9a-f]{64}$", "not a SHA-256 (64 lower-case hex digits)")):
+        if col in df.columns:
+            t = col_u(col)[1].str.strip()
+            bad_u(col, ((t != "") & ~t.str.match(pat).astype(bool)).to_numpy(), what)
     for col, allowed in (("expected_response", ("", "correct", "incorrect")), ("input", ("", "button", "key", "observer")),
                          ("must_watch", ("", "0", "1")), ("watched_to_end", ("", "0", "1"))):
         if col in df.columns:
-            bad(~df[col].isin(allowed), col, f"not one of {', '.join(repr(a) for a in allowed)}")
+            in_set(col, allowed, f"not one of {', '.join(repr(a) for a in allowed)}")
     if "rated_correct" in df.columns:
-        rc = (df["response"] == "correct").astype(int).astype(str)
-        bad(df["rated_correct"] != rc, "rated_correct", "inconsistent with the response column")
+        resp_c = rows_of("response", (col_u("response")[1] == "correct").to_numpy())
+        rc = col_u("rated_correct")
+        bad(np.where(resp_c, rows_of("rated_correct", (rc[1] != "1").to_numpy()),
+                     rows_of("rated_correct", (rc[1] != "0").to_numpy())),
+            "rated_correct", "inconsistent with the response column")
     if "condition" in df.columns:
-        cond = df["condition"]
-        lab = np.array([condition_label(p, d_, x) for p, d_, x in zip(df["perturbation"], df["direction"], lv)],
-                       object)
-        bad((cond != "") & (cond != lab), "condition",
-            lambda v: "inconsistent with perturbation/direction/nominal_level")
+        codes = [col_u(c)[0] for c in ("perturbation", "direction", "condition")]
+        lc, lu = pd.factorize(lv)
+        key = np.stack([codes[0], codes[1], lc, codes[2]], axis=1)
+        ku, kc = np.unique(key, axis=0, return_inverse=True)
+        pu, du, cu = (col_u(c)[1].to_numpy() for c in ("perturbation", "direction", "condition"))
+        ok_u = np.array([cu[c] == "" or cu[c] == condition_label(pu[p], du[d_], lu[x]) for p, d_, x, c in ku], bool)
+        bad(~ok_u[kc.ravel()], "condition", "inconsistent with perturbation/direction/nominal_level")
     for col in ("shown_utc", "responded_utc"):
         if col in df.columns:
-            t = df[col].str.strip()
+            t = col_u(col)[1].str.strip()
             parsed = pd.to_datetime(t.where(t != "", None), utc=True, errors="coerce", format="ISO8601")
-            bad((t != "").to_numpy() & parsed.isna().to_numpy(), col, "not a UTC ISO 8601 time")
+            bad_u(col, ((t != "").to_numpy() & parsed.isna().to_numpy()), "not a UTC ISO 8601 time")
     for col in require:
         if col not in ("nominal_level", "achieved_error"):
             number(col, empty_ok=False, nonneg=False)
         elif col == "achieved_error":
-            bad((df["kind"] == "test").to_numpy() & np.isnan(df[col].to_numpy(float)), col,
+            bad(is_test & np.isnan(df[col].to_numpy(float)), col,
                 "empty (needed as the level regressor: --level achieved_error)")
 
 
-def _read_one(path: Path, dropped: list | None = None, require: tuple[str, ...] = ()) -> pd.DataFrame | None:
+def _read_one(path: Path, dropped: list | None = None, require: tuple[str, ...] = ()):
+    """Parse one responses file: (header, rows, physical line of each row), or None when header-only.
+
+    Structural checks only (bytes, UTF-8, header, field counts); the values are checked
+    once for all files together (:func:`_check_values`), so reading 10,000 files costs
+    one csv parse each and no per-file DataFrame work.
+    """
+    import csv
     import io
 
     raw = path.read_bytes()
@@ -267,29 +306,49 @@ def _read_one(path: Path, dropped: list | None = None, require: tuple[str, ...] 
             dropped.append((str(path), line, "torn last line (incomplete row) left out"))
         raw = raw[:cut]
     text = _decode_utf8(raw, path)
+    reader = csv.reader(io.StringIO(text, newline=""))
     try:
-        df = pd.read_csv(io.StringIO(text), dtype=str, keep_default_na=False)
-    except pd.errors.EmptyDataError:
+        header = next(reader)
+    except StopIteration:
         raise StudyDataError("empty CSV (no header, no rows)", path) from None
-    except pd.errors.ParserError as e:
-        raise StudyDataError(f"not a valid CSV: {e}", path) from None
-    missing = [c for c in REQUIRED_COLUMNS if c not in df.columns]
+    except csv.Error as e:
+        raise StudyDataError(f"not a valid CSV: {e}", path, line=1) from None
+    if not header or all(not h.strip() for h in header):
+        raise StudyDataError("empty CSV (no header, no rows)", path)
+    missing = [c for c in REQUIRED_COLUMNS if c not in header]
     if missing:
         raise StudyDataError(f"missing column(s) {', '.join(missing)} (required: {', '.join(REQUIRED_COLUMNS)})",
                              path, line=1)
+    dup = sorted({c for c in header if header.count(c) > 1})
+    if dup:
+        raise StudyDataError(f"column(s) {', '.join(dup)} appear more than once in the header", path, line=1)
     for col in require:
-        if col not in df.columns:
+        if col not in header:
             raise StudyDataError(f"no column {col!r} (needed as the level regressor: --level {col}); this file has "
-                                 f"{', '.join(df.columns)}; use --level nominal_level, or add the column", path,
+                                 f"{', '.join(header)}; use --level nominal_level, or add the column", path,
                                  line=1, column=col)
-    if len(df) == 0:
+    width = len(header)
+    try:
+        rows = list(reader)
+    except csv.Error as e:
+        raise StudyDataError(f"not a valid CSV: {e}", path, line=reader.line_num) from None
+    if text.count("\n") == len(rows) + 1 and all(len(r) == width for r in rows):
+        lines = range(2, len(rows) + 2)  # one physical line per record (the common case)
+    else:  # blank lines, quoted line breaks or bad field counts: walk the records with their line numbers
+        reader = csv.reader(io.StringIO(text, newline=""))
+        next(reader)
+        rows, lines = [], []
+        for r in reader:
+            if not r:  # a blank line
+                continue
+            if len(r) != width:
+                raise StudyDataError(f"{len(r)} fields, the header has {width} (a comma too many or too few, or an "
+                                     "unquoted comma in a value)", path, line=reader.line_num)
+            rows.append(r)
+            lines.append(reader.line_num)
+    if not rows:
         return None
-    df["source_file"] = str(path)
-    df["source_line"] = np.arange(len(df)) + 2
-    _check_values(df, path, tuple(require))
-    if "expected_response" not in df.columns:
-        df["expected_response"] = ""
-    return df
+    return header, rows, lines
 
 
 def load_responses(path: str | Path, *, allow_mixed_sets: bool = False, require: tuple[str, ...] = ()) -> ResponseData:
@@ -297,11 +356,14 @@ def load_responses(path: str | Path, *, allow_mixed_sets: bool = False, require:
 
     Raises :class:`~mocomp.errors.StudyDataError` naming the file, line and
     column for: no responses at all, zero-byte files, missing columns, bad
-    values, duplicate trials (a participant/session/trial answered twice, in
+    values (:class:`ResponseValueError`, ``FILE:LINE: column COL: value 'X' is ...``),
+    duplicate trials (a participant/session/trial answered twice, in
     one file or across files, e.g. a session folder copied twice) and sessions
     that used different stimulus sets (unless ``allow_mixed_sets``).
     ``require``: further columns every file must have, with a number in every
     test row (e.g. ``("achieved_error",)`` when it is the level regressor).
+    A file holding rows of several participants is analysed participant by
+    participant, with a warning naming the file and the ids (``mixed_files``).
     """
     path = Path(path)
     if not path.exists():
@@ -310,24 +372,44 @@ def load_responses(path: str | Path, *, allow_mixed_sets: bool = False, require:
                                                   if p.name == "responses.csv" or p.name.endswith(".responses.csv"))
     if not files:
         raise StudyDataError("no responses.csv found (expected DATA/<participant>/<session>/responses.csv)", path)
-    frames, skipped, dropped, mixed = [], [], [], []
+    skipped, dropped, mixed = [], [], []
+    by_header: dict[tuple, list] = {}
     for f in files:
-        df = _read_one(f, dropped, tuple(require))
-        if df is None:
+        got = _read_one(f, dropped, tuple(require))
+        if got is None:
             skipped.append((str(f), "header only: no responses"))
-        else:
-            ids = list(pd.unique(df["participant_id"]))
-            if len(ids) > 1:
-                # decided: a file holding several participants (e.g. a merged export, or sessions
-                # appended to one file) is analysed participant by participant, with a warning
-                shown = ", ".join(map(repr, ids[:10])) + (f", ... ({len(ids)} in all)" if len(ids) > 10 else "")
-                warnings.warn(f"{f}: rows of {len(ids)} participants in one file ({shown}); each participant's "
-                              "rows are analysed as that participant's own", stacklevel=2)
-                mixed.append((str(f), [str(i) for i in ids]))
-            frames.append(df)
+            continue
+        header, rows, lines = got
+        by_header.setdefault(tuple(header), []).append((f, rows, lines))
+    frames = []
+    for header, parts in by_header.items():
+        df = pd.DataFrame([r for _, rows, _ in parts for r in rows], columns=list(header), dtype=object)
+        df["source_file"] = np.repeat([str(f) for f, rows, _ in parts], [len(rows) for _, rows, _ in parts])
+        df["source_line"] = np.concatenate([np.asarray(ln, np.int64) for _, _, ln in parts])
+        frames.append(df)
+    if frames:
+        allr = pd.concat(frames, ignore_index=True) if len(frames) > 1 else frames[0]
+        if len(frames) > 1:  # back to file order (files with other column orders were grouped apart)
+            order = {str(f): i for i, f in enumerate(files)}
+            allr = allr.iloc[np.lexsort((allr["source_line"].to_numpy(), allr["source_file"].map(order).to_numpy()))]
+            allr = allr.reset_index(drop=True)
+            for c in allr.columns:  # a column some files lack is empty there
+                if c not in ("source_file", "source_line") and allr[c].isna().any():
+                    allr[c] = allr[c].fillna("")
+        _check_values(allr, tuple(require))
+        if "expected_response" not in allr.columns:
+            allr["expected_response"] = ""
+        # decided: a file holding several participants (e.g. a merged export, or sessions appended to
+        # one file) is analysed participant by participant, with a warning naming the file and the ids
+        n_ids = allr.groupby("source_file", sort=False)["participant_id"].nunique()
+        for f in n_ids.index[n_ids > 1]:
+            ids = list(pd.unique(allr.loc[allr["source_file"] == f, "participant_id"]))
+            shown = ", ".join(map(repr, ids[:10])) + (f", ... ({len(ids)} in all)" if len(ids) > 10 else "")
+            warnings.warn(f"{f}: rows of {len(ids)} participants in one file ({shown}); each participant's "
+                          "rows are analysed as that participant's own", stacklevel=2)
+            mixed.append((str(f), [str(i) for i in ids]))
     if not frames:
         raise StudyDataError(f"all {len(files)} responses CSV(s) are empty (header only)", path)
-    allr = pd.concat(frames, ignore_index=True)
     key = ["participant_id", "session_id", "trial_index"]
     dup = allr.duplicated(key, keep=False)
     if dup.any():
@@ -345,9 +427,9 @@ def load_responses(path: str | Path, *, allow_mixed_sets: bool = False, require:
                              "separately, or pass --allow-mixed-sets (allow_mixed_sets=True)", path, column="stimulus_set_id")
     allr["incorrect"] = (allr["response"] == "incorrect").astype(int)
     # one label per distinct (perturbation, direction, level), mapped back (not one call per row)
-    keys = allr[["perturbation", "direction", "nominal_level"]].drop_duplicates()
-    labels = {(p, d, lv): condition_label(p, d, lv) for p, d, lv in keys.itertuples(index=False)}
-    allr["condition"] = [labels[k] for k in zip(allr["perturbation"], allr["direction"], allr["nominal_level"])]
+    gb = allr.groupby(["perturbation", "direction", "nominal_level"], sort=False)
+    labels = np.array([condition_label(p, d, lv) for p, d, lv in gb.size().index], object)
+    allr["condition"] = labels[gb.ngroup().to_numpy()]
     return ResponseData(trials=allr, files=files, skipped=skipped, stimulus_set_ids=sets, dropped_lines=dropped,
                         mixed_files=mixed, sessions=session_summary(allr))
 
@@ -762,8 +844,12 @@ def psychometric_curve(row: pd.Series | dict, x: np.ndarray, ci: float = 0.95) -
     return 1 - F(eta), 1 - F(eta + zc * se), 1 - F(eta - zc * se)
 
 
+class _Skipped(Exception):
+    pass
+
+
 def fit_mixed_model(data: ResponseData | pd.DataFrame, *, control: str = "group", n_nodes: int = 15,
-                    cross_checks: bool = True) -> pd.DataFrame:
+                    cross_checks: bool = True, vb_max_participants: int = 200) -> pd.DataFrame:
     """Mixed-effects logistic model per error group, participant as a random effect.
 
     Model (per group g): logit P(incorrect) = b0 + b_c [condition c] + u_p,
@@ -780,7 +866,10 @@ def fit_mixed_model(data: ResponseData | pd.DataFrame, *, control: str = "group"
     fixed effects N(0, 2^2): it shrinks large effects and its SDs are
     approximate), and ``gee_estimate``/``gee_se`` from a GEE (exchangeable
     within participant, robust SEs): population-averaged, hence smaller in
-    magnitude than the conditional GLMM effects when s > 0.
+    magnitude than the conditional GLMM effects when s > 0. The variational-Bayes
+    cross-check runs up to ``vb_max_participants`` participants only (statsmodels'
+    ``fit_vb`` does not scale: 256 s without convergence at 1,000); ``cross_check_note``
+    says when it was skipped. The GLMM and the GEE are linear in the data.
     """
     import statsmodels.api as sm
     from scipy.stats import norm as _norm
@@ -822,25 +911,42 @@ def fit_mixed_model(data: ResponseData | pd.DataFrame, *, control: str = "group"
                               z=np.nan, p=np.nan, ci_low=sig[1], ci_high=sig[2]))
         for rr in rows_here:
             rr.update(vb_mean=np.nan, vb_sd=np.nan, gee_estimate=np.nan, gee_se=np.nan)
+        vb_note = ""
         if cross_checks and len(parts) >= 2:
-            formula = "incorrect ~ C(cond, Treatment('none'))"
+            import scipy.sparse as sp
+
+            # trial-level design built directly (no formula): fixed effects = treatment dummies,
+            # random effects = a *sparse* participant indicator (a dense one is trials x participants)
+            ccode = d["cond"].cat.codes.to_numpy()
+            Xt = np.zeros((len(d), len(levels)))
+            Xt[:, 0] = 1.0
+            Xt[np.arange(len(d)), ccode] += np.where(ccode > 0, 1.0, 0.0)
+            pcode = d["participant_id"].map({p: i for i, p in enumerate(parts)}).to_numpy()
+            yt = d["incorrect"].to_numpy(float)
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
                 try:
                     from statsmodels.genmod.bayes_mixed_glm import BinomialBayesMixedGLM
 
-                    m = BinomialBayesMixedGLM.from_formula(formula, {"participant": "0 + C(participant_id)"}, d)
+                    if len(parts) > vb_max_participants:
+                        raise _Skipped(f"not run: {len(parts)} participants > vb_max_participants="
+                                       f"{vb_max_participants} (statsmodels' fit_vb grows faster than linearly: "
+                                       "~256 s and no convergence at 1,000)")
+                    Z = sp.csr_matrix((np.ones(len(d)), (np.arange(len(d)), pcode)), shape=(len(d), len(parts)))
+                    m = BinomialBayesMixedGLM(yt, Xt, Z, np.zeros(len(parts), int), fep_names=terms,
+                                              vcp_names=["participant"])
                     v = m.fit_vb()
-                    vb = {_term(nm): (mu, sd) for nm, mu, sd in zip(m.fep_names, v.fe_mean, v.fe_sd)}
+                    vb = dict(zip(terms, zip(v.fe_mean, v.fe_sd)))
                     vb["participant SD (random intercept)"] = (float(np.exp(v.vcp_mean[0])), np.nan)
+                except _Skipped as e:
+                    vb, vb_note = {}, f"BinomialBayesMixedGLM {e}"
                 except Exception as e:  # pragma: no cover - reported, not fatal
                     vb = {}
                     warnings.warn(f"BinomialBayesMixedGLM failed for group {g}: {e}")
                 try:
-                    gee = sm.GEE.from_formula(formula, groups="participant_id", data=d,
-                                              family=sm.families.Binomial(),
-                                              cov_struct=sm.cov_struct.Exchangeable()).fit()
-                    gp = {_term(nm): (v_, s_) for nm, v_, s_ in zip(gee.params.index, gee.params.values, gee.bse.values)}
+                    gee = sm.GEE(yt, Xt, groups=pcode, family=sm.families.Binomial(),
+                                 cov_struct=sm.cov_struct.Exchangeable()).fit()
+                    gp = dict(zip(terms, zip(np.asarray(gee.params), np.asarray(gee.bse))))
                 except Exception as e:  # pragma: no cover
                     gp = {}
                     warnings.warn(f"GEE failed for group {g}: {e}")
@@ -851,6 +957,7 @@ def fit_mixed_model(data: ResponseData | pd.DataFrame, *, control: str = "group"
                     rr["gee_estimate"], rr["gee_se"] = gp[rr["term"]]
         for rr in rows_here:
             rr.update(n_trials=len(d), n_participants=len(parts), control_source=src, converged=conv, llf=llf,
+                      cross_check_note=vb_note,
                       method=f"ML logistic GLMM, random intercept per participant, adaptive Gauss-Hermite "
                              f"(nAGQ={n_nodes})")
         out.extend(rows_here)
