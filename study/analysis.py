@@ -874,7 +874,7 @@ def fit_mixed_model(data: ResponseData | pd.DataFrame, *, control: str = "group"
     import statsmodels.api as sm
     from scipy.stats import norm as _norm
 
-    from .glmm import fit_logit_glmm
+    from .glmm import fit_firth_logit, fit_logit_glmm, separated_columns
 
     test = data.test if isinstance(data, ResponseData) else data[data["kind"] == "test"]
     out = []
@@ -893,7 +893,22 @@ def fit_mixed_model(data: ResponseData | pd.DataFrame, *, control: str = "group"
         gidx = agg["participant_id"].map({p: i for i, p in enumerate(parts)}).to_numpy()
         terms = ["Intercept"] + levels[1:]
         zc = _norm.ppf(0.975)
-        if len(parts) >= 2:
+        sep = separated_columns(X, agg["sum"].to_numpy(), agg["size"].to_numpy())
+        sep_note = ""
+        method = (f"ML logistic GLMM, random intercept per participant, adaptive Gauss-Hermite "
+                  f"(nAGQ={n_nodes})")
+        if sep:
+            # complete separation: the ML estimates of these terms are infinite (a huge number with a
+            # NaN interval, "converged"). Fall back to Firth's penalised fit of the pooled counts.
+            fr = fit_firth_logit(X, agg["sum"].to_numpy(), agg["size"].to_numpy(), names=terms)
+            sep_note = ("separation: every answer in " + ", ".join(repr(levels[j]) for j in sep)
+                        + " is the same, so the ML estimate is infinite; Firth bias-reduced logistic "
+                        "regression (Jeffreys penalty, no random intercept) reported instead")
+            warnings.warn(f"mixed model, group {g}: {sep_note}", stacklevel=2)
+            est, se = fr.beta, fr.se
+            sig, conv, llf = (np.nan, np.nan, np.nan), fr.converged, fr.pllf
+            method = "Firth bias-reduced logistic regression (separation; participant effect not modelled)"
+        elif len(parts) >= 2:
             r = fit_logit_glmm(X, agg["sum"].to_numpy(), agg["size"].to_numpy(), gidx, names=terms, n_nodes=n_nodes)
             est, se = r.beta, r.se
             if r.sigma < 1e-3 or not np.isfinite(r.log_sigma_se):  # at the boundary: no Wald CI on log s
@@ -957,9 +972,7 @@ def fit_mixed_model(data: ResponseData | pd.DataFrame, *, control: str = "group"
                     rr["gee_estimate"], rr["gee_se"] = gp[rr["term"]]
         for rr in rows_here:
             rr.update(n_trials=len(d), n_participants=len(parts), control_source=src, converged=conv, llf=llf,
-                      cross_check_note=vb_note,
-                      method=f"ML logistic GLMM, random intercept per participant, adaptive Gauss-Hermite "
-                             f"(nAGQ={n_nodes})")
+                      cross_check_note=vb_note, separation=bool(sep), separation_note=sep_note, method=method)
         out.extend(rows_here)
     return pd.DataFrame(out)
 
@@ -1163,6 +1176,9 @@ def report_markdown(res: AnalysisResult) -> str:
     if len(res.mixed):
         lines += ["", "## Mixed model (log odds ratio of \"incorrect\" against the group's unperturbed motions)", "",
                   "| group | term | estimate | 95% CI | p |", "|---|---|---|---|---|"]
+        if "separation_note" in res.mixed.columns:
+            for note in pd.unique(res.mixed.loc[res.mixed["separation"].astype(bool), "separation_note"]):
+                lines += [f"**{note}.**", ""]
         for _, r in res.mixed.iterrows():
             lines.append(f"| {r['group']} | {r['term']} | {r['estimate']:.2f} | [{r['ci_low']:.2f}, {r['ci_high']:.2f}] | "
                          + ("" if pd.isna(r["p"]) else f"{r['p']:.3g}") + " |")

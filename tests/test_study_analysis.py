@@ -529,3 +529,58 @@ def test_glmm_is_linear_in_participants_and_keeps_its_estimates():
     r2 = fit_logit_glmm(X, k, n, g, start=np.r_[1.0, -1.0, 0.0, np.log(2.0)])
     np.testing.assert_allclose(r2.beta, r.beta, atol=2e-4)
     assert r2.llf == pytest.approx(r.llf, abs=1e-6)
+
+
+# ------------------------------------------------------------------ separation -> Firth
+def test_firth_solves_the_penalised_score_and_matches_ml_for_large_n():
+    from study.glmm import fit_firth_logit
+
+    rng = np.random.default_rng(9)
+    X = np.column_stack([np.ones(6), np.r_[0, 0, 1, 1, 1, 1], np.r_[0, 0, 0, 0, 1, 1]])
+    n = np.full(6, 5.0)
+    k = np.array([1, 2, 5, 5, 3, 4], float)  # column 1's level: 10 of 10 -> separated for ML
+    r = fit_firth_logit(X, k, n)
+    assert r.converged and np.all(np.isfinite(r.beta)) and np.all(np.isfinite(r.se))
+    # the modified score is zero at the solution (recomputed here from its definition)
+    p = expit(X @ r.beta)
+    w = n * p * (1 - p)
+    inv = np.linalg.inv(X.T @ (w[:, None] * X))
+    h = w * np.einsum("ij,jk,ik->i", X, inv, X)
+    np.testing.assert_allclose(X.T @ (k - n * p + h * (0.5 - p)), 0, atol=1e-8)
+    # one binomial cell: Firth's estimate is the logit of (k + 1/2) / (n + 1) (known closed form)
+    one = fit_firth_logit(np.ones((1, 1)), np.array([7.0]), np.array([7.0]))
+    assert one.beta[0] == pytest.approx(np.log(7.5 / 0.5), abs=1e-9)
+    # no separation, large n: Firth ~ ML
+    import statsmodels.api as sm
+
+    Xb = np.column_stack([np.ones(4), np.r_[0, 1, 0, 1], np.r_[0, 0, 1, 1]])
+    nb = np.full(4, 20000.0)
+    kb = rng.binomial(20000, expit(Xb @ np.array([-0.4, 0.9, 0.3]))).astype(float)
+    ml = sm.GLM(np.column_stack([kb, nb - kb]), Xb, family=sm.families.Binomial()).fit()
+    np.testing.assert_allclose(fit_firth_logit(Xb, kb, nb).beta, ml.params, atol=2e-4)
+
+
+def test_separated_condition_is_reported_and_fitted_by_firth(tmp_path):
+    """A condition every participant called incorrect: the ML GLMM said a huge estimate with a NaN
+    interval and converged=True; now the report says "separation" and the estimate is finite."""
+    spec = {}
+    for i in range(6):
+        rows, ti = [], 0
+        for lv, n_inc in ((0, 3), (25, 10)):  # the 25 % condition: 10 of 10 incorrect for everyone
+            for j in range(10):
+                rows.append(_row(f"P{i}", "S1", ti, "none" if lv == 0 else "am_abrupt",
+                                 "none" if lv == 0 else "increase", lv,
+                                 "incorrect" if j < (n_inc if lv else 3 + (i % 2)) else "correct",
+                                 "angular_momentum"))
+                ti += 1
+        _write(tmp_path / "data" / f"P{i}" / "S1" / "responses.csv", rows)
+        spec[i] = rows
+    with pytest.warns(UserWarning, match="separation"):
+        res = analyze(tmp_path / "data", tmp_path / "rep", n_boot=100, figures=False, observer_model=False)
+    mm = res.mixed.set_index("term")
+    r = mm.loc["am_abrupt/increase/25"]
+    assert bool(r["separation"]) and "separation" in r["separation_note"]
+    assert np.isfinite(r["estimate"]) and np.isfinite(r["ci_low"]) and np.isfinite(r["ci_high"])
+    assert 2 < r["estimate"] < 8 and r["ci_low"] < r["estimate"] < r["ci_high"]
+    assert "Firth" in r["method"]
+    assert "separation" in (tmp_path / "rep" / "report.md").read_text()
