@@ -1014,3 +1014,35 @@ def test_frame_parser_without_the_jit_equals_the_compiled_one():
         status, n_slow = parse(buf, 0, out, np.empty((8, 4), dtype=np.int64))
         assert status == kern.OK and n_slow == 0
         np.testing.assert_allclose(out, want, rtol=1e-15)
+
+
+@pytest.mark.parametrize("mutate, line, words", [
+    (lambda L: L[:18] + [L[18] + " 7"] + L[19:], 19, "10 values"),
+    (lambda L: L[:19] + ["0 91 0 1 2 3 4 5"] + L[20:], 20, "8 values"),
+    (lambda L: L[:20] + ["0 92 0 1 2 abc 4 5 6"] + L[21:], 21, "'abc' is not a number"),
+    (lambda L: L[:20], 20, "only 2 frame lines"),
+    (lambda L: L[:21] + ["0 93 0 1 2 3 4 5 6"] + L[21:], 22, "4 frame lines follow"),
+    (lambda L: L[:19] + ["", "0 91 0 1 2 3 4 5 6 " + "1 " * 600] + L[20:], 21, "longer than 578 bytes"),
+])
+@pytest.mark.parametrize("ends", ["\n", "\r\n", "\r"])
+def test_streamed_frame_block_errors_name_the_same_line(mutate, line, words, ends, monkeypatch):
+    """Large frame blocks are searched for their bad line without decoding them whole
+    (50 MB of junk after a valid header took 617 MB); same line, same words."""
+    text = ends.join(mutate(_lines(GOOD)))
+    monkeypatch.setattr(bvh_module, "_STREAM_ERRORS_BYTES", 0)
+    with pytest.raises(MotionFormatError) as e:
+        parse(text)
+    assert e.value.line == line and words in str(e.value), str(e.value)
+    if "longer" not in words:  # the in-memory reporter agrees
+        monkeypatch.setattr(bvh_module, "_STREAM_ERRORS_BYTES", 1 << 30)
+        with pytest.raises(MotionFormatError) as e2:
+            parse(text)
+        assert (e2.value.line, e2.value.reason) == (e.value.line, e.value.reason)
+
+
+def test_frame_block_far_larger_than_frames_claim_is_refused_before_parsing():
+    L = _lines(GOOD)
+    text = "\n".join(L[:21] + ["0 1 2 3 4 5 6 7 8"] * 10_000) + "\n"  # 180 kB for 3 frames
+    with pytest.raises(MotionFormatError) as e:
+        parse(text)
+    assert e.value.line == 17 and "more than Frames: 3 lines of 9 values can hold" in str(e.value)

@@ -149,3 +149,20 @@ def test_c3d_claiming_the_most_frames_its_header_can(tmp_path):
     g = tmp_path / "many.c3d"
     g.write_bytes(bytes(raw))
     assert_refused_quickly(read_measured("c3d", g), g, "describes 65535 frames", "frames are missing")
+
+
+def test_bvh_header_followed_by_two_hundred_megabytes_of_junk(junk_200mb, tmp_path):
+    """A valid header, then 200 MB without a line end (50 MB took 2.9 s and 617 MB before)."""
+    f = tmp_path / "hjunk.bvh"
+    with open(f, "wb") as out, open(junk_200mb, "rb") as src:
+        out.write((HEADER + "Frames: 5\nFrame Time: 0.01\n").encode())
+        while chunk := src.read(1 << 24):
+            out.write(chunk)
+    assert_refused_quickly(read_measured("bvh", f), f, "more than Frames: 5 lines of 6 values can hold")
+    # the same junk with a Frames: count that could hold it: the streamed error search
+    g = tmp_path / "hjunk2.bvh"
+    with open(g, "wb") as out, open(junk_200mb, "rb") as src:
+        out.write((HEADER + "Frames: 999999\nFrame Time: 0.01\n").encode())
+        while chunk := src.read(1 << 24):
+            out.write(chunk)
+    assert_refused_quickly(read_measured("bvh", g), g, "frame line is longer than 386 bytes")

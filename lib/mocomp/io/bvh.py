@@ -68,9 +68,9 @@ def read_bvh(path, scale=None, fps: float | None = None, height_check: bool = Tr
     path = Path(path)
     try:
         with open(path, "rb") as f:  # the first bytes first: a 200 MB file of anything else is refused at once
-            first = f.read(_SNIFF_BYTES)
-            _check_starts_with_hierarchy(first, str(path))
-            raw = first + f.read()
+            _check_starts_with_hierarchy(f.read(_SNIFF_BYTES), str(path))
+            f.seek(0)
+            raw = f.read()  # one copy (first + rest would briefly hold two)
     except OSError as e:
         raise MotionFormatError(f"cannot read file: {e.strerror}", path) from None
     # Only the header is decoded and split into lines; the frame block stays bytes
@@ -264,6 +264,7 @@ def _parse(head: str, raw: bytes, start: int, path, scale, fps, height_check) ->
         return s[len(prefix):].strip(), ln
 
     val, ln = header("Frames:")
+    frames_line = ln
     try:
         n_frames = int(val)
     except ValueError:
@@ -280,12 +281,29 @@ def _parse(head: str, raw: bytes, start: int, path, scale, fps, height_check) ->
     check_fps(1.0 / frame_time, path, ln, f"Frame Time {val} s gives a frame rate of")
     first_data = len(lines)  # 0-based index of the first line after "Frame Time:"
     nch = sum(len(c) for c in channels)
+    room = n_frames * (nch * _MAX_VALUE_BYTES + 2) + (1 << 16)
+    if len(raw) - start > room:  # before parsing: 200 MB of junk after a valid header is not read as frames
+        raise MotionFormatError(
+            f"the frame block has {len(raw) - start} bytes, more than Frames: {n_frames} lines of {nch} values can "
+            f"hold ({room} at {_MAX_VALUE_BYTES} bytes a value): a wrong Frames: count, or junk after the frames",
+            path, frames_line)
     # large frame blocks: the compiled parse and Euler conversion (same bits as the numpy code)
     compiled = len(raw) - start >= _FAST_MIN_BYTES
     data = _fast_frames(raw, start, n_frames, nch) if compiled else None
+    if data is None and len(raw) - start > _STREAM_ERRORS_BYTES:
+        # a large block the compiled parser declined: no line may be longer than nch values can be
+        # (numpy.loadtxt would split a 200 MB line into 25 million tokens, ~2 GB)
+        cap = nch * _MAX_VALUE_BYTES + 2
+        m = re.compile(rb"(?<![^\r\n])[^\r\n]{%d}" % (cap + 1)).search(raw, start)
+        if m:
+            raise MotionFormatError(f"frame line is longer than {cap} bytes ({nch} values of at most "
+                                    f"{_MAX_VALUE_BYTES} bytes): not a frame line", path,
+                                    first_data + sum(1 for _ in _EOL_B.finditer(raw, start, m.start())) + 1)
     if data is None:  # not a plain table of exact numbers: the general reader (and its error reports)
         data = _parse_frames(raw, start)
     if data is None or data.shape != (n_frames, nch):
+        if len(raw) - start > _STREAM_ERRORS_BYTES:  # large: find the bad line without decoding the block whole
+            _frame_block_error_streamed(raw, start, first_data, n_frames, nch, path)
         _frame_block_error(raw[start:], first_data, n_frames, nch, path)  # always raises, naming the line
     if not np.all(np.isfinite(data)):
         r, c = np.argwhere(~np.isfinite(data))[0]
@@ -578,6 +596,58 @@ def _nth_data_line(block: bytes, r: int) -> int:
             if k == r:
                 return i
     return i
+
+
+#: most bytes one frame value may take with its separator (a 17-digit repr with exponent
+#: and sign takes 24); the frame block may not be longer than Frames: x channels x this
+_MAX_VALUE_BYTES = 64
+#: frame blocks larger than this are searched for their first bad line in a streaming pass
+_STREAM_ERRORS_BYTES = 1 << 24
+_LINE_B = re.compile(rb"([^\r\n]*)(\r\n|\r|\n|\Z)")
+_EOL_B = re.compile(rb"\r\n|\r|\n")
+
+
+def _frame_block_error_streamed(raw: bytes, start: int, first_data: int, n_frames: int, nch: int, path) -> None:
+    """:func:`_frame_block_error` for a large block (``raw[start:]``, not copied), in
+    memory proportional to one line: an over-long line, then the line count, then the
+    first line with the wrong number of values or a non-number. Lines end at LF, CRLF
+    or CR."""
+    cap = nch * _MAX_VALUE_BYTES + 2
+    m = re.compile(rb"(?<![^\r\n])[^\r\n]{%d}" % (cap + 1)).search(raw, start)
+    if m:
+        ln = first_data + sum(1 for _ in _EOL_B.finditer(raw, start, m.start())) + 1
+        raise MotionFormatError(f"frame line is longer than {cap} bytes ({nch} values of at most {_MAX_VALUE_BYTES} "
+                                "bytes): not a frame line", path, ln)
+    count, last, extra_line = 0, first_data, None
+    for k, mm in enumerate(_LINE_B.finditer(raw, start)):
+        if not mm.group(0):
+            break
+        if mm.group(1).strip():
+            count += 1
+            last = first_data + k
+            if count == n_frames + 1:
+                extra_line = last + 1
+    if count < n_frames:
+        raise MotionFormatError(f"Frames: {n_frames} but only {count} frame lines (file truncated?)", path,
+                                last + 1 if count else first_data)
+    if count > n_frames:
+        raise MotionFormatError(f"Frames: {n_frames} but {count} frame lines follow", path, extra_line)
+    for k, mm in enumerate(_LINE_B.finditer(raw, start)):
+        toks = mm.group(1).split()
+        if not toks:
+            if not mm.group(0):
+                break
+            continue
+        if len(toks) != nch:
+            raise MotionFormatError(f"frame line has {len(toks)} values, the hierarchy declares {nch} channels",
+                                    path, first_data + k + 1)
+        for t in toks:
+            try:
+                float(t)
+            except ValueError:
+                raise MotionFormatError(f"frame value {t.decode('latin-1')!r} is not a number", path,
+                                        first_data + k + 1) from None
+    raise MotionFormatError("frame data could not be read as numbers", path, first_data + 1)
 
 
 def _frame_block_error(block: bytes, first_data: int, n_frames: int, nch: int, path) -> None:
