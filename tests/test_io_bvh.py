@@ -1046,3 +1046,25 @@ def test_frame_block_far_larger_than_frames_claim_is_refused_before_parsing():
     with pytest.raises(MotionFormatError) as e:
         parse(text)
     assert e.value.line == 17 and "more than Frames: 3 lines of 9 values can hold" in str(e.value)
+
+
+@pytest.mark.realdata
+@pytest.mark.parametrize("path", real_files("**/*.bvh"), ids=lambda p: p.name)
+def test_real_bvh_reads_without_a_false_unit_warning(path):
+    """Every real BVH clip is a plausible size in its unit: reading it directly warns about no
+    standing height. Clips that never stand upright (ASE's crouching shield charge: all-joints
+    extent 1.195 m) are measured again from the skeleton's bone lengths before any warning."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UnitWarning)
+        read_bvh(path)
+
+
+def test_crouching_clip_height_check_uses_the_skeleton_but_still_flags_a_wrong_unit(real_data_dir):
+    path = real_data_dir / "attacks" / "ase_rl_Atk_ShieldCharge.derived.bvh"
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UnitWarning)
+        m = read_bvh(path)  # metres: 1.195 m all-joints extent, 1.61 m stature -> no warning
+    from mocomp.body.height import estimate_height
+    assert 1.55 < estimate_height(m).value < 1.65
+    with pytest.warns(UnitWarning, match=r"standing height 0\.016 m"):
+        read_bvh(path, scale="cm")  # the wrong unit is still flagged, on the better estimate

@@ -714,7 +714,7 @@ def _parse_amc_lines(lines, asf: Asf, path, scale, fps, height_check) -> Motion:
         raise MotionFormatError(f"root position {'xyz'[k]} = {root_pos[r, k] * s:.6g} m at frame {r} (beyond the "
                                 f"accepted +-{MAX_LENGTH_M:g} m)", path if ln else asf.path, ln)
     if height_check:
-        check_height(height_units * s, path or "<amc text>")
+        check_height(height_units * s, path or "<amc text>", probe, s)
     if fps is None:
         fps = DEFAULT_AMC_FPS
         notes.append(f"AMC files state no frame rate; {DEFAULT_AMC_FPS:g} Hz assumed (CMU/HDM05 rate)")

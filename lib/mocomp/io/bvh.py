@@ -394,22 +394,25 @@ def _parse(head: str, raw: bytes, start: int, path, scale, fps, height_check) ->
     )
     step = max(1, n_frames // 64)  # the height estimate needs only a sample of frames
 
+    def probe() -> Motion:
+        return Motion(sk_file, 1.0, root_pos[::step], rots[::step])
+
     def motion_height() -> float:
-        return standing_height(Motion(sk_file, 1.0, root_pos[::step], rots[::step]))
+        return standing_height(probe())
 
     where = path or "<bvh text>"
     if scale is None or (isinstance(scale, str) and scale == "auto"):
         height_units = motion_height()
         s, reason = resolve_scale(scale, height_units)
         if height_check:
-            check_height(height_units * s, where)
+            check_height(height_units * s, where, probe(), s)
     else:
         s, reason = resolve_scale(scale, float("nan"))
         # A given unit: the rest pose's height settles it when plausible (no FK needed);
         # otherwise (e.g. the Bandai rigs' rest pose is not upright) the motion's own
         # standing height decides whether to warn.
         if height_check and not (HEIGHT_RANGE[0] <= sk_file.height() * s <= HEIGHT_RANGE[1]):
-            check_height(motion_height() * s, where)
+            check_height(motion_height() * s, where, probe(), s)
     # lengths in metres within +-1e4 m (validate.MAX_LENGTH_M), named by their line
     for j, o in enumerate(sk_file.offsets):
         if not np.all(np.abs(o * s) <= MAX_LENGTH_M):

@@ -445,7 +445,7 @@ def _motion_from_doc(doc, text, char: DeepMimicCharacter, path, fps, scale, heig
                                       header_fps=header_fps, notes=tuple(notes)))
     check_motion(motion, path)
     if height_check:
-        check_height(standing_height(motion), path or "<deepmimic text>")
+        check_height(standing_height(motion), path or "<deepmimic text>", motion)
     return motion
 
 

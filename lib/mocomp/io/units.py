@@ -4,6 +4,8 @@ from __future__ import annotations
 import math
 import warnings
 
+from ..errors import MotionFormatError
+
 __all__ = ["UNITS", "guess_unit_scale", "check_height", "resolve_scale", "standing_height"]
 
 #: metres per file unit for the units real clips use (see shared MANIFEST).
@@ -54,9 +56,25 @@ def resolve_scale(scale, height_in_file_units: float, default_unit: str | None =
     return s, f"scale {s:g} m/unit given by caller"
 
 
-def check_height(height_m: float, where: str) -> None:
-    """Warn when a skeleton's standing height (metres) is outside 1.2-2.2 m."""
+def check_height(height_m: float, where: str, motion=None, scale: float = 1.0) -> None:
+    """Warn when a skeleton's standing height (metres) is outside 1.2-2.2 m.
+
+    ``height_m`` is the cheap all-joints estimate (:func:`standing_height`, times ``scale``).
+    It underestimates clips that never stand upright (a crouching charge: 1.195 m), so when it
+    is outside the range and ``motion`` (in file units) is given, the height is measured again
+    by :func:`mocomp.body.height.estimate_height` (head top to feet, or the skeleton's stature
+    from bone lengths when the clip never stands upright) and only that decides the warning.
+    """
     lo, hi = HEIGHT_RANGE
+    if not (lo <= height_m <= hi) and motion is not None:
+        from ..body.height import estimate_height  # only for the rare suspicious clip
+
+        try:
+            better = estimate_height(motion).value * scale
+        except (MotionFormatError, ValueError):
+            better = float("nan")
+        if math.isfinite(better) and better > 0:
+            height_m = better
     if not (lo <= height_m <= hi):
         warnings.warn(
             f"{where}: standing height {height_m:.3f} m is outside {lo}-{hi} m; "
