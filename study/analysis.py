@@ -749,14 +749,6 @@ def attention_summary(data: ResponseData) -> pd.DataFrame:
 
 
 # ------------------------------------------------------------------ models
-def _series_data(test: pd.DataFrame, pert: str, direction: str, level: str, control: str) -> pd.DataFrame:
-    sub = test[(test["perturbation"] == pert) & (test["direction"] == direction)]
-    g = sub["group"].iloc[0]
-    ctl, _ = _controls_for(test, g, control)
-    d = pd.concat([sub.assign(x=sub[level].astype(float)), ctl.assign(x=0.0)])
-    return d
-
-
 def fit_psychometric_glms(data: ResponseData | pd.DataFrame, *, link: str = "probit", level: str = "nominal_level",
                           control: str = "group", ci: float = 0.95, se: str = "auto",
                           min_clusters: int = 8) -> pd.DataFrame:
@@ -785,8 +777,9 @@ def fit_psychometric_glms(data: ResponseData | pd.DataFrame, *, link: str = "pro
         raise ValueError("link must be 'probit' or 'logit'")
     if se not in ("auto", "cluster", "model"):
         raise ValueError("se must be 'auto', 'cluster' or 'model'")
+    if control not in ("group", "pooled"):
+        raise ValueError(f"control must be 'group' or 'pooled', got {control!r}")
     test = data.test if isinstance(data, ResponseData) else data[data["kind"] == "test"]
-    pert = test[test["perturbation"] != "none"]
     if "participant_id" not in test.columns:
         test = test.assign(participant_id="(all)")
     n_parts = test["participant_id"].nunique()
@@ -795,11 +788,33 @@ def fit_psychometric_glms(data: ResponseData | pd.DataFrame, *, link: str = "pro
         raise ValueError("cluster-robust SEs need at least 2 participants")
     zc = norm.ppf(0.5 + ci / 2)
     out = []
-    for (p, dr), _ in pert.groupby(SERIES, sort=True):
-        d = _series_data(test, p, dr, level, control)
-        agg = d.groupby("x")["incorrect"].agg(["sum", "size"]).reset_index()
-        endog = np.column_stack([agg["sum"], agg["size"] - agg["sum"]])
-        X = sm.add_constant(agg["x"].to_numpy(float))
+    # integer codes once for the whole table; each series then selects its rows and its group's
+    # controls by integer comparisons and counts by bincount (no per-series copies of the table)
+    pcodes, puniq = pd.factorize(test["participant_id"], sort=True)
+    gcodes, guniq = pd.factorize(test["group"], sort=True)
+    scodes, suniq = pd.factorize(pd.MultiIndex.from_arrays([test["perturbation"], test["direction"]]), sort=True)
+    xall = test[level].to_numpy(float)
+    yall = test["incorrect"].to_numpy(float)
+    none_rows = (test["perturbation"] == "none").to_numpy()
+    P_all = len(puniq)
+    for si, (p, dr) in enumerate(suniq):  # sorted by (perturbation, direction)
+        if p == "none":
+            continue
+        if not none_rows.any():
+            raise StudyDataError("no test trials of unperturbed motions: d' needs them as the false-alarm baseline")
+        rows = np.flatnonzero(scodes == si)
+        g_here = gcodes[rows[0]]
+        ctl_rows = np.flatnonzero(none_rows & (gcodes == g_here)) if control == "group" else np.array([], int)
+        if not len(ctl_rows):
+            ctl_rows = np.flatnonzero(none_rows)
+        x = np.r_[xall[rows], np.zeros(len(ctl_rows))]
+        y = np.r_[yall[rows], yall[ctl_rows]]
+        pc = np.r_[pcodes[rows], pcodes[ctl_rows]]
+        xu, xi = np.unique(x, return_inverse=True)
+        ksum = np.bincount(xi, weights=y, minlength=len(xu))
+        ksize = np.bincount(xi, minlength=len(xu)).astype(float)
+        endog = np.column_stack([ksum, ksize - ksum])
+        X = sm.add_constant(xu)
         def fam():  # a fresh family per model (statsmodels' Binomial keeps the trial counts of its model)
             return sm.families.Binomial(link=sm.families.links.Probit() if link == "probit" else sm.families.links.Logit())
 
@@ -808,11 +823,13 @@ def fit_psychometric_glms(data: ResponseData | pd.DataFrame, *, link: str = "pro
             res = sm.GLM(endog, X, family=fam()).fit()
             cov = np.asarray(res.cov_params())
             if se_type == "cluster":  # same estimates from participant x level counts, sandwich by participant
-                pa = d.groupby(["participant_id", "x"])["incorrect"].agg(["sum", "size"]).reset_index()
-                rc = sm.GLM(np.column_stack([pa["sum"], pa["size"] - pa["sum"]]),
-                            sm.add_constant(pa["x"].to_numpy(float), has_constant="add"), family=fam()).fit(
+                cu, cinv = np.unique(pc.astype(np.int64) * len(xu) + xi, return_inverse=True)  # sorted (participant, x)
+                psum = np.bincount(cinv, weights=y, minlength=len(cu))
+                psize = np.bincount(cinv, minlength=len(cu)).astype(float)
+                rc = sm.GLM(np.column_stack([psum, psize - psum]),
+                            sm.add_constant(xu[cu % len(xu)], has_constant="add"), family=fam()).fit(
                     start_params=res.params, cov_type="cluster",
-                    cov_kwds={"groups": pd.factorize(pa["participant_id"])[0]})
+                    cov_kwds={"groups": pd.factorize(cu // len(xu))[0]})
                 cov = np.asarray(rc.cov_params())
         a, b = res.params
         sa, sb = np.sqrt(np.diag(cov))
@@ -824,12 +841,13 @@ def fit_psychometric_glms(data: ResponseData | pd.DataFrame, *, link: str = "pro
             tlo, thi = 1.0 / bhi, np.inf
         else:
             tlo, thi = np.nan, np.nan
-        out.append(dict(perturbation=p, direction=dr, group=d["group"].iloc[0], link=link, level_column=level,
+        out.append(dict(perturbation=p, direction=dr, group=guniq[g_here], link=link, level_column=level,
                         intercept=a, intercept_se=sa, slope=b, slope_se=sb, slope_ci_low=blo, slope_ci_high=bhi,
                         threshold=thr, threshold_ci_low=tlo, threshold_ci_high=thi,
                         pse=(-a / b if b != 0 else np.nan), deviance=res.deviance, df_resid=res.df_resid,
-                        n_trials=int(agg["size"].sum()), n_levels=len(agg), converged=bool(res.converged),
-                        cov_ab=float(cov[0, 1]), se_type=se_type, n_participants=int(d["participant_id"].nunique())))
+                        n_trials=int(ksize.sum()), n_levels=len(xu), converged=bool(res.converged),
+                        cov_ab=float(cov[0, 1]), se_type=se_type,
+                        n_participants=int(np.count_nonzero(np.bincount(pc, minlength=P_all)))))
     return pd.DataFrame(out)
 
 
@@ -874,14 +892,16 @@ def fit_mixed_model(data: ResponseData | pd.DataFrame, *, control: str = "group"
     import statsmodels.api as sm
     from scipy.stats import norm as _norm
 
-    from .glmm import fit_firth_logit, fit_logit_glmm, separated_columns
+    from .glmm import fit_firth_logit, fit_gee_exchangeable, fit_logit_glmm, separated_columns
 
     test = data.test if isinstance(data, ResponseData) else data[data["kind"] == "test"]
+    # only the columns the models use (not a copy of every column per group)
+    test = test[["participant_id", "group", "perturbation", "condition", "incorrect"]]
     out = []
     for g in sorted(test.loc[test["perturbation"] != "none", "group"].unique()):
         sub = test[(test["group"] == g) & (test["perturbation"] != "none")]
         ctl, src = _controls_for(test, g, control)
-        d = pd.concat([sub, ctl]).copy()
+        d = pd.concat([sub, ctl], ignore_index=True)
         levels = ["none"] + sorted(set(d["condition"]) - {"none"})
         d["cond"] = pd.Categorical(d["condition"], categories=levels)
         parts = sorted(d["participant_id"].unique())
@@ -928,16 +948,6 @@ def fit_mixed_model(data: ResponseData | pd.DataFrame, *, control: str = "group"
             rr.update(vb_mean=np.nan, vb_sd=np.nan, gee_estimate=np.nan, gee_se=np.nan)
         vb_note = ""
         if cross_checks and len(parts) >= 2:
-            import scipy.sparse as sp
-
-            # trial-level design built directly (no formula): fixed effects = treatment dummies,
-            # random effects = a *sparse* participant indicator (a dense one is trials x participants)
-            ccode = d["cond"].cat.codes.to_numpy()
-            Xt = np.zeros((len(d), len(levels)))
-            Xt[:, 0] = 1.0
-            Xt[np.arange(len(d)), ccode] += np.where(ccode > 0, 1.0, 0.0)
-            pcode = d["participant_id"].map({p: i for i, p in enumerate(parts)}).to_numpy()
-            yt = d["incorrect"].to_numpy(float)
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
                 try:
@@ -947,6 +957,16 @@ def fit_mixed_model(data: ResponseData | pd.DataFrame, *, control: str = "group"
                         raise _Skipped(f"not run: {len(parts)} participants > vb_max_participants="
                                        f"{vb_max_participants} (statsmodels' fit_vb grows faster than linearly: "
                                        "~256 s and no convergence at 1,000)")
+                    import scipy.sparse as sp
+
+                    # trial-level design built directly (no formula): fixed effects = treatment dummies,
+                    # random effects = a *sparse* participant indicator (a dense one is trials x participants)
+                    ccode = d["cond"].cat.codes.to_numpy()
+                    Xt = np.zeros((len(d), len(levels)))
+                    Xt[:, 0] = 1.0
+                    Xt[np.arange(len(d)), ccode] += np.where(ccode > 0, 1.0, 0.0)
+                    pcode = d["participant_id"].map({p: i for i, p in enumerate(parts)}).to_numpy()
+                    yt = d["incorrect"].to_numpy(float)
                     Z = sp.csr_matrix((np.ones(len(d)), (np.arange(len(d)), pcode)), shape=(len(d), len(parts)))
                     m = BinomialBayesMixedGLM(yt, Xt, Z, np.zeros(len(parts), int), fep_names=terms,
                                               vcp_names=["participant"])
@@ -959,9 +979,10 @@ def fit_mixed_model(data: ResponseData | pd.DataFrame, *, control: str = "group"
                     vb = {}
                     warnings.warn(f"BinomialBayesMixedGLM failed for group {g}: {e}")
                 try:
-                    gee = sm.GEE(yt, Xt, groups=pcode, family=sm.families.Binomial(),
-                                 cov_struct=sm.cov_struct.Exchangeable()).fit()
-                    gp = dict(zip(terms, zip(np.asarray(gee.params), np.asarray(gee.bse))))
+                    # the GEE of the trial rows computed from the (participant, condition) counts:
+                    # identical estimates and robust SEs (study.glmm.fit_gee_exchangeable), O(cells)
+                    gee = fit_gee_exchangeable(X, agg["sum"].to_numpy(), agg["size"].to_numpy(), gidx, names=terms)
+                    gp = dict(zip(terms, zip(gee.beta, gee.se)))
                 except Exception as e:  # pragma: no cover
                     gp = {}
                     warnings.warn(f"GEE failed for group {g}: {e}")

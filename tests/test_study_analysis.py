@@ -584,3 +584,76 @@ def test_separated_condition_is_reported_and_fitted_by_firth(tmp_path):
     assert 2 < r["estimate"] < 8 and r["ci_low"] < r["estimate"] < r["ci_high"]
     assert "Firth" in r["method"]
     assert "separation" in (tmp_path / "rep" / "report.md").read_text()
+
+
+# ------------------------------------------------------------------ aggregated = row-level (issue 12, scaling)
+def _unbalanced_cohort(seed=11, P=30, C=4):
+    """Bernoulli trial rows of a treatment-coded one-factor design with a random intercept;
+    participants see different numbers of trials per condition and some conditions not at all."""
+    rng = np.random.default_rng(seed)
+    beta = np.array([-0.4, 0.5, 1.2, -0.8])[:C]
+    u = rng.normal(0, 0.9, P)
+    pid, cond = [], []
+    for i in range(P):
+        for c in range(C):
+            if c and rng.random() < 0.15:
+                continue  # a condition this participant never saw
+            m = int(rng.integers(1, 9))
+            pid += [i] * m
+            cond += [c] * m
+    pid, cond = np.array(pid), np.array(cond)
+    y = (rng.random(len(pid)) < expit(beta[0] + np.where(cond > 0, beta[cond], 0) + u[pid])).astype(float)
+    return pid, cond, y, C
+
+
+def _design(cond, C):
+    X = np.zeros((len(cond), C))
+    X[:, 0] = 1
+    X[np.arange(len(cond)), cond] += cond > 0
+    return X
+
+
+def _cells(pid, cond, y, C):
+    key = pid * C + cond
+    uk, inv = np.unique(key, return_inverse=True)
+    return _design(uk % C, C), np.bincount(inv, weights=y), np.bincount(inv).astype(float), uk // C
+
+
+def test_gee_from_cell_counts_equals_statsmodels_gee_on_the_trial_rows():
+    """fit_gee_exchangeable on (participant, condition) counts = statsmodels GEE (exchangeable,
+    robust SEs) on the Bernoulli rows, to 1e-8: estimates, SEs and the working correlation."""
+    import statsmodels.api as sm
+
+    from study.glmm import fit_gee_exchangeable
+
+    pid, cond, y, C = _unbalanced_cohort()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        ref = sm.GEE(y, _design(cond, C), groups=pid, family=sm.families.Binomial(),
+                     cov_struct=sm.cov_struct.Exchangeable()).fit()
+    X, k, n, g = _cells(pid, cond, y, C)
+    perm = np.random.default_rng(0).permutation(len(k))  # row order does not matter
+    r = fit_gee_exchangeable(X[perm], k[perm], n[perm], g[perm])
+    assert r.converged
+    assert abs(ref.model.cov_struct.dep_params) > 0.02  # the correlation term is exercised
+    np.testing.assert_allclose(r.beta, ref.params, rtol=1e-8, atol=1e-10)
+    np.testing.assert_allclose(r.se, ref.bse, rtol=1e-8, atol=1e-10)
+    assert r.rho == pytest.approx(ref.model.cov_struct.dep_params, rel=1e-8)
+
+
+def test_glmm_on_cell_counts_equals_the_glmm_on_bernoulli_rows():
+    """The marginal likelihood of Bernoulli rows with equal covariates is the binomial one of their
+    counts (up to the constant sum log C(n, k)): fitting the counts (unbalanced, unsorted) and the
+    trial rows themselves (n = 1 each) gives the same estimates and SEs to 1e-8."""
+    pid, cond, y, C = _unbalanced_cohort(seed=5)
+    X, k, n, g = _cells(pid, cond, y, C)
+    perm = np.random.default_rng(1).permutation(len(k))
+    a = fit_logit_glmm(X[perm], k[perm], n[perm], g[perm])
+    b = fit_logit_glmm(_design(cond, C), y, np.ones(len(y)), pid, start=np.r_[a.beta, np.log(a.sigma)])
+    assert a.converged and b.converged
+    from scipy.special import gammaln
+
+    const = float(np.sum(gammaln(n + 1) - gammaln(k + 1) - gammaln(n - k + 1)))
+    assert a.llf == pytest.approx(b.llf + const, abs=1e-8)
+    np.testing.assert_allclose(b.beta, a.beta, rtol=1e-6, atol=1e-6)  # two optimiser runs: their tolerance
+    np.testing.assert_allclose(b.se, a.se, rtol=1e-4)  # Hessians by differences of the gradient
