@@ -136,8 +136,10 @@ def write_table2_responses(root, n_parts: int = 20, per_part: int = 5) -> list:
     participants (``P00``...) in the layout of ``responses.csv``
     (``root/<participant>/S1/responses.csv``). The paper reports neither trial
     counts nor per-participant data: only the pooled counts are Table 2's, which
-    is what the group d' of :func:`study.analysis.condition_table` uses.
-    Returns the files written.
+    is what the group d' of :func:`study.analysis.condition_table` uses. Nor
+    does it report response times: ``rt_s`` (a required, finite column of the
+    schema) is written as 0 s on these rows, marked ``input="published"``, and no
+    analysis of them uses it. Returns the files written.
     """
     import csv
     from pathlib import Path
@@ -161,7 +163,7 @@ def write_table2_responses(root, n_parts: int = 20, per_part: int = 5) -> list:
             r.update(participant_id=pid, session_id="S1", stimulus_set_id="TABLE2", trial_index=len(rows[pid]),
                      kind="test", group=g, repetition=1 + (j // int(n_parts)) % 2, stimulus_id=f"{g}:{p}_{d}_{lv}",
                      perturbation=p, direction=d, nominal_level=lv, achieved_error=lv, response=a,
-                     rated_correct=int(a == "correct"), input="table2")
+                     rated_correct=int(a == "correct"), input="published", rt_s=0.0)
             rows[pid].append(r)
     files = []
     for pid, rr in rows.items():

@@ -11,6 +11,7 @@ from mocomp.dynamics import center_of_mass
 from mocomp.edit.join import join_flights
 from mocomp.errors import JoinError
 from mocomp.flips.mass import fit_ballistic
+from _host_noise import perturb as _perturb
 
 
 @lru_cache(maxsize=None)
@@ -185,14 +186,6 @@ def test_real_join_seam_evidence_bounds_and_flags(real_data_dir, landing, dir_ma
 
 # --- the seam's discrete choice under 1e-7 noise (issue 12, section 1) ----------------------------
 
-def _perturb(motion, seed, eps=1e-7):
-    """``motion`` with root positions and quaternion components scaled by ``1 + eps N(0, 1)``
-    (seeded), quaternions renormalised: the size of the differences between hosts."""
-    rng = np.random.default_rng(seed)
-    rp = np.asarray(motion.root_positions) * (1 + eps * rng.normal(size=motion.root_positions.shape))
-    q = np.asarray(motion.rotations) * (1 + eps * rng.normal(size=motion.rotations.shape))
-    q /= np.linalg.norm(q, axis=-1, keepdims=True)
-    return motion.replace(root_positions=rp, rotations=q)
 
 
 def _seam_under_noise(mA, mB, body=None, seeds=range(5)):

@@ -8,6 +8,7 @@ import pytest
 
 from mocomp.edit.twist import prepare_twist, reachable_range, twist_jump, twist_series
 from mocomp.errors import TwistRangeError
+from _host_noise import perturb as _perturb
 
 
 @lru_cache(maxsize=None)
@@ -93,14 +94,6 @@ def test_real_hop_turn_270(real_data_dir):
 
 # --- the cut's discrete choice under 1e-7 noise (issue 12, section 1) -----------------------------
 
-def _perturb(motion, seed, eps=1e-7):
-    """``motion`` with root positions and quaternion components scaled by ``1 + eps N(0, 1)``
-    (seeded), quaternions renormalised: the size of the differences between hosts."""
-    rng = np.random.default_rng(seed)
-    rp = np.asarray(motion.root_positions) * (1 + eps * rng.normal(size=motion.root_positions.shape))
-    q = np.asarray(motion.rotations) * (1 + eps * rng.normal(size=motion.rotations.shape))
-    q /= np.linalg.norm(q, axis=-1, keepdims=True)
-    return motion.replace(root_positions=rp, rotations=q)
 
 
 def test_cut_tie_rule_known_answer_under_1e_7_noise():

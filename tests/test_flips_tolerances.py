@@ -34,6 +34,7 @@ from mocomp.flips.similarity import frame_distance, similarity_weights
 from mocomp.flips.smoothing import split_root
 
 from _flips_data import spinning_motion, synthetic
+from _host_noise import perturb as _perturb
 
 SYNTH = ("backflip", "frontflip", "sideflip")
 
@@ -80,14 +81,6 @@ def prepared():
     return {n: prepare(synthetic(n).motion) for n in SYNTH}
 
 
-def _perturb(motion, seed, eps=1e-7):
-    """``motion`` with root positions and quaternion components scaled by ``1 + eps N(0, 1)``
-    (seeded), quaternions renormalised: the size of the differences between hosts."""
-    rng = np.random.default_rng(seed)
-    rp = np.asarray(motion.root_positions) * (1 + eps * rng.normal(size=motion.root_positions.shape))
-    q = np.asarray(motion.rotations) * (1 + eps * rng.normal(size=motion.rotations.shape))
-    q /= np.linalg.norm(q, axis=-1, keepdims=True)
-    return motion.replace(root_positions=rp, rotations=q)
 
 
 def _choices(P, flips=(2, 3)):
