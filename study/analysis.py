@@ -246,7 +246,7 @@ def _check_values(df: pd.DataFrame, require: tuple[str, ...]) -> None:
         if col in df.columns:
             t = col_u(col)[1].str.strip()
             bad_u(col, ((t != "") & ~t.str.match(pat).astype(bool)).to_numpy(), what)
-    for col, allowed in (("expected_response", ("", "correct", "incorrect")), ("input", ("", "button", "key", "observer")),
+    for col, allowed in (("expected_response", ("", "correct", "incorrect")), ("input", ("", "button", "key", "observer", "published")),
                          ("must_watch", ("", "0", "1")), ("watched_to_end", ("", "0", "1"))):
         if col in df.columns:
             in_set(col, allowed, f"not one of {', '.join(repr(a) for a in allowed)}")
