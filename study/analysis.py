@@ -761,8 +761,10 @@ def participant_dprimes(data: ResponseData | pd.DataFrame, *, by: str = "conditi
         dprime=np.asarray(d.dprime, float), ceiling=np.asarray(d.ceiling, float), correction=correction,
         ci_low=lo, ci_high=hi, ci_degenerate=degenerate, ci_note=note, n_boot=n_boot))
     if by == "condition":
-        lab = {t: condition_label(*t) for t in set(zip(out["perturbation"], out["direction"], out["level"]))}
-        out["condition"] = [lab[t] for t in zip(out["perturbation"], out["direction"], out["level"])]
+        # one label per distinct (perturbation, direction, level), mapped back by group number
+        gb = out.groupby(["perturbation", "direction", "level"], sort=False)
+        labels = np.array([condition_label(p, d_, lv) for p, d_, lv in gb.size().index], object)
+        out["condition"] = labels[gb.ngroup().to_numpy()]
     else:
         out["condition"] = out["perturbation"] + "/" + out["direction"]
     return out[cols]
@@ -824,7 +826,10 @@ def fit_psychometric_glms(data: ResponseData | pd.DataFrame, *, link: str = "pro
     # controls by integer comparisons and counts by bincount (no per-series copies of the table)
     pcodes, puniq = pd.factorize(test["participant_id"], sort=True)
     gcodes, guniq = pd.factorize(test["group"], sort=True)
-    scodes, suniq = pd.factorize(pd.MultiIndex.from_arrays([test["perturbation"], test["direction"]]), sort=True)
+    pcd, pun = pd.factorize(test["perturbation"], sort=True)
+    dcd, dun = pd.factorize(test["direction"], sort=True)
+    scodes, sflat = pd.factorize(pcd.astype(np.int64) * len(dun) + dcd, sort=True)  # sorted (perturbation, direction)
+    suniq = [(pun[int(c) // len(dun)], dun[int(c) % len(dun)]) for c in sflat]
     xall = test[level].to_numpy(float)
     yall = test["incorrect"].to_numpy(float)
     none_rows = (test["perturbation"] == "none").to_numpy()
