@@ -27,10 +27,24 @@ in the variational-Bayes cross-check). Goal (issue 12): 10,000 participants
 under 60 s and 2 GB, bootstrap included (``passed`` checks both).
 ``--quick``: 200 and 1,000 participants.
 
-Measured (full run, 2-core shared host, load ~1-4): 1,000 participants 8.4 s,
-peak RSS 517 MB (was 367 s / 1.4 GB); 10,000 participants 117 s, 3.6 GB: growth
-1,000 -> 10,000 is 14x (about linear), but the 10,000 goal (60 s, 2 GB) is not
-met yet; where that time and memory go has not been profiled.
+Measured (full run, 2-core shared host). Before the follow-up (commit 55025d2):
+1,000 participants 8.4 s, peak RSS 517 MB; 10,000: 117 s, 3.6 GB (goal missed).
+Profiled at 10,000 x 88 (cProfile/pyinstrument, RSS per stage, load ~1): reading
+25 s / 2.1 GB peak (1.3 GB of it one ``str`` object per cell), mixed model 49 s and
++1.4 GB (statsmodels GEE on the 880,000 trial rows 22 s, of it 16 s its start GLM;
+GLMM quadrature 16 s; per-group copies of the whole table 3 s), psychometric GLMs
+12 s (per-series filtering/concatenation of the table), the rest ~10 s. The
+parametric and cluster bootstraps were already small (2-5 s together).
+After: the reader interns cells (one object per distinct value and column), the GEE
+is computed from (participant, condition) counts (:func:`study.glmm.fit_gee_exchangeable`,
+equal to statsmodels' trial-level GEE to 1e-15), the GLMM quadrature runs in a padded
+participant-major layout with one compiled kernel, the psychometric GLMs select
+rows by integer codes. Results equal the previous tables to 1e-8 (150 and 1,000
+participants; the variational-Bayes cross-check scatters ~1e-7 between runs of its own).
+Measured: 1,000 participants 5.2 s, peak RSS 322 MB; 10,000: 32.7 s, 880 MB (load
+average ~2-3; goal met). Under heavy load (load ~4-5, another job holding 11 GB) the
+same code took 20 s / 72 s (10,000: 852 MB): then the directory walk and file reads
+dominate (page cache evicted), not the statistics.
 """
 from __future__ import annotations
 

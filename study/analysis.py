@@ -920,11 +920,14 @@ def fit_mixed_model(data: ResponseData | pd.DataFrame, *, control: str = "group"
     ``BinomialBayesMixedGLM.fit_vb`` (variational Bayes with its default priors,
     fixed effects N(0, 2^2): it shrinks large effects and its SDs are
     approximate), and ``gee_estimate``/``gee_se`` from a GEE (exchangeable
-    within participant, robust SEs): population-averaged, hence smaller in
+    within participant, robust SEs; statsmodels' ``GEE`` on the trial rows, computed
+    from the (participant, condition) counts by :func:`study.glmm.fit_gee_exchangeable`,
+    equal to it to rounding): population-averaged, hence smaller in
     magnitude than the conditional GLMM effects when s > 0. The variational-Bayes
     cross-check runs up to ``vb_max_participants`` participants only (statsmodels'
     ``fit_vb`` does not scale: 256 s without convergence at 1,000); ``cross_check_note``
-    says when it was skipped. The GLMM and the GEE are linear in the data.
+    says when it was skipped. The GLMM and the GEE work on the (participant, condition)
+    counts: linear in the participants, independent of the trials per cell.
     """
     import statsmodels.api as sm
     from scipy.stats import norm as _norm
