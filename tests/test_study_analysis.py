@@ -678,3 +678,18 @@ def test_loaded_table_holds_one_string_object_per_distinct_value(tmp_path):
     got = t.sort_values(["participant_id", "trial_index"]).reset_index(drop=True)
     for col in ("participant_id", "stimulus_id", "response", "condition"):
         assert (got[col].astype(str).to_numpy() == ref[col].astype(str).to_numpy()).all(), col
+
+
+def test_columns_with_many_distinct_values_are_read_unchanged_without_interning(tmp_path, monkeypatch):
+    """Past _INTERN_MAX distinct values a column keeps the parser's objects: same table either way."""
+    import study.analysis as sa
+    from study.observers import Observer, simulate_responses, write_responses
+    from study.placeholders import make_placeholder_set
+
+    stim = make_placeholder_set(tmp_path / "stim", n_frames=4)
+    write_responses(simulate_responses(stim, Observer({}, bias=0.5), n=5, seed=3), tmp_path / "data")
+    a = load_responses(tmp_path / "data").trials
+    monkeypatch.setattr(sa, "_INTERN_MAX", 3)
+    b = load_responses(tmp_path / "data").trials
+    pd.testing.assert_frame_equal(a, b)
+    assert len({id(v) for v in b["stimulus_id"]}) > len(set(b["stimulus_id"]))  # not interned past the cap
