@@ -89,7 +89,10 @@ for line in sys.stdin:
 class Reader:
     """A child process that reads files on request; a crash or hang fails the example."""
 
-    TIMEOUT = 20.0
+    #: s; longer than the C3D reader's own guard (``mocomp.io.c3d._CHILD_TIMEOUT``, 20 s + 2 s/MB, after
+    #: which a looping ezc3d is reported as MotionFormatError), so that a hang means the reader's guard
+    #: failed, not that a loaded machine was slow (a 20 s limit here once fired under load, CI clone run)
+    TIMEOUT = 60.0
 
     def __init__(self, code: str = _WORKER):
         self.code = code
