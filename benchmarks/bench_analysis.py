@@ -42,7 +42,7 @@ participant-major layout with one compiled kernel, the psychometric GLMs select
 rows by integer codes. Results equal the previous tables to 1e-8 (150 and 1,000
 participants; the variational-Bayes cross-check scatters ~1e-7 between runs of its own).
 Measured: 1,000 participants 5.2 s, peak RSS 322 MB; 10,000: 32.7 s, 880 MB (load
-average ~2-3; goal met). Under heavy load (load ~4-5, another job holding 11 GB) the
+average ~2-3; goal met); a second run at load ~1: 3.3 s and 25.9 s, same memory. Under heavy load (load ~4-5, another job holding 11 GB) the
 same code took 20 s / 72 s (10,000: 852 MB): then the directory walk and file reads
 dominate (page cache evicted), not the statistics.
 """
