@@ -16,6 +16,11 @@ When several files share a name, BVH wins over ASF/AMC over DeepMimic.
 Real clips get the known corrections of :mod:`mocomp.datasets.clips` (true
 frame rate, source unit, T-pose first frame), each recorded in
 ``motion.source.notes``; ``fps=``/``scale=`` override them, ``raw=True`` skips them.
+They apply only to files that *are* known clips (:func:`mocomp.datasets.known.identify`):
+files in the data directory or the CMU download cache, and byte copies (same SHA-256) of a
+file the data MANIFEST lists or of the data-directory clip their name matches. Any other
+file, whatever its name (``88_01_x2.bvh`` written by ``mocomp flips``), is read as
+written: header frame rate, the reader's unit; a note says when its name matches a clip.
 """
 from __future__ import annotations
 
@@ -34,9 +39,11 @@ from .clips import ClipFacts, facts_for, is_tpose_frame
 from .config import ENV_VAR, data_dir
 from .download import CMU_REGISTRY, fetch_cmu, normalize_trial
 from .examples import EXAMPLES, Example, register
+from .known import KnownClip, file_sha256, identify
 
 __all__ = ["load", "load_example", "list", "find_clip", "real_clips", "examples", "data_dir", "ENV_VAR",
-           "fetch_cmu", "facts_for", "ClipFacts", "Example", "register", "EXAMPLES", "rounded_frame_rate"]
+           "fetch_cmu", "facts_for", "ClipFacts", "Example", "register", "EXAMPLES", "rounded_frame_rate",
+           "identify", "KnownClip"]
 
 #: file kinds that hold a skeleton motion, in order of preference when names collide
 _PREFERENCE = (".bvh", ".amc", ".txt", ".json")
@@ -266,8 +273,67 @@ def rounded_frame_rate(header_fps: float) -> int | None:
     return int(n) if abs(ft - 1.0 / n) < tol else None
 
 
-def _apply_facts(path: Path, fps, scale, raw: bool, **kw):
-    facts = facts_for(path)
+def _facts_would_be(facts: ClipFacts) -> str:
+    """The corrections ``facts`` would make, as keyword advice (``scale='cmu', fps=60``)."""
+    parts = []
+    if facts.unit is not None:
+        parts.append(f"scale={facts.unit!r}")
+    if facts.fps is not None:
+        parts.append(f"fps={facts.fps:g}")
+    return ", ".join(parts)
+
+
+def _twin(path: Path) -> Path | None:
+    """The data-directory clip that ``path``'s name matches (its stem, or its CMU trial id:
+    ``88_01_x2`` -> ``88_01``), or ``None``."""
+    if data_dir() is None:
+        return None
+    for key in dict.fromkeys(k for k in (path.stem, _trial_of(path.stem)) if k):
+        try:
+            return find_clip(key)
+        except (DataNotFoundError, MotionFormatError, OSError):
+            continue
+    return None
+
+
+def _identify(path: Path) -> KnownClip | None:
+    """The known clip ``path`` is: :func:`~mocomp.datasets.known.identify` (data directory, download
+    cache, MANIFEST SHA-256), else a byte copy of the data-directory clip its name matches."""
+    known = identify(path)
+    if known is not None:
+        return known
+    twin = _twin(path)
+    if twin is None:
+        return None
+    try:
+        if twin.stat().st_size == path.stat().st_size and file_sha256(twin) == file_sha256(path):
+            return KnownClip(twin.relative_to(data_dir()).as_posix(), "sha256")
+    except OSError:
+        return None
+    return None
+
+
+def _unknown_name_note(path: Path) -> str:
+    """The note for a file named like a known clip (or data source) that is not one, else ``''``."""
+    named = facts_for(path)
+    if named == ClipFacts():
+        return ""
+    advice = _facts_would_be(named)
+    advice = f"; if it really is that clip, pass {advice}" if advice else ""
+    twin = _twin(path)
+    if twin is not None:
+        root = data_dir()
+        rel = twin.relative_to(root).as_posix() if root is not None else twin.name
+        return (f"name matches known clip {rel} but content differs: its facts (unit, frame rate, T-pose frame) "
+                f"are not applied{advice}")
+    return (f"named like a {named.source} clip but not a known clip file (not in the data directory, SHA-256 not "
+            f"in its MANIFEST.md): that source's facts (unit, frame rate, T-pose frame) are not applied{advice}")
+
+
+def _apply_facts(path: Path, fps, scale, raw: bool, known: KnownClip | None = None, **kw):
+    """Read ``path`` and apply the facts of the known clip ``known`` (``None``: a file that is
+    no known clip, read as written -- header fps, the reader's unit)."""
+    facts = facts_for(Path(known.name)) if known is not None else ClipFacts()
     use_scale = scale if (scale is not None or raw) else facts.unit
     use_fps = fps if (fps is not None or raw) else facts.fps
     m = _read(path, scale=use_scale, fps=use_fps, **kw)
@@ -297,6 +363,13 @@ def _apply_facts(path: Path, fps, scale, raw: bool, **kw):
         notes.append("dropped file frame 0, a T-pose that is not part of the take (file frame k is motion frame "
                      "k-1); raw=True keeps it")
     notes.extend(facts.notes)
+    if known is not None and known.how == "sha256":
+        notes.append(f"identified by its SHA-256 as the data directory's {known.name}: that clip's known "
+                     "facts apply")
+    elif known is None:
+        note = _unknown_name_note(path)
+        if note:
+            notes.append(note)
     src = dataclasses.replace(src, unit_reason=unit_reason, notes=tuple(notes))
     return m.replace(source=src)
 
@@ -327,7 +400,7 @@ def load(name_or_path, *, fps: float | None = None, scale=None, raw: bool = Fals
         return load_example(name_or_path).motion
     p = Path(os.fspath(name_or_path)).expanduser()
     if p.is_file():
-        return _apply_facts(p, fps, scale, raw, **kw)
+        return _apply_facts(p, fps, scale, raw, _identify(p), **kw)
     if p.is_dir() and ("/" in str(name_or_path) or os.sep in str(name_or_path) or not isinstance(name_or_path, str)):
         raise DataNotFoundError(f"{p} is a directory, not a motion file")
     if not isinstance(name_or_path, str):
@@ -338,12 +411,13 @@ def load(name_or_path, *, fps: float | None = None, scale=None, raw: bool = Fals
         tid = name_or_path.strip()
         if download and re.fullmatch(r"\d{1,3}_\d{1,3}", tid) and normalize_trial(tid) in CMU_REGISTRY:
             path = fetch_cmu(tid)
+            return _apply_facts(path, fps, scale, raw, KnownClip(path.name, "location"), **kw)
         elif "/" in tid or os.sep in tid or tid.startswith("~"):
             root = data_dir()
             raise DataNotFoundError(f"no such file: {p}" + (f" (nor a clip of that name in {root})" if root else ""))
         else:
             raise
-    return _apply_facts(path, fps, scale, raw, **kw)
+    return _apply_facts(path, fps, scale, raw, identify(path) or KnownClip(path.name, "location"), **kw)
 
 
 # ---------------------------------------------------------------------- list

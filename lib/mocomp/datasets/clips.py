@@ -25,7 +25,8 @@ where each was checked on the clips themselves:
   back flip's flight implies ~50-60 Hz); no fps is imposed, a note says so.
 
 :func:`facts_for` returns the :class:`ClipFacts` of a file; ``mocomp.datasets.load``
-applies them unless told otherwise (``raw=True``, explicit ``fps=``/``scale=``).
+applies them to known clips only (see :mod:`mocomp.datasets.known`) unless told otherwise
+(``raw=True``, explicit ``fps=``/``scale=``).
 """
 from __future__ import annotations
 
@@ -83,7 +84,12 @@ class ClipFacts:
 
 
 def facts_for(path: str | Path) -> ClipFacts:
-    """The known facts of a clip, from its file name and extension."""
+    """The known facts of a clip, from its file name and extension.
+
+    Name-based: they hold for the known clip of that name only. ``mocomp.datasets.load``
+    applies them only to files :func:`mocomp.datasets.known.identify` says *are* known clips
+    (in the data directory, or a byte copy by SHA-256), never to another file sharing the name.
+    """
     path = Path(path)
     stem, ext = path.stem, path.suffix.lower()
     low = stem.lower()
