@@ -391,3 +391,28 @@ def test_unwritable_output_subprocess(tmp_path):
     code, out, err = run_cli("convert", src, tmp_path / "D.bvh")
     assert code == 2 and out == "" and "Traceback" not in err
     assert err.splitlines() == [f"mocomp convert: error: output {tmp_path / 'D.bvh'} is a directory, not a file"]
+
+
+def test_new_violations_matched_by_check_and_place():
+    """``new_violations``: an output violation is new when no input has the same check at the same
+    place, worse when the input's is smaller by more than a quarter of the threshold."""
+    from types import SimpleNamespace as NS
+
+    from mocomp.cli._common import new_violations
+
+    def f(check, where, size, threshold=1.0):
+        return NS(check=check, where=where, size=size, threshold=threshold)
+
+    def rep(*fs, against=None):
+        return NS(violations=tuple(fs), against=against)
+
+    a = rep(f("com_velocity_jump", "take-off of flight 1", 0.6), f("foot_slide", "foot_r", 0.07, 0.03))
+    b = rep(f("com_velocity_jump", "take-off of flight 1", 2.9))
+    o1, o2, o3, o4 = (f("com_velocity_jump", "take-off of flight 1", 2.8), f("foot_slide", "foot_r", 0.0705, 0.03),
+                      f("foot_slide", "foot_l", 0.05, 0.03), f("com_velocity_jump", "take-off of flight 1", 0.8))
+    out = rep(o1, o2, o3, o4, against=a)
+    got = new_violations(out)
+    assert [x for x, _ in got] == [o1, o3] and got[0][1] is a.violations[0] and got[1][1] is None
+    # a further input with a larger take-off jump at the same place: not worse than the worst input
+    assert [x for x, _ in new_violations(out, [b])] == [o3]
+    assert new_violations(rep(against=a)) == ()

@@ -178,9 +178,12 @@ def test_edit_explicit_short_flight_is_used_with_a_one_line_warning(tmp_path, ca
     assert main(["edit", "backflip", "--preset", "straight-legs", "--flight", "130", "155", "-o", str(out)]) == 0
     cap = capsys.readouterr()
     warn = [ln for ln in cap.err.splitlines() if "warning" in ln]
-    assert len(warn) == 1 and warn[0].startswith("mocomp edit: warning: backflip: the given flight, frames 130-154")
+    assert warn[0].startswith("mocomp edit: warning: backflip: the given flight, frames 130-154")
     assert "0.200 s, shorter than the 0.25 s minimum" in warn[0] and "used anyway" in warn[0]
     assert out.exists()
+    # the edit of a flight that is not one is worse than its input: the audit of the output says so, one line
+    assert len(warn) == 2 and warn[1].startswith(f"mocomp edit: warning: the output {out} has ")
+    assert "com_velocity_jump" in warn[1] and cap.out.splitlines()[-1].startswith("audit: FAIL")
 
 
 def test_edit_detected_synthetic_flight_passes_without_warning(tmp_path, capsys):
@@ -253,3 +256,44 @@ def test_walks_runs_and_a_mislabelled_clip_are_refused(name, rule, real_data_dir
         assert word in problem
     if name == "mass_backflip":       # at 50 Hz it is a flight
         assert check_prepared(prepare_cached(name, fps=50.0, estimate=False)).ok
+
+
+# ---------------------------------------------------------------- issue #13 section 2: the audit of the output
+def _verdict(cap):
+    last = cap.out.strip().splitlines()[-1]
+    assert last.startswith("audit: PASS, ") or last.startswith("audit: FAIL, "), last
+    return last
+
+
+@pytest.mark.parametrize("argv", [
+    ["edit", "backflip", "--preset", "arms-twist"],
+    ["twist", "twist180", "--degrees", "240"],
+    ["join", "backflip", "sideflip"],
+])
+def test_commands_end_with_the_audit_verdict(tmp_path, capsys, argv):
+    out, rep = tmp_path / "o.bvh", tmp_path / "r.json"
+    assert main(argv + ["-o", str(out), "--report", str(rep)]) == 0
+    cap = capsys.readouterr()
+    last = _verdict(cap)
+    d = json.loads(rep.read_text())
+    a = d["audit"]
+    assert a["verdict"] in ("pass", "fail") and a["verdict"].upper() in last
+    assert a["violations"] == len([f for f in a["findings"] if f["severity"] == "violation"])
+    assert a["name"] == str(out) and a["n_frames"] == read_bvh(out).n_frames
+    assert d["provenance"]["measured"] == "audit"
+    # a warning line exactly when the output has violations its input(s) lack, naming them
+    warn = [ln for ln in cap.err.splitlines() if ln.startswith(f"mocomp {argv[0]}: warning: the output")]
+    assert bool(warn) == bool(a["new_violations"])
+    for f in a["new_violations"]:
+        assert f"{f['check']} at {f['where']}" in warn[0] and f["severity"] == "violation"
+    if argv[0] == "join":
+        assert [o["name"] for o in a["other_inputs"]] == ["sideflip"] and "sideflip: " in last
+
+
+def test_edit_no_audit(tmp_path, capsys):
+    out, rep = tmp_path / "o.bvh", tmp_path / "r.json"
+    assert main(["edit", "backflip", "--preset", "arms-twist", "-o", str(out), "--report", str(rep),
+                 "--no-audit"]) == 0
+    cap = capsys.readouterr()
+    assert not any(ln.startswith("audit:") for ln in cap.out.splitlines())
+    assert json.loads(rep.read_text())["audit"] is None

@@ -151,3 +151,93 @@ def test_demo_cli_flips_count(tmp_path, capsys):
     with pytest.raises(ValueError, match=">= 2"):
         demo(tmp_path / "two", flips=1)
     assert not (tmp_path / "two").exists()
+
+
+# ---------------------------------------------------------------- issue #13 section 2: the audit of the output
+def _audit_run(tmp_path, capsys, *extra):
+    out, rep = tmp_path / "x2.bvh", tmp_path / "r.json"
+    assert main(["flips", "backflip", "-o", str(out), "--report", str(rep), *extra]) == 0
+    cap = capsys.readouterr()
+    return out, json.loads(rep.read_text()), cap
+
+
+def test_flips_k07_output_is_audited_worse_than_input(tmp_path, capsys):
+    """Planted case: k = 0.7 k* keeps the flight's duration while the take-off is retimed, so the COM
+    velocity jumps at take-off (the model's own note says +104%); the audit of the written frames
+    must find it, the input (the exact synthetic single flip) has no violation."""
+    out, d, cap = _audit_run(tmp_path, capsys, "--k-ratio", "0.7")
+    last = cap.out.strip().splitlines()[-1]
+    assert last.startswith("audit: FAIL, ") and "input: PASS, 0 violation(s)" in last
+    assert "new or worse: com_velocity_jump" in last
+    warn = [ln for ln in cap.err.splitlines() if "warning" in ln]
+    assert len(warn) == 1 and warn[0].startswith(f"mocomp flips: warning: the output {out} has ")
+    assert "com_velocity_jump at take-off of flight 1" in warn[0]
+    a = d["audit"]
+    new = {(f["check"], f["where"]): f for f in a["new_violations"]}
+    assert a["verdict"] == "fail" and a["violations"] >= 1
+    jump = new[("com_velocity_jump", "take-off of flight 1")]
+    assert jump["input_size"] is None and jump["size"] > 2.0 and jump["size"] > jump["threshold"]
+    assert a["comparison"]["against_verdict"] == "pass" and "takeoff_jump_mps" in a["comparison"]["worse"]
+    # measured take-off jump: the flight leaves at ~6.3 m/s vertically, the retimed take-off reaches ~3 m/s
+    assert a["measures"]["takeoff_jump_mps"] > 2.0
+    # the model's planned values stay under their keys, labelled by the provenance key
+    assert "achieved_rotation" in d and d["provenance"]["measured"] == "audit" and "planned" in d["provenance"]["planned"]
+    assert "planned (the method's model values" in cap.out
+
+
+def test_flips_k1_output_adds_no_com_jump(tmp_path, capsys):
+    """Clean case: k = k* keeps the take-off continuous; the audit finds no physics violation the
+    input lacks. (It does flag the kinematic rate check point_speed: the doubled rotation in the
+    flight moves a fingertip at 26.8 m/s against the 25 m/s limit; reported, not tuned away.)"""
+    out, d, cap = _audit_run(tmp_path, capsys, "--k-ratio", "1")
+    last = cap.out.strip().splitlines()[-1]
+    assert last.startswith("audit: ") and "com_velocity_jump" not in last
+    assert "com_velocity_jump" not in cap.err
+    a = d["audit"]
+    physics = {"floor_penetration", "foot_slide", "com_velocity_jump", "gravity", "L_direction", "L_magnitude",
+               "bone_length"}
+    assert not {f["check"] for f in a["new_violations"]} & physics
+    assert a["measures"]["takeoff_jump_mps"] < 0.5          # below the take-off jump threshold (jump_min)
+
+
+def test_flips_audit_is_of_the_written_frames(tmp_path, capsys):
+    """The audit in the report is the audit of the BVH read back, against the prepared input."""
+    from mocomp.audit import audit
+    from mocomp.flips import prepare
+
+    out, d, _ = _audit_run(tmp_path, capsys, "--k-ratio", "0.7")
+    direct = audit(read_bvh(out), against=prepare("backflip").motion)
+    for k, v in direct.to_dict()["measures"].items():
+        got = d["audit"]["measures"][k]
+        assert (v is None and got is None) or got == pytest.approx(v, rel=1e-6, abs=1e-9), k
+    assert d["audit"]["violations"] == len(direct.violations)
+
+
+def test_flips_no_audit(tmp_path, capsys):
+    out, d, cap = _audit_run(tmp_path, capsys, "--no-audit")
+    assert not any(ln.startswith("audit:") for ln in cap.out.splitlines()) and "warning" not in cap.err
+    assert d["audit"] is None and d["provenance"]["measured"] is None
+    assert cap.out.strip().splitlines()[-1] == f"wrote {tmp_path / 'r.json'}"
+
+
+def test_demo_cli_ends_with_the_audit_verdict(tmp_path, capsys):
+    assert main(["demo", "-o", str(tmp_path)]) == 0
+    cap = capsys.readouterr()
+    assert cap.out.strip().splitlines()[-1].startswith("audit: FAIL")     # default k = 0.7 k*: the take-off jump
+    assert "mocomp demo: warning:" in cap.err and "com_velocity_jump" in cap.err
+    d = json.loads((tmp_path / "report.json").read_text())
+    assert d["audit"]["verdict"] == "fail" and "flips" in d
+
+
+def test_flips_real_clip_worse_takeoff_is_warned(tmp_path, capsys, real_data_dir):
+    """CMU 88_01 has a take-off COM jump of its own (0.63 m/s); k = 0.7 k* makes it 2.8 m/s. Counting
+    violations per check would call that 'no new violation' (the input has four COM jumps, the output
+    one); matched by place, the larger one is reported as worse than the input's."""
+    out, rep = tmp_path / "x2.bvh", tmp_path / "r.json"
+    assert main(["flips", "88_01", "-o", str(out), "--report", str(rep)]) == 0
+    cap = capsys.readouterr()
+    new = {(f["check"], f["where"]): f for f in json.loads(rep.read_text())["audit"]["new_violations"]}
+    jump = new[("com_velocity_jump", "take-off of flight 1")]
+    assert jump["input_size"] == pytest.approx(0.63, abs=0.1) and jump["size"] > 2.0
+    assert "com_velocity_jump at take-off of flight 1" in cap.err and "; input 0.6" in cap.err
+    assert ("foot_slide", "foot_r") not in new          # the input's own slide, unchanged by the method

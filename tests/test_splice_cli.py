@@ -153,3 +153,15 @@ def test_cli_argument_errors(files, capsys):
     assert main(["splice", str(d / "body.bvh"), str(d / "nope.bvh"), "-o", str(d / "x.bvh")]) == 2
     assert main(["splice", str(d / "body.bvh"), str(d / "hand.bvh"), "-o", str(d / "x.txt")]) == 2
     assert main(["splice", str(d / "body.bvh"), str(d / "hand.bvh"), "-o", str(d / "no" / "x.bvh")]) == 2
+
+
+def test_splice_ends_with_the_audit_verdict(files, capsys):
+    """Issue #13 section 2: the spliced body is audited against BODY; --no-audit skips it."""
+    d, pair = files
+    assert main(["splice", str(d / "body.bvh"), str(d / "hand.bvh"), "-o", str(d / "oa.bvh")]) == 0
+    cap = capsys.readouterr()
+    last = cap.out.strip().splitlines()[-1]
+    assert last.startswith("audit: ") and "input: " in last
+    assert ("warning: the output" in cap.err) == ("new or worse: " in last)
+    assert main(["splice", str(d / "body.bvh"), str(d / "hand.bvh"), "-o", str(d / "ob.bvh"), "--no-audit"]) == 0
+    assert not capsys.readouterr().out.strip().splitlines()[-1].startswith("audit:")

@@ -8,6 +8,7 @@ import argparse
 import math
 import os
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 
 from ..io.units import UNITS
@@ -153,3 +154,156 @@ def check_flight(prep, args, command: str, *, override: str = "--flight START ST
                              fps_hint=fps_hint)
     if warning:
         print(f"mocomp {command}: warning: {' '.join(warning.split())}", file=sys.stderr)
+
+
+# ------------------------------------------------------------------ the audit of a command's output
+#: what the ``provenance`` key of a command's JSON report says about its other keys
+PLANNED_NOTE = ("every key but 'audit' and 'provenance' holds the method's model values as it planned them; "
+                "'audit' holds what mocomp.audit measured on the frames written (read back from the output "
+                "file) against the input")
+
+
+def add_audit_arg(p: argparse.ArgumentParser) -> None:
+    """``--no-audit``: skip the audit of the written motion (issue #13 section 2)."""
+    p.add_argument("--no-audit", action="store_true",
+                   help="do not audit the written motion (by default the summary ends with the verdict of "
+                        "mocomp.audit on the frames written, against the input; for speed-sensitive batch use)")
+
+
+def _by_check(findings) -> dict[str, int]:
+    out: dict[str, int] = {}
+    for f in findings:
+        out[f.check] = out.get(f.check, 0) + 1
+    return out
+
+
+def _counts_text(counts: dict[str, int]) -> str:
+    return ", ".join(f"{k} {v}" for k, v in counts.items())
+
+
+#: a violation the input also has (same check, same place) counts as worse when it is larger by more than
+#: this fraction of its threshold: the tolerance :class:`mocomp.audit.AuditComparison` uses for its measures
+WORSE_FRACTION = 0.25
+
+
+def new_violations(report, inputs=()) -> tuple[tuple[object, object], ...]:
+    """The violations of the audited output that its input does not have, as ``(finding, matched)``
+    pairs in the output's frame order.
+
+    The inputs are ``report.against`` and the further :class:`~mocomp.audit.AuditReport` ``inputs``.
+    Frames are not comparable across an edit (retiming moves them), so a violation is matched by its
+    check and place (``Finding.where``: effector, joint, flight or event, e.g. ``"take-off of flight
+    1"``). It is new when no input has a violation of that check at that place (``matched`` is
+    ``None``), and worse when the largest such one (``matched``) is smaller by more than
+    :data:`WORSE_FRACTION` of the threshold.
+    """
+    refs = [r for r in ((report.against,) + tuple(inputs)) if r is not None]
+    best: dict[tuple[str, str], object] = {}
+    for r in refs:
+        for f in r.violations:
+            k = (f.check, f.where)
+            if k not in best or f.size > best[k].size:
+                best[k] = f
+    out = []
+    for f in report.violations:
+        m = best.get((f.check, f.where))
+        if m is None or f.size - m.size > WORSE_FRACTION * f.threshold:
+            out.append((f, m))
+    return tuple(out)
+
+
+@dataclass(frozen=True)
+class OutputAudit:
+    """The audit of a motion a command wrote, against its input(s).
+
+    report: :class:`~mocomp.audit.AuditReport` of the motion read back from ``path``, with
+        ``against`` (and ``comparison``) the first input's audit.
+    others: audits of further inputs (``mocomp join``'s landing motion).
+    new: ``(finding, matched input finding or None)`` for each violation the input(s) lack or have
+        smaller (:func:`new_violations`).
+    verdict_line: the last line a command prints.
+    warning: the one-line warning (without the ``mocomp CMD: warning:`` prefix) when ``new``
+        is non-empty, else ``None``.
+    """
+
+    report: object
+    others: tuple
+    new: tuple
+    verdict_line: str
+    warning: str | None
+
+    def to_dict(self) -> dict:
+        d = self.report.to_dict()
+        d["new_violations"] = [dict(f.to_dict(), input_size=None if m is None else float(m.size))
+                               for f, m in self.new]
+        if self.others:
+            d["other_inputs"] = [{"name": o.name, "verdict": o.verdict, "violations": len(o.violations),
+                                  "by_check": _by_check(o.violations)} for o in self.others]
+        return d
+
+
+def audit_output(path, input_motion, *, body=None, name: str | None = None, input_name: str = "input",
+                 other_inputs=()) -> OutputAudit:
+    """Audit the motion a command wrote to the BVH file ``path`` (read back: physics is measured on
+    the frames a command writes) against ``input_motion`` with :func:`mocomp.audit.audit` and its
+    default :class:`~mocomp.audit.AuditThresholds`; ``other_inputs`` are ``(name, Motion)`` pairs
+    of further inputs whose violations also count as the input's (``mocomp join``).
+
+    The verdict line reads ``audit: FAIL, 2 violation(s) (com_velocity_jump 2), 1 advisory; input:
+    PASS, 0 violation(s); new or worse: com_velocity_jump 2; worse than the input on 3 measure(s): ...``
+    (the measures of :class:`~mocomp.audit.AuditComparison`).
+    """
+    from ..audit import audit
+    from ..io.bvh import read_bvh
+
+    path = Path(path)
+    written = read_bvh(path, scale=1.0)           # the commands write BVH in metres (write_bvh's default)
+    label = name or str(path)
+    rep = audit(written, body, against=input_motion, name=label, against_name=input_name)
+    others = tuple(audit(m, name=n) for n, m in other_inputs)
+    new = new_violations(rep, others)
+
+    def state(r) -> str:
+        c = _by_check(r.violations)
+        return f"{r.verdict.upper()}, {len(r.violations)} violation(s)" + (f" ({_counts_text(c)})" if c else "")
+
+    inputs = [rep.against] + list(others)
+    in_text = "; ".join(f"{'input' if len(inputs) == 1 else r.name}: {state(r)}" for r in inputs)
+    worse = rep.comparison.worse if rep.comparison is not None else ()
+    worse = tuple(k for k in worse if k != "violations")
+    counts = _by_check(f for f, _ in new)
+    line = (f"audit: {state(rep)}, {len(rep.advisories)} advisory; {in_text}; "
+            + (f"new or worse: {_counts_text(counts)}" if new else "no new or worse violations")
+            + (f"; worse than the input on {len(worse)} measure(s): {', '.join(worse)}" if worse else ""))
+    warning = None
+    if new:
+        items = [f"{f.check} at {f.where}, {f.frames_text()} ({f.size:.3g} {f.unit}, limit {f.threshold:.3g}"
+                 + ("" if m is None else f"; input {m.size:.3g}") + ")" for f, m in new]
+        warning = (f"the output {label} has {len(new)} violation(s) new or worse than "
+                   f"{'its inputs' if others else 'its input'}: " + "; ".join(items))
+    return OutputAudit(rep, others, new, line, warning)
+
+
+def finish_audit(args, command: str, result: "OutputAudit | None", report_path=None) -> None:
+    """Print the audit's warning (stderr, ``mocomp COMMAND: warning: ...``) and its verdict line
+    (stdout, the command's last line), and add ``audit`` and ``provenance`` to the JSON report at
+    ``report_path`` (the method's keys stay as they are: they are its planned values). With
+    ``result`` ``None`` (``--no-audit``) only the report's provenance says that no audit ran."""
+    import json
+
+    if report_path is not None:
+        p = Path(report_path)
+        d = json.loads(p.read_text())
+        if not isinstance(d, dict):
+            d = {"planned": d}
+        d["provenance"] = {"planned": PLANNED_NOTE if result is not None else
+                           "every key but 'provenance' holds the method's model values as it planned them; "
+                           "no audit ran (--no-audit)",
+                           "measured": "audit" if result is not None else None}
+        d["audit"] = result.to_dict() if result is not None else None
+        p.write_text(json.dumps(d, indent=1) + "\n")
+    if result is None:
+        return
+    if result.warning:
+        print(f"mocomp {command}: warning: {result.warning}", file=sys.stderr)
+    print(result.verdict_line)

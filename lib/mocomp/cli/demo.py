@@ -6,6 +6,9 @@ somersault (flips paper, Fig. 4a): BVH, a filmstrip and the physics report.
 from __future__ import annotations
 
 
+from ._common import add_audit_arg
+
+
 def register(sub) -> None:
     p = sub.add_parser(
         "demo", help="embedded synthetic back flip -> double back flip (BVH, filmstrip, physics report)",
@@ -13,9 +16,11 @@ def register(sub) -> None:
                     "somersault (generated, physically exact) becomes a double back somersault that "
                     "conserves angular momentum. Writes backflip_x2.bvh (and the original), a "
                     "filmstrip PNG, momentum.png and report.json to the output folder and prints the "
-                    "physics report.")
+                    "physics report (the model's planned values), ending with the verdict of mocomp.audit on "
+                    "the frames written, against the single flip.")
     p.add_argument("-o", "--out", default="demo-out", help="output folder (default: demo-out)")
     p.add_argument("--flips", type=int, default=2, help="number of somersaults to make (default 2)")
+    add_audit_arg(p)
     p.set_defaults(func=run)
 
 
@@ -25,5 +30,15 @@ def run(args) -> int:
     if args.flips < 2:
         raise ValueError(f"--flips must be at least 2 (the demo's input is a single flip and the result has "
                          f"--flips somersaults in total), got {args.flips}")
-    demo(args.out, flips=args.flips)
+    d = demo(args.out, flips=args.flips)
+    result = None
+    if not args.no_audit:
+        from ..io.bvh import read_bvh
+        from ._common import audit_output
+
+        original = read_bvh(d["paths"]["original_bvh"], scale=1.0)
+        result = audit_output(d["paths"]["bvh"], original, input_name=str(d["paths"]["original_bvh"]))
+    from ._common import finish_audit
+
+    finish_audit(args, "demo", result, d["paths"]["report"])
     return 0

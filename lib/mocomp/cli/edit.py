@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ._common import finite_float, fps_arg
+from ._common import add_audit_arg, finite_float, fps_arg
 from ._common import positive_float as _positive
 
 
@@ -37,7 +37,8 @@ def register(subparsers) -> None:
                     "(Majkowska & Faloutsos 2007, section 5.5): (1) the direction of L by rotating each frame "
                     "(eq. 5.18-5.21), (2) its magnitude by non-uniform retiming (eq. 5.22), (3) uniform "
                     "retiming and centre-of-mass repositioning onto the gravity parabola. Prints the per-step "
-                    "errors. Presets: " + "; ".join(f"{k}: {v}" for k, v in PRESETS.items()))
+                    "errors (the model's planned values) and ends with the verdict of mocomp.audit on the frames "
+                    "written, against the input. Presets: " + "; ".join(f"{k}: {v}" for k, v in PRESETS.items()))
     p.add_argument("input", metavar="INPUT", help="motion file (BVH, ASF/AMC, DeepMimic) or a clip/example name")
     p.add_argument("--preset", required=True, choices=sorted(PRESETS), help="the edit")
     p.add_argument("-o", "--output", required=True, metavar="OUT.bvh", help="restored motion (BVH)")
@@ -61,6 +62,7 @@ def register(subparsers) -> None:
                         "same way but only warned about")
     p.add_argument("--estimate-masses", action="store_true",
                    help="estimate the mass distribution from the flight (eq. 5.1-5.2) instead of the table prior")
+    add_audit_arg(p)
     p.set_defaults(func=run)
 
 
@@ -68,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
     from ..edit import apply_preset, restore_momentum
     from ..flips.preprocess import prepare
     from ..io.bvh import write_bvh
-    from ._common import check_flight
+    from ._common import audit_output, check_flight, finish_audit
 
     out = check_output(args.output)
     edited_out = check_output(args.edited) if args.edited else None
@@ -82,6 +84,7 @@ def run(args: argparse.Namespace) -> int:
     write_bvh(res.motion, out)
     print(f"{P.name}: flight frames {P.flight[0]}-{P.flight[1] - 1} at {P.fps:g} Hz; preset {args.preset} on frames "
           f"{plan.start}-{plan.stop - 1}")
+    print("planned (the method's model values; the audit line at the end measures the frames written):")
     print(res.summary())
     print(f"wrote {out} ({res.motion.n_frames} frames at {res.motion.fps:g} Hz)")
     if edited_out is not None:
@@ -98,4 +101,6 @@ def run(args: argparse.Namespace) -> int:
 
         plot_momentum_errors(res, title=f"{P.name}: {args.preset}").savefig(args.plot, dpi=120)
         print(f"wrote {args.plot}")
+    result = None if args.no_audit else audit_output(out, P.motion, input_name=str(args.input))
+    finish_audit(args, "edit", result, args.report)
     return 0

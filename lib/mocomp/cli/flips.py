@@ -4,7 +4,7 @@ from __future__ import annotations
 import argparse
 import math
 
-from ._common import finite_float, fps_arg, positive_float
+from ._common import add_audit_arg, finite_float, fps_arg, positive_float
 
 
 def register(subparsers) -> None:
@@ -13,7 +13,7 @@ def register(subparsers) -> None:
         description="Make an N-somersault jump from a single flip (Majkowska & Faloutsos 2007): detect the "
                     "flight, estimate the mass distribution, repeat a self-looping fragment rotated about the "
                     "angular momentum, retime (k = 0.7 k* by default) and reposition the centre of mass. "
-                    "Prints the physics report.")
+                    "Prints the physics report (the model's planned values) and ends with the verdict of mocomp.audit on the frames written, against the input.")
     p.add_argument("input", metavar="INPUT", help="motion file (BVH, ASF/AMC, DeepMimic) or a dataset name "
                                                   "(e.g. backflip, 88_01)")
     p.add_argument("--flips", type=int, default=2, help="total number of somersaults (default 2)")
@@ -45,6 +45,7 @@ def register(subparsers) -> None:
     p.add_argument("--no-seam-retime", action="store_true",
                    help="uniform retiming only (no eq. 5.22 non-uniform retiming across the seams)")
     p.add_argument("--filmstrip", metavar="PNG", help="also draw the original and the result side by side")
+    add_audit_arg(p)
     p.set_defaults(func=run)
 
 
@@ -82,7 +83,7 @@ def run(args: argparse.Namespace) -> int:
 def _run(args: argparse.Namespace) -> int:
     from ..flips import multiflip, prepare
     from ..io.bvh import write_bvh
-    from ._common import check_flight
+    from ._common import audit_output, check_flight, finish_audit
 
     if args.flips < 2:
         raise ValueError(f"--flips must be at least 2 (the input is one flip), got {args.flips}")
@@ -98,6 +99,7 @@ def _run(args: argparse.Namespace) -> int:
                     takeoff_height_change=args.takeoff_height_change, seam_retime=not args.no_seam_retime)
     out = write_bvh(res.motion, args.output)
     print(prep.summary())
+    print("planned (the method's model values; the audit line at the end measures the frames written):")
     print(res.report)
     print(f"wrote {out} ({res.motion.n_frames} frames at {res.motion.fps:g} Hz)")
     if args.report:
@@ -111,4 +113,6 @@ def _run(args: argparse.Namespace) -> int:
 
         kind, _ = filmstrip(res, path=args.filmstrip)
         print(f"wrote {args.filmstrip} ({kind})")
+    result = None if args.no_audit else audit_output(out, prep.motion, input_name=str(args.input))
+    finish_audit(args, "flips", result, args.report)
     return 0

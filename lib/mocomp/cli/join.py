@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from ._common import float_in
+from ._common import add_audit_arg, float_in
 
 
 def register(subparsers) -> None:
@@ -24,7 +24,8 @@ def register(subparsers) -> None:
                     "and --direction-step, which removes it, tilts the landing instead (18-130 deg). The "
                     "summary and report give the seam evidence (direction error at the seam, |L| error, COM "
                     "velocity jumps at take-off and landing against the inputs' own) and list the bounds "
-                    "exceeded as notes.")
+                    "exceeded as notes (the model's planned values); the output ends with the verdict of mocomp.audit on "
+                    "the frames written, against both inputs.")
     p.add_argument("takeoff", metavar="A", help="motion whose take-off is used (file or clip name)")
     p.add_argument("landing", metavar="B", help="motion whose landing is used (file or clip name)")
     p.add_argument("-o", "--output", required=True, metavar="OUT.bvh", help="joined motion (BVH)")
@@ -45,12 +46,14 @@ def register(subparsers) -> None:
                             "7.0-13.7 m/s^2 is refused; a flight given here is measured the same way but only "
                             "noted")
     add_restore_args(p)
+    add_audit_arg(p)
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     from ..edit.join import join_flights
     from ..io.bvh import write_bvh
+    from ._common import audit_output, finish_audit
     from .edit import check_output
 
     from ..errors import ImplausibleFlightError
@@ -69,10 +72,18 @@ def run(args: argparse.Namespace) -> int:
                                        fps_hint="convert it first: mocomp convert IN OUT.bvh --fps F"),)
         raise
     write_bvh(res.motion, out)
+    print("planned (the method's model values; the audit line at the end measures the frames written):")
     print(res.summary())
     print(f"wrote {out} ({res.motion.n_frames} frames at {res.motion.fps:g} Hz)")
     if args.report:
         with open(args.report, "w") as fh:
             json.dump(res.report(), fh, indent=1)
         print(f"wrote {args.report}")
+    result = None
+    if not args.no_audit:
+        from .. import datasets
+
+        result = audit_output(out, datasets.load(args.takeoff), input_name=str(args.takeoff),
+                              other_inputs=((str(args.landing), datasets.load(args.landing)),))
+    finish_audit(args, "join", result, args.report)
     return 0

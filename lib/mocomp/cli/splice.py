@@ -26,7 +26,7 @@ def _fraction(text: str) -> float:
 
 
 def register(sub) -> None:
-    from ._common import fps_arg
+    from ._common import add_audit_arg, fps_arg
 
     p = sub.add_parser(
         "splice", help="splice a hand recording onto a full-body recording (two-stage banded DTW)",
@@ -36,7 +36,7 @@ def register(sub) -> None:
                     "by matching points, and write BODY with the arm joints driven by the aligned HAND. Both may "
                     "be files (BVH, ASF/AMC, ...) or clip names; they need arm joints with the same names. "
                     "A matching point outside the band reshapes the band so the path passes through it "
-                    "(Algorithm 1); --strict-points makes that an error instead.")
+                    "(Algorithm 1); --strict-points makes that an error instead. Ends with the verdict of mocomp.audit on the frames written, against BODY.")
     p.add_argument("body", metavar="BODY", help="full-body recording (file or clip name)")
     p.add_argument("hand", metavar="HAND", help="hand/gesture recording (file or clip name)")
     p.add_argument("-o", "--out", required=True, metavar="OUT.bvh", help="output BVH file")
@@ -70,6 +70,7 @@ def register(sub) -> None:
     p.add_argument("--hand-fps", type=fps_arg, metavar="F", help="override HAND's frame rate")
     p.add_argument("--plot", metavar="PNG", help="write the bands, paths and frame map (Figure 6.3 style) to PNG; "
                                                    "with --side both, one row per arm in the same file")
+    add_audit_arg(p)
     p.set_defaults(func=run)
 
 
@@ -77,6 +78,7 @@ def run(args) -> int:
     from .. import datasets
     from ..io import write_bvh
     from ..splice import SpliceConfig, splice_motions
+    from ._common import audit_output, finish_audit
 
     out = Path(args.out)
     if out.suffix.lower() != ".bvh":
@@ -107,4 +109,6 @@ def run(args) -> int:
         fig.savefig(args.plot, dpi=110)
         plt.close(fig)
         print(f"wrote {args.plot} ({', '.join(res.alignments)} arm{'s' if len(res.alignments) > 1 else ''})")
+    result = None if args.no_audit else audit_output(out, body, input_name=str(args.body))
+    finish_audit(args, "splice", result)
     return 0
