@@ -287,6 +287,84 @@ def test_summary_and_dict(bf_report):
     assert json.loads(json.dumps(d))["measures"]["max_penetration_m"] < 1e-9
 
 
+# ------------------------------------------------------------------ fast forms pinned (issue #13 speed)
+def _motions_for_pinning(bf):
+    out = [(bf.motion, bf.body)]
+    if datasets.data_dir():
+        from mocomp.audit import default_body
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            m = datasets.load("01_01")[:400]
+        out.append((m, default_body(m)))
+    return out
+
+
+@pytest.mark.parametrize("sigma", [2.0, 0.7, 0.0])
+def test_audit_zmp_equals_the_dynamics_zmp_of_the_smoothed_motion(bf, sigma):
+    """The audit's ZMP (segment chains only, no smoothed Motion built) is dynamics.zmp on
+    smooth_motion, and its polygon distance (never-touching points dropped) is the distance
+    with every contact point."""
+    from mocomp.audit.contacts import phases_of
+    from mocomp.audit.zmp import smoothed_segment_positions, zmp_audit, zmp_from_segments
+    from mocomp.dynamics import segment_positions
+    from mocomp.dynamics.contacts import detect_contacts
+    from mocomp.dynamics.derivatives import smooth_motion
+    from mocomp.dynamics.zmp import support_polygon_distance, zmp
+
+    for m, body in _motions_for_pinning(bf):
+        sm = smooth_motion(m, sigma)
+        ref_r = segment_positions(body, sm)
+        r = smoothed_segment_positions(body, m, sigma)
+        np.testing.assert_allclose(r, ref_r, rtol=0, atol=1e-12)
+        ref = zmp(body, m, ground_y=0.01, smooth_sigma=sigma or None)
+        z = zmp_from_segments(body, r, m.times, 0.01)
+        np.testing.assert_array_equal(np.isnan(z), np.isnan(ref.zmp))
+        assert np.isfinite(z).sum() > m.n_frames            # the ZMP is defined on ground frames
+        np.testing.assert_allclose(z, ref.zmp, rtol=0, atol=1e-9)
+        c = detect_contacts(m)
+        th = AuditThresholds(zmp_smooth_sigma=sigma)
+        floor_y = float(c.ground_y)
+        za, _ = zmp_audit(body, m, c, floor_y, phases_of(c, m.n_frames), th)
+        pts, lab = c.contact_points()
+        d = support_polygon_distance(zmp(body, m, ground_y=floor_y, smooth_sigma=sigma or None), pts, lab)
+        np.testing.assert_array_equal(np.isnan(za.distance), np.isnan(d))
+        assert np.isfinite(d).any()
+        np.testing.assert_allclose(za.distance, d, rtol=0, atol=1e-9)
+
+
+def test_fast_quaternion_smoothing_equals_smooth_quaternions_across_sign_flips():
+    from mocomp.audit.zmp import smooth_quaternions_fast
+    from mocomp.dynamics.derivatives import smooth_quaternions
+
+    rng = np.random.default_rng(7)
+    rv = np.cumsum(rng.normal(scale=0.05, size=(300, 5, 3)), axis=0)
+    q = Rotation.from_rotvec(rv.reshape(-1, 3)).as_quat().reshape(300, 5, 4)
+    q[rng.random((300, 5)) < 0.2] *= -1.0                    # random hemisphere flips
+    for sigma in (0.5, 2.0, 5.0):
+        ref = smooth_quaternions(q, sigma)
+        fast = smooth_quaternions_fast(q, sigma)
+        assert fast.shape == ref.shape
+        np.testing.assert_allclose(fast, ref, rtol=0, atol=1e-14)
+        np.testing.assert_allclose(np.linalg.norm(fast, axis=-1), 1.0, atol=1e-14)
+
+
+def test_step_rates_equal_the_quaternion_product_form_and_known_angles(bf):
+    from mocomp.audit.kinematics import step_rates, step_rates_reference
+
+    m = bf.motion
+    rot = np.array(m.rotations)
+    rot[10:, 3] *= -1.0                                      # q and -q: the same rotation, no rate
+    rot[40, 5] = Rotation.from_rotvec([0.0, np.pi, 0.0]).as_quat()   # 180 deg turn in a frame
+    m2 = m.replace(rotations=rot)
+    np.testing.assert_allclose(step_rates(m2)[0], step_rates_reference(m2), rtol=1e-12, atol=1e-9)
+    q = Rotation.from_rotvec(np.outer(np.arange(6) * 0.1, [0.0, 0.0, 1.0])).as_quat()   # 0.1 rad per frame
+    qq = np.repeat(q[:, None], m.skeleton.n_joints, axis=1)
+    qq[::2] *= -1.0
+    m3 = m[:6].replace(rotations=qq)
+    np.testing.assert_allclose(step_rates(m3)[0], 0.1 * m.fps, rtol=1e-12)
+
+
 # ------------------------------------------------------------------ real clips
 REAL = [p for p in real_files("**/*") if p in set(datasets.real_clips())] if datasets.data_dir() else []
 
