@@ -2,8 +2,8 @@
 
 Ours: :func:`mocomp.audit.audit` on a fresh motion (empty FK cache) with its body model given:
 contacts and phases (the project's detector), floor penetration, foot slide, COM velocity jumps,
-per-flight ballistic fits and L spread, ZMP outside the support polygon (smoothed motion, its own
-FK), kinematic sanity. ``ours_s`` is the **median** wall time over the repeats (the goal is on the
+per-flight ballistic fits and L spread, ZMP outside the support polygon (smoothed rotations, FK
+of the segment chains only), kinematic sanity. ``ours_s`` is the **median** wall time over the repeats (the goal is on the
 median), the note gives the fastest and the median CPU time.
 
 Peer: the project's own whole-clip momentum, :func:`mocomp.dynamics.momentum` (finite differences,
@@ -18,6 +18,21 @@ Measured on the loaded 2-core host (load average 4-5, several test runs in paral
 median of 9): ~60 ms before removing the second FK of every flight slice and of the end sites,
 then 86-106 ms median under a heavier load at ~3.8-3.9 momentum computations (22-27 ms each);
 see the row's note for the run's own figures.
+
+Speed pass (issue #13, 2026-12-02; profile of one audit at load ~1: ZMP stage 13.5 ms of ~35 --
+smoothing 3.6, the smoothed motion's full FK 3, eq. 4 2, polygon distance 4.5 --, contacts 6.7,
+kinematics 6, flights 4.6): the ZMP stage smooths and runs FK on the 23 joints that carry a segment
+(not 31, no smoothed Motion built), drops contact points that never touch from the polygon (6 -> 4
+points on this clip: 126 -> 40 point-line tests per frame), the joint rates are written out in
+component form, the t quantile of the ballistic fit is cached. Stages after: ZMP 7.9-8.3 ms,
+kinematics 3.3, flights 3.7. Old and new code alternated in one session (full mode, median of 25,
+load 1.5-1.6, four pairs): before 37.5-45.6 ms median (fastest 33.8-35.3 ms; 2.6-4.0 momentum
+computations), after 24.2-32.3 ms (fastest 20.7-26.6 ms; 1.7-2.3 momentum computations); run.py
+rows after at load 1.2: 33.2 and 38.6 ms median (fastest 23.7 / 25.5 ms). Not re-measured at load
+4-5, where the earlier 86-106 ms were taken; the ~30 % CPU cut suggests ~60-70 ms there. The
+report's numbers are unchanged: AuditReport.to_dict() and the ZMP arrays within 3.6e-15 of before
+on five real clips and the six synthetic examples. What is left is mostly outside the audit: the
+contact detector (~6.5 ms incl. the clip's one FK, ~3 ms) and the polygon distance (~2 ms).
 """
 from __future__ import annotations
 
