@@ -133,7 +133,6 @@ _INT_RE = r"^\s*\+?[0-9]+(\.0*)?\s*$"  # non-negative integer text ("12", "12.0"
 def _decode_utf8(raw: bytes, path: Path) -> str:
     """The file as text; a byte that is not UTF-8 gives a one-line error naming line and column."""
     import csv
-    import io
 
     try:
         return raw.decode("utf-8")
@@ -929,7 +928,6 @@ def fit_mixed_model(data: ResponseData | pd.DataFrame, *, control: str = "group"
     says when it was skipped. The GLMM and the GEE work on the (participant, condition)
     counts: linear in the participants, independent of the trials per cell.
     """
-    import statsmodels.api as sm
     from scipy.stats import norm as _norm
 
     from .glmm import fit_firth_logit, fit_gee_exchangeable, fit_logit_glmm, separated_columns

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 from scipy.optimize import minimize
-from scipy.special import expit, gammaln, logsumexp
+from scipy.special import expit, gammaln
 
 
 @numba.njit(cache=True, nogil=True)

@@ -31,7 +31,7 @@ from scipy.ndimage import gaussian_filter1d
 from ..core.kinematics import forward_kinematics
 from ..core.rotations import quat_apply
 from ..dynamics.derivatives import gaussian_smooth, second_difference
-from ..dynamics.zmp import support_polygon_distance
+from ..dynamics.zmp import support_polygon_distance, zmp_of_point_masses
 from .findings import Finding, runs_above
 
 __all__ = ["ZmpStage", "ZmpAudit", "zmp_audit", "smoothed_segment_positions", "zmp_from_segments",
@@ -89,17 +89,8 @@ def zmp_from_segments(body, r: np.ndarray, times: np.ndarray, ground_y: float, g
     (likewise ``Z_z``), accelerations by second central differences on ``times``; NaN where the
     vertical ground force ``sum m_i (a_iy + g)`` is below ``min_support`` of the weight -- the
     numbers of :func:`mocomp.dynamics.zmp.zmp`."""
-    a = second_difference(r, times)
-    m = body.masses
-    fy = a[..., 1] + g
-    den = np.einsum("s,ts->t", m, fy)
-    ry = r[..., 1] - ground_y
-    num_x = np.einsum("s,ts,ts->t", m, fy, r[..., 0]) - np.einsum("s,ts,ts->t", m, a[..., 0], ry)
-    num_z = np.einsum("s,ts,ts->t", m, fy, r[..., 2]) - np.einsum("s,ts,ts->t", m, a[..., 2], ry)
-    defined = den >= min_support * body.total_mass * g
-    safe = np.where(defined, den, 1.0)
-    Z = np.stack([num_x / safe, np.full_like(den, ground_y), num_z / safe], axis=1)
-    Z[~defined] = np.nan
+    Z, _, _ = zmp_of_point_masses(body.masses, r, second_difference(r, times), ground_y, g,
+                                  min_support * body.total_mass * g)
     return Z
 
 

@@ -22,7 +22,7 @@ import numpy as np
 from .com import segment_positions
 from .derivatives import second_difference, smooth_motion
 
-__all__ = ["ZMPResult", "zmp", "support_polygon_distance"]
+__all__ = ["ZMPResult", "zmp", "zmp_of_point_masses", "support_polygon_distance"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -70,18 +70,31 @@ def zmp(body, motion, g: float = 9.81, ground_y: float | None = None, smooth_sig
         ground_y = detect_contacts(m_in).ground_y
     r = segment_positions(body, m_in)
     a = second_difference(r, m_in.times)
-    m = body.masses
+    Z, defined, den = zmp_of_point_masses(body.masses, r, a, ground_y, g, min_support * body.total_mass * g)
+    com_acc = np.einsum("s,tsk->tk", body.masses, a) / body.total_mass
+    return ZMPResult(m_in.times, Z, defined, den, com_acc, float(ground_y), float(g), smooth_sigma or None)
+
+
+def zmp_of_point_masses(masses, r: np.ndarray, a: np.ndarray, ground_y: float, g: float, min_force: float):
+    """Eq. 4 of the touch-up paper (Shin et al. 2003, y up) for point masses ``masses`` ``(S,)``
+    kg at positions ``r`` ``(T, S, 3)`` m with accelerations ``a`` ``(T, S, 3)`` m/s^2::
+
+        Z_x = [sum m_i (a_iy + g) x_i - sum m_i a_ix (y_i - y0)] / sum m_i (a_iy + g)
+
+    (likewise ``Z_z``) on the floor ``y0 = ground_y``. Returns ``(Z, defined, vertical_force)``:
+    ``Z`` ``(T, 3)`` m, NaN where the vertical ground force ``sum m_i (a_iy + g)`` ``(T,)`` N is
+    below ``min_force``."""
+    m = np.asarray(masses, float)
     fy = a[..., 1] + g  # (T, S)
     den = np.einsum("s,ts->t", m, fy)
     ry = r[..., 1] - ground_y
     num_x = np.einsum("s,ts,ts->t", m, fy, r[..., 0]) - np.einsum("s,ts,ts->t", m, a[..., 0], ry)
     num_z = np.einsum("s,ts,ts->t", m, fy, r[..., 2]) - np.einsum("s,ts,ts->t", m, a[..., 2], ry)
-    defined = den >= min_support * body.total_mass * g
+    defined = den >= min_force
     safe = np.where(defined, den, 1.0)
     Z = np.stack([num_x / safe, np.full_like(den, ground_y), num_z / safe], axis=1)
     Z[~defined] = np.nan
-    com_acc = np.einsum("s,tsk->tk", m, a) / body.total_mass
-    return ZMPResult(m_in.times, Z, defined, den, com_acc, float(ground_y), float(g), smooth_sigma or None)
+    return Z, defined, den
 
 
 def support_polygon_distance(zmp_points, contact_points, contact_mask=None) -> np.ndarray:
