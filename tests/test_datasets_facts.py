@@ -14,30 +14,18 @@ import numpy as np
 import pytest
 from mocomp import datasets
 from mocomp.cli import main
-from mocomp.core import EndSite, Motion, Skeleton
+from mocomp.core import Motion
 from mocomp.io import UNITS, write_bvh
 from mocomp.io import load as io_load
-from scipy.spatial.transform import Rotation
+
+from _figures import small_motion
 
 CLIP = "flips/cmu_88_01_backflip.bvh"
 
 
 def figure(T: int = 12, fps: float = 120.0, tpose: bool = True, seed: int = 0) -> Motion:
     """A 5-joint figure 1.7 m tall in metres; frame 0 a T-pose (identity, root still) if asked."""
-    names = ("Hips", "Spine", "Head", "LeftUpLeg", "RightUpLeg")
-    off = [[0, 0, 0], [0, 0.3, 0], [0, 0.5, 0], [0.1, -0.1, 0], [-0.1, -0.1, 0]]
-    sk = Skeleton(names, [-1, 0, 1, 0, 0], off,
-                  end_sites=(EndSite(2, [0, 0.2, 0], "Head_end"), EndSite(3, [0, -0.8, 0], "LFoot"),
-                             EndSite(4, [0, -0.8, 0], "RFoot")))
-    rng = np.random.default_rng(seed)
-    rv = rng.normal(size=(T, 5, 3)) * 0.1
-    rv[:, 3, 0] += 0.7
-    rot = Rotation.from_rotvec(rv.reshape(-1, 3)).as_quat().reshape(T, 5, 4)
-    root = np.column_stack([np.linspace(0, 1, T), np.full(T, 0.95), np.zeros(T)])
-    if tpose:
-        rot[0] = [0, 0, 0, 1]
-        root[1] = root[0]
-    return Motion(sk, fps, root, rot)
+    return small_motion(T, fps, tpose, seed)
 
 
 def height(m: Motion) -> float:
