@@ -18,12 +18,10 @@ import dataclasses
 import math
 from dataclasses import dataclass, fields
 
+from ..dynamics.constants import G_STANDARD  # the audit's "truth", never a gravity fitted to the clip
 from ..errors import MocompError
 
 __all__ = ["AuditThresholds", "AuditConfigError", "G_STANDARD"]
-
-#: standard gravity, m/s^2 -- the audit's "truth", never a gravity fitted to the clip
-G_STANDARD = 9.81
 
 
 class AuditConfigError(MocompError, ValueError):

@@ -30,6 +30,7 @@ from scipy.ndimage import gaussian_filter1d
 
 from ..core.kinematics import forward_kinematics
 from ..core.rotations import quat_apply
+from ..dynamics.constants import G_STANDARD
 from ..dynamics.derivatives import gaussian_smooth, second_difference
 from ..dynamics.zmp import support_polygon_distance, zmp_of_point_masses
 from .findings import Finding, runs_above
@@ -39,7 +40,7 @@ __all__ = ["ZmpStage", "ZmpAudit", "zmp_audit", "smoothed_segment_positions", "z
 
 #: gravity (m/s^2) and the smallest vertical ground force (fraction of the weight) with a ZMP,
 #: as :func:`mocomp.dynamics.zmp.zmp`'s defaults
-G = 9.81
+G = G_STANDARD
 MIN_SUPPORT = 0.05
 
 

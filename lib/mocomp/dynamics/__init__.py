@@ -1,4 +1,5 @@
 """Physical quantities of a motion: COM, momentum, ZMP, contacts (vectorised over frames)."""
+from .constants import G_STANDARD
 from .com import center_of_mass, segment_positions, segment_rotations
 from .contacts import ContactResult, airborne_intervals, detect_contacts
 from .derivatives import angular_velocity, central_difference, gaussian_smooth, second_difference, smooth_motion
@@ -6,6 +7,7 @@ from .momentum import MomentumResult, MotionVelocities, composite_inertia, momen
 from .zmp import ZMPResult, support_polygon_distance, zmp
 
 __all__ = [
+    "G_STANDARD",
     "center_of_mass", "segment_positions", "segment_rotations",
     "central_difference", "second_difference", "angular_velocity", "gaussian_smooth", "smooth_motion",
     "MomentumResult", "MotionVelocities", "momentum", "composite_inertia",

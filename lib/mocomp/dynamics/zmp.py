@@ -21,6 +21,7 @@ import numpy as np
 
 from .com import segment_positions
 from .derivatives import second_difference, smooth_motion
+from .constants import G_STANDARD
 
 __all__ = ["ZMPResult", "zmp", "zmp_of_point_masses", "support_polygon_distance"]
 
@@ -51,7 +52,7 @@ class ZMPResult:
     smooth_sigma: float | None
 
 
-def zmp(body, motion, g: float = 9.81, ground_y: float | None = None, smooth_sigma: float | None = None,
+def zmp(body, motion, g: float = G_STANDARD, ground_y: float | None = None, smooth_sigma: float | None = None,
         min_support: float = 0.05) -> ZMPResult:
     """ZMP of ``motion`` with ``body``'s segment masses (touch-up paper eq. 4).
 
