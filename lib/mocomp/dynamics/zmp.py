@@ -20,8 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .com import segment_positions
-from .derivatives import second_difference, smooth_motion
 from .constants import G_STANDARD
+from .derivatives import second_difference, smooth_motion
 
 __all__ = ["ZMPResult", "zmp", "zmp_of_point_masses", "support_polygon_distance"]
 
