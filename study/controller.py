@@ -109,11 +109,19 @@ class TrialController:
             return False
         return bool(self.session.trial(i)["break_before"])
 
+    @property
+    def break_s(self) -> float:
+        """Suggested break length (s) from the plan's design (60 s for plans made before it was recorded)."""
+        from .design import BREAK_S_DEFAULT
+
+        return float(self.session.plan.meta.get("design", {}).get("break_s", BREAK_S_DEFAULT))
+
     def start_break(self) -> None:
         i = self.session.next_response_index()
         self._breaks_taken.add(i)
         self._on_break_since = self.clock()
-        self.session.log_event("break_started", before_trial=i)
+        self.session.log_event("break_started", before_trial=i, n_answered=self.n_answered,
+                               suggested_s=self.break_s)
 
     def end_break(self) -> None:
         dur = None if self._on_break_since is None else self.clock() - self._on_break_since

@@ -26,7 +26,9 @@ exactly that, with choices the paper leaves open made explicit in
   one after the other;
 * optional counterbalancing of the group order (balanced Latin square by
   participant number, or random), practice trials, instructed-response
-  attention checks, and breaks every N trials;
+  attention checks, and breaks: on by default, a break screen before every
+  :data:`BREAK_EVERY_DEFAULT`-th trial of the test phase (about every 4-5
+  minutes at the paper's pace), stating its suggested length ``break_s``;
 * "must watch first" (default on): no answer before the video has played to its
   end once per presentation (enforced by the app, recorded per response).
 
@@ -51,6 +53,12 @@ KINDS = ("example", "practice", "test", "attention")
 PLAN_COLUMNS = ("trial_index", "kind", "stimulus_id", "group", "repetition", "expected_response",
                 "break_before", "condition", "perturbation", "direction", "nominal_level", "base_clip")
 
+#: Default break interval: a break screen before every 30th trial of the test phase (the paper's 88
+#: trials of about 3 s of video plus the answer take ~12-15 min: two breaks, ~4-5 min apart).
+BREAK_EVERY_DEFAULT = 30
+#: Default suggested break length (s), said on the break screen.
+BREAK_S_DEFAULT = 60.0
+
 
 @dataclass(frozen=True)
 class DesignConfig:
@@ -74,7 +82,12 @@ class DesignConfig:
     n_attention: instructed-response attention checks spread over the test trials
         (the screen tells the participant which button to press).
     break_every: a break screen before every ``break_every``-th trial of the test
-        phase (None: no breaks).
+        phase (default :data:`BREAK_EVERY_DEFAULT`; None or 0: no breaks). The
+        break screen states its suggested length and how far the participant has
+        come, and the study resumes when the participant clicks "Continue".
+    break_s: suggested length of each break in seconds, said on the break screen
+        (default :data:`BREAK_S_DEFAULT`; a countdown shows it when the page's
+        script runs; the participant may continue earlier or later).
     must_watch: the response buttons and keys (and an example's "Next") stay
         disabled until the video of the current presentation has played to its
         end at least once (default, as labs expect). The app enforces it when its
@@ -93,7 +106,8 @@ class DesignConfig:
     examples: object = "unperturbed"
     n_practice: int = 0
     n_attention: int = 0
-    break_every: int | None = None
+    break_every: int | None = BREAK_EVERY_DEFAULT
+    break_s: float = BREAK_S_DEFAULT
     must_watch: bool = True
 
     def __post_init__(self):
@@ -125,8 +139,14 @@ class DesignConfig:
             bad("n_practice and n_attention must be >= 0")
         if not isinstance(self.must_watch, bool):
             bad(f"must_watch must be true or false, got {self.must_watch!r}")
-        if self.break_every is not None and int(self.break_every) < 1:
-            bad(f"break_every must be >= 1 or None, got {self.break_every}")
+        if self.break_every is not None:
+            if isinstance(self.break_every, bool) or int(self.break_every) != self.break_every \
+                    or int(self.break_every) < 0:
+                bad(f"break_every must be a whole number >= 1 (0 or None: no breaks), got {self.break_every!r}")
+            if int(self.break_every) == 0:
+                object.__setattr__(self, "break_every", None)
+        if isinstance(self.break_s, bool) or not 0 < float(self.break_s) <= 3600:
+            bad(f"break_s must be a number of seconds in (0, 3600], got {self.break_s!r}")
 
     def to_dict(self) -> dict:
         d = asdict(self)

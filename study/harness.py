@@ -4,8 +4,21 @@ Screens: welcome -> consent -> participant information (ID, age, gender,
 experience with computer animation and with gymnastics, as the flips paper
 reported) -> instructions -> examples of correct motions -> trials (the video
 plays; "Correct" / "Incorrect" by button or key) with progress and breaks ->
-end. A session that already has data opens on a "welcome back" screen and
-continues at the first unanswered trial.
+end with debrief. A session that already has data opens on a "welcome back"
+screen and continues at the first unanswered trial.
+
+Breaks are on by default (``DesignConfig.break_every``, every 30th test trial;
+``mocomp study run --break-every N``, 0 = none): the break screen says how
+long the suggested break is (``DesignConfig.break_s``, with a countdown when
+the page's script runs) and how many trials are done, and the study resumes
+when the participant clicks "Continue" (never by itself).
+
+The end screen is the debrief (:class:`HarnessTexts` ``debrief``: what the
+study was about; ``contact``, set by ``mocomp study run --contact`` or a
+``--texts`` file; and the participant's code and session). It offers
+"Withdraw my data": after a confirmation, :func:`study.session.withdraw_session`
+marks the session withdrawn (``withdrawn.json``; nothing is deleted) and the
+analysis leaves it out. A withdrawn session reopens on the "withdrawn" screen.
 
 Every answer goes through :class:`study.controller.TrialController` (the same
 code path the simulated observers use), which appends and ``fsync``-s it
@@ -52,7 +65,7 @@ from mocomp.errors import MocompError, SessionLockedError
 
 from .controller import TrialController, TrialView
 from .design import DesignConfig
-from .session import Session, utc_now
+from .session import Session, utc_now, withdraw_session, withdrawal_record
 from .stimulus_set import StimulusSet, load_manifest
 
 ENV_CONFIG = "MOCOMP_STUDY_CONFIG"
@@ -137,6 +150,17 @@ _JS = r"""
     var v = e.target;
     if (isVideo(e) && v.paused && !v.ended && !v.__mocompAtEnd) { v.muted = true; play(v); }
   }, true);
+  // break screen: count the suggested break down (cosmetic; the kernel never ends a break by itself)
+  setInterval(function () {
+    var els = document.querySelectorAll(".mocomp-countdown");
+    for (var i = 0; i < els.length; i++) {
+      var el = els[i], secs = parseFloat(el.getAttribute("data-seconds"));
+      if (!el.__mocompStart) { el.__mocompStart = performance.now(); }
+      var left = Math.max(0, Math.ceil(secs - (performance.now() - el.__mocompStart) / 1000));
+      el.textContent = left > 0 ? (Math.floor(left / 60) + ":" + ("0" + (left % 60)).slice(-2) + " left")
+                                : "you may continue whenever you are ready";
+    }
+  }, 250);
   document.addEventListener("error", function (e) {
     var v = e.target;
     if (v && v.tagName === "VIDEO") { send(".mocomp-media", {event: "error", trial: trialOf(v), t: Date.now()}); }
@@ -183,9 +207,33 @@ class HarnessTexts:
     question: str = "<p>Is this motion physically correct?</p>"
     attention: str = ("<p style='color:#b00'><b>Attention check:</b> whatever you see, please press "
                       "<b>{expected}</b> for this one.</p>")
-    break_text: str = "<p><b>Time for a short break.</b> Continue whenever you are ready.</p>"
+    break_text: str = ("<p><b>Time for a short break of about {break_len}</b> ({countdown}).</p>"
+                       "<p>You have answered {done} of {total} motions; {remaining} to go. Rest your eyes, then "
+                       "press <b>Continue</b> when you are ready: the study waits for you.</p>")
     welcome_back: str = "<p><b>Welcome back.</b> The study continues at trial {next} of {total}.</p>"
-    end: str = "<p><b>Thank you!</b> All your answers are saved. You may close this window now.</p>"
+    end: str = "<p><b>Thank you!</b> All your answers are saved.</p>"
+    debrief: str = ("<p><b>What this study was about.</b> Some of the somersaults you saw were physically "
+                    "correct motion capture; others had been altered so that they break the laws of physics: the "
+                    "body turned faster or slower in the air than its angular momentum allows (suddenly or "
+                    "gradually), or it left the ground at a different angle than its flight path needs. We "
+                    "measure how large such errors must be before people notice them, so that animation tools "
+                    "know which errors matter. Whether you noticed an error or not, your answers help: there "
+                    "are no right or wrong perceptions.</p>")
+    contact: str = ""
+    """Who to contact with questions or to withdraw later (``mocomp study run --contact``); HTML allowed."""
+    no_contact: str = "<p>If you have any questions, please ask the experimenter now.</p>"
+    contact_line: str = "<p><b>Questions, or withdrawing later:</b> {contact}</p>"
+    code_line: str = ("<p>Your participant code is <b class='mocomp-participant-code'>{participant}</b> "
+                      "(session {session}). Please quote it if you contact us, for example to withdraw your data "
+                      "later. You may close this window now.</p>")
+    withdraw_offer: str = ("<p>If you do not want your answers to be used, you can withdraw them now, without "
+                           "giving a reason.</p>")
+    withdraw_confirm: str = ("<p><b>Withdraw your data?</b> Your answers and the information you gave will be "
+                             "marked as withdrawn and left out of every analysis. This cannot be undone from "
+                             "this page.</p>")
+    withdrawn: str = ("<p><b>Your data have been withdrawn.</b> Your answers are marked as withdrawn and will not "
+                      "be used in any analysis. Your participant code was <b>{participant}</b> (session "
+                      "{session}). You may close this window now.</p>")
     locked: str = ("<p style='color:#b00'><b>This session is already open in another window.</b></p>"
                    "<p>If you closed or reloaded a window of this study just now, its connection is released "
                    "within about {seconds} seconds: wait, then press <b>Try again</b>. Otherwise close the other "
@@ -210,6 +258,16 @@ class HarnessConfig:
     #: seconds after which the kernel of a closed or reloaded page has been shut down by the
     #: server (``mocomp study run --kernel-cull-s`` + its check interval); said on the "locked" screen
     release_after_s: float = 40.0
+
+
+def _duration_text(seconds: float) -> str:
+    """``90`` -> ``"1 minute 30 seconds"``, ``60`` -> ``"1 minute"``, ``45`` -> ``"45 seconds"``."""
+    s = int(round(float(seconds)))
+    m, r = divmod(s, 60)
+    parts = [f"{m} minute{'s' if m != 1 else ''}"] if m else []
+    if r or not m:
+        parts.append(f"{r} second{'s' if r != 1 else ''}")
+    return " ".join(parts)
 
 
 def _video_bytes(path: Path) -> bytes:
@@ -261,6 +319,14 @@ class StudyApp:
     def _open_session(self) -> None:
         """Open (or resume) the session; while another window's kernel holds it, say so and offer "Try again"."""
         a = self._open_args
+        try:
+            rec = withdrawal_record(Path(a["data_dir"]) / self.participant_id / self.session_id)
+        except OSError:
+            rec = None
+        if rec is not None:  # e.g. the debrief page reloaded after withdrawing: nothing is opened or written
+            self.error = None
+            self._show_withdrawn()
+            return
         try:
             st = a["stimuli"] if isinstance(a["stimuli"], StimulusSet) else load_manifest(a["stimuli"])
             sess = Session.open(a["data_dir"], self.participant_id, self.session_id, st, config=a["design"],
@@ -513,8 +579,12 @@ class StudyApp:
             self.controller.end_break()
             self._next_trial()
 
-        self._set("break", [W.HTML(self.texts.break_text),
-                            self._button("Continue", "mocomp-btn-next", "primary", resume)])
+        c = self.controller
+        secs = float(c.break_s)
+        text = self.texts.break_text.format(
+            break_len=_duration_text(secs), done=c.n_answered, total=c.total, remaining=c.total - c.n_answered,
+            countdown=f"<span class='mocomp-countdown' data-seconds='{secs:g}'>{_duration_text(secs)}</span>")
+        self._set("break", [W.HTML(text), self._button("Continue", "mocomp-btn-next", "primary", resume)])
 
     def _next_trial(self) -> None:
         c = self.controller
@@ -571,10 +641,37 @@ class StudyApp:
         self._next_trial()
 
     def _show_end(self) -> None:
+        """The debrief: thanks, what the study was about, contact, the participant's code, "Withdraw my data"."""
         c = self.controller
         self._update_progress()
         c.finish()
-        self._set("end", [W.HTML(self.texts.end)])
+        t = self.texts
+        contact = t.contact_line.format(contact=t.contact) if t.contact.strip() else t.no_contact
+        code = t.code_line.format(participant=html.escape(self.participant_id), session=html.escape(self.session_id))
+        wd = self._button("Withdraw my data", "mocomp-btn-withdraw", "", self._show_withdraw_confirm)
+        self._set("end", [W.HTML(t.end + t.debrief + contact + code), W.HTML(t.withdraw_offer), wd])
+
+    def _show_withdraw_confirm(self) -> None:
+        yes = self._button("Yes, withdraw my data", "mocomp-btn-withdraw-confirm", "danger", self._withdraw)
+        yes.layout.width = "220px"
+        no = self._button("No, keep my data", "mocomp-btn-withdraw-cancel", "", self._show_end)
+        self._set("withdraw_confirm", [W.HTML(self.texts.withdraw_confirm), W.HBox([yes, no])])
+
+    def _withdraw(self) -> None:
+        try:
+            withdraw_session(self._open_args["data_dir"], self.participant_id, self.session_id, by="participant",
+                             reason="withdrawn by the participant on the debrief screen",
+                             lock_timeout=self.cfg.lock_timeout_s)
+        except SessionLockedError as e:
+            self._show_error("Your data could not be withdrawn here. Please tell the experimenter your "
+                             f"participant code ({self.participant_id}); they will withdraw it.", str(e))
+            return
+        self._show_withdrawn()
+
+    def _show_withdrawn(self) -> None:
+        self._header.layout.display = "none"
+        self._set("withdrawn", [W.HTML(self.texts.withdrawn.format(
+            participant=html.escape(self.participant_id), session=html.escape(self.session_id)))])
 
     # ---------------------------------------------------------- notebook
     def _ipython_display_(self):

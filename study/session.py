@@ -6,8 +6,9 @@ Layout of a session folder ``DATA/<participant_id>/<session_id>/``::
     plan.json         how it was made (seed, design, stimulus set, plan_sha256)
     participant.json  participant information and consent time (written once)
     responses.csv     one row per answered trial (see DATA_DICTIONARY.md)
-    events.jsonl      append-only log: opened, resumed, breaks, stale locks, finished
+    events.jsonl      append-only log: opened, resumed, breaks, stale locks, finished, withdrawn
     session.lock      holder of the session (PID, host, time), see SessionLock
+    withdrawn.json    only if the participant withdrew (see withdraw_session): who, when, why
 
 Guarantees:
 
@@ -35,6 +36,13 @@ Guarantees:
   (no page connected, idle ``--kernel-cull-s`` seconds; see
   :func:`study.study_cli.voila_command`), after which the new page's "Try
   again" takes the session over; it is never shared.
+* **Withdrawal marks, never deletes.** :func:`withdraw_session` (the app's
+  debrief screen, or ``mocomp study withdraw``) writes ``withdrawn.json`` once
+  (``O_EXCL``-style atomic create) under the session lock and logs the event;
+  every file stays as it was. A withdrawn session cannot be opened again
+  (:meth:`Session.open` refuses it), and ``mocomp study analyze`` leaves it out
+  and lists it in its report. Deleting the files, where an ethics protocol
+  requires it, is a deliberate step of the experimenter, never done here.
 """
 from __future__ import annotations
 
@@ -253,6 +261,98 @@ class SessionLock:
             pass
 
 
+def _append_event(folder: Path, event: str, **data) -> None:
+    """Append one JSON line to ``folder/events.jsonl`` and ``fsync`` it."""
+    rec = json.dumps({"utc": utc_now(), "event": event, **data}, default=str) + "\n"
+    fd = os.open(Path(folder) / "events.jsonl", os.O_WRONLY | os.O_CREAT | os.O_APPEND, 0o644)
+    try:
+        os.write(fd, rec.encode())
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+#: The file that marks a session withdrawn (see :func:`withdraw_session`).
+WITHDRAWN_FILE = "withdrawn.json"
+WITHDRAWN_BY = ("participant", "experimenter")
+
+
+def withdrawal_record(folder: str | Path) -> dict | None:
+    """The withdrawal record of a session folder (``withdrawn.json``), or None if not withdrawn.
+
+    An unreadable record still means "withdrawn" (the file's existence is the mark): its
+    content is then ``{"unreadable": <reason>}``.
+    """
+    p = Path(folder) / WITHDRAWN_FILE
+    if not p.exists():
+        return None
+    try:
+        rec = json.loads(p.read_text())
+        return rec if isinstance(rec, dict) else {"unreadable": "not a JSON object"}
+    except (OSError, ValueError) as e:
+        return {"unreadable": str(e)}
+
+
+def _refuse_withdrawn(folder: Path) -> None:
+    rec = withdrawal_record(folder)
+    if rec is not None:
+        raise StudyDataError(f"this session was withdrawn ({rec.get('withdrawn_utc', '?')}, by "
+                             f"{rec.get('by', '?')}); its data are kept, marked withdrawn, and excluded from the "
+                             "analysis; nothing more is written to it (start a new session id only with the "
+                             "participant's renewed consent)", folder / WITHDRAWN_FILE)
+
+
+def withdraw_session(data_dir: str | Path, participant_id: str, session_id: str, *, by: str,
+                     reason: str = "", lock_timeout: float = 2.0) -> tuple[dict, bool]:
+    """Mark a session withdrawn: write ``withdrawn.json`` (once) and log ``withdrawn`` in ``events.jsonl``.
+
+    Nothing is deleted or changed: ``responses.csv``, ``participant.json`` and the plan stay
+    byte for byte; the mark makes :meth:`Session.open` refuse the session and
+    ``mocomp study analyze`` leave it out (listing it). ``by``: ``"participant"`` (the app's
+    debrief screen) or ``"experimenter"`` (``mocomp study withdraw``).
+
+    The session lock is taken first, so a session open in a running app (another window or
+    process) is refused (:class:`~mocomp.errors.SessionLockedError`) rather than marked
+    while it may still be written to. Returns ``(record, newly)``: ``newly`` is False when
+    the session was already withdrawn (the first record is kept and returned).
+    Raises :class:`~mocomp.errors.StudyDataError` when the folder is not a session
+    (no ``plan.json``).
+    """
+    pid = check_id(participant_id, "participant id")
+    sid = check_id(session_id, "session id")
+    if by not in WITHDRAWN_BY:
+        raise ValueError(f"by must be one of {WITHDRAWN_BY}, got {by!r}")
+    folder = Path(data_dir) / pid / sid
+    if not (folder / "plan.json").is_file():
+        raise StudyDataError(f"no session {pid}/{sid} here (no plan.json in {folder}); check --data, "
+                             "--participant and --session", folder)
+    old = withdrawal_record(folder)
+    if old is not None:
+        return old, False
+    lock = SessionLock(folder).acquire(timeout=lock_timeout)
+    try:
+        old = withdrawal_record(folder)
+        if old is not None:
+            return old, False
+        resp = folder / "responses.csv"
+        raw = resp.read_bytes() if resp.exists() else b""
+        import hashlib
+
+        n_rows = max(raw.count(b"\n") - 1, 0)
+        rec = {"participant_id": pid, "session_id": sid, "withdrawn_utc": utc_now(), "by": by,
+               "reason": str(reason), "n_responses": n_rows,
+               "responses_sha256": hashlib.sha256(raw).hexdigest() if raw else None,
+               "note": "data kept unchanged, excluded from the analysis (mocomp study analyze lists this session)"}
+        try:
+            _write_new(folder / WITHDRAWN_FILE, json.dumps(rec, indent=2, sort_keys=True).encode())
+        except FileExistsError:
+            return withdrawal_record(folder), False
+        _append_event(folder, "withdrawn", by=by, reason=rec["reason"], n_responses=n_rows)
+        return rec, True
+    finally:
+        lock.release()
+
+
 def _format_row(values: list) -> bytes:
     buf = io.StringIO()
     csv.writer(buf, lineterminator="\n").writerow(values)
@@ -305,12 +405,14 @@ class Session:
         """
         pid = check_id(participant_id, "participant id")
         sid = check_id(session_id, "session id")
+        folder = Path(data_dir) / pid / sid
+        _refuse_withdrawn(folder)
         if verify_videos:
             stimuli.verify_videos()
-        folder = Path(data_dir) / pid / sid
         folder.mkdir(parents=True, exist_ok=True)
         lock = SessionLock(folder, stale_after_s=stale_after_s).acquire(timeout=lock_timeout)
         try:
+            _refuse_withdrawn(folder)  # (withdrawn while this call waited for the lock)
             sess = cls._open_locked(folder, pid, sid, stimuli, config, seed, study_seed, counterbalance_index, lock)
         except BaseException:
             lock.release()
@@ -359,7 +461,7 @@ class Session:
         if (None if cb_index is None else int(cb_index)) != (None if cb_planned is None else int(cb_planned)):
             raise ValueError(f"session {folder} was planned with counterbalance index {cb_planned}, not {cb_index}; "
                              "resume it with the same --counterbalance-index, or use a new session id")
-        if config is not None and config.to_dict() != meta.get("design"):
+        if config is not None and config.to_dict() != DesignConfig.from_dict(meta.get("design") or {}).to_dict():
             raise ValueError(f"session {folder} was planned with a different design; "
                              "use a new session id for a new design")
         sess = cls(folder, plan, stimuli, lock, ResumeState(True, 0), pid, sid)
@@ -515,13 +617,7 @@ class Session:
         return rec
 
     def log_event(self, event: str, **data) -> None:
-        rec = json.dumps({"utc": utc_now(), "event": event, **data}, default=str) + "\n"
-        fd = os.open(self.folder / "events.jsonl", os.O_WRONLY | os.O_CREAT | os.O_APPEND, 0o644)
-        try:
-            os.write(fd, rec.encode())
-            os.fsync(fd)
-        finally:
-            os.close(fd)
+        _append_event(self.folder, event, **data)
 
     def events(self) -> list[dict]:
         p = self.folder / "events.jsonl"

@@ -1,7 +1,8 @@
-"""``mocomp study run`` (serve the participant app with Voila) and ``mocomp study analyze``.
+"""``mocomp study run`` (serve the participant app with Voila), ``mocomp study withdraw`` and
+``mocomp study analyze``.
 
-:func:`register_run` and :func:`register_analyze` add the sub-commands to the
-``study`` command's sub-parsers (``lib/mocomp/cli/study.py`` lists them).
+:func:`register_run`, :func:`register_withdraw` and :func:`register_analyze` add the
+sub-commands to the ``study`` command's sub-parsers (``lib/mocomp/cli/study.py`` lists them).
 """
 from __future__ import annotations
 
@@ -21,7 +22,7 @@ from pathlib import Path
 from mocomp.cli._common import float_in
 from mocomp.errors import MocompError
 
-__all__ = ["register_run", "register_analyze", "voila_command", "app_notebook", "cull_interval", "KERNEL_CULL_S",
+__all__ = ["register_run", "register_withdraw", "register_analyze", "voila_command", "app_notebook", "cull_interval", "KERNEL_CULL_S",
            "HOST", "check_port_free", "free_port", "StudyServer", "ServerStopped"]
 
 #: The only interface the participant app is served on.
@@ -377,7 +378,14 @@ def register_run(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=None, help="explicit participant seed (overrides --study-seed)")
     p.add_argument("--counterbalance-index", type=int, default=None,
                    help="participant number for counterbalance='latin'")
-    p.add_argument("--break-every", type=int, default=None, help="break screen every N test trials")
+    p.add_argument("--break-every", type=int, default=None, metavar="N",
+                   help="break screen before every N-th test trial (default 30, as DesignConfig; 0 = no breaks); "
+                        "the participant resumes by clicking Continue")
+    p.add_argument("--break-s", type=float_in(1, 3600, what="number of seconds"), default=None, metavar="S",
+                   help="suggested break length said (and counted down) on the break screen (default 60)")
+    p.add_argument("--contact", metavar="TEXT", default=None,
+                   help="contact line of the debrief screen, e.g. 'Dr A. Researcher, a.researcher@uni.example, "
+                        "+44 ...' (who to ask, and how to withdraw later); also settable as 'contact' in --texts")
     p.add_argument("--practice", type=int, default=None, help="number of practice trials")
     p.add_argument("--attention-checks", type=int, default=None, help="number of attention-check trials")
     p.add_argument("--no-must-watch", action="store_true",
@@ -398,7 +406,10 @@ def _design_dict(args) -> dict | None:
     d = {}
     if args.design:
         d = json.loads(Path(args.design).read_text())
-    for key, val in (("break_every", args.break_every), ("n_practice", args.practice),
+    if args.break_every is not None and args.break_every < 0:
+        raise ValueError(f"--break-every must be >= 0 (0 = no breaks), got {args.break_every}")
+    for key, val in (("break_every", args.break_every), ("break_s", getattr(args, "break_s", None)),
+                     ("n_practice", args.practice),
                      ("n_attention", args.attention_checks), ("must_watch", False if args.no_must_watch else None)):
         if val is not None:
             d[key] = val
@@ -426,11 +437,12 @@ def _check_run_args(args, design: dict | None) -> None:
 
 
 def run_run(args) -> int:
-    from .session import check_id
+    from .session import _refuse_withdrawn, check_id
     from .stimulus_set import load_manifest
 
     check_id(args.participant, "participant id")
     check_id(args.session, "session id")
+    _refuse_withdrawn(Path(args.data) / args.participant / args.session)
     manifest = Path(args.manifest).resolve()
     # fail here with a clear message, before starting a server (the app checks again at session start)
     load_manifest(manifest, verify_hashes=True)
@@ -450,6 +462,20 @@ def run_run(args) -> int:
     cfg["release_after_s"] = args.kernel_cull_s + cull_interval(args.kernel_cull_s)
     if args.texts:
         cfg["texts"] = json.loads(Path(args.texts).read_text())
+        if not isinstance(cfg["texts"], dict):
+            raise ValueError(f"--texts {args.texts}: expected a JSON object of HarnessTexts fields")
+    if args.contact is not None:
+        cfg.setdefault("texts", {})["contact"] = args.contact
+    from .harness import HarnessTexts
+
+    try:
+        texts = HarnessTexts(**cfg.get("texts", {}))  # refuse unknown fields now, not in the browser
+    except TypeError as e:
+        known = ", ".join(HarnessTexts.__dataclass_fields__)
+        raise ValueError(f"--texts {args.texts}: {e} (fields: {known})") from None
+    note = ("" if texts.contact.strip() else
+            "mocomp study run: note: no --contact given: the debrief screen names no contact for questions or "
+            "later withdrawal (it says to ask the experimenter)")
     if args.print_config:
         print(json.dumps(cfg, indent=2))
         return 0
@@ -464,6 +490,8 @@ def run_run(args) -> int:
     try:
         with StudyServer(cmd, env, port, token) as server:
             server.wait_ready()
+            if note:
+                print(note, file=sys.stderr, flush=True)
             print(f"participant {args.participant}, session {args.session}: open {server.url} "
                   f"(data -> {data / args.participant / args.session}); Ctrl-C stops the server", flush=True)
             rc = server.wait()
@@ -478,10 +506,42 @@ def run_run(args) -> int:
         return 128 + e.signum
 
 
+def register_withdraw(subparsers) -> argparse.ArgumentParser:
+    p = subparsers.add_parser(
+        "withdraw", help="mark a participant's session withdrawn (kept, excluded from the analysis)",
+        description="Mark DATA/<participant>/<session>/ withdrawn, as the app's debrief screen does: write "
+                    "withdrawn.json (who, when, why) and log the event. Nothing is deleted or changed; "
+                    "`mocomp study analyze` leaves the session out and lists it in its report, and `mocomp "
+                    "study run` refuses to reopen it. A session open in a running app is refused (withdraw "
+                    "from its debrief screen, or stop the server first).")
+    p.add_argument("--participant", required=True, help="participant id")
+    p.add_argument("--session", required=True, help="session id, e.g. S1")
+    p.add_argument("--data", required=True, metavar="DIR", help="folder of session data (as given to `study run`)")
+    p.add_argument("--reason", default="", help="optional note (e.g. 'asked by e-mail, 2026-05-01')")
+    p.set_defaults(func=run_withdraw)
+    return p
+
+
+def run_withdraw(args) -> int:
+    from .session import withdraw_session
+
+    rec, newly = withdraw_session(args.data, args.participant, args.session, by="experimenter", reason=args.reason)
+    folder = Path(args.data) / args.participant / args.session
+    if newly:
+        print(f"{args.participant}/{args.session}: withdrawn ({rec['n_responses']} responses kept unchanged in "
+              f"{folder / 'responses.csv'}, marked by {folder / 'withdrawn.json'}); `mocomp study analyze` "
+              f"excludes the session and lists it")
+    else:
+        print(f"{args.participant}/{args.session}: already withdrawn ({rec.get('withdrawn_utc', '?')}, by "
+              f"{rec.get('by', '?')}); nothing changed")
+    return 0
+
+
 def register_analyze(subparsers) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
         "analyze", help="analyse every session CSV under a folder (ratings, d', psychometric, mixed model)",
-        description="Read every responses.csv below RESPONSES_DIR (schema checked), and write tidy CSVs "
+        description="Read every responses.csv below RESPONSES_DIR (schema checked; sessions marked withdrawn are "
+                    "left out unread and listed), and write tidy CSVs "
                     "(conditions.csv, trials.csv, participants_*.csv, psychometric.csv, observer_model.csv, "
                     "mixed_model.csv), "
                     "figures and report.md to REPORT_DIR.")
@@ -491,6 +551,10 @@ def register_analyze(subparsers) -> argparse.ArgumentParser:
                    help="d' correction for rates of 0 or 1 (default loglinear)")
     p.add_argument("--control", choices=("group", "pooled"), default="group",
                    help="false-alarm baseline: unperturbed motions of the same error group, or all of them")
+    p.add_argument("--headline", choices=("mean", "pooled"), default="mean",
+                   help="group d' the report leads with and the d' figure shows: the mean of the per-participant "
+                        "d' (Macmillan & Creelman's recommendation; default) or the pooled d' (counts pooled over "
+                        "participants, as the paper's Table 2); conditions.csv has both, with CIs")
     p.add_argument("--level", choices=("nominal_level", "achieved_error"), default="nominal_level",
                    help="regressor of the psychometric fits")
     p.add_argument("--link", choices=("probit", "logit"), default="probit")
@@ -514,8 +578,9 @@ def run_analyze(args) -> int:
     res = analyze(args.responses, args.out, level=args.level, control=args.control, correction=args.correction,
                   link=args.link, n_boot=args.n_boot, seed=args.seed, min_attention=args.min_attention,
                   allow_mixed_sets=args.allow_mixed_sets, figures=not args.no_figures,
-                  observer_model=not args.no_observer_model, observer_ci=args.observer_ci)
+                  observer_model=not args.no_observer_model, observer_ci=args.observer_ci, headline=args.headline)
     s = res.settings
-    print(f"{s['n_participants']} participants, {s['n_test_trials']} test trials, "
-          f"{len(res.conditions)} condition rows -> {Path(args.out) / 'report.md'}")
+    wd = f" ({len(s['withdrawn_sessions'])} withdrawn session(s) left out)" if s["withdrawn_sessions"] else ""
+    print(f"{s['n_participants']} participants{wd}, {s['n_test_trials']} test trials, "
+          f"{len(res.conditions)} condition rows, headline d' = {s['headline']} -> {Path(args.out) / 'report.md'}")
     return 0

@@ -160,3 +160,32 @@ def test_design_errors(stimuli):
         DesignConfig.from_dict({"n_repeat": 2})
     cfg = DesignConfig(break_every=7, examples=("flip__none",))
     assert DesignConfig.from_dict(cfg.to_dict()) == cfg
+
+
+def test_breaks_are_on_by_default_and_can_be_changed_or_disabled(stimuli):
+    """Issue 19 item 5: a break before every 30th test-phase trial unless the design says otherwise."""
+    from study.design import BREAK_EVERY_DEFAULT, BREAK_S_DEFAULT
+
+    assert DesignConfig().break_every == BREAK_EVERY_DEFAULT == 30 and DesignConfig().break_s == BREAK_S_DEFAULT == 60
+    plan = make_plan(stimuli, participant_id="P", seed=5)
+    t = plan.trials
+    phase = t[t["kind"].isin(["test", "attention"])]
+    assert len(phase) > 60  # the default placeholder set is long enough for two breaks
+    pos = np.flatnonzero(phase["break_before"].to_numpy())
+    assert list(pos) == list(range(30, len(phase), 30))
+    assert not t.loc[t["kind"] == "example", "break_before"].any()
+    assert plan.meta["design"]["break_every"] == 30 and plan.meta["design"]["break_s"] == 60
+    for off in (0, None):
+        cfg = DesignConfig(break_every=off)
+        assert cfg.break_every is None
+        assert not make_plan(stimuli, cfg, participant_id="P", seed=5).trials["break_before"].any()
+    assert DesignConfig.from_dict({"break_every": 0}) == DesignConfig(break_every=None)
+    for bad in (-1, 2.5, True):
+        with pytest.raises(ValueError, match="break_every"):
+            DesignConfig(break_every=bad)
+    for bad in (0, -5, 3601, float("nan")):
+        with pytest.raises(ValueError, match="break_s"):
+            DesignConfig(break_s=bad)
+    # plans written before break_s existed: their design dict lacks it and reads as the default
+    old = {k: v for k, v in DesignConfig(break_every=None).to_dict().items() if k != "break_s"}
+    assert DesignConfig.from_dict(old).break_s == 60 and DesignConfig.from_dict(old).break_every is None

@@ -233,3 +233,95 @@ def test_must_watch_video_error_never_blocks(stimuli, tmp_path):
     row = pd.read_csv(folder / "responses.csv", keep_default_na=False).iloc[0]
     assert row["must_watch"] == 0 and row["watched_to_end"] == 0
     assert "video_error" in (folder / "events.jsonl").read_text()
+
+
+def _text(app, screen):
+    (box,) = _find(app.widget, f"mocomp-screen-{screen}")
+    return " ".join(getattr(w, "value", "") for w in box.children if isinstance(w, W.HTML))
+
+
+def _run_to_end(app, resp="correct"):
+    n_breaks, texts = 0, []
+    while app.screen_name != "end":
+        if app.screen_name == "break":
+            n_breaks += 1
+            texts.append((_text(app, "break"), app.controller.n_answered))
+            _click(app, "mocomp-btn-next")
+            continue
+        assert app.screen_name == "trial"
+        view = app.controller.current()
+        _click(app, f"mocomp-btn-{view.expected_response if view.kind == 'attention' else resp}")
+    return n_breaks, texts
+
+
+def test_break_screen_says_how_long_and_waits_for_a_click(stimuli, tmp_path):
+    app = StudyApp(stimuli, tmp_path, "P7", "S1", design=DesignConfig(break_every=4, break_s=90))
+    _through_intro(app)
+    for _ in range(4):
+        _click(app, "mocomp-btn-correct")
+    assert app.screen_name == "break"
+    text = _text(app, "break")
+    assert "about 1 minute 30 seconds" in text and "answered 4 of 10" in text and "6 to go" in text
+    assert "data-seconds='90'" in text  # the page's script counts it down
+    # the break lasts until the participant clicks: no trial is shown, nothing is written meanwhile
+    assert app.controller.showing is None and app.screen_name == "break"
+    assert len(pd.read_csv(tmp_path / "P7" / "S1" / "responses.csv")) == 4
+    _click(app, "mocomp-btn-next")
+    assert app.screen_name == "trial"
+    ev = [json.loads(x) for x in (tmp_path / "P7" / "S1" / "events.jsonl").read_text().splitlines()]
+    started = [e for e in ev if e["event"] == "break_started"]
+    assert started[0]["suggested_s"] == 90 and started[0]["n_answered"] == 4
+    assert [e["event"] for e in ev][-1] == "break_ended"
+    app.close()
+    # by default: a break every 30 test trials, said to last about a minute
+    dflt = StudyApp(stimuli, tmp_path, "P7", "S2")
+    _through_intro(dflt)
+    assert _run_to_end(dflt)[0] == 0  # this small set has 10 response trials, fewer than 30
+    assert dflt.session.plan.meta["design"]["break_every"] == 30
+
+
+def test_debrief_shows_purpose_contact_and_code_and_withdraws_on_request(stimuli, tmp_path):
+    from study.harness import HarnessTexts
+
+    contact = "Dr A. Researcher, a.researcher@uni.example"
+    app = StudyApp(stimuli, tmp_path, "P8", "S1", config=HarnessConfig(texts=HarnessTexts(contact=contact)))
+    _through_intro(app)
+    _run_to_end(app)
+    folder = tmp_path / "P8" / "S1"
+    text = _text(app, "end")
+    assert "What this study was about" in text and "angular momentum" in text
+    assert contact in text and "mocomp-participant-code'>P8</b>" in text and "session S1" in text
+    assert app.session.closed  # finished: every row written, the lock released before the debrief
+    rows_before = (folder / "responses.csv").read_bytes()
+    # "No, keep my data" goes back to the debrief and writes nothing
+    _click(app, "mocomp-btn-withdraw")
+    assert app.screen_name == "withdraw_confirm"
+    _click(app, "mocomp-btn-withdraw-cancel")
+    assert app.screen_name == "end" and not (folder / "withdrawn.json").exists()
+    _click(app, "mocomp-btn-withdraw")
+    _click(app, "mocomp-btn-withdraw-confirm")
+    assert app.screen_name == "withdrawn" and "P8" in _text(app, "withdrawn")
+    rec = json.loads((folder / "withdrawn.json").read_text())
+    assert rec["by"] == "participant" and rec["n_responses"] == 10
+    assert (folder / "responses.csv").read_bytes() == rows_before  # marked, not deleted
+    # the page reloaded: it opens on the "withdrawn" screen, opens no session and writes nothing
+    again = StudyApp(stimuli, tmp_path, "P8", "S1")
+    assert again.screen_name == "withdrawn" and again.controller is None
+    assert (folder / "responses.csv").read_bytes() == rows_before
+    # without a contact the debrief says whom to ask
+    app2 = StudyApp(stimuli, tmp_path, "P8", "S2")
+    _through_intro(app2)
+    _run_to_end(app2)
+    assert "please ask the experimenter" in _text(app2, "end")
+
+
+def test_contact_and_break_settings_from_the_run_configuration(stimuli, tmp_path):
+    cfg = {"manifest": str(stimuli.path), "data_dir": str(tmp_path), "participant_id": "P9", "session_id": "S1",
+           "design": {"break_every": 2, "break_s": 45}, "texts": {"contact": "lab@uni.example"}}
+    app = app_from_config(cfg)
+    assert app.texts.contact == "lab@uni.example"
+    _through_intro(app)
+    _click(app, "mocomp-btn-correct")
+    _click(app, "mocomp-btn-correct")
+    assert app.screen_name == "break" and "about 45 seconds" in _text(app, "break")
+    app.close()

@@ -238,3 +238,58 @@ def test_valid_ids_are_returned_unchanged():
 
     for good in ("P01", "p.1_a-b", "7", "A" * 64):
         assert check_id(good, "participant id") == good
+
+
+def test_withdrawal_marks_the_session_and_never_deletes(stimuli, tmp_path):
+    """Issue 19 item 5: 'withdraw my data' writes withdrawn.json once, changes no other file,
+    and the session can no longer be opened or written to."""
+    from study.session import WITHDRAWN_FILE, withdraw_session, withdrawal_record
+
+    with Session.open(tmp_path, "P1", "S1", stimuli) as s:
+        _answer_n(s, 3)
+        s.save_participant_info({"participant_id": "P1", "age": 30})
+        folder = s.folder
+    before = {p.name: p.read_bytes() for p in folder.iterdir() if p.name not in ("events.jsonl", "session.lock")}
+    assert withdrawal_record(folder) is None
+    rec, newly = withdraw_session(tmp_path, "P1", "S1", by="experimenter", reason="asked by e-mail")
+    assert newly and rec["by"] == "experimenter" and rec["reason"] == "asked by e-mail"
+    assert rec["n_responses"] == 3 and rec["participant_id"] == "P1" and rec["session_id"] == "S1"
+    import hashlib
+
+    assert rec["responses_sha256"] == hashlib.sha256(before["responses.csv"]).hexdigest()
+    assert json.loads((folder / WITHDRAWN_FILE).read_text()) == rec == withdrawal_record(folder)
+    after = {p.name: p.read_bytes() for p in folder.iterdir() if p.name not in ("events.jsonl", "session.lock")}
+    assert after.pop(WITHDRAWN_FILE) and after == before  # nothing deleted, nothing changed
+    ev = [json.loads(x) for x in (folder / "events.jsonl").read_text().splitlines()]
+    assert ev[-1]["event"] == "withdrawn" and ev[-1]["by"] == "experimenter" and ev[-1]["n_responses"] == 3
+    # a second withdrawal keeps the first record
+    rec2, newly2 = withdraw_session(tmp_path, "P1", "S1", by="participant")
+    assert not newly2 and rec2 == rec
+    # the session is closed for good: no resume, no further rows
+    with pytest.raises(StudyDataError, match="withdrawn"):
+        Session.open(tmp_path, "P1", "S1", stimuli)
+    assert (folder / "responses.csv").read_bytes() == before["responses.csv"]
+    # not a session / bad ids / bad 'by'
+    with pytest.raises(StudyDataError, match="no session P9/S1"):
+        withdraw_session(tmp_path, "P9", "S1", by="experimenter")
+    with pytest.raises(ValueError, match="not valid"):
+        withdraw_session(tmp_path, "../P1", "S1", by="experimenter")
+    with pytest.raises(ValueError, match="by must be"):
+        withdraw_session(tmp_path, "P1", "S1", by="someone")
+
+
+def test_withdrawal_of_a_session_open_elsewhere_is_refused(stimuli, tmp_path):
+    """A session still held by a running app is never marked under its feet; once released it can be."""
+    from study.session import withdraw_session, withdrawal_record
+
+    s = Session.open(tmp_path, "P2", "S1", stimuli)
+    try:
+        _answer_n(s, 1)
+        with pytest.raises(SessionLockedError):
+            withdraw_session(tmp_path, "P2", "S1", by="experimenter", lock_timeout=0.2)
+        assert withdrawal_record(s.folder) is None
+        _answer_n(s, 1)  # the open session goes on writing normally
+    finally:
+        s.close()
+    rec, newly = withdraw_session(tmp_path, "P2", "S1", by="experimenter")
+    assert newly and rec["n_responses"] == 2

@@ -15,6 +15,7 @@ import importlib
 SUBCOMMANDS: list[tuple[str, str]] = [
     ("study.render_cli", "register_render"),
     ("study.study_cli", "register_run"),
+    ("study.study_cli", "register_withdraw"),
     ("study.study_cli", "register_analyze"),
 ]
 
@@ -22,7 +23,7 @@ SUBCOMMANDS: list[tuple[str, str]] = [
 def register(subparsers) -> None:
     p = subparsers.add_parser("study", help="perception study: render stimuli, run participants, analyse",
                               description="The perception study of the flips paper (section 7): "
-                                          "`render` stimuli, `run` a participant session, `analyze` responses.")
+                                          "`render` stimuli, `run` a participant session, `withdraw` one, `analyze` responses.")
     sub = p.add_subparsers(dest="study_command", metavar="SUBCOMMAND")
     sub.required = True
     for mod, fn in SUBCOMMANDS:
