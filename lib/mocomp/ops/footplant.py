@@ -1,0 +1,289 @@
+"""Footplant enforcement: planted feet held still by analytic two-bone leg IK (issue 15, item 1).
+
+Per leg the foot (ankle joint, toe joint and toe tip) moves as one rigid body; the toe joint's
+local rotation is kept. On the frames of :class:`~mocomp.ops.plants.FootPlants`:
+
+* ankle point planted: the foot is translated so the ankle point sits on its target
+  (:func:`~mocomp.ops.plants.plant_targets`: mean position over the plant, on the support level);
+* ankle point and toe tip planted: additionally turned about the ankle point by the shortest arc
+  that aims the toe tip at its target (its distance to the ankle point is fixed by the foot, so the
+  tip lands on the target up to the change of that distance during the plant);
+* toe tip planted alone (heel off): translated so the tip sits on its target, turned by the
+  fading rotation of the flat-foot part.
+
+The translation and the rotation vector of each foot are faded in and out over ``blend`` frames
+around the planted frames (:func:`~mocomp.ops.easing.ramp_fill`), so no pose jumps. The leg then
+follows by :func:`~mocomp.ops.ik.two_bone_ik` (hip fixed, knee kept in the leg's plane, reach
+clamped; frames that cannot be reached are reported). Nothing but the hip, knee and ankle local
+rotations changes; the root is never moved.
+
+This is the footskate cleanup of Kovar, Schreiner & Gleicher (SCA 2002) with analytic IK in place
+of their per-frame numerical solve, as the touch-up paper (Shin et al. 2003, sec. 3.1) uses it
+after each displacement-map step.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from ..core.motion import Motion
+from ..core.rotations import quat_apply
+from ..dynamics.contacts import label_intervals
+from .easing import ramp_fill
+from .ik import REACH_MARGIN, two_bone_ik
+from .plants import FootPlants, foot_plants, plant_targets
+
+__all__ = ["FootplantResult", "enforce_footplants", "plant_slides", "default_blend_frames", "foot_points"]
+
+#: m: a leg that misses its target by more than this is reported as unreachable on that frame
+UNREACHABLE_TOL = 1e-3
+
+
+def default_blend_frames(fps: float) -> int:
+    """Frames over which a correction fades in and out: 0.1 s, at least 2 frames."""
+    return max(2, int(round(0.1 * fps)))
+
+
+def foot_points(P: np.ndarray, G: np.ndarray, plants: FootPlants) -> np.ndarray:
+    """``(T, 4, 3)`` world positions of the four foot points (``plants.effectors`` order)."""
+    pts = []
+    for leg in plants.legs:
+        for j, off in (leg.ankle_point, leg.toe_point):
+            pts.append(P[:, j] + quat_apply(G[:, j], off))
+    return np.stack(pts, axis=1)
+
+
+def plant_slides(points: np.ndarray, plants: FootPlants) -> np.ndarray:
+    """``(4,)`` m per foot point: the largest horizontal distance from where it was planted, over
+    its planted runs (the audit's foot-slide measure, on these plants' frames)."""
+    out = np.zeros(4)
+    for k in range(4):
+        for a, b in label_intervals(plants.labels[:, k]):
+            p = points[a:b, k][:, [0, 2]]
+            out[k] = max(out[k], float(np.linalg.norm(p - p[0], axis=1).max()))
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class FootplantResult:
+    """The motion with its feet planted, and the evidence.
+
+    Attributes
+    ----------
+    motion: the result (same skeleton, frames, root as the input; leg rotations changed).
+    plants: the :class:`~mocomp.ops.plants.FootPlants` enforced.
+    targets: ``(T, 4, 3)`` m, where each planted point was held (NaN where not planted).
+    blend_frames: frames of fade in/out around each plant.
+    slide_before, slide_after: ``(4,)`` m, per foot point the largest slide within its plants
+        (:func:`plant_slides`; planned: on the enforced plants' frames).
+    unreachable: side -> list of half-open frame runs where the leg missed its target by more than
+        :data:`UNREACHABLE_TOL` (reach clamped: the knee straight or folded).
+    max_miss: m, largest miss over all frames and legs.
+    changed_frames: frames on which any leg was solved.
+    joint_speed_before, joint_speed_after: rad/s, the largest joint rotation rate between frames
+        (:func:`mocomp.audit.kinematics.step_rates`) of the input and the output.
+    audit_before, audit_after: :class:`~mocomp.audit.AuditReport` of the input and the output
+        (measured; ``None`` with ``audit=False``).
+    seconds: wall time of the enforcement (without the audits).
+    """
+
+    motion: Motion
+    plants: FootPlants
+    targets: np.ndarray
+    blend_frames: int
+    slide_before: np.ndarray
+    slide_after: np.ndarray
+    unreachable: dict
+    max_miss: float
+    changed_frames: int
+    joint_speed_before: float
+    joint_speed_after: float
+    audit_before: object | None = None
+    audit_after: object | None = None
+    seconds: float = 0.0
+    notes: tuple[str, ...] = field(default=())
+
+    def measured_slide(self) -> tuple[float, float]:
+        """``(before, after)`` m: the largest foot/toe slide the audit measures on the input and the
+        output (its own contact detection on each)."""
+        from .evidence import foot_slide
+
+        if self.audit_before is None or self.audit_after is None:
+            raise ValueError("run enforce_footplants(..., audit=True) for the measured slide")
+        return foot_slide(self.audit_before), foot_slide(self.audit_after)
+
+    def to_dict(self) -> dict:
+        from .evidence import audit_numbers
+
+        d = {"plants": self.plants.to_dict(), "blend_frames": self.blend_frames,
+             "slide_before_m": dict(zip(self.plants.effectors, map(float, self.slide_before))),
+             "slide_after_m": dict(zip(self.plants.effectors, map(float, self.slide_after))),
+             "unreachable": {s: [list(r) for r in v] for s, v in self.unreachable.items()},
+             "max_miss_m": self.max_miss, "changed_frames": self.changed_frames,
+             "joint_speed_before_rad_s": self.joint_speed_before, "joint_speed_after_rad_s": self.joint_speed_after,
+             "seconds": self.seconds, "notes": list(self.notes)}
+        if self.audit_before is not None:
+            d["measured"] = {"input": audit_numbers(self.audit_before), "output": audit_numbers(self.audit_after)}
+        return d
+
+
+def _max_rate(motion: Motion) -> float:
+    from ..audit.kinematics import step_rates
+
+    if motion.n_frames < 2:
+        return 0.0
+    return float(step_rates(motion)[0].max())
+
+
+def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: str, tol: float,
+           reach_margin: float, ease_kind: str):
+    """One enforcement pass: new rotations, targets, per-side unreachable runs, largest miss, changed frames."""
+    from ..core.rotations import quat_identity, quat_inverse, quat_multiply
+    from .ik import arc_quaternions
+
+    T = motion.n_frames
+    targets = plant_targets(pts, plants, height)
+    rot = np.array(motion.rotations)
+    unreachable, max_miss, changed = {}, 0.0, np.zeros(T, bool)
+    for li, leg in enumerate(plants.legs):
+        ka, kt = 2 * li, 2 * li + 1
+        la, lt = plants.labels[:, ka], plants.labels[:, kt]
+        A, Tp = pts[:, ka], pts[:, kt]
+        both = la & lt
+        ja, jt = leg.chain[2], leg.toe_point[0]
+        flex = jt != ja and int(motion.skeleton.parents[jt]) == ja      # the toe joint can bend
+        rv = np.zeros((T, 3))
+        tv = np.zeros((T, 3))                                            # toe joint's local change (rotvec)
+        if both.any():
+            if flex:
+                # the foot as a two-bone chain ankle point -> toe joint -> toe tip: the tip on its target
+                # with the ankle point on its own, the toe joint bending in the foot's plane
+                fP = np.stack([A[both], P[both, jt], Tp[both]], axis=1)
+                fG = np.stack([G[both, ja], G[both, jt], G[both, jt]], axis=1)
+                frot = np.stack([G[both, ja], rot[both, jt], np.broadcast_to(quat_identity(), (both.sum(), 4))], axis=1)
+                fr, _ = two_bone_ik(fP, fG, frot, (-1, 0, 1), (0, 1, 2), targets[both, kt] - targets[both, ka] + A[both],
+                                    reach_margin=reach_margin)
+                q = quat_multiply(fr[:, 0], quat_inverse(G[both, ja]))
+                tv[both] = Rotation.from_quat(quat_multiply(quat_inverse(rot[both, jt]), fr[:, 1])).as_rotvec()
+            else:
+                q = arc_quaternions(Tp[both] - A[both], targets[both, kt] - targets[both, ka])
+            rv[both] = Rotation.from_quat(q).as_rotvec()
+        rv = ramp_fill(rv, both, blend, ease_kind)
+        Rq = Rotation.from_rotvec(rv).as_quat()
+        new_toe = None
+        if flex:
+            tv = ramp_fill(tv, both, blend, ease_kind)
+            new_toe = quat_multiply(rot[:, jt], Rotation.from_rotvec(tv).as_quat())
+            # the toe tip after the foot turn and the toe bend, before the foot is moved
+            Pt = A + quat_apply(Rq, P[:, jt] - A)
+            tip = Pt + quat_apply(quat_multiply(quat_multiply(Rq, G[:, ja]), new_toe), leg.toe_point[1])
+        else:
+            tip = A + quat_apply(Rq, Tp - A)
+        # translation: the ankle point on its target while it is planted; the toe tip on its own
+        # where only the toe is planted; the ankle's share fades out over the blend frames after
+        # heel-off (and in before heel-strike), so the switch between the two targets is smooth
+        d_a = np.zeros((T, 3))
+        d_a[la] = targets[la, ka] - A[la]
+        d_t = np.zeros((T, 3))
+        d_t[lt] = targets[lt, kt] - tip[lt]
+        w_a = ramp_fill(la.astype(float), la, blend, ease_kind)
+        delta = ramp_fill(d_a, la, blend, ease_kind) + (1.0 - w_a)[:, None] * ramp_fill(d_t, lt, blend, ease_kind)
+        idx = np.flatnonzero((np.linalg.norm(delta, axis=1) > tol) | (np.linalg.norm(rv, axis=1) > tol)
+                             | (np.linalg.norm(tv, axis=1) > tol))
+        unreachable[leg.side] = []
+        if idx.size == 0:
+            continue
+        if new_toe is not None:
+            rot[idx, jt] = new_toe[idx]
+        tgt = A[idx] + delta[idx] + quat_apply(Rq[idx], P[idx, ja] - A[idx])   # the ankle joint, moved with the foot
+        end = quat_multiply(Rq[idx], G[idx, ja])
+        rot[idx], miss = two_bone_ik(P[idx], G[idx], rot[idx], motion.skeleton.parents, leg.chain, tgt,
+                                     end_rotation=end, reach_margin=reach_margin)
+        changed[idx] = True
+        max_miss = max(max_miss, float(miss.max()))
+        bad = np.zeros(T, bool)
+        bad[idx[miss > UNREACHABLE_TOL]] = True
+        unreachable[leg.side] = label_intervals(bad)
+    return rot, targets, unreachable, max_miss, changed
+
+
+def enforce_footplants(motion: Motion, plants: FootPlants | None = None, *, contacts=None,
+                       blend: int | None = None, height: str = "level", tol: float = 1e-6,
+                       reach_margin: float = REACH_MARGIN, ease_kind: str = "smoothstep", passes: int = 2,
+                       audit: bool = True) -> FootplantResult:
+    """Hold the planted feet of ``motion`` still (see the module docstring).
+
+    Parameters
+    ----------
+    plants: the plants to enforce (default :func:`~mocomp.ops.plants.foot_plants` of the motion
+        with ``contacts`` as overrides).
+    contacts: overrides for the detector: a CSV path (``joint,start,stop``) or effector -> intervals.
+    blend: frames of fade in/out (default :func:`default_blend_frames`, 0.1 s).
+    height: how a planted point's height is set (:func:`~mocomp.ops.plants.plant_targets`):
+        ``"level"`` (default: its lowest height in the plant on the support level, the heel roll
+        kept), ``"hold"`` (on the support level throughout) or ``"keep"`` (its own height).
+    tol: m / rad; frames whose correction is below this are not solved.
+    passes: the contact detector is run again on the result and frames it finds planted that were
+        not enforced are added, up to this many passes in all (a foot slowed by the fade-in is
+        planted one frame earlier for the detector; the audit uses the same detector on the
+        output). Effectors whose plants come from a CSV file are never extended.
+    audit: also audit the input and the output (:func:`mocomp.audit.audit`), the measured evidence.
+
+    Raises :class:`~mocomp.ops.plants.NoContactError` when no foot is ever planted.
+    """
+    import dataclasses
+
+    from ..dynamics.contacts import detect_contacts
+
+    t0 = time.perf_counter()
+    if plants is None:
+        plants = foot_plants(motion, contacts)
+    elif contacts is not None:
+        raise ValueError("give either plants or contacts overrides, not both")
+    if plants.n_frames != motion.n_frames:
+        raise ValueError(f"plants cover {plants.n_frames} frames, the motion has {motion.n_frames}")
+    blend = default_blend_frames(motion.fps) if blend is None else int(blend)
+    if blend < 0:
+        raise ValueError(f"blend must be 0 or more frames, got {blend}")
+    if passes < 1:
+        raise ValueError(f"passes must be at least 1, got {passes}")
+    P, G = motion.fk()
+    pts = foot_points(P, G, plants)
+    notes = []
+    for k in range(passes):
+        rot, targets, unreachable, max_miss, changed = _solve(motion, P, G, pts, plants, blend, height, tol,
+                                                              reach_margin, ease_kind)
+        out = motion.replace(rotations=rot)
+        if k == passes - 1:
+            break
+        c = plants.contacts
+        again = detect_contacts(out) if c is None else detect_contacts(
+            out, effectors={e: (int(c.effector_joints[i]), c.effector_offsets[i]) for i, e in enumerate(c.effectors)},
+            ground_y=c.ground_y)
+        free = np.array([not str(plants.source[e]).startswith("csv") for e in plants.effectors])
+        new = again.labels[:, [again.effectors.index(e) for e in plants.effectors]] & ~plants.labels & free[None]
+        if not new.any():
+            break
+        notes.append(f"pass {k + 2}: {int(new.sum())} frame(s) the detector finds planted on the result added")
+        lab = plants.labels | new
+        lev = np.where(lab, np.where(np.isnan(plants.levels), np.nanmedian(plants.levels, axis=0)[None],
+                                     plants.levels), np.nan)
+        plants = dataclasses.replace(plants, labels=lab, levels=lev)
+    P2, G2 = out.fk()
+    pts2 = foot_points(P2, G2, plants)
+    seconds = time.perf_counter() - t0
+    if any(unreachable.values()):
+        notes.append("unreachable: " + "; ".join(f"{s} leg frames " + ", ".join(f"{a}-{b - 1}" for a, b in v)
+                                                   for s, v in unreachable.items() if v))
+    res = FootplantResult(out, plants, targets, blend, plant_slides(pts, plants), plant_slides(pts2, plants),
+                          unreachable, max_miss, int(changed.sum()), _max_rate(motion), _max_rate(out),
+                          seconds=seconds, notes=tuple(notes))
+    if audit:
+        from ..audit import audit as run_audit
+
+        res = dataclasses.replace(res, audit_before=run_audit(motion, name="input"),
+                                  audit_after=run_audit(out, name="footplants"))
+    return res

@@ -1,0 +1,204 @@
+"""Analytic two-bone inverse kinematics of a limb (hip-knee-ankle), vectorised over frames.
+
+:func:`two_bone_ik` moves the end joint (the ankle) of a three-joint chain onto a target:
+the middle joint (the knee) bends in the limb's current plane until the root-end distance is
+right (law of cosines), which keeps the knee pointing where it pointed; then the whole limb
+swings about its root joint (the hip) onto the target by the shortest arc. The end joint keeps
+its world orientation, or takes the one given (``end_rotation``: the foot orientation of a
+footplant). A target out of reach is approached as far as the limb allows: the end joint stops
+on the line from the hip to the target with the knee straight (or fully folded), and the miss
+in metres is returned per frame, so callers can report unreachable frames.
+
+The hip does not move, and bone lengths are those of the skeleton (forward kinematics of the
+returned local rotations): only the rotations of the hip, knee and ankle change.
+
+This module generalises :mod:`mocomp.edit.legs` (issue 15): ``two_bone_ik``, ``leg_chains``,
+``run_starts``, ``plant_feet`` and ``plant_rotations`` (alias ``_plant_rotations``) have the
+signatures and results of their ``edit.legs`` namesakes (``tests/test_ops_ik.py`` compares
+them on the same inputs), so ``mocomp.edit.legs`` can become the one line
+``from ..ops.ik import two_bone_ik, leg_chains, plant_feet, run_starts, _plant_rotations  # noqa: F401``.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..core.kinematics import forward_kinematics
+from ..core.motion import Motion
+from ..core.rotations import quat_apply, quat_inverse, quat_multiply
+
+__all__ = ["two_bone_ik", "leg_chains", "plant_feet", "plant_rotations", "run_starts", "arc_quaternions",
+           "axis_angle_quaternions", "REACH_MARGIN"]
+
+#: m: a target is reached with the limb at most this much shorter than fully straight (or this much
+#: longer than fully folded); a straight knee has no bending plane, so it is never quite reached.
+REACH_MARGIN = 1e-6
+
+
+def leg_chains(skeleton) -> list[tuple[int, int, int]]:
+    """``(hip, knee, ankle)`` joint indices of each leg: an ankle (name with ``ankle`` or
+    ``foot`` but not ``toe``) whose parent and grandparent exist (as :func:`mocomp.edit.legs.leg_chains`).
+    :func:`mocomp.ops.plants.leg_layout` finds the legs from the body-segment mapping instead."""
+    out = []
+    for j, nm in enumerate(skeleton.names):
+        low = nm.lower()
+        if ("ankle" in low or "foot" in low) and "toe" not in low:
+            k = int(skeleton.parents[j])
+            h = int(skeleton.parents[k]) if k >= 0 else -1
+            if k > 0 and h > 0:
+                out.append((h, k, j))
+    return out
+
+
+def axis_angle_quaternions(axis, angle) -> np.ndarray:
+    """Quaternions (scalar-last) of rotations by ``angle (...)`` rad about ``axis (..., 3)``
+    (any length; a zero axis gives the identity)."""
+    n = np.linalg.norm(axis, axis=-1, keepdims=True)
+    a = np.asarray(axis, dtype=float) / np.where(n > 1e-12, n, 1.0)
+    a = np.where(n > 1e-12, a, 0.0)
+    half = 0.5 * np.asarray(angle, dtype=float)[..., None]
+    return np.concatenate([a * np.sin(half), np.where(n > 1e-12, np.cos(half), 1.0)], axis=-1)
+
+
+def arc_quaternions(u, v) -> np.ndarray:
+    """Shortest-arc quaternions taking the directions of rows ``u (..., 3)`` to those of ``v``.
+
+    Antiparallel rows (no unique arc) turn by 180 deg about an axis perpendicular to ``u``."""
+    u = np.asarray(u, dtype=float)
+    v = np.asarray(v, dtype=float)
+    u = u / np.linalg.norm(u, axis=-1, keepdims=True)
+    v = v / np.linalg.norm(v, axis=-1, keepdims=True)
+    c = np.cross(u, v)
+    w = 1.0 + np.sum(u * v, axis=-1, keepdims=True)
+    anti = w[..., 0] < 1e-12
+    if np.any(anti):
+        perp = np.cross(u, np.array([1.0, 0.0, 0.0]))
+        perp = np.where(np.linalg.norm(perp, axis=-1, keepdims=True) < 1e-6, np.cross(u, np.array([0.0, 1.0, 0.0])),
+                        perp)
+        c = np.where(anti[..., None], perp, c)
+        w = np.where(anti[..., None], 0.0, w)
+    q = np.concatenate([c, w], axis=-1)
+    return q / np.linalg.norm(q, axis=-1, keepdims=True)
+
+
+def _parent_rotation(G, parents, j):
+    p = int(parents[j])
+    if p < 0:
+        out = np.zeros(G.shape[:-2] + (4,))
+        out[..., 3] = 1.0
+        return out
+    return G[..., p, :]
+
+
+def two_bone_ik(P: np.ndarray, G: np.ndarray, rot: np.ndarray, parents, chain, target, *,
+                end_rotation: np.ndarray | None = None, reach_margin: float = REACH_MARGIN,
+                bend_axis=(1.0, 0.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:
+    """Local rotations with the chain's end joint on ``target``.
+
+    Parameters
+    ----------
+    P, G: ``(..., J, 3)`` world positions and ``(..., J, 4)`` world orientations of the frames
+        (one frame or a batch), e.g. ``motion.fk()`` or a slice of it.
+    rot: ``(..., J, 4)`` the frames' local rotations; a changed copy is returned.
+    parents: ``(J,)`` parent indices.
+    chain: ``(hip, knee, ankle)`` joint indices, each the parent of the next.
+    target: ``(..., 3)`` m, where the ankle joint should go.
+    end_rotation: ``(..., 4)`` world orientation for the ankle (default: it keeps its own, so
+        the foot does not turn).
+    reach_margin: m; the hip-ankle distance is clamped to ``[|l1 - l2| + margin, l1 + l2 - margin]``.
+    bend_axis: the hip's local axis to bend about when the leg is exactly straight (no plane).
+
+    Returns ``(rot, miss)``: ``miss (...)`` m, the distance left between the ankle and the
+    target (0 to rounding where it is reachable; the clamped excess otherwise).
+    """
+    h, k, a = (int(c) for c in chain)
+    H, K, A = P[..., h, :], P[..., k, :], P[..., a, :]
+    T = np.asarray(target, dtype=float)
+    l1 = np.linalg.norm(K - H, axis=-1)
+    l2 = np.linalg.norm(A - K, axis=-1)
+    d_want = np.linalg.norm(T - H, axis=-1)
+    d = np.clip(d_want, np.abs(l1 - l2) + reach_margin, l1 + l2 - reach_margin)
+    # knee: bend in the leg's plane (normal n = w x u) so that |ankle - hip| = d
+    u, w = H - K, A - K
+    n = np.cross(w, u)
+    straight = np.linalg.norm(n, axis=-1) < 1e-9
+    if np.any(straight):
+        n = np.where(straight[..., None], quat_apply(G[..., h, :], np.asarray(bend_axis, dtype=float)), n)
+    th0 = np.arctan2(np.linalg.norm(np.cross(u, w), axis=-1), np.sum(u * w, axis=-1))
+    th1 = np.arccos(np.clip((l1 * l1 + l2 * l2 - d * d) / (2 * l1 * l2), -1.0, 1.0))
+    q_knee = axis_angle_quaternions(n, th0 - th1)      # rotating w about n = w x u turns it toward u
+    A1 = K + quat_apply(q_knee, w)
+    # hip: swing the whole leg onto the target
+    q_hip = arc_quaternions(A1 - H, T - H)
+    Gh = quat_multiply(q_hip, G[..., h, :])
+    Gk = quat_multiply(q_hip, quat_multiply(q_knee, G[..., k, :]))
+    Ga = G[..., a, :] if end_rotation is None else np.asarray(end_rotation, dtype=float)
+    out = np.array(rot)
+    out[..., h, :] = quat_multiply(quat_inverse(_parent_rotation(G, parents, h)), Gh)
+    out[..., k, :] = quat_multiply(quat_inverse(Gh), Gk)
+    out[..., a, :] = quat_multiply(quat_inverse(Gk), Ga)
+    return out, np.abs(d_want - d)
+
+
+def run_starts(on: np.ndarray) -> np.ndarray:
+    """``(n, C)`` for each frame and column the frame where its current run of ``on`` began
+    (-1 where ``on`` is False)."""
+    on = np.asarray(on, dtype=bool)
+    n = on.shape[0]
+    first = on & ~np.vstack([np.zeros((1,) + on.shape[1:], dtype=bool), on[:-1]])
+    idx = np.where(first, np.arange(n).reshape((n,) + (1,) * (on.ndim - 1)), -1)
+    return np.where(on, np.maximum.accumulate(idx, axis=0), -1)
+
+
+def _descends(parents, j: int, ancestor: int) -> bool:
+    while j >= 0:
+        if j == ancestor:
+            return True
+        j = int(parents[j])
+    return False
+
+
+def plant_feet(motion: Motion, start: int, weights: np.ndarray, chains, tol: float = 1e-3) -> tuple[Motion, int]:
+    """Hold each leg's ankle still while its contact weight is high, from frame ``start`` on
+    (the behaviour of :func:`mocomp.edit.legs.plant_feet`, kept for the flight edits).
+
+    ``weights (n, C)`` in [0, 1] per frame (``n = T - start``) and chain. A contact starts when
+    the weight rises to 0.5; from then until it falls below 0.5 the ankle's target is its
+    horizontal position at that start (its height stays the frame's own), blended with the
+    unplanted position by the weight. Frames where the ankle is within ``tol`` m of its target
+    are left alone. The chains must be disjoint (two legs). Returns the motion and the number
+    of IK solves. :func:`mocomp.ops.enforce_footplants` is the general footplant enforcement.
+    """
+    sk = motion.skeleton
+    P, G = forward_kinematics(sk.parents, sk.offsets, motion.root_positions[start:], motion.rotations[start:])
+    rot, solves = plant_rotations(sk.parents, motion.rotations, P, G, start, weights, chains, tol)
+    return motion.replace(rotations=rot), solves
+
+
+def plant_rotations(parents, rotations, P, G, start, weights, chains, tol=1e-3) -> tuple[np.ndarray, int]:
+    """:func:`plant_feet` on arrays: ``rotations (T, J, 4)`` and the FK ``P``, ``G`` of frames
+    ``start..`` only; returns the new rotations (a copy) and the number of IK solves."""
+    for c1 in chains:
+        for c2 in chains:
+            if c1 is not c2 and _descends(parents, c2[0], c1[0]):
+                raise ValueError(f"leg chains {c1} and {c2} overlap; plant_feet needs disjoint legs")
+    rot = np.array(rotations)
+    solves = 0
+    weights = np.asarray(weights, dtype=float)
+    starts = run_starts(weights >= 0.5)
+    for c, chain in enumerate(chains):
+        a = chain[2]
+        tgt = np.array(P[:, a])
+        on = starts[:, c] >= 0
+        plant = tgt[np.maximum(starts[:, c], 0)][:, [0, 2]]
+        blend = np.where(on, weights[:, c], 0.0)[:, None]
+        tgt[:, [0, 2]] += blend * (plant - tgt[:, [0, 2]])
+        idx = np.flatnonzero(np.linalg.norm(tgt - P[:, a], axis=1) > tol)
+        if idx.size:
+            f = start + idx
+            rot[f], _ = two_bone_ik(P[idx], G[idx], rot[f], parents, chain, tgt[idx])
+            solves += idx.size
+    return rot, solves
+
+
+#: the name ``mocomp.edit.seams`` imports from ``edit.legs``
+_plant_rotations = plant_rotations

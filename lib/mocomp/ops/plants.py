@@ -1,0 +1,282 @@
+"""Foot plants: which foot points are planted on which frames, and where they are held.
+
+The planted frames come from the project's contact detector
+(:func:`mocomp.dynamics.contacts.detect_contacts`: an effector near its support level *and*
+slow), restricted to the feet: per leg the ankle point (``foot_l``/``foot_r``) and the toe tip
+(``toe_l``/``toe_r``), on the joints the body-segment mapping gives them. A small CSV
+(``joint,start,stop``) overrides the detector for the effectors it names (see
+:func:`read_contacts_csv`); ``labels=`` replaces the detection altogether (a blend passes the
+labels of its two inputs).
+
+A plant's target (:func:`plant_targets`) is the mean horizontal position of the point over its
+planted run, at the height of its support level (the detector's level for that effector, the
+floor it rests on), so a foot that slid is held where it was on average, on the floor.
+"""
+from __future__ import annotations
+
+import csv
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..dynamics.contacts import ContactResult, default_effectors, detect_contacts, label_intervals
+from ..errors import MocompError, MotionFormatError
+
+__all__ = ["FootPlants", "LegLayout", "NoContactError", "leg_layout", "foot_plants", "read_contacts_csv",
+           "parse_contacts_rows", "plant_targets", "FOOT_EFFECTORS", "HEIGHT_MODES"]
+
+#: how :func:`plant_targets` sets the height of a planted point
+HEIGHT_MODES = ("level", "hold", "keep")
+
+#: the detector's foot effectors, per side: (ankle point, toe tip)
+FOOT_EFFECTORS = {"l": ("foot_l", "toe_l"), "r": ("foot_r", "toe_r")}
+
+
+class NoContactError(MocompError, ValueError):
+    """A motion (or a part of it an operation needs) has no planted foot: nothing to hold."""
+
+
+@dataclass(frozen=True)
+class LegLayout:
+    """One leg: the IK chain and its two foot points.
+
+    Attributes
+    ----------
+    side: ``"l"`` or ``"r"``.
+    chain: ``(hip, knee, ankle)`` joint indices (the ankle carries the ``foot`` point).
+    ankle_point: ``(joint, offset (3,) m)`` of the ankle point (detector effector ``foot_<side>``).
+    toe_point: ``(joint, offset (3,) m)`` of the toe tip (``toe_<side>``), on the ankle joint or a
+        descendant of it; its local rotations are never changed (the foot moves as one body).
+    """
+
+    side: str
+    chain: tuple[int, int, int]
+    ankle_point: tuple[int, np.ndarray]
+    toe_point: tuple[int, np.ndarray]
+
+
+def leg_layout(skeleton) -> tuple[LegLayout, LegLayout]:
+    """The two legs of ``skeleton`` from the body-segment mapping the contact detector uses
+    (:func:`mocomp.dynamics.contacts.default_effectors`): the ankle point's joint is the chain's
+    ankle, its parent the knee, its grandparent the hip."""
+    eff = default_effectors(skeleton)
+    out = []
+    for side, (fa, ft) in FOOT_EFFECTORS.items():
+        ja, oa = eff[fa]
+        jt, ot = eff[ft]
+        k = int(skeleton.parents[ja])
+        h = int(skeleton.parents[k]) if k >= 0 else -1
+        if k < 0 or h < 0:
+            raise MotionFormatError(f"the {side} foot joint {skeleton.names[ja]!r} has no knee and hip above it")
+        if ja not in skeleton.chain(jt):
+            raise MotionFormatError(f"the {side} toe joint {skeleton.names[jt]!r} does not hang from the ankle "
+                                    f"{skeleton.names[ja]!r}")
+        out.append(LegLayout(side, (h, k, int(ja)), (int(ja), np.asarray(oa, float)), (int(jt), np.asarray(ot, float))))
+    return out[0], out[1]
+
+
+@dataclass(frozen=True, eq=False)
+class FootPlants:
+    """Planted frames of the four foot points.
+
+    Attributes
+    ----------
+    effectors: ``("foot_l", "toe_l", "foot_r", "toe_r")``.
+    labels: ``(T, 4)`` bool, planted.
+    levels: ``(T, 4)`` m, world height of the support level each point rests on (NaN where it
+        is not planted).
+    source: effector -> ``"detector"``, ``"csv <path>"`` or ``"given"``: where its labels came from.
+    legs: the two :class:`LegLayout`.
+    contacts: the detector's :class:`~mocomp.dynamics.contacts.ContactResult` (``None`` when the
+        labels were given).
+    """
+
+    effectors: tuple[str, ...]
+    labels: np.ndarray
+    levels: np.ndarray
+    source: dict
+    legs: tuple
+    contacts: ContactResult | None = None
+    notes: tuple[str, ...] = field(default=())
+
+    @property
+    def intervals(self) -> dict:
+        """effector -> list of half-open ``(start, stop)`` planted runs."""
+        return {e: label_intervals(self.labels[:, k]) for k, e in enumerate(self.effectors)}
+
+    @property
+    def n_frames(self) -> int:
+        return self.labels.shape[0]
+
+    def to_dict(self) -> dict:
+        return {"intervals": {e: [list(r) for r in v] for e, v in self.intervals.items()},
+                "source": dict(self.source), "notes": list(self.notes)}
+
+
+def parse_contacts_rows(rows, skeleton, n_frames: int, path: str = "<contacts>") -> dict[str, list[tuple[int, int]]]:
+    """Validate override rows ``(line number, joint, start, stop)``; returns effector -> intervals.
+
+    ``joint`` is a detector effector name (``foot_l``, ``toe_r``) or the name of the joint that
+    effector rides on (``LeftFoot``, ``Toes_R``, ...). ``start``/``stop`` are 0-based frames,
+    half-open like every interval of the project (``stop`` is the first frame not planted),
+    ``0 <= start < stop <= n_frames``."""
+    eff = default_effectors(skeleton)
+    feet = [e for pair in FOOT_EFFECTORS.values() for e in pair]
+    by_joint = {skeleton.names[eff[e][0]]: e for e in feet}
+    out: dict[str, list[tuple[int, int]]] = {}
+    for line, joint, start, stop in rows:
+        name = joint.strip()
+        e = name if name in feet else by_joint.get(name)
+        if e is None:
+            known = ", ".join(feet + [f"{j} ({e})" for j, e in by_joint.items()])
+            raise MotionFormatError(f"joint {name!r} is not a foot point of the motion; use one of: {known}",
+                                    path, line)
+        vals = []
+        for what, txt in (("start", start), ("stop", stop)):
+            try:
+                vals.append(int(str(txt).strip()))
+            except ValueError:
+                raise MotionFormatError(f"{what} {str(txt).strip()!r} is not a frame number", path, line) from None
+        a, b = vals
+        if not 0 <= a < b <= n_frames:
+            raise MotionFormatError(f"interval start={a}, stop={b} must satisfy 0 <= start < stop <= {n_frames} "
+                                    f"(frames of the motion; stop is exclusive)", path, line)
+        out.setdefault(e, []).append((a, b))
+    return out
+
+
+def read_contacts_csv(path, skeleton, n_frames: int) -> dict[str, list[tuple[int, int]]]:
+    """Read a contact override file: a header line ``joint,start,stop`` and one planted interval a
+    row (see :func:`parse_contacts_rows`); ``#`` starts a comment line. Errors name the file and line."""
+    path = Path(path)
+    text = path.read_text(encoding="utf-8-sig")
+    rows = []
+    header_seen = False
+    for line, row in enumerate(csv.reader(text.splitlines()), start=1):
+        if not row or not "".join(row).strip() or row[0].lstrip().startswith("#"):
+            continue
+        cells = [c.strip() for c in row]
+        if not header_seen:
+            if [c.lower() for c in cells] != ["joint", "start", "stop"]:
+                raise MotionFormatError(f"the first row must be the header 'joint,start,stop', got {','.join(cells)!r}",
+                                        path, line)
+            header_seen = True
+            continue
+        if len(cells) != 3:
+            raise MotionFormatError(f"expected 3 fields joint,start,stop, got {len(cells)}", path, line)
+        rows.append((line, *cells))
+    if not header_seen:
+        raise MotionFormatError("empty contact file: expected the header 'joint,start,stop'", path)
+    return parse_contacts_rows(rows, skeleton, n_frames, str(path))
+
+
+def foot_plants(motion, overrides: dict | str | Path | None = None, *, labels: np.ndarray | None = None,
+                contacts: ContactResult | None = None, require: bool = True, **detector) -> FootPlants:
+    """Planted frames of the feet of ``motion``.
+
+    Parameters
+    ----------
+    overrides: effector -> list of ``(start, stop)`` intervals, or a CSV path
+        (:func:`read_contacts_csv`): the named effectors take exactly these intervals.
+    labels: ``(T, 4)`` bool for ``("foot_l", "toe_l", "foot_r", "toe_r")``, replacing the detector.
+    contacts: a detector result already computed for ``motion`` (else it is run with ``detector``
+        keyword arguments).
+    require: raise :class:`NoContactError` when no foot point is ever planted.
+    """
+    legs = leg_layout(motion.skeleton)
+    names = tuple(e for pair in FOOT_EFFECTORS.values() for e in pair)
+    T = motion.n_frames
+    notes = []
+    if labels is not None:
+        lab = np.asarray(labels, dtype=bool)
+        if lab.shape != (T, 4):
+            raise ValueError(f"labels must have shape ({T}, 4) for {names}, got {lab.shape}")
+        source = {e: "given" for e in names}
+        c = contacts
+    else:
+        c = contacts if contacts is not None else detect_contacts(motion, **detector)
+        cols = [c.effectors.index(e) for e in names]
+        lab = np.array(c.labels[:, cols])
+        source = {e: "detector" for e in names}
+    lab = np.array(lab)
+    if c is not None:
+        cols = [c.effectors.index(e) for e in names]
+        lev = np.broadcast_to(c.levels[cols][None], (T, 4))
+        if c.contact_levels is not None:                 # several floors: the level each frame touches
+            lev = np.where(np.isfinite(c.contact_levels[:, cols]), c.contact_levels[:, cols], lev)
+        levels = np.where(lab, c.ground_y + lev, np.nan)
+        ground_y = c.ground_y
+    else:
+        levels = np.full((T, 4), np.nan)
+        ground_y = None
+    if overrides is not None:
+        where = "given"
+        if isinstance(overrides, (str, Path)):
+            where = f"csv {overrides}"
+            overrides = read_contacts_csv(overrides, motion.skeleton, T)
+        else:
+            overrides = parse_contacts_rows([(None, e, a, b) for e, runs in overrides.items() for a, b in runs],
+                                            motion.skeleton, T, "overrides")
+        for e, runs in overrides.items():
+            k = names.index(e)
+            lab[:, k] = False
+            for a, b in runs:
+                lab[a:b, k] = True
+            source[e] = where
+    # a planted point without a detector level (given labels, overrides): its lowest height while planted
+    if np.any(lab & np.isnan(levels)):
+        from ..dynamics.contacts import effector_positions
+
+        joints = [legs[0].ankle_point[0], legs[0].toe_point[0], legs[1].ankle_point[0], legs[1].toe_point[0]]
+        offs = [legs[0].ankle_point[1], legs[0].toe_point[1], legs[1].ankle_point[1], legs[1].toe_point[1]]
+        y = effector_positions(motion, joints, offs)[..., 1]
+        for k in range(4):
+            miss = lab[:, k] & np.isnan(levels[:, k])
+            if miss.any():
+                lvl = float(np.percentile(y[lab[:, k], k], 1)) if ground_y is None else \
+                    float(ground_y + np.percentile(y[:, k] - ground_y, 1))
+                levels[miss, k] = lvl
+        notes.append("support level of planted points without a detector level: 1st percentile of their height")
+    levels[~lab] = np.nan
+    if require and not lab.any():
+        raise NoContactError(
+            f"{motion.source.path or 'the motion'}: no foot is planted on any of its {T} frames (contact detector: "
+            "no foot point near its support level and slower than its speed threshold); give the plants with "
+            "--contacts FILE.csv (joint,start,stop)")
+    return FootPlants(names, lab, levels, source, legs, c, tuple(notes))
+
+
+def plant_targets(points: np.ndarray, plants: FootPlants, height: str = "level") -> np.ndarray:
+    """``(T, 4, 3)`` m: where each planted point is held (NaN where it is not planted).
+
+    Per planted run: the mean ``x``, ``z`` of the point over the run (``points (T, 4, 3)``, its
+    world positions). ``y``: with ``height="level"`` (default) the point's own height shifted so
+    that its lowest height in the run lies on the support level (the heel still rolls up at the
+    end of a stance, on the floor); ``"hold"`` the support level on every frame (held still in 3-D);
+    ``"keep"`` its own height."""
+    if height not in HEIGHT_MODES:
+        raise ValueError(f"height must be one of {', '.join(HEIGHT_MODES)}, got {height!r}")
+    T = plants.n_frames
+    out = np.full((T, 4, 3), np.nan)
+    for k in range(4):
+        lab = plants.labels[:, k]
+        if not lab.any():
+            continue
+        run = np.cumsum(np.r_[lab[0], lab[1:] & ~lab[:-1]]) * lab        # run id per frame (0: not planted)
+        n_runs = int(run.max())
+        sel = run > 0
+        cnt = np.bincount(run[sel], minlength=n_runs + 1)
+        mean = np.stack([np.bincount(run[sel], points[sel, k, c], minlength=n_runs + 1) for c in range(3)], axis=1)
+        mean[1:] /= cnt[1:, None]
+        out[sel, k] = mean[run[sel]]
+        y = points[:, k, 1]
+        if height == "hold":
+            out[sel, k, 1] = plants.levels[sel, k]
+        elif height == "keep":
+            out[sel, k, 1] = y[sel]
+        else:
+            low = np.full(n_runs + 1, np.inf)
+            np.minimum.at(low, run[sel], y[sel])
+            out[sel, k, 1] = y[sel] - low[run[sel]] + plants.levels[sel, k]
+    return out
