@@ -10,6 +10,10 @@ Pipeline (what ``mocomp study analyze RESPONSES_DIR -o REPORT_DIR`` runs, via
    answers, e.g. consent declined) are skipped and listed; a torn last line
    (no line end: a crash mid-write in a session never resumed) is left out
    with a warning naming the file and line, and listed in the report.
+   Sessions marked withdrawn (``withdrawn.json`` beside ``responses.csv``,
+   written by the app's debrief screen or ``mocomp study withdraw``) are not
+   read at all; they are listed in the report (participant, session, when,
+   by whom).
 2. Only ``kind == "test"`` trials enter the statistics (examples, practice and
    attention checks do not); attention checks are summarised per participant.
 3. :func:`condition_table`: per condition (error type x direction x level) the
@@ -18,9 +22,14 @@ Pipeline (what ``mocomp study analyze RESPONSES_DIR -o REPORT_DIR`` runs, via
    corrections and the ceiling). The false-alarm rate comes from the
    unperturbed motions shown in the same error group (``control="group"``,
    the paper's Table 2 has one 0 % rating per group) or from all of them
-   (``"pooled"``). The group d' is computed from counts pooled over
-   participants (as the paper computed it from mean ratings), with a
-   participant-level (cluster) bootstrap CI.
+   (``"pooled"``). Two group d' side by side, each with a participant-level
+   (cluster) bootstrap CI: the *pooled* d' from counts pooled over participants
+   (as the paper computed it from mean ratings), and the *mean of the
+   per-participant d'* (Macmillan & Creelman 2005, *Detection Theory*, 2nd
+   ed., sec. 11.2: average the individual d', since pooling the rates of
+   observers with different criteria biases d' towards 0). ``headline``
+   (``mocomp study analyze --headline``) says which one the report, the d'
+   figure and ``dprime_headline`` use; the default is the mean.
 4. :func:`participant_dprimes`: d' per participant, per condition and per
    error type (levels pooled), with a parametric bootstrap CI at the corrected
    rates (seeded; never zero-width when a cell's rate is 0 or 1, undefined
@@ -46,7 +55,7 @@ Pipeline (what ``mocomp study analyze RESPONSES_DIR -o REPORT_DIR`` runs, via
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -55,7 +64,8 @@ from scipy.stats import norm
 
 from mocomp.errors import StudyDataError
 
-from .sdt import CORRECTIONS, dprime_counts, wilson_interval
+from .sdt import CORRECTIONS, dprime_ceiling, dprime_counts, wilson_interval
+from .session import WITHDRAWN_FILE, withdrawal_record
 from .stimulus_set import DIRECTIONS, PERTURBATIONS, condition_label
 
 #: Columns the analysis needs in every responses CSV.
@@ -77,6 +87,9 @@ class ResponseData:
     one participant (analysed per participant, with a warning).
     ``sessions``: answered/planned trials per session (:func:`session_summary`);
     ``incomplete``: the sessions that stopped early.
+    ``withdrawn``: sessions left out because the participant withdrew (one dict each:
+    participant_id, session_id, file, withdrawn_utc, by, reason; see
+    :func:`study.session.withdraw_session`).
     """
 
     trials: pd.DataFrame
@@ -86,6 +99,7 @@ class ResponseData:
     dropped_lines: list[tuple[str, int, str]] = field(default_factory=list)
     mixed_files: list[tuple[str, list[str]]] = field(default_factory=list)
     sessions: pd.DataFrame = field(default_factory=pd.DataFrame)
+    withdrawn: list[dict] = field(default_factory=list)
 
     @property
     def incomplete(self) -> pd.DataFrame:
@@ -378,6 +392,10 @@ def load_responses(path: str | Path, *, allow_mixed_sets: bool = False, require:
                                                   if p.name == "responses.csv" or p.name.endswith(".responses.csv"))
     if not files:
         raise StudyDataError("no responses.csv found (expected DATA/<participant>/<session>/responses.csv)", path)
+    files, withdrawn = _split_withdrawn(files)
+    if not files:
+        raise StudyDataError(f"every session here ({len(withdrawn)}) is withdrawn ({WITHDRAWN_FILE}): nothing to "
+                             "analyse", path)
     skipped, dropped, mixed = [], [], []
     # per header: column chunks of each file, file names, row counts, line numbers. Each file's rows
     # are turned into columns at once and every cell is interned (one str object per distinct value
@@ -462,7 +480,23 @@ def load_responses(path: str | Path, *, allow_mixed_sets: bool = False, require:
     labels = np.array([condition_label(p, d, lv) for p, d, lv in gb.size().index], object)
     allr["condition"] = labels[gb.ngroup().to_numpy()]
     return ResponseData(trials=allr, files=files, skipped=skipped, stimulus_set_ids=sets, dropped_lines=dropped,
-                        mixed_files=mixed, sessions=session_summary(allr))
+                        mixed_files=mixed, sessions=session_summary(allr), withdrawn=withdrawn)
+
+
+def _split_withdrawn(files: list[Path]) -> tuple[list[Path], list[dict]]:
+    """(files to read, withdrawn sessions): a session folder's ``responses.csv`` with a
+    ``withdrawn.json`` beside it is left out unread (one ``stat`` per file)."""
+    keep, out = [], []
+    for f in files:
+        rec = withdrawal_record(f.parent) if f.name == "responses.csv" else None
+        if rec is None:
+            keep.append(f)
+            continue
+        out.append(dict(participant_id=str(rec.get("participant_id", f.parent.parent.name)),
+                        session_id=str(rec.get("session_id", f.parent.name)), file=str(f),
+                        withdrawn_utc=str(rec.get("withdrawn_utc", "?")), by=str(rec.get("by", "?")),
+                        reason=str(rec.get("reason", rec.get("unreadable", "")))))
+    return keep, out
 
 
 def _planned_trials(folder: Path) -> int | None:
@@ -542,6 +576,43 @@ def _count_matrix(sub: pd.DataFrame, codes: np.ndarray, keys: list[str], P: int)
     return cells, K, N
 
 
+HEADLINES = ("mean", "pooled")
+
+
+def participant_dprime_matrix(K: np.ndarray, N: np.ndarray, cr: np.ndarray, correction: str
+                              ) -> tuple[np.ndarray, np.ndarray]:
+    """Each participant's own d' of every row: ``(D, has)``, both (R, P).
+
+    ``D[r, p]`` = z(H) - z(F) from participant p's "incorrect" answers and trials in row r
+    (``K``, ``N``) and in its control row ``cr[r]``, corrected as ``correction``
+    (:func:`study.sdt.dprime_counts`); ``has[r, p]``: p saw row r and its controls (else
+    ``D`` is 0 there and p does not count for that row).
+    """
+    Kf, Nf = K[cr], N[cr]
+    has = (N > 0) & (Nf > 0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        D = dprime_counts(np.where(has, K, 0.0), np.where(has, N, 1.0), np.where(has, Kf, 0.0),
+                          np.where(has, Nf, 1.0), correction).dprime
+    return np.where(has, D, 0.0), has
+
+
+def mean_participant_dprime(K: np.ndarray, N: np.ndarray, cr: np.ndarray, correction: str
+                            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Mean and SD over participants of their own d' (Macmillan & Creelman 2005, sec. 11.2), how
+    many participants each row averages, and the mean of their ceilings (the largest the mean
+    could be with their trial counts): ``(mean, sd, n, ceiling)`` per row (NaN where n == 0; an
+    infinite individual d', possible only with ``correction="none"``, makes the mean infinite or NaN)."""
+    D, has = participant_dprime_matrix(K, N, cr, correction)
+    n = has.sum(1)
+    ceil = dprime_ceiling(np.where(has, N, 1.0), np.where(has, N[cr], 1.0), correction)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = np.where(n > 0, np.where(has, D, 0.0).sum(1) / np.maximum(n, 1), np.nan)
+        dev = np.where(has, D - mean[:, None], 0.0)
+        sd = np.where(n > 1, np.sqrt((dev ** 2).sum(1) / np.maximum(n - 1, 1)), np.nan)
+        mceil = np.where(n > 0, np.where(has, ceil, 0.0).sum(1) / np.maximum(n, 1), np.nan)
+    return mean, sd, n, mceil
+
+
 def cluster_bootstrap_dprime(K: np.ndarray, N: np.ndarray, cr: np.ndarray, *, correction: str, n_boot: int,
                              seed: int, ci: float = 0.95, chunk: int = 256) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Participant (cluster) bootstrap of the pooled d' of every row.
@@ -556,9 +627,36 @@ def cluster_bootstrap_dprime(K: np.ndarray, N: np.ndarray, cr: np.ndarray, *, co
     resamples in chunks of ``chunk`` (memory O(chunk x P)). Returns (ci_low, ci_high,
     n_defined) per row.
     """
+    return _cluster_bootstrap(K, N, cr, correction=correction, n_boot=n_boot, seed=seed, ci=ci, chunk=chunk)[0]
+
+
+def _quantiles(db: np.ndarray, ci: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    a = (1 - ci) / 2
+    n_def = np.isfinite(db).sum(0) + np.isinf(db).sum(0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        lo = np.nanquantile(db, a, axis=0)
+        hi = np.nanquantile(db, 1 - a, axis=0)
+    return lo, hi, n_def
+
+
+def _cluster_bootstrap(K: np.ndarray, N: np.ndarray, cr: np.ndarray, *, correction: str, n_boot: int, seed: int,
+                       ci: float = 0.95, chunk: int = 256, with_mean: bool = False):
+    """The participant bootstrap of :func:`cluster_bootstrap_dprime` and, with ``with_mean``, of
+    the mean of the per-participant d' (:func:`mean_participant_dprime`) on *the same*
+    resamples: a resample's mean is ``sum_p W_p has_p D_p / sum_p W_p has_p`` (a participant
+    drawn twice counts twice). Returns ``((lo, hi, n_def) pooled, (lo, hi, n_def) mean or None)``;
+    a row whose individual d' are not all finite (``correction="none"``) has no mean CI (NaN).
+    """
     R, P = K.shape
     rng = np.random.default_rng(seed)
     db = np.empty((n_boot, R))
+    if with_mean:
+        D, has = participant_dprime_matrix(K, N, cr, correction)
+        fin = np.isfinite(D)
+        Dm, Hm = np.where(has & fin, D, 0.0), has.astype(float)
+        mean_ok = (fin | ~has).all(1)
+        mb = np.empty((n_boot, R))
     for b0 in range(0, n_boot, chunk):
         b = min(chunk, n_boot - b0)
         W = rng.multinomial(P, np.full(P, 1.0 / P), size=b).astype(float)  # (b, P)
@@ -569,18 +667,26 @@ def cluster_bootstrap_dprime(K: np.ndarray, N: np.ndarray, cr: np.ndarray, *, co
         with np.errstate(divide="ignore"):
             d = dprime_counts(kh, nh, kf, nf, correction).dprime
         db[b0:b0 + b] = np.where(valid, d, np.nan)
-    a = (1 - ci) / 2
-    n_def = np.isfinite(db).sum(0) + np.isinf(db).sum(0)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)
-        lo = np.nanquantile(db, a, axis=0)
-        hi = np.nanquantile(db, 1 - a, axis=0)
-    return lo, hi, n_def
+        if with_mean:
+            den = W @ Hm.T
+            with np.errstate(invalid="ignore", divide="ignore"):
+                mb[b0:b0 + b] = np.where((den > 0) & mean_ok, (W @ Dm.T) / den, np.nan)
+    return _quantiles(db, ci), (_quantiles(mb, ci) if with_mean else None)
+
+
+#: Columns of :func:`condition_table` (``conditions.csv``), in order.
+CONDITION_COLUMNS = [
+    "group", "perturbation", "direction", "level", "condition", "n_trials", "n_participants", "n_rated_correct",
+    "n_incorrect", "pct_rated_correct", "pct_ci_low", "pct_ci_high", "hit_rate", "fa_rate", "n_control",
+    "control_source", "dprime", "dprime_uncorrected", "correction", "ceiling", "at_ceiling", "dprime_ci_low",
+    "dprime_ci_high", "n_boot", "n_boot_defined", "dprime_mean", "dprime_mean_ci_low", "dprime_mean_ci_high",
+    "dprime_mean_sd", "n_participants_dprime", "dprime_mean_ceiling", "headline", "dprime_headline", "dprime_headline_ci_low",
+    "dprime_headline_ci_high"]
 
 
 def condition_table(data: ResponseData | pd.DataFrame, *, level: str = "nominal_level", control: str = "group",
                     correction: str = "loglinear", n_boot: int = 2000, seed: int = 0,
-                    ci: float = 0.95) -> pd.DataFrame:
+                    ci: float = 0.95, headline: str = "mean") -> pd.DataFrame:
     """Mean % rated correct and d' per condition (tidy; one row per condition and per group's control).
 
     Columns: group, perturbation, direction, level, condition, n_trials,
@@ -590,7 +696,24 @@ def condition_table(data: ResponseData | pd.DataFrame, *, level: str = "nominal_
     pooled rates; +-inf at 0 or 1), correction, ceiling, at_ceiling,
     dprime_ci_low/high (participant bootstrap, percentile,
     :func:`cluster_bootstrap_dprime`), n_boot, n_boot_defined (resamples in which
-    the row was defined: fewer than n_boot when few participants saw it).
+    the row was defined: fewer than n_boot when few participants saw it);
+    dprime_mean (the mean over participants of each one's own d', Macmillan &
+    Creelman 2005, sec. 11.2; each participant's d' from their own hits in the
+    row and false alarms in its control row, same correction),
+    dprime_mean_ci_low/high (the same participant resamples as the pooled CI,
+    :func:`_cluster_bootstrap`), dprime_mean_sd (SD across participants),
+    n_participants_dprime (participants with trials in the row and its controls),
+    dprime_mean_ceiling (mean of those participants' ceilings: the largest mean
+    their trial counts allow under the correction);
+    headline (``"mean"`` or ``"pooled"``: which of the two the report leads with)
+    and dprime_headline/_ci_low/_ci_high (that one's values).
+
+    The two answer different questions. The pooled d' is the sensitivity of the
+    "average observer" built from pooled rates (the paper's Table 2); pooling
+    observers with different criteria biases it towards 0. The mean of individual
+    d' is the average sensitivity; with few trials per participant and cell, the
+    correction for rates of 0 and 1 (and the ceiling it implies) pulls each
+    individual d' towards 0, so the mean can lie below the pooled d' too.
 
     Cost is linear in the number of trials and participants: one grouped pass
     builds a (rows x participants) count matrix; the bootstrap is matrix products.
@@ -599,6 +722,8 @@ def condition_table(data: ResponseData | pd.DataFrame, *, level: str = "nominal_
         raise ValueError(f"correction must be one of {CORRECTIONS}")
     if control not in ("group", "pooled"):
         raise ValueError(f"control must be 'group' or 'pooled', got {control!r}")
+    if headline not in HEADLINES:
+        raise ValueError(f"headline must be one of {HEADLINES}, got {headline!r}")
     test = data.test if isinstance(data, ResponseData) else data[data["kind"] == "test"]
     if not len(test):
         raise StudyDataError("no test trials to analyse")
@@ -658,16 +783,25 @@ def condition_table(data: ResponseData | pd.DataFrame, *, level: str = "nominal_
     tab["correction"] = correction
     tab["ceiling"] = dp.ceiling
     tab["at_ceiling"] = np.where(is_ctl, False, dp.at_ceiling)
-    blo, bhi, n_def = cluster_bootstrap_dprime(K, N, cr, correction=correction, n_boot=n_boot, seed=seed, ci=ci)
+    (blo, bhi, n_def), (mlo, mhi, _) = _cluster_bootstrap(K, N, cr, correction=correction, n_boot=n_boot,
+                                                          seed=seed, ci=ci, with_mean=True)
     tab["dprime_ci_low"] = np.where(is_ctl, np.nan, blo)
     tab["dprime_ci_high"] = np.where(is_ctl, np.nan, bhi)
     tab["n_boot"] = n_boot
     tab["n_boot_defined"] = n_def
-    return tab.drop(columns=["control_row"])[
-        ["group", "perturbation", "direction", "level", "condition", "n_trials", "n_participants",
-         "n_rated_correct", "n_incorrect", "pct_rated_correct", "pct_ci_low", "pct_ci_high", "hit_rate", "fa_rate",
-         "n_control", "control_source", "dprime", "dprime_uncorrected", "correction", "ceiling", "at_ceiling",
-         "dprime_ci_low", "dprime_ci_high", "n_boot", "n_boot_defined"]]
+    mean, sd, n_p, mceil = mean_participant_dprime(K, N, cr, correction)
+    tab["dprime_mean"] = np.where(is_ctl, 0.0, mean)
+    tab["dprime_mean_ci_low"] = np.where(is_ctl, np.nan, mlo)
+    tab["dprime_mean_ci_high"] = np.where(is_ctl, np.nan, mhi)
+    tab["dprime_mean_sd"] = np.where(is_ctl, np.nan, sd)
+    tab["n_participants_dprime"] = n_p
+    tab["dprime_mean_ceiling"] = mceil
+    tab["headline"] = headline
+    src = "dprime_mean" if headline == "mean" else "dprime"
+    tab["dprime_headline"] = tab[src]
+    tab["dprime_headline_ci_low"] = tab[src + "_ci_low"]
+    tab["dprime_headline_ci_high"] = tab[src + "_ci_high"]
+    return tab.drop(columns=["control_row"])[CONDITION_COLUMNS]
 
 
 def participant_dprimes(data: ResponseData | pd.DataFrame, *, by: str = "condition", level: str = "nominal_level",
@@ -1063,11 +1197,16 @@ def analyze(responses: str | Path | ResponseData, out_dir: str | Path | None = N
             level: str = "nominal_level", control: str = "group", correction: str = "loglinear",
             link: str = "probit", n_boot: int = 2000, seed: int = 0, min_attention: float | None = None,
             allow_mixed_sets: bool = False, figures: bool = True, mixed: bool = True,
-            observer_model: bool = True, observer_ci: str = "profile") -> AnalysisResult:
+            observer_model: bool = True, observer_ci: str = "profile", headline: str = "mean") -> AnalysisResult:
     """Run the whole analysis; with ``out_dir``, write the tidy CSVs, figures and ``report.md``.
 
     ``min_attention``: exclude participants whose attention-check pass rate is
     below this (reported in the settings); None keeps everyone.
+    ``headline``: which group d' the report leads with and the d' figure shows
+    with its CI, ``"mean"`` (of the per-participant d', Macmillan & Creelman's
+    recommendation; default) or ``"pooled"`` (from pooled counts, as the paper's
+    Table 2); ``conditions.csv`` has both (:func:`condition_table`).
+    Withdrawn sessions are never read; ``settings["withdrawn_sessions"]`` lists them.
     ``observer_model``: also fit the observer model (:func:`study.observer_fit.fit_observer_model`:
     per error type threshold and slope of d'(x) = (x / threshold) ** slope, a shared
     criterion ``bias`` and a ``lapse`` rate, by maximum likelihood with ``observer_ci``
@@ -1078,6 +1217,8 @@ def analyze(responses: str | Path | ResponseData, out_dir: str | Path | None = N
     """
     if level not in ("nominal_level", "achieved_error"):
         raise ValueError(f"level must be 'nominal_level' or 'achieved_error', got {level!r}")
+    if headline not in HEADLINES:
+        raise ValueError(f"headline must be one of {HEADLINES}, got {headline!r}")
     if isinstance(responses, ResponseData):
         data = responses
         if level not in data.trials.columns or data.test[level].isna().any():
@@ -1091,13 +1232,11 @@ def analyze(responses: str | Path | ResponseData, out_dir: str | Path | None = N
         excluded = sorted(att.loc[att["pass_rate"] < min_attention, "participant_id"])
         if excluded:
             keep = ~data.trials["participant_id"].isin(excluded)
-            data = ResponseData(trials=data.trials[keep], files=data.files, skipped=data.skipped,
-                                stimulus_set_ids=data.stimulus_set_ids, dropped_lines=data.dropped_lines,
-                                mixed_files=data.mixed_files, sessions=data.sessions)
+            data = replace(data, trials=data.trials[keep])
             if not len(data.test):
                 raise StudyDataError(f"every participant failed the attention criterion {min_attention}")
     kw = dict(level=level, control=control, correction=correction)
-    cond = condition_table(data, n_boot=n_boot, seed=seed, **kw)
+    cond = condition_table(data, n_boot=n_boot, seed=seed, headline=headline, **kw)
     pc = participant_dprimes(data, by="condition", n_boot=n_boot, seed=seed, **kw)
     ps = participant_dprimes(data, by="series", n_boot=n_boot, seed=seed + 1, **kw)
     psy = fit_psychometric_glms(data, link=link, level=level, control=control)
@@ -1116,7 +1255,8 @@ def analyze(responses: str | Path | ResponseData, out_dir: str | Path | None = N
                                        n_participants=of.settings["n_participants"])
             if not of.converged:
                 obs_note = "observer model: the optimiser did not report convergence"
-    settings = dict(level_column=level, control=control, correction=correction, link=link, n_boot=n_boot,
+    settings = dict(level_column=level, control=control, correction=correction, link=link, headline=headline,
+                    n_boot=n_boot,
                     seed=seed, min_attention=min_attention, excluded_participants=excluded,
                     n_participants=len(data.participants), n_test_trials=int(len(data.test)),
                     stimulus_set_ids=data.stimulus_set_ids, n_files=len(data.files),
@@ -1125,6 +1265,9 @@ def analyze(responses: str | Path | ResponseData, out_dir: str | Path | None = N
                     incomplete_sessions=[f"{r.participant_id}/{r.session_id}: {r.n_answered} of {r.n_planned} trials "
                                          f"(planned: {r.planned_from})" for r in data.incomplete.itertuples()],
                     mixed_participant_files=[f"{f}: {', '.join(ids)}" for f, ids in data.mixed_files],
+                    withdrawn_sessions=[f"{w['participant_id']}/{w['session_id']}: withdrawn {w['withdrawn_utc']} by "
+                                        f"{w['by']}" + (f" ({w['reason']})" if w["reason"] else "")
+                                        for w in data.withdrawn],
                     observer_model=bool(observer_model), observer_ci=observer_ci, observer_model_note=obs_note)
     res = AnalysisResult(data=data, conditions=cond, participants_condition=pc, participants_series=ps,
                          psychometric=psy, mixed=mm, attention=att, settings=settings, observer_model=obs_tab)
@@ -1181,10 +1324,18 @@ def write_report(res: AnalysisResult, out_dir: str | Path, figures: bool = True)
     return files
 
 
+_HEADLINE_TEXT = {"mean": "the mean of the per-participant d' (Macmillan & Creelman's recommendation)",
+                  "pooled": "the pooled d' (counts pooled over participants, as the paper's Table 2)"}
+
+
 def report_markdown(res: AnalysisResult) -> str:
     s = res.settings
     c = res.conditions
+    head = s.get("headline", "pooled")
+    heads = (["mean d' (headline)", "95% CI", "pooled d'", "95% CI"] if head == "mean"
+             else ["pooled d' (headline)", "95% CI", "mean d'", "95% CI"])
     ceil = c.loc[c["perturbation"] != "none", "ceiling"]
+    mceil = c.loc[c["perturbation"] != "none", "dprime_mean_ceiling"]
     lines = [
         "# Perception study: analysis report", "",
         f"- participants: {s['n_participants']} "
@@ -1198,12 +1349,22 @@ def report_markdown(res: AnalysisResult) -> str:
           if s.get("incomplete_sessions") else []),
         *[f"- **file with several participants** (each analysed as their own): {d}"
           for d in s.get("mixed_participant_files", [])],
+        *([f"- **withdrawn sessions** (left out unread; data kept, marked by {WITHDRAWN_FILE}): "
+           f"{len(s['withdrawn_sessions'])}"] + [f"  - {d}" for d in s["withdrawn_sessions"]]
+          if s.get("withdrawn_sessions") else ["- withdrawn sessions: none"]),
         f"- stimulus set(s): {', '.join(s['stimulus_set_ids'])}",
         f"- d' = z(H) - z(F), H = P(\"incorrect\" | perturbed), F = P(\"incorrect\" | unperturbed, "
         f"{'same error group' if s['control'] == 'group' else 'all groups pooled'}); correction: "
         f"**{s['correction']}**; ceiling (largest attainable d') {ceil.min():.2f}-{ceil.max():.2f} "
         f"for these trial counts.",
-        f"- CIs: {s['n_boot']} bootstrap resamples, seed {s['seed']}: participants resampled for the group d'; "
+        f"- **headline d': {_HEADLINE_TEXT[s.get('headline', 'pooled')]}**; the table gives both, the mean of "
+        f"the per-participant d' (Macmillan & Creelman 2005, sec. 11.2: each participant's d' from their own "
+        f"hits and false alarms, then averaged) and the pooled d' (from counts pooled over participants, as the "
+        f"paper's Table 2); `--headline` chooses. With few trials per participant and condition the correction "
+        f"caps each individual d' (mean of the individual ceilings {mceil.min():.2f}-{mceil.max():.2f} here, "
+        f"`dprime_mean_ceiling`), so the mean saturates earlier than the pooled d'.",
+        f"- CIs: {s['n_boot']} bootstrap resamples, seed {s['seed']}: participants resampled for both group d' "
+        f"(the same resamples); "
         f"for individual d' binomial redraws at the corrected rates (so a rate of 0 or 1 still gets an "
         f"interval).",
         f"- psychometric: binomial GLM, {s['link']} link, regressor `{s['level_column']}`; SEs "
@@ -1213,12 +1374,21 @@ def report_markdown(res: AnalysisResult) -> str:
         "Gauss-Hermite quadrature (study.glmm; as lme4 glmer nAGQ); cross-checks: statsmodels "
         "BinomialBayesMixedGLM (variational Bayes) and GEE (exchangeable, robust SE) in mixed_model.csv.", "",
         "## Conditions", "",
-        "| group | condition | n | % rated correct | d' | 95% CI |", "|---|---|---|---|---|---|",
+        "| group | condition | n | % rated correct | " + " | ".join(heads) + " |", "|---|---|---|---|---|---|---|---|",
     ]
     for _, r in c.iterrows():
-        ci = "" if r["perturbation"] == "none" else f"[{r['dprime_ci_low']:.2f}, {r['dprime_ci_high']:.2f}]"
+        if r["perturbation"] == "none":
+            mean_c = pooled_c = ci_m = ci_p = ""
+        else:
+            ci_m = f"[{r['dprime_mean_ci_low']:.2f}, {r['dprime_mean_ci_high']:.2f}]"
+            ci_p = f"[{r['dprime_ci_low']:.2f}, {r['dprime_ci_high']:.2f}]"
+            mean_c = f"{r['dprime_mean']:.2f} (n={r['n_participants_dprime']})"
+            pooled_c = f"{r['dprime']:.2f}{' (ceiling)' if r['at_ceiling'] else ''}"
+        cells = [mean_c, ci_m, pooled_c, ci_p] if head == "mean" else [pooled_c, ci_p, mean_c, ci_m]
+        if head and r["perturbation"] != "none":
+            cells[0] = f"**{cells[0]}**"
         lines.append(f"| {r['group']} | {r['condition']} | {r['n_trials']} | {r['pct_rated_correct']:.1f} | "
-                     f"{r['dprime']:.2f}{' (ceiling)' if r['at_ceiling'] else ''} | {ci} |")
+                     + " | ".join(cells) + " |")
     lines += ["", "## Psychometric fits", "", "| error type | slope (d'/unit) | threshold (d'=1) | 95% CI |",
               "|---|---|---|---|"]
     for _, r in res.psychometric.iterrows():

@@ -41,7 +41,8 @@ def plot_ratings(res, ax=None):
         lo = np.r_[c["pct_ci_low"], d["pct_ci_low"]] if c is not None else d["pct_ci_low"]
         hi = np.r_[c["pct_ci_high"], d["pct_ci_high"]] if c is not None else d["pct_ci_high"]
         col = _COLOURS.get(s)
-        ax.errorbar(xs, ys, yerr=[ys - lo, hi - ys], marker="o", capsize=3, color=col, label=f"{s[0]} {s[1]}")
+        yerr = np.clip([ys - lo, hi - ys], 0, None)  # (a bound equal to the estimate may differ by rounding)
+        ax.errorbar(xs, ys, yerr=yerr, marker="o", capsize=3, color=col, label=f"{s[0]} {s[1]}")
     ax.set_xlabel("error level (nominal)")
     ax.set_ylabel("% rated correct")
     ax.set_ylim(0, 100)
@@ -52,29 +53,40 @@ def plot_ratings(res, ax=None):
 
 
 def plot_dprime(res, ax=None, truth=None):
-    """d' per condition with bootstrap CIs; ``truth(perturbation, direction, level)`` overlays true values."""
+    """The headline d' per condition with its bootstrap CI (filled markers), the other estimate
+    (pooled or mean of participants) as open markers; ``truth(perturbation, direction, level)``
+    overlays true values."""
     plt = _plt()
     cond = res.conditions if hasattr(res, "conditions") else res
     fig, ax = (ax.figure, ax) if ax is not None else plt.subplots(figsize=(7, 4.2))
     ser = _series(cond)
+    head = str(cond["headline"].iloc[0]) if "headline" in cond.columns and len(cond) else "pooled"
+    main = "dprime_mean" if head == "mean" else "dprime"
+    other = "dprime" if head == "mean" else "dprime_mean"
+    names = {"dprime_mean": "mean of participants' d'", "dprime": "pooled d'"}
     for j, s in enumerate(ser):
         d = cond[(cond["perturbation"] == s[0]) & (cond["direction"] == s[1])].sort_values("level")
         off = (j - (len(ser) - 1) / 2) * 0.4
         col = _COLOURS.get(s)
-        ax.errorbar(d["level"] + off, d["dprime"], yerr=[d["dprime"] - d["dprime_ci_low"],
-                                                          d["dprime_ci_high"] - d["dprime"]],
+        yerr = np.clip([d[main] - d[main + "_ci_low"], d[main + "_ci_high"] - d[main]], 0, None)
+        ax.errorbar(d["level"] + off, d[main], yerr=yerr,
                     marker="o", capsize=3, color=col, label=f"{s[0]} {s[1]}")
+        if other in d.columns:
+            ax.plot(d["level"] + off, d[other], ls="none", marker="o", mfc="none", color=col, alpha=0.7,
+                    label=f"({names[other]})" if j == 0 else None)
         if truth is not None:
             xs = np.linspace(0, d["level"].max() * 1.05, 100)
             ax.plot(xs, truth(s[0], s[1], xs), color=col, ls=":", lw=1)
     p = cond[cond["perturbation"] != "none"]
-    if len(p) and np.isfinite(p["ceiling"]).any():
-        ax.axhline(p["ceiling"].min(), color="0.5", ls="--", lw=0.8, label=f"ceiling ({p['correction'].iloc[0]})")
+    col_ceil = "dprime_mean_ceiling" if head == "mean" and "dprime_mean_ceiling" in p.columns else "ceiling"
+    if len(p) and np.isfinite(p[col_ceil]).any():
+        what = "mean of participants' ceilings" if col_ceil != "ceiling" else "ceiling"
+        ax.axhline(p[col_ceil].min(), color="0.5", ls="--", lw=0.8, label=f"{what} ({p['correction'].iloc[0]})")
     ax.axhline(0, color="k", lw=0.8)
     ax.set_xlabel("error level (nominal)")
     ax.set_ylabel("d'")
     ax.legend(fontsize=8)
-    ax.set_title("Sensitivity vs unperturbed motions (participant bootstrap 95% CI)")
+    ax.set_title(f"Sensitivity: {names[main]} (participant bootstrap 95% CI)")
     return fig
 
 

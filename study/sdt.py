@@ -130,4 +130,7 @@ def wilson_interval(k, n, level: float = 0.95):
     den = 1 + z * z / n
     centre = (p + z * z / (2 * n)) / den
     half = z * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / den
-    return centre - half, centre + half
+    # exact at the ends (k = 0: lower bound 0; k = n: upper bound 1), not 1e-16 off by rounding
+    lo = np.where(k == 0, 0.0, centre - half)
+    hi = np.where(k == n, 1.0, centre + half)
+    return lo[()], hi[()]

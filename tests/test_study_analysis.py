@@ -55,6 +55,9 @@ def test_wilson_interval_agrees_with_statsmodels():
     slo, shi = proportion_confint(k, n, method="wilson")
     np.testing.assert_allclose(lo, slo, atol=1e-12)
     np.testing.assert_allclose(hi, shi, atol=1e-12)
+    # exact at the ends (rounding once left 7e-16 below a rate of 0, a negative error bar in plot_ratings)
+    lo, hi = wilson_interval(np.array([0, 48]), np.array([48, 48]))
+    assert lo[0] == 0.0 and hi[1] == 1.0 and lo[1] < 1 and hi[0] > 0
 
 
 # ------------------------------------------------------------ fixtures
@@ -693,3 +696,131 @@ def test_columns_with_many_distinct_values_are_read_unchanged_without_interning(
     b = load_responses(tmp_path / "data").trials
     pd.testing.assert_frame_equal(a, b)
     assert len({id(v) for v in b["stimulus_id"]}) > len(set(b["stimulus_id"]))  # not interned past the cap
+
+
+# ------------------------------------------- mean of per-participant d' (issue 19 item 6)
+def _mean_dprime_dataset(root: Path):
+    """One condition (am_abrupt/increase/25) and its group's controls, 4 + 4 trials each.
+
+    hits/4 and false alarms/4: P1 4 and 0 (rates 1 and 0: the correction decides), P2 2 and 1,
+    P3 3 and 2; P4 saw only controls (no d' of their own for the condition).
+    """
+    spec = {"P1": (4, 0), "P2": (2, 1), "P3": (3, 2), "P4": (None, 1)}
+    for pid, (hits, fas) in spec.items():
+        rows, ti = [], 0
+        for i in range(4):
+            rows.append(_row(pid, "S1", ti, "none", "none", 0, "incorrect" if i < fas else "correct",
+                             "angular_momentum"))
+            ti += 1
+        for i in range(4 if hits is not None else 0):
+            rows.append(_row(pid, "S1", ti, "am_abrupt", "increase", 25, "incorrect" if i < hits else "correct",
+                             "angular_momentum"))
+            ti += 1
+        _write(root / pid / "S1" / "responses.csv", rows)
+
+
+def test_mean_of_participant_dprimes_hand_computed(tmp_path):
+    """Known counts per participant, d' worked out by hand from a z table.
+
+    log-linear (Hautus 1995: (k + 0.5) / (n + 1)), n = 4 per cell:
+      P1: H = 4.5/5 = 0.9, F = 0.5/5 = 0.1   d' = 2 z(0.9) = 2 x 1.2815515655 = 2.5631031311
+      P2: H = 2.5/5 = 0.5, F = 1.5/5 = 0.3   d' = 0 - z(0.3) = 0.5244005127
+      P3: H = 3.5/5 = 0.7, F = 2.5/5 = 0.5   d' = z(0.7) - 0 = 0.5244005127
+      mean = 3.6119041565 / 3 = 1.2039680522; SD (n - 1) = sqrt(2.7708651 / 2) = 1.1770455
+      pooled (P1-P3 hits 9/12; P1-P4 false alarms 4/16): z(9.5/13) - z(4.5/17)
+    1/(2N) (Macmillan & Kaplan 1985: only 0 -> 1/(2n), 1 -> 1 - 1/(2n)):
+      P1: H = 7/8, F = 1/8                   d' = 2 z(0.875) = 2 x 1.1503493804 = 2.3006987608
+      P2: H = 0.5, F = 0.25                  d' = z(0.75) = 0.6744897502
+      P3: H = 0.75, F = 0.5                  d' = 0.6744897502
+      mean = 3.6496782612 / 3 = 1.2165594204
+    """
+    _mean_dprime_dataset(tmp_path)
+    data = load_responses(tmp_path)
+    key = ("angular_momentum", "am_abrupt/increase/25")
+    ll = condition_table(data, correction="loglinear", n_boot=300, seed=4).set_index(["group", "condition"]).loc[key]
+    assert ll["dprime_mean"] == pytest.approx(1.2039680522, abs=1e-9)
+    assert ll["dprime_mean_sd"] == pytest.approx(1.1770455, abs=1e-6)
+    assert ll["n_participants_dprime"] == 3 and ll["n_participants"] == 3
+    assert ll["dprime"] == pytest.approx(norm.ppf(9.5 / 13) - norm.ppf(4.5 / 17))  # pooled, unchanged
+    assert ll["headline"] == "mean" and ll["dprime_headline"] == ll["dprime_mean"]
+    assert (ll["dprime_headline_ci_low"], ll["dprime_headline_ci_high"]) == (ll["dprime_mean_ci_low"],
+                                                                            ll["dprime_mean_ci_high"])
+    assert ll["dprime_mean_ci_low"] <= ll["dprime_mean"] <= ll["dprime_mean_ci_high"]
+    # a resample's mean lies between the smallest and the largest individual d'
+    assert 0.5244005127 - 1e-9 <= ll["dprime_mean_ci_low"] and ll["dprime_mean_ci_high"] <= 2.5631031311 + 1e-9
+    h2 = condition_table(data, correction="1/(2N)", n_boot=300, seed=4).set_index(["group", "condition"]).loc[key]
+    assert h2["dprime_mean"] == pytest.approx(1.2165594204, abs=1e-9)
+    # the same d' as participants_condition.csv gives each participant, averaged
+    pc = participant_dprimes(data, correction="loglinear", n_boot=10)
+    assert pc["dprime"].mean() == pytest.approx(ll["dprime_mean"], abs=1e-12)
+    assert sorted(pc["dprime"].round(9)) == [0.524400513, 0.524400513, 2.563103131]
+    pooled_head = condition_table(data, n_boot=50, headline="pooled").set_index(["group", "condition"]).loc[key]
+    assert pooled_head["headline"] == "pooled" and pooled_head["dprime_headline"] == pooled_head["dprime"]
+    with pytest.raises(ValueError, match="headline"):
+        condition_table(data, n_boot=10, headline="median")
+
+
+def test_mean_dprime_bootstrap_is_the_participant_bootstrap_of_the_mean(tmp_path):
+    """The vectorised interval equals a plain loop over the same participant resamples."""
+    _mean_dprime_dataset(tmp_path)
+    data = load_responses(tmp_path)
+    n_boot, seed = 300, 7
+    row = condition_table(data, n_boot=n_boot, seed=seed).set_index("condition").loc["am_abrupt/increase/25"]
+    d_of = {"P1": 2 * norm.ppf(0.9), "P2": -norm.ppf(0.3), "P3": norm.ppf(0.7)}  # P4: no d'
+    parts = ["P1", "P2", "P3", "P4"]
+    rng = np.random.default_rng(seed)
+    means = []
+    for b0 in range(0, n_boot, 256):  # the same draws, in the same chunks, as the analysis
+        W = rng.multinomial(4, np.full(4, 0.25), size=min(256, n_boot - b0))
+        for w in W:
+            drawn = [p for p, k in zip(parts, w) for _ in range(k) if p in d_of]
+            means.append(np.mean([d_of[p] for p in drawn]) if drawn else np.nan)
+    lo, hi = np.nanquantile(means, [0.025, 0.975])
+    assert row["dprime_mean_ci_low"] == pytest.approx(lo, abs=1e-12)
+    assert row["dprime_mean_ci_high"] == pytest.approx(hi, abs=1e-12)
+
+
+def test_report_states_the_headline_and_lists_both_dprimes(tmp_path):
+    _mean_dprime_dataset(tmp_path / "data")
+    res = analyze(tmp_path / "data", tmp_path / "rep", n_boot=50, figures=False, mixed=False, observer_model=False)
+    md = (tmp_path / "rep" / "report.md").read_text()
+    assert "headline d': the mean of the per-participant d' (Macmillan & Creelman's recommendation)" in md
+    assert "| mean d' (headline) | 95% CI | pooled d' | 95% CI |" in md
+    r = res.conditions.set_index("condition").loc["am_abrupt/increase/25"]
+    assert f"**{r['dprime_mean']:.2f} (n=3)**" in md and f"| {r['dprime']:.2f} |" in md
+    assert res.settings["headline"] == "mean"
+    analyze(tmp_path / "data", tmp_path / "rep2", n_boot=50, figures=True, mixed=False, observer_model=False,
+            headline="pooled")
+    md2 = (tmp_path / "rep2" / "report.md").read_text()
+    assert "headline d': the pooled d'" in md2 and "| pooled d' (headline) | 95% CI | mean d' | 95% CI |" in md2
+
+
+def test_withdrawn_sessions_are_left_out_and_listed(tmp_path, capsys):
+    from mocomp.cli import main
+    from study.session import WITHDRAWN_FILE
+
+    _known_dataset(tmp_path)
+    full = analyze(tmp_path, None, n_boot=20, figures=False, mixed=False, observer_model=False)
+    assert full.settings["n_participants"] == 2 and full.settings["withdrawn_sessions"] == []
+    (tmp_path / "P2" / "S1" / WITHDRAWN_FILE).write_text(
+        '{"participant_id": "P2", "session_id": "S1", "withdrawn_utc": "2026-12-01T10:00:00.000+00:00", '
+        '"by": "participant", "reason": "debrief screen"}')
+    res = analyze(tmp_path, tmp_path / "rep", n_boot=20, figures=False, mixed=False, observer_model=False)
+    assert res.data.participants == ["P1"] and res.settings["n_participants"] == 1
+    assert res.data.withdrawn[0]["participant_id"] == "P2" and res.data.withdrawn[0]["by"] == "participant"
+    assert res.settings["withdrawn_sessions"] == ["P2/S1: withdrawn 2026-12-01T10:00:00.000+00:00 by participant "
+                                                  "(debrief screen)"]
+    a = res.conditions.set_index("condition").loc["am_abrupt/increase/25"]
+    assert a["n_trials"] == 10 and a["hit_rate"] == pytest.approx(0.6)  # P1's 6 of 10 only
+    md = (tmp_path / "rep" / "report.md").read_text()
+    assert "**withdrawn sessions** (left out unread" in md and "P2/S1: withdrawn" in md
+    assert main(["study", "analyze", str(tmp_path), "-o", str(tmp_path / "rep3"), "--n-boot", "20",
+                 "--no-figures", "--no-observer-model"]) == 0
+    assert "1 participants (1 withdrawn session(s) left out)" in capsys.readouterr().out
+    # a withdrawn session is not even read: a broken file there does not stop the analysis
+    (tmp_path / "P2" / "S1" / "responses.csv").write_text("garbage\n")
+    assert analyze(tmp_path, None, n_boot=20, figures=False, mixed=False, observer_model=False).settings[
+        "n_participants"] == 1
+    (tmp_path / "P1" / "S1" / WITHDRAWN_FILE).write_text("{}")
+    with pytest.raises(StudyDataError, match="every session here \\(2\\) is withdrawn"):
+        load_responses(tmp_path)
