@@ -39,7 +39,8 @@ from ..core.skeleton import Skeleton
 __all__ = [
     "configure_offscreen", "RenderStyle", "Camera", "fit_camera", "BoneCapsule", "bone_capsules",
     "MotionRenderer", "VideoResult", "write_video", "render_still", "render_filmstrip", "save_png",
-    "joint_matrices", "video_frame_times", "same_skeleton",
+    "joint_matrices", "video_frame_times", "same_skeleton", "add_lights", "add_ground", "add_characters",
+    "apply_camera", "place_bones",
 ]
 
 #: VTK render-window classes for headless rendering, by short name.
@@ -366,6 +367,88 @@ def _checker_texture(colors):
     return tex
 
 
+
+# ------------------------------------------------------------- scene parts
+def add_lights(pl, style: RenderStyle, only_active: bool = False) -> None:
+    """Key light (along ``style.light_direction``, the shadows' light), fill light and a head light
+    on the plotter ``pl`` (its active renderer only with ``only_active``: one panel of several)."""
+    import pyvista as pv
+
+    ld = np.asarray(style.light_direction, float)
+    ld /= np.linalg.norm(ld)
+    key = pv.Light(position=tuple(-ld * 10.0), focal_point=(0, 0, 0), intensity=0.85, light_type="scene light")
+    fill = pv.Light(position=(-3.0, 2.0, 6.0), focal_point=(0, 0, 0), intensity=0.35, light_type="scene light")
+    head = pv.Light(intensity=0.25, light_type="headlight")
+    for lt in (key, fill, head):
+        pl.add_light(lt, only_active=only_active)
+
+
+def add_ground(pl, style: RenderStyle):
+    """The checkered ground plane at ``y = 0`` on ``pl``'s active renderer; returns its actor."""
+    import pyvista as pv
+
+    gs, gc = style.ground_half_size, style.ground_center
+    plane = pv.Plane(center=(gc[0], 0.0, gc[1]), direction=(0, 1, 0), i_size=2 * gs, j_size=2 * gs,
+                     i_resolution=1, j_resolution=1)
+    tiles = 2 * gs / style.ground_tile
+    tc = np.asarray(plane.active_texture_coordinates) * (tiles / 2.0)
+    plane.active_texture_coordinates = tc
+    return pl.add_mesh(plane, texture=_checker_texture(style.ground_colors), ambient=0.45, diffuse=0.6,
+                       specular=0.0, reset_camera=False)
+
+
+def add_characters(pl, style: RenderStyle, capsules, colors) -> tuple[list, list, list]:
+    """One copy of the capsule character per colour in ``colors`` on ``pl``'s active renderer.
+
+    Returns ``(mats, shadow_mats, actors)``, one list per character: the ``vtkMatrix4x4`` user
+    matrix of each bone actor, of each shadow actor (empty without shadows), and all its actors
+    (bones and shadows interleaved)."""
+    import vtk
+
+    meshes = [_capsule_mesh(b, style.resolution) for b in capsules]
+    # flat grey silhouettes need fewer facets (halves the triangles llvmpipe sets up)
+    smeshes = [_capsule_mesh(b, max(4, style.resolution // 2 + 1)) for b in capsules]
+    all_mats, all_smats, all_acts = [], [], []
+    for color in colors:
+        mats, smats, acts = [], [], []
+        for mesh, smesh in zip(meshes, smeshes):
+            a = pl.add_mesh(mesh, color=tuple(color), smooth_shading=True, ambient=0.25, diffuse=0.75,
+                            specular=0.15, specular_power=20.0, reset_camera=False)
+            m = vtk.vtkMatrix4x4()
+            a.SetUserMatrix(m)
+            mats.append(m)
+            acts.append(a)
+            if style.shadow:
+                s = pl.add_mesh(smesh, color=style.shadow_color, lighting=False, reset_camera=False)
+                sm = vtk.vtkMatrix4x4()
+                s.SetUserMatrix(sm)
+                smats.append(sm)
+                acts.append(s)
+        all_mats.append(mats)
+        all_smats.append(smats)
+        all_acts.append(acts)
+    return all_mats, all_smats, all_acts
+
+
+def apply_camera(vtk_camera, camera: Camera) -> None:
+    """Set a VTK/PyVista camera from a :class:`Camera`."""
+    vtk_camera.position = camera.position
+    vtk_camera.focal_point = camera.focal_point
+    vtk_camera.up = camera.view_up
+    vtk_camera.view_angle = camera.view_angle
+    vtk_camera.clipping_range = (0.05, 200.0)
+
+
+def place_bones(mats, shadow_mats, S: np.ndarray, B: np.ndarray) -> None:
+    """Copy the bone transforms ``B`` ``(n_bones, 4, 4)`` into the bone actors' user matrices
+    ``mats`` and their planar projections ``S @ B`` into ``shadow_mats`` (may be empty)."""
+    for m, b in zip(mats, B):
+        m.DeepCopy(b.ravel())
+    if shadow_mats:
+        for m, b in zip(shadow_mats, S @ B):
+            m.DeepCopy(b.ravel())
+
+
 def same_skeleton(a: Skeleton, b: Skeleton) -> bool:
     """Same joints, hierarchy, offsets and end sites (one character can draw both)."""
     if a is b:
@@ -415,50 +498,10 @@ class MotionRenderer:
         self._pl = pl
         pl.ren_win.SetMultiSamples(int(style.multi_samples))
         pl.set_background(style.background)
-        # Lights: key (along light_direction, the shadow's light), fill, ambient-ish head light.
-        ld = np.asarray(style.light_direction, float)
-        ld /= np.linalg.norm(ld)
-        key = pv.Light(position=tuple(-ld * 10.0), focal_point=(0, 0, 0), intensity=0.85, light_type="scene light")
-        fill = pv.Light(position=(-3.0, 2.0, 6.0), focal_point=(0, 0, 0), intensity=0.35, light_type="scene light")
-        head = pv.Light(intensity=0.25, light_type="headlight")
-        for lt in (key, fill, head):
-            pl.add_light(lt)
-
-        # Ground: a checkered plane at y = 0.
-        gs, gc = style.ground_half_size, style.ground_center
-        plane = pv.Plane(center=(gc[0], 0.0, gc[1]), direction=(0, 1, 0), i_size=2 * gs, j_size=2 * gs,
-                         i_resolution=1, j_resolution=1)
-        tiles = 2 * gs / style.ground_tile
-        tc = np.asarray(plane.active_texture_coordinates) * (tiles / 2.0)
-        plane.active_texture_coordinates = tc
-        pl.add_mesh(plane, texture=_checker_texture(style.ground_colors), ambient=0.45, diffuse=0.6,
-                    specular=0.0, reset_camera=False)
-
+        add_lights(pl, style)
+        self.ground_actor = add_ground(pl, style)
         # Characters: one actor per bone (and per shadow), moved by user matrices.
-        meshes = [_capsule_mesh(b, style.resolution) for b in self.capsules]
-        # flat grey silhouettes need fewer facets (halves the triangles llvmpipe sets up)
-        smeshes = [_capsule_mesh(b, max(4, style.resolution // 2 + 1)) for b in self.capsules]
-        self._mats: list[list] = []
-        self._shadow_mats: list[list] = []
-        self._actors: list[list] = []
-        for k in range(n_characters):
-            mats, smats, acts = [], [], []
-            for mesh, smesh in zip(meshes, smeshes):
-                a = pl.add_mesh(mesh, color=tuple(colors[k]), smooth_shading=True, ambient=0.25, diffuse=0.75,
-                                specular=0.15, specular_power=20.0, reset_camera=False)
-                m = vtk.vtkMatrix4x4()
-                a.SetUserMatrix(m)
-                mats.append(m)
-                acts.append(a)
-                if style.shadow:
-                    s = pl.add_mesh(smesh, color=style.shadow_color, lighting=False, reset_camera=False)
-                    sm = vtk.vtkMatrix4x4()
-                    s.SetUserMatrix(sm)
-                    smats.append(sm)
-                    acts.append(s)
-            self._mats.append(mats)
-            self._shadow_mats.append(smats)
-            self._actors.append(acts)
+        self._mats, self._shadow_mats, self._actors = add_characters(pl, style, self.capsules, colors)
         if camera is not None:
             self.set_camera(camera)
         self._arr = vtk.vtkUnsignedCharArray()
@@ -470,22 +513,11 @@ class MotionRenderer:
     # -- scene control
     def set_camera(self, camera: Camera) -> None:
         self.camera = camera
-        cam = self._pl.camera
-        cam.position = camera.position
-        cam.focal_point = camera.focal_point
-        cam.up = camera.view_up
-        cam.view_angle = camera.view_angle
-        cam.clipping_range = (0.05, 200.0)
+        apply_camera(self._pl.camera, camera)
 
     def set_pose(self, character: int, M: np.ndarray) -> None:
         """Place character ``character`` with joint transforms ``M`` ``(J, 4, 4)``."""
-        B = M[self._bone_joint]
-        for m, b in zip(self._mats[character], B):
-            m.DeepCopy(b.ravel())
-        if self._shadow_mats[character]:
-            SB = self._S @ B
-            for m, b in zip(self._shadow_mats[character], SB):
-                m.DeepCopy(b.ravel())
+        place_bones(self._mats[character], self._shadow_mats[character], self._S, M[self._bone_joint])
 
     def set_visible(self, character: int, visible: bool) -> None:
         for a in self._actors[character]:
