@@ -525,7 +525,14 @@ def register_withdraw(subparsers) -> argparse.ArgumentParser:
 def run_withdraw(args) -> int:
     from .session import withdraw_session
 
-    rec, newly = withdraw_session(args.data, args.participant, args.session, by="experimenter", reason=args.reason)
+    from mocomp.errors import SessionLockedError
+
+    try:
+        rec, newly = withdraw_session(args.data, args.participant, args.session, by="experimenter",
+                                      reason=args.reason)
+    except SessionLockedError as e:
+        raise SessionLockedError(f"{e}; nothing was marked: withdraw on the app's debrief screen, or stop its "
+                                 "`mocomp study run` and run this again") from None
     folder = Path(args.data) / args.participant / args.session
     if newly:
         print(f"{args.participant}/{args.session}: withdrawn ({rec['n_responses']} responses kept unchanged in "

@@ -19,7 +19,9 @@ BAD_BVH = ("HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHANNELS 3 Xposition Ypos
            "MOTION\nFrames: 2\nFrame Time: 0.01\n0 0 0\n0 zero 0\n")
 
 #: commands that take no input file: argv (after the command) with a bad value
-NO_FILE_CASES = {"demo": ["--flips", "0", "-o", "{tmp}/demo"]}
+NO_FILE_CASES = {"demo": ["--flips", "0", "-o", "{tmp}/demo"],
+                 # (keyed by the whole command path where one sub-command takes no file)
+                 "study withdraw": ["--participant", "P1", "--session", "S1", "--data", "{tmp}/no-such-data"]}
 
 
 def _sub_actions(parser: argparse.ArgumentParser):
@@ -69,8 +71,9 @@ def _suffix(action) -> str:
 def _bad_argv(path, parser, tmp_path):
     bad = tmp_path / "bad.bvh"
     bad.write_text(BAD_BVH)
-    if path[0] in NO_FILE_CASES:
-        return [*path, *(a.format(tmp=tmp_path) for a in NO_FILE_CASES[path[0]])], None
+    for key in (" ".join(path), path[0]):
+        if key in NO_FILE_CASES:
+            return [*path, *(a.format(tmp=tmp_path) for a in NO_FILE_CASES[key])], None
     argv, used_file = list(path), False
     for a in parser._actions:
         if isinstance(a, (argparse._HelpAction, argparse._VersionAction)):

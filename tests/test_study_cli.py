@@ -432,3 +432,71 @@ def test_server_dies_with_a_parent_killed_by_sigkill(tmp_path):
             os.kill(server, signal.SIGKILL)
         except (ProcessLookupError, PermissionError, UnboundLocalError):
             pass
+
+
+def test_withdraw_command_and_run_refuses_a_withdrawn_session(tmp_path, capsys):
+    """`mocomp study withdraw` marks a session (nothing deleted), says so, is idempotent; bad input is
+    one line, exit 2; `study run` then refuses the session before starting anything."""
+    from study.controller import TrialController, run_headless
+    from study.session import Session
+
+    stim = make_placeholder_set(tmp_path / "s", {("takeoff", "increase"): (20,)}, base_clips=("a",), n_frames=4)
+    data = tmp_path / "d"
+    with Session.open(data, "P1", "S1", stim) as s:
+        ctl = TrialController(s)
+        for _ in range(2):
+            ctl.show()
+            ctl.respond("correct", input="test")
+        folder = s.folder
+    rows = (folder / "responses.csv").read_bytes()
+    wd = ["study", "withdraw", "--participant", "P1", "--session", "S1", "--data", str(data)]
+    assert main(wd + ["--reason", "asked by e-mail"]) == 0
+    out = capsys.readouterr().out
+    assert "P1/S1: withdrawn (2 responses kept unchanged" in out and "excludes the session" in out
+    rec = json.loads((folder / "withdrawn.json").read_text())
+    assert rec["by"] == "experimenter" and rec["reason"] == "asked by e-mail"
+    assert (folder / "responses.csv").read_bytes() == rows
+    assert main(wd) == 0
+    assert "already withdrawn" in capsys.readouterr().out
+    assert json.loads((folder / "withdrawn.json").read_text()) == rec
+    # run refuses it (before any server; one line, exit 2)
+    assert main(["study", "run", "--participant", "P1", "--session", "S1", "--manifest", str(stim.path),
+                 "--data", str(data), "--print-config"]) == 2
+    err = capsys.readouterr().err
+    assert "was withdrawn" in err and len(err.strip().splitlines()) == 1
+    # bad input
+    assert main(["study", "withdraw", "--participant", "P7", "--session", "S1", "--data", str(data)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("mocomp study: error: ") and "no session P7/S1" in err
+    assert len(err.strip().splitlines()) == 1
+    # a session open in a running app is refused, not marked
+    with Session.open(data, "P2", "S1", stim) as s2:
+        assert main(["study", "withdraw", "--participant", "P2", "--session", "S1", "--data", str(data)]) == 2
+        err = capsys.readouterr().err
+        assert "already open" in err and "nothing was marked" in err and len(err.strip().splitlines()) == 1
+        assert not (s2.folder / "withdrawn.json").exists()
+        run_headless(TrialController(s2), lambda v: ("correct", 0.5))  # the session goes on normally
+    assert main(["study", "withdraw", "--participant", "P2", "--session", "S1", "--data", str(data)]) == 0
+    assert "P2/S1: withdrawn (4 responses" in capsys.readouterr().out  # all 4 trials of the plan
+
+
+def test_run_options_for_breaks_and_contact(tmp_path, capsys):
+    stim = make_placeholder_set(tmp_path / "s", {("takeoff", "increase"): (20,)}, base_clips=("a",), n_frames=4)
+    base = ["study", "run", "--participant", "P1", "--session", "S1", "--manifest", str(stim.path),
+            "--data", str(tmp_path / "d"), "--print-config"]
+    assert main(base + ["--break-every", "0", "--break-s", "90", "--contact", "lab@uni.example"]) == 0
+    cfg = json.loads(capsys.readouterr().out)
+    assert cfg["design"] == {"break_every": 0, "break_s": 90.0} and cfg["texts"] == {"contact": "lab@uni.example"}
+    from study.design import DesignConfig
+
+    assert DesignConfig.from_dict(cfg["design"]).break_every is None  # 0 = no breaks
+    texts = tmp_path / "texts.json"
+    texts.write_text(json.dumps({"contact": "from the file", "title": "Pilot"}))
+    assert main(base + ["--texts", str(texts), "--contact", "from the command line"]) == 0
+    assert json.loads(capsys.readouterr().out)["texts"] == {"contact": "from the command line", "title": "Pilot"}
+    texts.write_text(json.dumps({"contakt": "typo"}))
+    assert main(base + ["--texts", str(texts)]) == 2
+    err = capsys.readouterr().err
+    assert "contakt" in err and "fields: title" in err and len(err.strip().splitlines()) == 1
+    assert main(base + ["--break-every", "-1"]) == 2
+    assert "--break-every must be >= 0" in capsys.readouterr().err
