@@ -28,7 +28,7 @@ COMMAND_MODULES: list[str] = [
     "flips",
     "demo",
     "edit", "join", "twist",
-    "audit",
+    "audit", "render",
 ]
 
 

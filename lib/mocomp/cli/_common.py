@@ -8,6 +8,7 @@ import argparse
 import math
 import os
 import sys
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -97,6 +98,46 @@ def fps_arg(text: str) -> float:
     return v
 
 
+def render_output_arg(text: str) -> Path:
+    """An output of :func:`mocomp.plots.render_audit.render_with_audit` (``mocomp render -o``, every
+    command's ``--render``): a ``.mp4``, ``.gif`` or ``.png`` file in an existing, writable folder,
+    checked at parse time (before a command does its work)."""
+    from ..plots.render_audit import output_kind
+
+    out = Path(text)
+    try:
+        output_kind(out)
+        check_output_path(out, "render output")
+    except (ValueError, OSError) as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+    return out
+
+
+def frames_arg(text: str) -> tuple[int | None, int | None]:
+    """``A:B``: a half-open frame range (``A:`` / ``:B`` leave an end open); checked against the
+    motion's frame count when it is loaded (:func:`mocomp.plots.render_audit.resolve_frames`)."""
+    from ..plots.render_audit import parse_frames
+
+    try:
+        a, b = parse_frames(text)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+    if a is not None and b is not None and b - a < 2:
+        raise argparse.ArgumentTypeError(f"frames {text}: the range must hold at least 2 frames (A < B - 1)")
+    return a, b
+
+
+def size_arg(text: str) -> tuple[int, int]:
+    """``WxH``: an image size in pixels, even numbers in [16, 8192] (H.264 needs even sizes)."""
+    w, sep, h = text.lower().partition("x")
+    if not sep or not w.isdigit() or not h.isdigit():
+        raise argparse.ArgumentTypeError(f"size {text!r} must be WIDTHxHEIGHT in pixels, e.g. 640x480")
+    w, h = int(w), int(h)
+    if not all(16 <= v <= 8192 and v % 2 == 0 for v in (w, h)):
+        raise argparse.ArgumentTypeError(f"size {text}: width and height must be even numbers in [16, 8192]")
+    return w, h
+
+
 def check_output_path(out: Path, what: str = "output") -> Path:
     """Fail early, with one clear line, when ``out`` cannot be written as a file.
 
@@ -164,10 +205,14 @@ PLANNED_NOTE = ("every key but 'audit' and 'provenance' holds the method's model
 
 
 def add_audit_arg(p: argparse.ArgumentParser) -> None:
-    """``--no-audit``: skip the audit of the written motion (issue #13 section 2)."""
+    """``--no-audit``: skip the audit of the written motion (issue #13 section 2); ``--render FILE``:
+    draw the written motion with its audit, beside the input (issue #13 section 4; :func:`finish_audit`)."""
     p.add_argument("--no-audit", action="store_true",
                    help="do not audit the written motion (by default the summary ends with the verdict of "
                         "mocomp.audit on the frames written, against the input; for speed-sensitive batch use)")
+    p.add_argument("--render", type=render_output_arg, metavar="FILE",
+                   help="also draw the written motion with its audit (as mocomp render): .mp4, .gif or .png "
+                        "(phase filmstrip), beside the input (with --no-audit: the written motion alone)")
 
 
 def _by_check(findings) -> dict[str, int]:
@@ -224,6 +269,8 @@ class OutputAudit:
     verdict_line: the last line a command prints.
     warning: the one-line warning (without the ``mocomp CMD: warning:`` prefix) when ``new``
         is non-empty, else ``None``.
+    path: the audited file; motion: the motion read back from it (what was audited);
+    input_motion, input_name: the (first) input it was audited against (``--render`` draws both).
     """
 
     report: object
@@ -231,6 +278,10 @@ class OutputAudit:
     new: tuple
     verdict_line: str
     warning: str | None
+    path: Path | None = None
+    motion: object = None
+    input_motion: object = None
+    input_name: str = "input"
 
     def to_dict(self) -> dict:
         d = self.report.to_dict()
@@ -281,14 +332,65 @@ def audit_output(path, input_motion, *, body=None, name: str | None = None, inpu
                  + ("" if m is None else f"; input {m.size:.3g}") + ")" for f, m in new]
         warning = (f"the output {label} has {len(new)} violation(s) new or worse than "
                    f"{'its inputs' if others else 'its input'}: " + "; ".join(items))
-    return OutputAudit(rep, others, new, line, warning)
+    return OutputAudit(rep, others, new, line, warning, path, written, input_motion, input_name)
+
+
+#: when this module was imported (the command line is parsed after it): files a command wrote into an
+#: output folder are those modified since
+_STARTED = time.time()
+
+
+def _written_motion_file(args) -> Path | None:
+    """The motion file a command wrote when it was not audited (``--no-audit``): its ``--output``
+    (``-o``) BVH file, or, for a command whose ``-o`` is a folder (``mocomp demo``), the one BVH file
+    written into it during this run that is not a copy of the input (``*_original.bvh``)."""
+    out = getattr(args, "output", None) or getattr(args, "out", None)
+    if out is None:
+        return None
+    out = Path(out)
+    if out.is_file():
+        return out
+    if out.is_dir():
+        new = sorted(f for f in out.glob("*.bvh") if f.stat().st_mtime >= _STARTED - 1.0
+                     and not f.stem.endswith("_original"))
+        if len(new) == 1:
+            return new[0]
+    return None
+
+
+def render_output(args, command: str, result: "OutputAudit | None") -> None:
+    """``--render FILE``: draw the written motion with its audit beside the input
+    (:func:`mocomp.plots.render_audit.render_with_audit`, reusing ``result``'s audits), or, with
+    ``--no-audit`` (``result`` ``None``), the written motion alone; prints one ``wrote`` line."""
+    from ..plots.render_audit import render_with_audit
+
+    target = getattr(args, "render", None)
+    if target is None:
+        return
+    if result is not None:
+        res = render_with_audit(result.motion, target, against=result.input_motion,
+                                name=Path(result.path).name if result.path else "output",
+                                against_name=Path(str(result.input_name)).name,
+                                reports=(result.report, result.report.against))
+    else:
+        src = _written_motion_file(args)
+        if src is None:
+            print(f"mocomp {command}: warning: --render {target}: cannot tell which file this run wrote; "
+                  f"draw it with: mocomp render FILE -o {target}", file=sys.stderr)
+            return
+        from ..io.bvh import read_bvh
+
+        res = render_with_audit(read_bvh(src, scale=1.0), target, name=src.name)
+    print(res.summary())
 
 
 def finish_audit(args, command: str, result: "OutputAudit | None", report_path=None) -> None:
     """Print the audit's warning (stderr, ``mocomp COMMAND: warning: ...``) and its verdict line
     (stdout, the command's last line), and add ``audit`` and ``provenance`` to the JSON report at
     ``report_path`` (the method's keys stay as they are: they are its planned values). With
-    ``result`` ``None`` (``--no-audit``) only the report's provenance says that no audit ran."""
+    ``result`` ``None`` (``--no-audit``) only the report's provenance says that no audit ran.
+    With ``--render FILE`` (:func:`add_audit_arg`) the written motion is drawn first
+    (:func:`render_output`); if drawing fails the verdict is still printed before the error."""
     import json
 
     if report_path is not None:
@@ -302,8 +404,10 @@ def finish_audit(args, command: str, result: "OutputAudit | None", report_path=N
                            "measured": "audit" if result is not None else None}
         d["audit"] = result.to_dict() if result is not None else None
         p.write_text(json.dumps(d, indent=1) + "\n")
-    if result is None:
-        return
-    if result.warning:
-        print(f"mocomp {command}: warning: {result.warning}", file=sys.stderr)
-    print(result.verdict_line)
+    try:
+        render_output(args, command, result)
+    finally:
+        if result is not None:
+            if result.warning:
+                print(f"mocomp {command}: warning: {result.warning}", file=sys.stderr)
+            print(result.verdict_line)
