@@ -6,8 +6,9 @@ local rotation is kept. On the frames of :class:`~mocomp.ops.plants.FootPlants`:
 * ankle point planted: the foot is translated so the ankle point sits on its target
   (:func:`~mocomp.ops.plants.plant_targets`: mean position over the plant, on the support level);
 * ankle point and toe tip planted: additionally turned about the ankle point by the shortest arc
-  that aims the toe tip at its target (its distance to the ankle point is fixed by the foot, so the
-  tip lands on the target up to the change of that distance during the plant);
+  that aims the toe tip at its target; the distance between the two points is fixed by the foot,
+  so where it differs from the targets' distance (a heel rolling up while still counted planted)
+  the foot is shifted along itself by half the difference (each point misses by half);
 * toe tip planted alone (heel off): translated so the tip sits on its target, turned by the
   fading rotation of the flat-foot part.
 
@@ -141,64 +142,57 @@ def _max_rate(motion: Motion) -> float:
 def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: str, tol: float,
            reach_margin: float, ease_kind: str):
     """One enforcement pass: new rotations, targets, per-side unreachable runs, largest miss, changed frames."""
-    from ..core.rotations import quat_identity, quat_inverse, quat_multiply
+    from ..core.rotations import quat_multiply
     from .ik import arc_quaternions
 
     T = motion.n_frames
     targets = plant_targets(pts, plants, height)
     rot = np.array(motion.rotations)
-    unreachable, max_miss, changed = {}, 0.0, np.zeros(T, bool)
+    unreachable, max_miss, changed, lifted = {}, 0.0, np.zeros(T, bool), {}
     for li, leg in enumerate(plants.legs):
         ka, kt = 2 * li, 2 * li + 1
         la, lt = plants.labels[:, ka], plants.labels[:, kt]
         A, Tp = pts[:, ka], pts[:, kt]
         both = la & lt
-        ja, jt = leg.chain[2], leg.toe_point[0]
-        flex = jt != ja and int(motion.skeleton.parents[jt]) == ja      # the toe joint can bend
+        ja = leg.chain[2]
         rv = np.zeros((T, 3))
-        tv = np.zeros((T, 3))                                            # toe joint's local change (rotvec)
         if both.any():
-            if flex:
-                # the foot as a two-bone chain ankle point -> toe joint -> toe tip: the tip on its target
-                # with the ankle point on its own, the toe joint bending in the foot's plane
-                fP = np.stack([A[both], P[both, jt], Tp[both]], axis=1)
-                fG = np.stack([G[both, ja], G[both, jt], G[both, jt]], axis=1)
-                frot = np.stack([G[both, ja], rot[both, jt], np.broadcast_to(quat_identity(), (both.sum(), 4))], axis=1)
-                fr, _ = two_bone_ik(fP, fG, frot, (-1, 0, 1), (0, 1, 2), targets[both, kt] - targets[both, ka] + A[both],
-                                    reach_margin=reach_margin)
-                q = quat_multiply(fr[:, 0], quat_inverse(G[both, ja]))
-                tv[both] = Rotation.from_quat(quat_multiply(quat_inverse(rot[both, jt]), fr[:, 1])).as_rotvec()
-            else:
-                q = arc_quaternions(Tp[both] - A[both], targets[both, kt] - targets[both, ka])
+            q = arc_quaternions(Tp[both] - A[both], targets[both, kt] - targets[both, ka])
             rv[both] = Rotation.from_quat(q).as_rotvec()
         rv = ramp_fill(rv, both, blend, ease_kind)
         Rq = Rotation.from_rotvec(rv).as_quat()
-        new_toe = None
-        if flex:
-            tv = ramp_fill(tv, both, blend, ease_kind)
-            new_toe = quat_multiply(rot[:, jt], Rotation.from_rotvec(tv).as_quat())
-            # the toe tip after the foot turn and the toe bend, before the foot is moved
-            Pt = A + quat_apply(Rq, P[:, jt] - A)
-            tip = Pt + quat_apply(quat_multiply(quat_multiply(Rq, G[:, ja]), new_toe), leg.toe_point[1])
-        else:
-            tip = A + quat_apply(Rq, Tp - A)
+        tip = A + quat_apply(Rq, Tp - A)                  # the toe tip after the foot turned about the ankle point
         # translation: the ankle point on its target while it is planted; the toe tip on its own
         # where only the toe is planted; the ankle's share fades out over the blend frames after
         # heel-off (and in before heel-strike), so the switch between the two targets is smooth
         d_a = np.zeros((T, 3))
         d_a[la] = targets[la, ka] - A[la]
+        if both.any():
+            # the aimed tip misses its target along the foot by the change of the ankle-tip distance
+            # during the plant: the foot shares it, half at the ankle point, half at the toe tip
+            d_a[both] += 0.5 * (targets[both, kt] - (targets[both, ka] + tip[both] - A[both]))
         d_t = np.zeros((T, 3))
         d_t[lt] = targets[lt, kt] - tip[lt]
         w_a = ramp_fill(la.astype(float), la, blend, ease_kind)
         delta = ramp_fill(d_a, la, blend, ease_kind) + (1.0 - w_a)[:, None] * ramp_fill(d_t, lt, blend, ease_kind)
-        idx = np.flatnonzero((np.linalg.norm(delta, axis=1) > tol) | (np.linalg.norm(rv, axis=1) > tol)
-                             | (np.linalg.norm(tv, axis=1) > tol))
+        idx = np.flatnonzero((np.linalg.norm(delta, axis=1) > tol) | (np.linalg.norm(rv, axis=1) > tol))
         unreachable[leg.side] = []
         if idx.size == 0:
             continue
-        if new_toe is not None:
-            rot[idx, jt] = new_toe[idx]
         tgt = A[idx] + delta[idx] + quat_apply(Rq[idx], P[idx, ja] - A[idx])   # the ankle joint, moved with the foot
+        # out of reach below the hip: the foot is lifted (the horizontal hold is kept, the height yields)
+        h, k = leg.chain[0], leg.chain[1]
+        H = P[idx, h]
+        reach = (np.linalg.norm(P[idx, k] - H, axis=1) + np.linalg.norm(P[idx, ja] - P[idx, k], axis=1)
+                 - 2.0 * reach_margin)
+        hor = np.linalg.norm((tgt - H)[:, [0, 2]], axis=1)
+        far = (np.linalg.norm(tgt - H, axis=1) > reach) & (hor < reach) & (tgt[:, 1] < H[:, 1])
+        if far.any():
+            y = H[far, 1] - np.sqrt(reach[far] ** 2 - hor[far] ** 2)
+            lift = np.zeros(T)
+            lift[idx[far]] = y - tgt[far, 1]
+            tgt[far, 1] = y
+            lifted[leg.side] = (label_intervals(lift > UNREACHABLE_TOL), float(lift.max()))
         end = quat_multiply(Rq[idx], G[idx, ja])
         rot[idx], miss = two_bone_ik(P[idx], G[idx], rot[idx], motion.skeleton.parents, leg.chain, tgt,
                                      end_rotation=end, reach_margin=reach_margin)
@@ -207,7 +201,7 @@ def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: st
         bad = np.zeros(T, bool)
         bad[idx[miss > UNREACHABLE_TOL]] = True
         unreachable[leg.side] = label_intervals(bad)
-    return rot, targets, unreachable, max_miss, changed
+    return rot, targets, unreachable, max_miss, changed, lifted
 
 
 def enforce_footplants(motion: Motion, plants: FootPlants | None = None, *, contacts=None,
@@ -254,7 +248,7 @@ def enforce_footplants(motion: Motion, plants: FootPlants | None = None, *, cont
     pts = foot_points(P, G, plants)
     notes = []
     for k in range(passes):
-        rot, targets, unreachable, max_miss, changed = _solve(motion, P, G, pts, plants, blend, height, tol,
+        rot, targets, unreachable, max_miss, changed, lifted = _solve(motion, P, G, pts, plants, blend, height, tol,
                                                               reach_margin, ease_kind)
         out = motion.replace(rotations=rot)
         if k == passes - 1:
@@ -275,6 +269,11 @@ def enforce_footplants(motion: Motion, plants: FootPlants | None = None, *, cont
     P2, G2 = out.fk()
     pts2 = foot_points(P2, G2, plants)
     seconds = time.perf_counter() - t0
+    for side, (runs, amount) in lifted.items():
+        if runs:
+            notes.append(f"{side} foot lifted up to {amount * 1000:.1f} mm above its target height where the leg "
+                         f"cannot reach it (frames " + ", ".join(f"{a}-{b - 1}" for a, b in runs[:6])
+                         + (", ..." if len(runs) > 6 else "") + "); its horizontal position is held")
     if any(unreachable.values()):
         notes.append("unreachable: " + "; ".join(f"{s} leg frames " + ", ".join(f"{a}-{b - 1}" for a, b in v)
                                                    for s, v in unreachable.items() if v))
