@@ -131,7 +131,7 @@ class OverlayStyle:
     tile; header_height: the title strip over a filmstrip row; font_size: text size.
     """
 
-    ground_opacity: float = 0.55
+    ground_opacity: float = 0.45
     penetration_color: tuple[float, float, float] = (0.88, 0.04, 0.04)
     contact_color: tuple[float, float, float] = (0.05, 0.62, 0.22)
     contact_radius: float = 0.07
