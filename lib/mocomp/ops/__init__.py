@@ -25,7 +25,9 @@ from .displacement import (DisplacementMap, HierarchyResult, HierarchyStep, appl
 from .easing import ease, ramp_fill
 from .footplant import FootplantResult, enforce_footplants, plant_slides
 from .ik import leg_chains, plant_feet, two_bone_ik
+from .path import CurveError, PathCurve, PathEditResult, motion_path, path_distance, path_edit, step_lengths
 from .plants import FootPlants, NoContactError, foot_plants, leg_layout, read_contacts_csv
+from .slope import SlopeResult, slope
 
 __all__ = [
     "FootPlants", "NoContactError", "foot_plants", "leg_layout", "read_contacts_csv",
@@ -33,4 +35,6 @@ __all__ = [
     "DisplacementMap", "apply_displacement", "smooth_offsets", "HierarchyStep", "HierarchyResult", "apply_hierarchy",
     "GroundTransform", "align", "headings", "reference_points", "BlendResult", "blend", "step_period",
     "ease", "ramp_fill",
+    "CurveError", "PathCurve", "PathEditResult", "path_edit", "motion_path", "path_distance", "step_lengths",
+    "SlopeResult", "slope",
 ]

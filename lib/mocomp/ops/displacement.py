@@ -30,11 +30,11 @@ KERNELS = ("gaussian", "bspline")
 
 
 def _log(q: np.ndarray) -> np.ndarray:
-    return Rotation.from_quat(q.reshape(-1, 4)).as_rotvec().reshape(q.shape[:-1] + (3,))
+    return Rotation.from_quat(np.array(q, dtype=float).reshape(-1, 4)).as_rotvec().reshape(q.shape[:-1] + (3,))
 
 
 def _exp(v: np.ndarray) -> np.ndarray:
-    return Rotation.from_rotvec(v.reshape(-1, 3)).as_quat().reshape(v.shape[:-1] + (4,))
+    return Rotation.from_rotvec(np.array(v, dtype=float).reshape(-1, 3)).as_quat().reshape(v.shape[:-1] + (4,))
 
 
 def smooth_offsets(x: np.ndarray, width: float, kernel: str = "gaussian") -> np.ndarray:
@@ -42,7 +42,7 @@ def smooth_offsets(x: np.ndarray, width: float, kernel: str = "gaussian") -> np.
     edges by their nearest value: a constant stays exactly constant) or ``"bspline"`` (the
     least-squares cubic B-spline with interior knots every ``width`` frames, end knots at the first
     and last frame; reproduces any cubic polynomial, constants included). ``width`` 0: unchanged."""
-    x = np.asarray(x, dtype=float)
+    x = np.array(x, dtype=float)
     if not (np.isfinite(width) and width >= 0):
         raise ValueError(f"smoothing width must be 0 or more frames, got {width!r}")
     if kernel not in KERNELS:

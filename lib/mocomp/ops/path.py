@@ -360,7 +360,7 @@ def path_edit(motion: Motion, curve: PathCurve, *, path_sigma: float = 0.5, plan
     moved = motion.replace(root_positions=rp, rotations=rot)
     notes = []
     extended = float(max(0.0, s[-1] - curve.length))
-    if extended > 0:
+    if extended > 1e-3:
         notes.append(f"the motion travels {s[-1]:.2f} m, the curve is {curve.length:.2f} m long: the last "
                      f"{extended:.2f} m continue straight along the curve's end tangent")
     fp = None

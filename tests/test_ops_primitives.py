@@ -1,0 +1,292 @@
+"""Editing primitives (issue 15): known answers on synthetic motions, invariants, bad input."""
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+import pytest
+
+from mocomp import datasets
+from mocomp.core.rotations import quat_angle, quat_inverse, quat_multiply
+from mocomp.ops import (CurveError, DisplacementMap, HierarchyStep, NoContactError, PathCurve, align, apply_displacement,
+                        apply_hierarchy, blend, enforce_footplants, foot_plants, path_edit, read_contacts_csv, slope,
+                        two_bone_ik)
+from mocomp.ops.ik import leg_chains
+from mocomp.ops.synthetic import synthetic_walk
+
+
+@functools.lru_cache(maxsize=None)
+def walk():
+    return synthetic_walk(duration=4.0, fps=120.0)
+
+
+def _frozen_copy(m):
+    return np.array(m.root_positions), np.array(m.rotations)
+
+
+def _unchanged(m, copy):
+    np.testing.assert_array_equal(m.root_positions, copy[0])
+    np.testing.assert_array_equal(m.rotations, copy[1])
+
+
+# ------------------------------------------------------------------ IK
+def test_two_bone_ik_reaches_reachable_targets_to_1e9_and_keeps_bone_lengths():
+    m = walk().motion[::7]
+    P, G = m.fk()
+    for chain in leg_chains(m.skeleton):
+        h, k, a = chain
+        rng = np.random.default_rng(3)
+        # targets within reach: pulled 8 % toward the hip, then moved up to 5 cm
+        tgt = P[:, h] + 0.92 * (P[:, a] - P[:, h]) + rng.uniform(-0.05, 0.05, (m.n_frames, 3))
+        rot, miss = two_bone_ik(P, G, m.rotations, m.skeleton.parents, chain, tgt)
+        out = m.replace(rotations=rot)
+        assert np.abs(out.positions[:, a] - tgt).max() < 1e-9
+        assert miss.max() < 1e-12
+        for j in (k, a):
+            p = m.skeleton.parents[j]
+            np.testing.assert_allclose(np.linalg.norm(out.positions[:, j] - out.positions[:, p], axis=1),
+                                       np.linalg.norm(P[:, j] - P[:, p], axis=1), atol=1e-12)
+        np.testing.assert_allclose(out.positions[:, h], P[:, h], atol=1e-12)
+        # the knee stays on the side it was (its plane normal keeps its sense)
+        n0 = np.cross(P[:, a] - P[:, k], P[:, h] - P[:, k])
+        n1 = np.cross(out.positions[:, a] - out.positions[:, k], out.positions[:, h] - out.positions[:, k])
+        assert np.all(np.sum(n0 * n1, axis=1) > 0)
+        # the ankle keeps its world orientation
+        assert np.abs(np.abs(np.sum(out.global_rotations[:, a] * G[:, a], axis=1)) - 1).max() < 1e-12
+
+
+def test_two_bone_ik_out_of_reach_reports_the_miss():
+    m = walk().motion[40:41]
+    P, G = m.fk()
+    h, k, a = chain = leg_chains(m.skeleton)[0]
+    far = P[0, h] + np.array([0.0, -2.0, 0.0])
+    rot, miss = two_bone_ik(P[0], G[0], m.rotations[0], m.skeleton.parents, chain, far)
+    reach = np.linalg.norm(P[0, k] - P[0, h]) + np.linalg.norm(P[0, a] - P[0, k])
+    assert miss == pytest.approx(2.0 - reach, abs=1e-5)
+
+
+def test_ops_ik_matches_edit_legs_on_the_same_inputs():
+    """The switch of mocomp.edit.legs to mocomp.ops.ik changes nothing: same rotations, same solves."""
+    from mocomp.edit import legs as old
+    from mocomp.ops import ik as new
+
+    m = datasets.load_example("backflip").motion[250:262]
+    P, G = m.fk()
+    chains = old.leg_chains(m.skeleton)
+    assert chains == new.leg_chains(m.skeleton)
+    tgt = P[:, chains[0][2]] + np.array([0.03, -0.02, 0.04])
+    r_old, m_old = old.two_bone_ik(P, G, m.rotations, m.skeleton.parents, chains[0], tgt)
+    r_new, m_new = new.two_bone_ik(P, G, m.rotations, m.skeleton.parents, chains[0], tgt)
+    np.testing.assert_allclose(r_new, r_old, atol=1e-14)
+    np.testing.assert_allclose(m_new, m_old, atol=1e-14)
+    rp = np.array(m.root_positions)
+    rp[:, 0] += np.linspace(0, 0.06, m.n_frames)
+    d = m.replace(root_positions=rp)
+    w = np.ones((m.n_frames, 2))
+    o_old, s_old = old.plant_feet(d, 2, w[2:], chains)
+    o_new, s_new = new.plant_feet(d, 2, w[2:], chains)
+    assert s_old == s_new
+    np.testing.assert_allclose(o_new.rotations, o_old.rotations, atol=1e-12)
+
+
+# ------------------------------------------------------------------ footplants
+def test_footplant_holds_a_drifting_walk_and_changes_only_the_legs():
+    """The synthetic walk (toe joints exactly still in stance) with the whole body drifting 4 cm
+    sideways per second: the planted points slide ~4-8 cm before, under 1 cm after (audit)."""
+    sw = walk()
+    m = sw.motion
+    rp = np.array(m.root_positions)
+    rp[:, 0] += 0.04 * m.times
+    drift = m.replace(root_positions=rp)
+    copy = _frozen_copy(drift)
+    r = enforce_footplants(drift)
+    _unchanged(drift, copy)
+    before, after = r.measured_slide()
+    assert before > 0.02 and after < 0.01
+    assert r.slide_after.max() < 0.006
+    np.testing.assert_array_equal(r.motion.root_positions, drift.root_positions)
+    legs = {j for c in leg_chains(m.skeleton) for j in c}
+    others = [j for j in range(m.skeleton.n_joints) if j not in legs]
+    np.testing.assert_array_equal(r.motion.rotations[:, others], drift.rotations[:, others])
+    assert r.joint_speed_after <= r.joint_speed_before * 1.05
+    assert r.max_miss < 1e-3
+
+
+def test_footplant_without_contacts_is_a_clear_error():
+    m = datasets.load_example("backflip").motion
+    flying = m.translated((0.0, 3.0, 0.0))[120:200]
+    with pytest.raises(NoContactError, match="no foot is planted"):
+        enforce_footplants(flying.replace(root_positions=flying.root_positions + np.linspace(0, 5, 80)[:, None]
+                                          * np.array([0, 1.0, 0])), audit=False)
+
+
+def test_contacts_csv_overrides_and_errors(tmp_path):
+    m = walk().motion
+    f = tmp_path / "c.csv"
+    f.write_text("joint,start,stop\nLeftFoot,10,40\ntoe_r,0,30\n")
+    ov = read_contacts_csv(f, m.skeleton, m.n_frames)
+    assert ov == {"foot_l": [(10, 40)], "toe_r": [(0, 30)]}
+    pl = foot_plants(m, f)
+    assert pl.intervals["foot_l"] == [(10, 40)] and pl.source["foot_l"].startswith("csv")
+    for text, msg in (("joint,start,stop\nNose,1,2\n", "c.csv:2: joint 'Nose'"),
+                      ("joint,start,stop\nfoot_l,5,x\n", "c.csv:2: stop 'x'"),
+                      ("joint,start,stop\nfoot_l,5,9999\n", "c.csv:2: interval"),
+                      ("start,stop\n", "c.csv:1: the first row")):
+        f.write_text(text)
+        with pytest.raises(ValueError, match=msg.replace("(", r"\(")):
+            read_contacts_csv(f, m.skeleton, m.n_frames)
+
+
+# ------------------------------------------------------------------ displacement maps
+def test_displacement_constant_offset_reproduced_exactly_by_both_kernels():
+    m = walk().motion[:200]
+    J = m.skeleton.n_joints
+    rv = np.zeros((J, 3))
+    rv[3] = [0.2, -0.1, 0.05]
+    d = DisplacementMap.constant(m.n_frames, J, root=(0.1, -0.02, 0.3), rotations=rv)
+    for kernel in ("gaussian", "bspline"):
+        s = d.smoothed(12, kernel)
+        np.testing.assert_allclose(s.root, d.root, atol=1e-12)
+        np.testing.assert_allclose(s.rotations, d.rotations, atol=1e-12)
+    out = apply_displacement(m, d.smoothed(12, "bspline"))
+    np.testing.assert_allclose(out.root_positions - m.root_positions, np.tile([0.1, -0.02, 0.3], (200, 1)), atol=1e-12)
+    ang = quat_angle(quat_multiply(quat_inverse(m.rotations[:, 3]), out.rotations[:, 3]))
+    np.testing.assert_allclose(ang, np.linalg.norm(rv[3]), atol=1e-12)
+
+
+def test_displacement_between_roundtrips_and_damping_scales():
+    m = walk().motion[:120]
+    other = slope(m, 7.0).motion
+    d = DisplacementMap.between(m, other)
+    back = apply_displacement(m, d)
+    np.testing.assert_allclose(back.positions, other.positions, atol=1e-9)
+    half = d.scaled(0.5)
+    assert half.magnitude()[1] == pytest.approx(0.5 * d.magnitude()[1])
+    # a Gaussian smooths a step: the jump per frame falls
+    step = np.zeros((100, 3))
+    step[50:] = 1.0
+    dm = DisplacementMap(step, np.zeros((100, 2, 3))).smoothed(5)
+    assert np.abs(np.diff(dm.root[:, 0])).max() < 0.1
+
+
+def test_hierarchy_applies_each_level_with_its_damping():
+    m = walk().motion[:120]
+    target = m.translated((0.2, 0.0, 0.0))
+    sched = [HierarchyStep(10, 0.5), HierarchyStep(5, 0.5, "bspline", iterations=2)]
+    r = apply_hierarchy(m, lambda cur, step: target.replace(rotations=cur.rotations) if False else
+                        cur.translated(target.root_positions[0] - cur.root_positions[0]), sched)
+    # each application closes half of the remaining 0.2 m: 0.1, 0.05, 0.025 left after 3 maps
+    assert len(r.maps) == 3
+    np.testing.assert_allclose(r.motion.root_positions[:, 0] - m.root_positions[:, 0], 0.2 * (1 - 0.5 ** 3), atol=1e-12)
+    with pytest.raises(ValueError, match="rho"):
+        HierarchyStep(10, -0.1)
+    with pytest.raises(ValueError, match="sigma"):
+        HierarchyStep(-1, 0.5)
+
+
+# ------------------------------------------------------------------ alignment and blend
+def test_align_recovers_a_known_turn_and_shift():
+    m = walk().motion
+    q = np.array([0.0, np.sin(np.radians(35) / 2), 0.0, np.cos(np.radians(35) / 2)])
+    moved = m.rotated(q, center=(1.0, 0.0, 2.0)).translated((3.0, 0.0, -1.0))
+    t = align(m, moved, 100, 100)
+    assert np.degrees(t.yaw) == pytest.approx(-35.0, abs=1e-9)
+    np.testing.assert_allclose(t.apply(moved).root_positions, m.root_positions, atol=1e-9)
+    t2 = align(m, moved, 100, 100, by="feet")
+    back = t2.apply(moved)
+    np.testing.assert_allclose(back.positions, m.positions, atol=1e-9)
+
+
+def test_blend_of_a_motion_with_itself_is_the_identity():
+    m = walk().motion
+    copy = _frozen_copy(m)
+    r = blend(m, m, (200, 200), 30, plant=False)
+    _unchanged(m, copy)
+    assert r.motion.n_frames == m.n_frames
+    np.testing.assert_allclose(r.motion.root_positions, m.root_positions, atol=1e-12)
+    assert quat_angle(quat_multiply(quat_inverse(r.motion.rotations), m.rotations)).max() < 1e-7
+    r2 = blend(m, m, (200, 200), 30)          # the exact plants stay where they were
+    assert np.abs(r2.motion.positions - m.positions).max() < 0.01
+
+
+def test_blend_window_errors():
+    m = walk().motion
+    with pytest.raises(ValueError, match="at least 2 frames"):
+        blend(m, m, (100, 100), 1)
+    with pytest.raises(ValueError, match="longer than A"):
+        blend(m[:50], m, (25, 100), 80)
+    with pytest.raises(ValueError, match="window of at most"):
+        blend(m, m, (3, 100), 20)
+    with pytest.raises(ValueError, match="outside"):
+        blend(m, m, (100, 5000), 10)
+
+
+def test_blend_between_two_walks_turned_apart_has_no_root_jump_and_planted_feet():
+    sw = walk().motion
+    q = np.array([0.0, np.sin(np.radians(40) / 2), 0.0, np.cos(np.radians(40) / 2)])
+    b = sw.rotated(q).translated((5.0, 0.0, 3.0))
+    r = blend(sw, b, (200, 332), 40, audit=True)       # 132 frames = one stride: same pelvis yaw
+    assert abs(np.degrees(r.transform.yaw) + 40) < 1e-6
+    steps = np.linalg.norm(np.diff(r.motion.root_positions, axis=0), axis=1)
+    assert steps.max() < 1.5 * np.linalg.norm(np.diff(sw.root_positions, axis=0), axis=1).max()
+    assert r.footplants.measured_slide()[1] < 0.01
+
+
+# ------------------------------------------------------------------ path and slope
+def test_pathedit_onto_a_straight_line_is_a_rigid_move_and_arcs_turn():
+    m0 = walk().motion
+    rp = np.array(m0.root_positions)
+    rp[:, 0] = 0.0                                   # no sway: the smoothed path is exactly straight
+    m = m0.replace(root_positions=rp)
+    copy = _frozen_copy(m)
+    from mocomp.ops import motion_path
+
+    path, s, psi = motion_path(m)
+    line = PathCurve(np.array([[2.0, 1.0], [2.0 + 10.0, 1.0]]))    # along +x from (2, 1)
+    r = path_edit(m, line, plant=False)
+    _unchanged(m, copy)
+    # the straight walk along +z becomes a walk along +x: positions turned by +90 deg about y and moved
+    P0, P1 = m.positions, r.motion.positions
+    rel0 = P0 - np.array([path[0, 0], 0, path[0, 1]])
+    rel1 = P1 - np.array([2.0, 0, 1.0])
+    np.testing.assert_allclose(rel1[..., 0], rel0[..., 2], atol=1e-9)
+    np.testing.assert_allclose(rel1[..., 2], -rel0[..., 0], atol=1e-9)
+    np.testing.assert_allclose(rel1[..., 1], rel0[..., 1], atol=1e-12)
+    m = m0
+    path, s, psi = motion_path(m)
+    arc = PathCurve.arc(float(s[-1]), np.radians(90))
+    r2 = path_edit(m, arc, audit=True)
+    assert np.degrees(r2.turn) == pytest.approx(90.0, abs=3.0)
+    assert r2.footplants.measured_slide()[1] < 0.01
+    np.testing.assert_allclose(r2.step_after.mean(), r2.step_before.mean(), rtol=0.05)
+
+
+def test_curves_with_cusps_and_bad_points_are_refused():
+    with pytest.raises(CurveError, match="cusp at point 2"):
+        PathCurve.parse("0,0;1,0;0,0.01", "polyline")
+    with pytest.raises(CurveError, match="cusp"):
+        PathCurve.parse("0,0;1,0;0,0")
+    with pytest.raises(CurveError, match="point 2"):
+        PathCurve.parse("0,0;1;2,2")
+    with pytest.raises(CurveError, match="coincide"):
+        PathCurve.parse("0,0;0,0;1,1")
+    with pytest.raises(CurveError, match="at least 2"):
+        PathCurve.parse("0,0")
+    c = PathCurve.parse("0,0;0,1;1,2;", "polyline")                # a 45 deg corner is fine
+    assert c.length == pytest.approx(1 + np.sqrt(2), abs=1e-9)
+
+
+def test_slope_zero_is_identity_and_ten_degrees_climbs():
+    m = walk().motion
+    copy = _frozen_copy(m)
+    assert slope(m, 0.0).motion is m
+    r = slope(m, 10.0)
+    _unchanged(m, copy)
+    travel = np.linalg.norm((m.root_positions[-1] - m.root_positions[0])[[0, 2]])
+    assert np.degrees(np.arctan2(r.climb, travel)) == pytest.approx(10.0, abs=0.5)
+    # heights above the tilted floor equal the heights above the flat floor
+    np.testing.assert_allclose(r.heights_above_floor(r.motion.positions), m.positions[..., 1] - r.floor_y, atol=1e-9)
+    with pytest.raises(ValueError, match="between -90 and 90"):
+        slope(m, 95.0)
+    with pytest.raises(ValueError, match="horizontal"):
+        slope(m, 5.0, axis=(0, 1, 0))
