@@ -583,7 +583,8 @@ class StudyApp:
         secs = float(c.break_s)
         text = self.texts.break_text.format(
             break_len=_duration_text(secs), done=c.n_answered, total=c.total, remaining=c.total - c.n_answered,
-            countdown=f"<span class='mocomp-countdown' data-seconds='{secs:g}'>{_duration_text(secs)}</span>")
+            countdown=f"<span class='mocomp-countdown' data-seconds='{secs:g}'>{int(secs) // 60}:{int(secs) % 60:02d} "
+                      "left</span>")
         self._set("break", [W.HTML(text), self._button("Continue", "mocomp-btn-next", "primary", resume)])
 
     def _next_trial(self) -> None:

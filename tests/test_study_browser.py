@@ -16,6 +16,11 @@ participant app served by Voila (``mocomp study run``) on 127.0.0.1.
    browser extensions): the old kernel lives on, so the reloaded page is told the
    session is open elsewhere; the server culls the orphaned kernel and "Try
    again" resumes the session where it stopped, nothing lost or duplicated.
+6. (with 1) Lab readiness: the break screen says how long the break is and counts
+   it down, and stays until the participant clicks; the end screen is the debrief
+   (purpose, the contact given by ``--contact``, the participant's code);
+   "Withdraw my data" there (confirmed) writes ``withdrawn.json`` and changes no
+   response, and the reopened page shows "withdrawn" and opens no session.
 5. The page needs the token of the printed address: without it the browser lands
    on the login page and no kernel opens the session; with it, a plain reload's
    ``beforeunload`` beacon (which carries the login cookie and ``_xsrf``) shuts
@@ -49,6 +54,7 @@ CHROMIUM = shutil.which("chromium") or ("/usr/bin/chromium" if os.path.exists("/
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow, pytest.mark.timeout(420)]
 
+CONTACT = "Dr Test Researcher, test@uni.example"
 CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
                  "--disable-background-networking", "--disable-component-update", "--disable-sync",
                  "--no-first-run", "--autoplay-policy=no-user-gesture-required"]
@@ -254,6 +260,15 @@ def _answer_trials(page, n: int, answers: list, log: list, early: bool = False) 
     while done < n:
         page.wait_for_selector(".mocomp-screen-trial, .mocomp-screen-break, .mocomp-screen-end")
         if page.query_selector(".mocomp-screen-break"):
+            if "break" not in log:  # the first break: it says how long, counts down, and waits for a click
+                text = page.inner_text(".mocomp-screen-break")
+                assert "break of about 1 minute" in text and f"You have answered {done} of" in text, text
+                first = page.inner_text(".mocomp-countdown")
+                assert re.fullmatch(r"[01]:\d\d left", first), first
+                page.wait_for_timeout(1600)
+                later = page.inner_text(".mocomp-countdown")
+                assert re.fullmatch(r"0:\d\d left", later) and later != first, (first, later)
+                assert page.query_selector(".mocomp-screen-break")  # still on break: only a click resumes
             page.click(".mocomp-screen-break .mocomp-btn-next")
             page.wait_for_selector(".mocomp-screen-break", state="detached")
             log.append("break")
@@ -292,7 +307,7 @@ def _plan_response_indices(folder: Path) -> list[int]:
 
 def test_complete_session_then_second_window_refused(browser, stimuli, tmp_path):
     data = tmp_path / "data"
-    srv = Server(tmp_path, stimuli, data, "P01")
+    srv = Server(tmp_path, stimuli, data, "P01", extra=("--contact", CONTACT))
     try:
         url = srv.start()
         page = browser.new_page()
@@ -331,14 +346,41 @@ def test_complete_session_then_second_window_refused(browser, stimuli, tmp_path)
         assert info["age"] == 23 and info["participant_id"] == "P01"
         ev = [json.loads(x)["event"] for x in (folder / "events.jsonl").read_text().splitlines()]
         assert ev[0] == "opened" and "consent_given" in ev and ev[-1] == "finished"
+
+        # the end screen is the debrief: purpose, contact, the participant's code
+        debrief = page.inner_text(".mocomp-screen-end")
+        assert "What this study was about" in debrief and CONTACT in debrief
+        assert page.inner_text(".mocomp-participant-code") == "P01" and "session S1" in debrief
         page.close()
 
         # a finished session reopens on the end screen and writes nothing
         page = browser.new_page()
         _open(page, url)
         page.wait_for_selector(".mocomp-screen-end")
-        page.close()
         assert len(_rows(folder / "responses.csv")) == n
+        # "Withdraw my data": confirmed, it marks the session; no response is changed or deleted
+        rows_before = (folder / "responses.csv").read_bytes()
+        page.click(".mocomp-btn-withdraw")
+        page.wait_for_selector(".mocomp-screen-withdraw_confirm")
+        page.click(".mocomp-btn-withdraw-cancel")  # changed their mind: back to the debrief
+        page.wait_for_selector(".mocomp-screen-end")
+        assert not (folder / "withdrawn.json").exists()
+        page.click(".mocomp-btn-withdraw")
+        page.click(".mocomp-btn-withdraw-confirm")
+        page.wait_for_selector(".mocomp-screen-withdrawn")
+        assert "Your data have been withdrawn" in page.inner_text(".mocomp-screen-withdrawn")
+        rec = json.loads((folder / "withdrawn.json").read_text())
+        assert rec["by"] == "participant" and rec["n_responses"] == n
+        assert (folder / "responses.csv").read_bytes() == rows_before
+        page.close()
+        # reopened: the "withdrawn" screen, no session opened, nothing written
+        page = browser.new_page()
+        _open(page, url)
+        page.wait_for_selector(".mocomp-screen-withdrawn")
+        page.close()
+        assert (folder / "responses.csv").read_bytes() == rows_before
+        ev = [json.loads(x)["event"] for x in (folder / "events.jsonl").read_text().splitlines()]
+        assert ev[-1] == "withdrawn" and ev.count("resumed") == 1  # the withdrawn page opened nothing
     finally:
         srv.stop()
 
