@@ -16,8 +16,9 @@ def test_cli_double_flip_writes_bvh_and_report(tmp_path, capsys):
     m = read_bvh(out, scale=1.0)
     d = json.loads(rep.read_text())
     assert d["flips"] == 2 and abs(d["achieved_rotation"] - 720) < 10
-    assert d["k"] == pytest.approx(0.7 * d["k_star"])
-    assert m.fps == pytest.approx(120.0) and m.n_frames > 300
+    assert d["k"] == pytest.approx(d["k_star"])          # the default since issue #13: k = k*
+    assert d["gravity"] == 9.81 and d["gravity_source"] == "standard" and d["takeoff"] == "as-is"
+    assert m.fps == pytest.approx(120.0) and m.n_frames > 250
 
 
 def test_cli_explicit_k_and_height_change(tmp_path, capsys):
@@ -173,7 +174,10 @@ def test_flips_k07_output_is_audited_worse_than_input(tmp_path, capsys):
     assert len(warn) == 1 and warn[0].startswith(f"mocomp flips: warning: the output {out} has ")
     assert "com_velocity_jump at take-off of flight 1" in warn[0]
     a = d["audit"]
-    new = {(f["check"], f["where"]): f for f in a["new_violations"]}
+    new = {}
+    for f in a["new_violations"]:                        # the largest finding at each place
+        if (f["check"], f["where"]) not in new or f["size"] > new[(f["check"], f["where"])]["size"]:
+            new[(f["check"], f["where"])] = f
     assert a["verdict"] == "fail" and a["violations"] >= 1
     jump = new[("com_velocity_jump", "take-off of flight 1")]
     assert jump["input_size"] is None and jump["size"] > 2.0 and jump["size"] > jump["threshold"]
@@ -221,12 +225,17 @@ def test_flips_no_audit(tmp_path, capsys):
 
 
 def test_demo_cli_ends_with_the_audit_verdict(tmp_path, capsys):
+    """At the default k = k* the demo has no COM velocity jump; what the audit still finds is the
+    fingertip of the synthetic arm swing, k* = 1.40 times its 19.4 m/s (26.9 m/s, limit 25): the
+    uniform retiming of the take-off, frame for frame k times the input's speed (no seam there)."""
     assert main(["demo", "-o", str(tmp_path)]) == 0
     cap = capsys.readouterr()
-    assert cap.out.strip().splitlines()[-1].startswith("audit: FAIL")     # default k = 0.7 k*: the take-off jump
-    assert "mocomp demo: warning:" in cap.err and "com_velocity_jump" in cap.err
+    last = cap.out.strip().splitlines()[-1]
+    assert last.startswith("audit: FAIL, 1 violation(s) (point_speed 1)")
+    assert "com_velocity_jump" not in cap.err and "point_speed at LeftHandIndex1" in cap.err
     d = json.loads((tmp_path / "report.json").read_text())
     assert d["audit"]["verdict"] == "fail" and "flips" in d
+    assert d["k"] == pytest.approx(d["k_star"]) and d["audit"]["measures"]["takeoff_jump_mps"] < 0.5
 
 
 def test_flips_real_clip_worse_takeoff_is_warned(tmp_path, capsys, real_data_dir):
@@ -234,10 +243,10 @@ def test_flips_real_clip_worse_takeoff_is_warned(tmp_path, capsys, real_data_dir
     violations per check would call that 'no new violation' (the input has four COM jumps, the output
     one); matched by place, the larger one is reported as worse than the input's."""
     out, rep = tmp_path / "x2.bvh", tmp_path / "r.json"
-    assert main(["flips", "88_01", "-o", str(out), "--report", str(rep)]) == 0
+    assert main(["flips", "88_01", "-o", str(out), "--report", str(rep), "--k-ratio", "0.7"]) == 0
     cap = capsys.readouterr()
     new = {(f["check"], f["where"]): f for f in json.loads(rep.read_text())["audit"]["new_violations"]}
     jump = new[("com_velocity_jump", "take-off of flight 1")]
-    assert jump["input_size"] == pytest.approx(0.63, abs=0.1) and jump["size"] > 2.0
+    assert jump["input_size"] == pytest.approx(0.63, abs=0.1) and jump["size"] > 1.5
     assert "com_velocity_jump at take-off of flight 1" in cap.err and "; input 0.6" in cap.err
     assert ("foot_slide", "foot_r") not in new          # the input's own slide, unchanged by the method

@@ -37,13 +37,15 @@ def test_negative_radicand_says_what_to_change():
         k_star(0.0, 1.0, 2.0, 0.0)
 
 
-def test_plan_at_k_star_is_continuous_and_default_is_0_7():
+def test_plan_at_k_star_is_continuous_and_default_is_k_star():
     T0, v0 = 0.6, G * 0.3
     v_land = v0 - G * T0
     p = plan_retime(G, 1.2, v0, 0.0, v_land, k_ratio=1.0)
     assert p.vy_takeoff_jump == pytest.approx(0.0, abs=1e-12)
     assert p.vy_landing_jump == pytest.approx(0.0, abs=1e-9)
-    d = plan_retime(G, 1.2, v0, 0.0, v_land)
+    default = plan_retime(G, 1.2, v0, 0.0, v_land)        # issue #13: the default is k = k*, continuous
+    assert default.k == pytest.approx(default.k_star) and default.vy_takeoff_jump == pytest.approx(0.0, abs=1e-12)
+    d = plan_retime(G, 1.2, v0, 0.0, v_land, k_ratio=0.7)  # the paper's aesthetic option
     assert d.k == pytest.approx(0.7 * d.k_star) and d.k_ratio == pytest.approx(0.7)
     # lands at the requested level after T/k
     assert -0.5 * G * d.T_new ** 2 + d.vy_takeoff_new * d.T_new == pytest.approx(0.0, abs=1e-12)
@@ -52,7 +54,7 @@ def test_plan_at_k_star_is_continuous_and_default_is_0_7():
     # one basis for the relative jump (note and p_jump_takeoff_rel): M k|v| of the retimed take-off;
     # without horizontal speed it is the vertical (k*/k)^2 - 1 = +104 %
     assert d.p_jump_takeoff_rel == pytest.approx(1 / 0.49 - 1) and "+104% of the retimed take-off" in d.note
-    h = plan_retime(G, 1.2, v0, 0.0, v_land, v_horizontal=2.0)
+    h = plan_retime(G, 1.2, v0, 0.0, v_land, v_horizontal=2.0, k_ratio=0.7)
     assert h.vy_takeoff_jump == pytest.approx(d.vy_takeoff_jump)           # the jump itself is vertical
     assert h.takeoff_speed == pytest.approx(h.k * np.hypot(2.0, v0))
     assert h.p_jump_takeoff_rel == pytest.approx(h.vy_takeoff_jump / (h.k * np.hypot(2.0, v0)))

@@ -12,19 +12,34 @@ def register(subparsers) -> None:
         "flips", help="turn a single flip into a double, triple, ... flip (momentum-conserving)",
         description="Make an N-somersault jump from a single flip (Majkowska & Faloutsos 2007): detect the "
                     "flight, estimate the mass distribution, repeat a self-looping fragment rotated about the "
-                    "angular momentum, retime (k = 0.7 k* by default) and reposition the centre of mass. "
-                    "Prints the physics report (the model's planned values) and ends with the verdict of mocomp.audit on the frames written, against the input.")
+                    "angular momentum, retime (k = k* by default: continuous at take-off) and reposition the centre of "
+                    "mass on a parabola falling with g = 9.81 m/s^2. Prints the physics report (the model's planned "
+                    "values), then what mocomp.audit measures on the frames written (the physics of the output), "
+                    "ending with its verdict against the input.")
     p.add_argument("input", metavar="INPUT", help="motion file (BVH, ASF/AMC, DeepMimic) or a dataset name "
                                                   "(e.g. backflip, 88_01)")
     p.add_argument("--flips", type=int, default=2, help="total number of somersaults (default 2)")
     k = p.add_mutually_exclusive_group()
     k.add_argument("--k-ratio", type=finite_float, default=None,
-                   help="retiming factor as a fraction of k* (default 0.7)")
+                   help="retiming factor as a fraction of k* (default 1: k = k*, the one factor whose flight leaves "
+                        "with the velocity the retimed take-off reaches). 0.7 is the paper's aesthetic choice (higher, "
+                        "slower flips): its flight needs about twice the take-off speed, so the centre-of-mass "
+                        "velocity jumps at take-off and landing (the audit reports it) unless --takeoff repair")
     k.add_argument("--k", type=finite_float, default=None, help="explicit retiming factor (>1 = faster)")
     p.add_argument("--height-change", type=finite_float, default=0.0, metavar="DY",
                    help="change of the landing level in metres (negative = land lower)")
     p.add_argument("--takeoff-height-change", type=finite_float, default=0.0, metavar="DY0",
                    help="change of the take-off level in metres (positive = take off from higher up; App. B)")
+    p.add_argument("--takeoff", choices=("as-is", "repair"), default="as-is",
+                   help="as-is (default): the paper's method. repair (beyond the paper): reshape the last ground "
+                        "frames before take-off and the first after landing (root displacement map, feet held by the "
+                        "leg IK, vertical ground force within 0.1-8 body weights, knees no tighter than the clip's "
+                        "tuck) so the centre of mass reaches the new flight's velocity without a jump; refused with "
+                        "the frames and the force needed when the stance cannot do it")
+    p.add_argument("--gravity", type=gravity_arg, default="standard", metavar="standard|clip|G",
+                   help="gravity the new flight falls with: standard (default, 9.81 m/s^2), clip (the gravity fitted "
+                        "to the input's flight, a diagnostic of its frame rate: the behaviour before issue #13) or a "
+                        "number in m/s^2")
     p.add_argument("-o", "--output", required=True, metavar="OUT.bvh", help="where to write the new motion (BVH)")
     p.add_argument("--report", metavar="report.json", help="also write the physics report as JSON")
     p.add_argument("--fps", type=fps_arg, default=None, help="frame rate to use instead of the file's")
@@ -47,6 +62,20 @@ def register(subparsers) -> None:
     p.add_argument("--filmstrip", metavar="PNG", help="also draw the original and the result side by side")
     add_audit_arg(p)
     p.set_defaults(func=run)
+
+
+def gravity_arg(text: str):
+    """``--gravity``: ``standard``, ``clip`` or a number of m/s^2 (0.5-100)."""
+    from ..flips.retime import GRAVITY_CHOICES, resolve_gravity
+
+    key = text.strip().lower()
+    if key in GRAVITY_CHOICES:
+        return key
+    try:
+        return resolve_gravity(finite_float(text), float("nan"))[0]
+    except (ValueError, argparse.ArgumentTypeError) as exc:
+        raise argparse.ArgumentTypeError(f"expected standard, clip or a number of m/s^2 in [0.5, 100], got {text!r}"
+                                         ) from exc
 
 
 #: Python-API hints in library error messages and the CLI option (or command) that does the same
@@ -96,7 +125,8 @@ def _run(args: argparse.Namespace) -> int:
                    joint_flights=args.joint_flights, shape=args.shape)
     check_flight(prep, args, "flips", fps_hint="--fix-timing, or --fps F")
     res = multiflip(prep, flips=args.flips, k=args.k, k_ratio=args.k_ratio, height_change=args.height_change,
-                    takeoff_height_change=args.takeoff_height_change, seam_retime=not args.no_seam_retime)
+                    takeoff_height_change=args.takeoff_height_change, seam_retime=not args.no_seam_retime,
+                    gravity=args.gravity, takeoff=args.takeoff)
     out = write_bvh(res.motion, args.output)
     print(prep.summary())
     print("planned (the method's model values; the audit line at the end measures the frames written):")
@@ -114,5 +144,35 @@ def _run(args: argparse.Namespace) -> int:
         kind, _ = filmstrip(res, path=args.filmstrip)
         print(f"wrote {args.filmstrip} ({kind})")
     result = None if args.no_audit else audit_output(out, prep.motion, input_name=str(args.input))
+    if result is not None:
+        for line in measured_lines(result.report):
+            print(line)
     finish_audit(args, "flips", result, args.report)
     return 0
+
+
+def measured_lines(report) -> list[str]:
+    """The physics of the output as :mod:`mocomp.audit` measured it on the frames written (against the
+    input): COM velocity jumps at take-off and landing, and per flight the fitted gravity with its
+    interval and the |L| variation. These, not the planned values above them, are the output's physics."""
+    A = report.against
+
+    def both(key, unit, fmt="{:.2f}"):
+        def one(r):
+            try:
+                v = r.measure(key)
+            except (KeyError, ValueError):
+                return "-"
+            return "-" if v is None or v != v else fmt.format(v)
+        return f"{one(report)} {unit}" + (f" (input {one(A)})" if A is not None else "")
+
+    lines = ["measured (mocomp.audit on the frames written; these are the output's physics): COM velocity jump at "
+             f"take-off {both('takeoff_jump_mps', 'm/s')}, at landing {both('landing_jump_mps', 'm/s')}, elsewhere "
+             f"{both('max_com_jump_mps', 'm/s')}"]
+    for i, f in enumerate(report.flights, 1):
+        if f.fit is None:
+            continue
+        lines.append(f"  flight {i} (frames {f.frames[0]}-{f.frames[1] - 1}, {f.duration:.3f} s): falls with "
+                     f"g = {f.fit.g:.2f} m/s^2 (95% interval {f.fit.g_low:.2f}-{f.fit.g_high:.2f}), |L| varies "
+                     f"{100 * f.L_magnitude:.1f}%")
+    return lines

@@ -31,10 +31,12 @@ import numpy as np
 
 from ..core.motion import Motion
 from ..core.rotations import quat_angle, quat_apply, quat_inverse, quat_multiply
+from ..dynamics.constants import G_STANDARD
 from ..errors import PhysicsError
 from .preprocess import PreparedFlip, flight_L_stats, smooth_block
-from .reposition import FlightTrajectory, flight_trajectory
-from .retime import RetimePlan, plan_retime, sample_positions
+from .reposition import FlightTrajectory, event_velocity, flight_trajectory
+from .retime import RetimePlan, plan_retime, resolve_gravity, sample_positions
+from .takeoff import TAKEOFF_CHOICES
 from .seamtime import SPEED_BOUNDS, seam_speed, warp_time, warped_positions
 from .seamtime import _NUMBA as SEAM_NB
 if SEAM_NB:
@@ -89,7 +91,10 @@ class PhysicsReport:
     ``loop_distance``, ``loop_mean_angle``, ``landing_distance``, ``join_twist``
     (rotation mismatch at the landing join, spread over the flight), ``loop_found``.
     Timing: ``k``, ``k_star``, ``k_ratio``; flight durations (s) ``T_original``,
-    ``T_sequenced``, ``T_new``; ``gravity`` (m/s^2, the clip's), ``gravity_scale``.
+    ``T_sequenced``, ``T_new``; ``gravity`` (m/s^2, what the new flight falls with),
+    ``gravity_source`` (``"standard"``, ``"clip"`` or ``"given"``), ``gravity_fitted`` (m/s^2, the
+    input flight's ballistic fit: a diagnostic of its frame rate, units and masses), ``gravity_scale``
+    (``gravity_fitted / 9.81``).
     Angular momentum (kg m^2/s, estimated masses, flight interior): ``L_original``,
     ``L_new`` (mean |L|), ``L_variation_original``, ``L_variation_new`` (max relative
     deviation of |L| from its mean), ``L_std_original``, ``L_std_new`` (coefficient of
@@ -98,8 +103,16 @@ class PhysicsReport:
     rotation applied).
     COM: ``com_residual_rms``, ``com_residual_max`` (m, new flight COM about its own
     ballistic fit), ``com_target_error`` (m, max distance to eq. 5.15/5.17).
-    Take-off: ``takeoff_angle_original``, ``takeoff_angle_new``, ``takeoff_angle_change``
-    (elevation of the COM velocity). Linear momentum jumps (kg m/s): ``p_jump_takeoff``,
+    Every value here is the model's plan; the frames written are measured by :mod:`mocomp.audit`
+    (the CLI prints both, the audit as the physics of the output).
+    Take-off: ``takeoff`` (``"as-is"`` or ``"repair"``), ``takeoff_velocity`` (``"measured"``: the
+    flight continues the input's take-off velocity; ``"fit"``: the flight fit's intercepts, eq. 5.15),
+    ``velocity_jump_takeoff`` / ``velocity_jump_landing`` (``(3,)`` m/s, planned COM velocity jumps,
+    new flight minus the retimed stance, before any repair), ``repairs`` (the
+    :class:`~mocomp.flips.takeoff.StanceRepair` of each repaired event, as dicts),
+    ``takeoff_angle_original``, ``takeoff_angle_new``, ``takeoff_angle_change``
+    (elevation of the COM velocity). Planned linear momentum jumps (kg m/s, vertical, after any
+    repair: 0 where the stance was repaired): ``p_jump_takeoff``,
     ``p_jump_landing``, and relative to ``M k |v|``, the momentum of the ``k``-retimed ground
     phase at take-off (the basis of the take-off note too; :mod:`mocomp.flips.retime`):
     ``p_jump_takeoff_rel``, ``p_jump_landing_rel``. Landing: ``landing_orientation_error`` (final root orientation
@@ -174,6 +187,13 @@ class PhysicsReport:
     L_profile_deviation_rms: float = float("nan")
     takeoff_height_change: float = 0.0
     requested_extra: float | None = None
+    gravity_fitted: float = float("nan")
+    gravity_source: str = "clip"
+    takeoff: str = "as-is"
+    takeoff_velocity: str = "fit"
+    velocity_jump_takeoff: tuple = (0.0, 0.0, 0.0)
+    velocity_jump_landing: tuple = (0.0, 0.0, 0.0)
+    repairs: tuple = ()
 
     def to_dict(self) -> dict:
         d = dataclasses.asdict(self)
@@ -211,8 +231,9 @@ class PhysicsReport:
             f"landing join f={self.f} (copy {self.f_copy}) ~ g={self.g} (D={self.landing_distance:.3f}, "
             f"twist {self.join_twist:+.2f} deg spread)",
             f"retiming: k={self.k:.3f}, k*={self.k_star:.3f} (k/k*={self.k_ratio:.2f}); flight "
-            f"{self.T_original:.3f} s -> {self.T_sequenced:.3f} s sequenced -> {self.T_new:.3f} s; clip gravity "
-            f"{self.gravity:.2f} m/s^2 (s={self.gravity_scale:.2f})",
+            f"{self.T_original:.3f} s -> {self.T_sequenced:.3f} s sequenced -> {self.T_new:.3f} s; new flight falls with "
+            f"g = {self.gravity:.2f} m/s^2 ({self.gravity_source}); the input's flight fits {self.gravity_fitted:.2f} "
+            f"(s={self.gravity_scale:.2f}, a diagnostic)",
             f"angular momentum |L|: {self.L_original:.2f} -> {self.L_new:.2f} kg m^2/s; variation over the flight "
             f"{100 * self.L_variation_original:.1f}% -> {100 * self.L_variation_new:.1f}% of the mean at most (std "
             f"{100 * self.L_std_original:.1f}% -> {100 * self.L_std_new:.1f}%, peak to peak {100 * self.L_range_original:.1f}%"
@@ -221,10 +242,14 @@ class PhysicsReport:
             f"{100 * self.L_profile_deviation_max:.1f}%, rms {100 * self.L_profile_deviation_rms:.1f}%",
             f"COM: residual about a ballistic fit rms {1e3 * self.com_residual_rms:.3f} mm, max "
             f"{1e3 * self.com_residual_max:.3f} mm; max distance to eq. 5.15/5.17 {1e3 * self.com_target_error:.2e} mm",
-            f"take-off angle {self.takeoff_angle_original:.1f} -> {self.takeoff_angle_new:.1f} deg "
-            f"(change {self.takeoff_angle_change:+.1f}); linear momentum jump at take-off {self.p_jump_takeoff:+.2f} "
-            f"kg m/s ({100 * self.p_jump_takeoff_rel:+.1f}%), at landing {self.p_jump_landing:+.2f} "
-            f"({100 * self.p_jump_landing_rel:+.1f}%)",
+            f"take-off ({self.takeoff}, flight from the {self.takeoff_velocity} take-off velocity): angle "
+            f"{self.takeoff_angle_original:.1f} -> {self.takeoff_angle_new:.1f} deg (change "
+            f"{self.takeoff_angle_change:+.1f}); planned COM velocity jump {_vec(self.velocity_jump_takeoff)} m/s at "
+            f"take-off, {_vec(self.velocity_jump_landing)} at landing"
+            + ("; repaired in the stance, so the planned linear momentum jump is " if self.repairs else
+               "; planned linear momentum jump ")
+            + f"{self.p_jump_takeoff:+.2f} kg m/s ({100 * self.p_jump_takeoff_rel:+.1f}%) at take-off, "
+            f"{self.p_jump_landing:+.2f} ({100 * self.p_jump_landing_rel:+.1f}%) at landing",
             f"landing: final root orientation differs from the original's by {self.landing_orientation_error:.2f} deg; "
             f"height change {self.height_change:+.3f} m at landing, {self.takeoff_height_change:+.3f} m at take-off "
             f"(landing {self.dy:+.3f} m from the take-off level)",
@@ -233,8 +258,23 @@ class PhysicsReport:
         if self.seam_retimed:
             lines.insert(3, f"seams: |L| kept at the original's by non-uniform retiming (eq. 5.22), playback speed "
                             f"{self.seam_speed_min:.2f}-{self.seam_speed_max:.2f}x over the seam windows")
+        for r in self.repairs:
+            lines.append("repair: " + _repair_text(r))
         lines += [f"note: {n}" for n in self.notes]
         return "\n".join(lines)
+
+
+def _vec(v) -> str:
+    v = np.asarray(v, dtype=float)
+    return f"{np.linalg.norm(v):.2f} (vertical {v[1]:+.2f})"
+
+
+def _repair_text(d: dict) -> str:
+    from .takeoff import StanceRepair
+
+    fields = {k: d[k] for k in StanceRepair.__dataclass_fields__}
+    fields["frames"] = tuple(fields["frames"])
+    return StanceRepair(**fields).describe()
 
 
 @dataclass(frozen=True, eq=False)
@@ -257,6 +297,8 @@ class MultiFlipResult:
         (the uniform retiming acts on warped time, see :mod:`mocomp.flips.seamtime`).
     takeoff_time: warped sequence time of the take-off frame (output time ``takeoff_time / (k fps)``).
     speed: ``(T*,)`` eq. 5.22 playback speed per sequence frame (``None`` without seam retiming).
+    repairs: the :class:`~mocomp.flips.takeoff.StanceRepair` of each repaired event
+        (``takeoff="repair"``; empty otherwise).
     """
 
     motion: Motion
@@ -273,6 +315,7 @@ class MultiFlipResult:
     seq_times: np.ndarray | None = field(default=None, repr=False)
     takeoff_time: float | None = None
     speed: np.ndarray | None = field(default=None, repr=False)
+    repairs: tuple = ()
 
     @property
     def takeoff_seconds(self) -> float:
@@ -288,15 +331,42 @@ class MultiFlipResult:
 def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None = None,
               k_ratio: float | None = None, height_change: float = 0.0, extra_rotation: float | None = None,
               window: int | None = None, evaluate: bool = True, max_delta: float | None = None,
-              seam_retime: bool = True, takeoff_height_change: float = 0.0) -> MultiFlipResult:
+              seam_retime: bool = True, takeoff_height_change: float = 0.0, gravity="standard",
+              takeoff: str = "as-is", takeoff_velocity: str = "measured",
+              repair_options: dict | None = None) -> MultiFlipResult:
     """Turn a prepared single flip into a ``flips``-somersault jump (section 5).
 
     Parameters
     ----------
     prepared: from :func:`~mocomp.flips.prepare`.
     flips: total somersaults (>= 2); or give ``extra_rotation`` (radians about ``L``) instead.
-    k: explicit retiming factor (``> 1`` faster); default ``k_ratio * k*`` with ``k_ratio = 0.7``
-        (section 5.3). Give one of ``k`` and ``k_ratio``.
+    k: explicit retiming factor (``> 1`` faster); default ``k_ratio * k*`` with ``k_ratio = 1``:
+        ``k = k*`` (App. B eq. B.5), the one factor whose flight leaves with the velocity the
+        retimed take-off reaches. ``k_ratio = 0.7`` is the paper's aesthetic choice (section 5.3,
+        "higher jumps with slower rotations"): its flight needs about twice the vertical take-off
+        speed, so the COM velocity jumps at take-off and landing (the note states the planned jump,
+        the audit of the written frames measures it), unless ``takeoff="repair"``. Give one of
+        ``k`` and ``k_ratio``.
+    gravity: what the new flight falls with: ``"standard"`` (default; 9.81 m/s^2,
+        :data:`~mocomp.dynamics.constants.G_STANDARD`, after the loaders' known frame-rate
+        corrections), ``"clip"`` (the gravity fitted to the input's flight, the behaviour before
+        issue #13: 11.8 m/s^2 on CMU 88_01, 7.6 on the DeepMimic back flip) or a number in m/s^2
+        (:func:`~mocomp.flips.retime.resolve_gravity`). The fitted gravity stays in the report
+        (``gravity_fitted``), with a note when it is implausible for the frame rate.
+    takeoff: ``"as-is"`` (default: the paper's method; at ``k != k*`` the velocity jumps) or
+        ``"repair"`` (beyond the paper, :mod:`mocomp.flips.takeoff`): the last ground frames before
+        take-off and the first after landing are reshaped by a root displacement map, the feet held
+        planted by the leg IK, so the COM reaches the new flight's velocity within the stance
+        (``repair_options``: keyword arguments of :func:`~mocomp.flips.takeoff.repair_stance`, e.g.
+        ``max_force``). Raises :class:`~mocomp.flips.takeoff.StanceRepairError` naming the frames and
+        the force or depth needed when the stance cannot do it.
+    takeoff_velocity: ``"measured"`` (default): the new flight leaves with ``k`` times the COM
+        velocity the input has at its take-off frame (a local quadratic fit over
+        :data:`~mocomp.flips.reposition.EVENT_HALF_WIDTH_S` either side), so it continues the
+        retimed take-off; ``"fit"``: eq. 5.15/5.17 as printed, the intercepts of the ballistic fit
+        of the input's flight. The two agree on a ballistic input (synthetic back flip: 3.13 m/s both);
+        on a non-ballistic one they do not (DeepMimic back flip: 1.74 m/s measured, 0.80 fitted, which
+        made the COM velocity jump from 3.3 to 1.3 m/s at take-off at ``k = k*``).
     height_change: m, landing level change (negative = land lower, e.g. off a platform);
         App. B: the landing may rise above the take-off by less than ``v0 T``.
     takeoff_height_change: m, take-off level change (App. B's ``y_start^new``: the ground phase
@@ -381,19 +451,30 @@ def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None 
     com_land = P.com[e - 1]
     h0 = float(takeoff_height_change)
     dy = float(com_land[1] - com0[1] + height_change - h0)
-    v_land = fit.b_y + 2.0 * fit.a_y * T0
+    g_used, g_source = resolve_gravity(gravity, fit.gravity)
+    if takeoff not in TAKEOFF_CHOICES:
+        raise ValueError(f"takeoff must be one of {', '.join(TAKEOFF_CHOICES)}, got {takeoff!r}")
+    if takeoff_velocity == "measured":
+        v_to = event_velocity(P.com, s, fps)
+        v_ld = event_velocity(P.com, e - 1, fps)
+    elif takeoff_velocity == "fit":
+        v_to = np.array([fit.a_x, fit.b_y, fit.a_z])
+        v_ld = np.array([fit.a_x, fit.b_y + 2.0 * fit.a_y * T0, fit.a_z])
+    else:
+        raise ValueError(f"takeoff_velocity must be 'measured' or 'fit', got {takeoff_velocity!r}")
+    v0, v_land = float(v_to[1]), float(v_ld[1])
     try:
-        plan = plan_retime(fit.gravity, T_seq, fit.b_y, dy, v_land, k=k, k_ratio=k_ratio,
-                           v_horizontal=float(np.hypot(fit.a_x, fit.a_z)))
+        plan = plan_retime(g_used, T_seq, v0, dy, v_land, k=k, k_ratio=k_ratio,
+                           v_horizontal=float(np.hypot(v_to[0], v_to[2])))
     except PhysicsError as exc:
         if "radicand" not in str(exc):
             raise
         own = dy - height_change + h0
-        limit = fit.b_y * T_seq - own + h0
+        limit = v0 * T_seq - own + h0
         raise PhysicsError(
             f"impossible height change (landing {height_change:+.3f} m, take-off {h0:+.3f} m) for a {flips}-flip from "
-            f"this clip: k* (App. B) needs the landing less than v0*T = {fit.b_y * T_seq:.3f} m above the take-off "
-            f"(v0 = {fit.b_y:.3f} m/s, sequenced flight T = {T_seq:.3f} s); the clip already lands {own:+.3f} m from "
+            f"this clip: k* (App. B) needs the landing less than v0*T = {v0 * T_seq:.3f} m above the take-off "
+            f"(v0 = {v0:.3f} m/s, sequenced flight T = {T_seq:.3f} s); the clip already lands {own:+.3f} m from "
             f"its take-off level, so use --height-change below {limit:.3f} m (or raise the take-off with "
             f"--takeoff-height-change, or give an explicit --k)") from None
     kk = plan.k
@@ -415,7 +496,7 @@ def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None 
     if h0:                                                          # App. B: the take-off level y_start^new
         com0 = com0 + np.array([0.0, h0, 0.0])
         rp_seq[:seq.takeoff + 1, 1] += h0
-    traj = flight_trajectory(com0, fit.a_x, fit.a_z, fit.a_y, kk, plan.vy_takeoff_new, plan.T_new)
+    traj = flight_trajectory(com0, float(v_to[0]), float(v_to[2]), -0.5 * g_used, kk, plan.vy_takeoff_new, plan.T_new)
     post = seq.landing + 1
     end = traj.end
     if q_land is None:
@@ -450,13 +531,57 @@ def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None 
     t5 = time.perf_counter()
     timings["assemble"] = t5 - t4
     flight_out = (f0, f1)
+    W_land = float(seq.landing) if W is None else float(W[seq.landing])
+    repairs: tuple = ()
+    if takeoff == "repair":
+        new, repairs = _repair(P, seq, new, traj, kk, tau, W_to, W_land, v_to, v_ld, q_land, g_used, repair_options)
+        timings["repair"] = time.perf_counter() - t5
     report, mom = None, None
     if evaluate:
         report, mom = _evaluate(P, seq, plan, traj, new, flight_out, timings, height_change, dy, flips,
-                                extra_rotation, W_to, speed, tau, w, h0, upright_tilt)
+                                extra_rotation, W_to, speed, tau, w, h0, upright_tilt,
+                                gravity_info=(g_used, g_source, fit.gravity), takeoff=takeoff, repairs=repairs,
+                                takeoff_velocity=takeoff_velocity, v_to=v_to, v_ld=v_ld, W_land=W_land, q_land=q_land)
     return MultiFlipResult(motion=new, original=P.motion, prepared=P, sequence=seq, plan=plan, trajectory=traj,
                            seq_positions=tau, flight=flight_out, report=report, timings=timings, momentum=mom,
-                           seq_times=tw, takeoff_time=W_to, speed=speed)
+                           seq_times=tw, takeoff_time=W_to, speed=speed, repairs=repairs)
+
+
+def event_jumps(traj: FlightTrajectory, k: float, v_to: np.ndarray, v_ld: np.ndarray, q_land=None):
+    """Planned COM velocity jumps ``(3,)`` m/s at take-off and landing: the new flight's velocity
+    minus the ``k``-retimed stance's (``k v_to`` before take-off; ``k v_ld`` after landing, turned by
+    ``q_land`` when the landing phase is turned about the vertical)."""
+    up = traj.velocity - k * np.asarray(v_to, dtype=float)
+    v_end = np.array(traj.velocity, dtype=float)
+    v_end[1] += 2.0 * traj.a_y * traj.T_new
+    ground = k * np.asarray(v_ld, dtype=float)
+    if q_land is not None:
+        ground = quat_apply(q_land, ground)
+    return up, v_end - ground
+
+
+def _repair(P, seq, new, traj, kk, tau, W_to, W_land, v_to, v_ld, q_land, g, options):
+    """``takeoff="repair"``: :func:`~mocomp.flips.takeoff.repair_stance` at take-off and landing
+    (stances bounded by the clip's other flights)."""
+    from .takeoff import repair_stance
+
+    opts = dict(options or {})
+    up, down = event_jumps(traj, kk, v_to, v_ld, q_land)
+    src = seq.frames[np.clip(np.rint(tau).astype(int), 0, seq.n_frames - 1)]
+    s, e = P.flight
+    others = [(int(f.start), int(f.stop)) for f in P.detection.flights if (int(f.start), int(f.stop)) != (s, e)]
+    prev_end = max([b for a, b in others if b <= s], default=0)
+    next_start = min([a for a, b in others if a >= e], default=P.motion.n_frames)
+    before = np.flatnonzero((tau < seq.takeoff) & (src >= prev_end))
+    after = np.flatnonzero((tau > seq.landing) & (src < next_start))
+    repairs = []
+    for event, jump, frames, t_ev in (("take-off", up, before, W_to / kk), ("landing", down, after, W_land / kk)):
+        if float(np.linalg.norm(jump)) < 1e-3 or frames.size == 0:
+            continue
+        new, rep = repair_stance(new, P.com_eval, event, t_ev, jump, (int(frames[0]), int(frames[-1]) + 1), g=g,
+                                 body=P.body, **opts)
+        repairs.append(rep)
+    return new, tuple(repairs)
 
 
 def landing_change_for_k(prepared: PreparedFlip, flips: int | None = 2, k: float = 1.0, *,
@@ -607,7 +732,9 @@ def _ballistic_residual(com: np.ndarray, fps: float) -> tuple[float, float]:
 def _evaluate(P: PreparedFlip, seq: Sequence, plan: RetimePlan, traj: FlightTrajectory, new: Motion,
               flight_out: tuple[int, int], timings: dict, height_change: float, dy: float, flips, extra_rotation,
               W_to: float | None = None, speeds: np.ndarray | None = None, tau: np.ndarray | None = None,
-              window: int | None = None, takeoff_height_change: float = 0.0, upright_tilt: float = 0.0):
+              window: int | None = None, takeoff_height_change: float = 0.0, upright_tilt: float = 0.0, *,
+              gravity_info=None, takeoff: str = "as-is", repairs=(), takeoff_velocity: str = "fit", v_to=None,
+              v_ld=None, W_land=None, q_land=None):
     from ..dynamics import momentum as compute_momentum
 
     t = time.perf_counter()
@@ -634,10 +761,17 @@ def _evaluate(P: PreparedFlip, seq: Sequence, plan: RetimePlan, traj: FlightTraj
     achieved = float(theta_new[-1] - theta_new[0])
     orig = P.total_rotation
     fit = P.fit
-    vh = np.hypot(fit.a_x, fit.a_z)
-    ang0 = float(np.degrees(np.arctan2(fit.b_y, vh)))
+    if v_to is None:
+        v_to = np.array([fit.a_x, fit.b_y, fit.a_z])
+    if v_ld is None:
+        v_ld = np.array([fit.a_x, fit.b_y + 2.0 * fit.a_y * (P.flight[1] - 1 - P.flight[0]) / fps, fit.a_z])
+    vh = np.hypot(v_to[0], v_to[2])
+    ang0 = float(np.degrees(np.arctan2(v_to[1], vh)))
     ang1 = float(np.degrees(np.arctan2(plan.vy_takeoff_new, plan.k * vh)))
     M = P.body.total_mass
+    jump_up, jump_down = event_jumps(traj, plan.k, v_to, v_ld, q_land)
+    repaired = {r.event for r in repairs}
+    g_used, g_source, g_fit = gravity_info if gravity_info is not None else (plan.g, "clip", fit.gravity)
     q_end = new.rotations[-1, 0]
     q_ref = P.motion.rotations[-1, 0]
     land_err = float(np.degrees(quat_angle(quat_multiply(q_end, quat_inverse(q_ref)))))
@@ -648,7 +782,15 @@ def _evaluate(P: PreparedFlip, seq: Sequence, plan: RetimePlan, traj: FlightTraj
     times["preprocess_total"] = 1e3 * P.timings.get("total", float("nan"))
     notes = list(seq.notes) + list(P.notes)
     if plan.note:
-        notes.append(plan.note)
+        notes.append(plan.note if not repaired else
+                     plan.note.split(": the linear momentum jumps")[0] + ": the jump is removed in the stance "
+                     "(takeoff='repair', see the repair lines)")
+    notes += _gravity_notes(P, g_used, g_source, g_fit)
+    for r in repairs:
+        if np.isfinite(r.zmp_outside_after) and r.zmp_outside_after > max(r.zmp_outside_before, 0.0) + 0.02:
+            notes.append(f"the {r.event} repair moves the ZMP up to {100 * r.zmp_outside_after:.1f} cm outside the "
+                         f"support polygon (before {100 * max(r.zmp_outside_before, 0.0):.1f} cm) over output frames "
+                         f"{r.frames[0]}-{r.frames[1] - 1}")
     if upright_tilt > 0.05:
         notes.append(f"the extra rotation is not whole turns and L is {np.degrees(np.arccos(min(abs(P.axis[1]), 1.0))):.1f} "
                      f"deg from the vertical: to land upright the body is turned a further {upright_tilt:.1f} deg, "
@@ -671,14 +813,19 @@ def _evaluate(P: PreparedFlip, seq: Sequence, plan: RetimePlan, traj: FlightTraj
         loop_mean_angle=P.loop.mean_angle_deg, landing_distance=seq.join.distance,
         join_twist=float(np.degrees(seq.join.delta)), loop_found=P.loop.found,
         k=plan.k, k_star=plan.k_star, k_ratio=plan.k_ratio, T_original=(P.flight[1] - 1 - P.flight[0]) / fps,
-        T_sequenced=plan.T_seq, T_new=plan.T_new, gravity=plan.g, gravity_scale=fit.scale,
+        T_sequenced=plan.T_seq, T_new=plan.T_new, gravity=plan.g, gravity_scale=float(g_fit) / G_STANDARD,
         L_original=Lo["mean"], L_new=Ln["mean"], L_variation_original=Lo["variation"],
         L_variation_new=Ln["variation"], L_std_original=Lo["std"], L_std_new=Ln["std"],
         L_range_original=Lo["range"], L_range_new=Ln["range"],
         L_direction_change=dir_change, com_residual_rms=rms, com_residual_max=mx, com_target_error=target_err,
         takeoff_angle_original=ang0, takeoff_angle_new=ang1, takeoff_angle_change=ang1 - ang0,
-        p_jump_takeoff=M * plan.vy_takeoff_jump, p_jump_landing=M * plan.vy_landing_jump,
-        p_jump_takeoff_rel=plan.p_jump_takeoff_rel, p_jump_landing_rel=plan.p_jump_landing_rel,
+        p_jump_takeoff=0.0 if "take-off" in repaired else M * plan.vy_takeoff_jump,
+        p_jump_landing=0.0 if "landing" in repaired else M * plan.vy_landing_jump,
+        p_jump_takeoff_rel=0.0 if "take-off" in repaired else plan.p_jump_takeoff_rel,
+        p_jump_landing_rel=0.0 if "landing" in repaired else plan.p_jump_landing_rel,
+        gravity_fitted=float(g_fit), gravity_source=str(g_source), takeoff=str(takeoff),
+        takeoff_velocity=str(takeoff_velocity), velocity_jump_takeoff=tuple(float(x) for x in jump_up),
+        velocity_jump_landing=tuple(float(x) for x in jump_down), repairs=tuple(r.to_dict() for r in repairs),
         landing_orientation_error=land_err, height_change=float(height_change), dy=dy, times_ms=times,
         notes=tuple(notes), seam_retimed=speeds is not None,
         L_profile_deviation_max=float(np.max(np.abs(prof))), L_profile_deviation_rms=float(np.sqrt(np.mean(prof ** 2))),
@@ -686,3 +833,27 @@ def _evaluate(P: PreparedFlip, seq: Sequence, plan: RetimePlan, traj: FlightTraj
         seam_speed_min=float(speeds.min()) if speeds is not None else 1.0,
         seam_speed_max=float(speeds.max()) if speeds is not None else 1.0)
     return rep, mom
+
+
+def _gravity_notes(P: PreparedFlip, g_used: float, source: str, g_fit: float) -> list[str]:
+    """Notes on the input's fitted gravity: implausible for its frame rate (the likely error named,
+    :func:`~mocomp.flips.mass.diagnose_gravity` and the clip's :class:`~mocomp.flips.mass.TimingDiagnosis`),
+    or just different from the gravity the new flight falls with."""
+    from .mass import diagnose_gravity
+
+    notes = []
+    timing = P.timing
+    s = float(g_fit) / G_STANDARD
+    flight_text = diagnose_gravity(s, P.fps)
+    if timing is not None and not timing.consistent:
+        notes.append(f"the input's fitted gravity is implausible: {timing.text}; the new flight falls with "
+                     f"{g_used:.2f} m/s^2 ({source}) but the ground phases keep the clip's timing")
+    elif not 0.7 <= s <= 1.45:
+        notes.append(f"the input's flight is implausible: {flight_text}; the new flight falls with {g_used:.2f} "
+                     f"m/s^2 ({source})")
+    elif abs(g_fit / g_used - 1.0) > 0.05:
+        clip = f"; the clip's flights combined give {timing.scale * G_STANDARD:.2f} m/s^2" if timing is not None else ""
+        notes.append(f"the input's flight fits gravity {g_fit:.2f} m/s^2 (within the usual error of one rotating "
+                     f"flight{clip}); the new flight falls with {g_used:.2f} m/s^2 ({source}"
+                     + ("; gravity='clip', --gravity clip, keeps the fitted value)" if source == "standard" else ")"))
+    return notes

@@ -9,7 +9,13 @@ where ``v0' = k b_y`` at ``k = k*`` (eq. 5.17 as printed) and, for other ``k``, 
 vertical take-off velocity that lands at the requested level (see
 :mod:`mocomp.flips.retime`). ``b_x, b_z, c_y`` are anchored at the COM of the
 take-off frame (rather than the fitted intercepts, which differ from it by the
-fit residual) so positions are continuous at take-off. Every flight frame is
+fit residual) so positions are continuous at take-off. Likewise the velocities ``a_x, b_y, a_z``
+are by default the COM velocity the input *has* at its take-off frame (:func:`event_velocity`),
+not the intercepts of its flight's ballistic fit: the two agree on a ballistic flight, but on
+the DeepMimic back flip (a key-framed flight that is not ballistic) the fit leaves at 0.80 m/s
+while the take-off reaches 1.74, and at ``k = k*`` the frames jumped from 3.3 to 1.3 m/s
+(``multiflip(..., takeoff_velocity="fit")`` keeps the printed equations). ``a_y = -g/2`` with
+the gravity the new flight falls with (9.81 m/s^2 by default; :func:`~mocomp.flips.retime.resolve_gravity`). Every flight frame is
 translated so its COM (computed exactly from its pose with the estimated
 masses) lies on that trajectory; translation leaves angular momentum about the
 COM unchanged (section 5.4.1). Frames after the landing are offset by
@@ -24,7 +30,29 @@ import numpy as np
 
 from ..body.model import BodyModel
 
-__all__ = ["ComEvaluator", "FlightTrajectory", "flight_trajectory", "landing_offset"]
+__all__ = ["ComEvaluator", "FlightTrajectory", "flight_trajectory", "landing_offset", "event_velocity",
+           "EVENT_HALF_WIDTH_S"]
+
+#: s: half-width of the local quadratic fit of :func:`event_velocity` (2 frames at 120 Hz, 1 at 60 Hz)
+EVENT_HALF_WIDTH_S = 0.015
+
+
+def event_velocity(com: np.ndarray, frame: int, fps: float, half_width: int | None = None) -> np.ndarray:
+    """``(3,)`` m/s COM velocity at ``frame`` from a local quadratic least-squares fit over
+    ``frame - h .. frame + h`` (a Savitzky-Golay derivative, :func:`scipy.signal.savgol_coeffs`;
+    ``h = max(1, round(EVENT_HALF_WIDTH_S fps))`` unless given; shrunk at the clip's ends). Centred
+    on a take-off or landing frame it is the velocity the body has there, whichever side of the
+    event the detector put the frame (the velocity is continuous through a take-off)."""
+    from scipy.signal import savgol_coeffs
+
+    com = np.asarray(com, dtype=float)
+    T = com.shape[0]
+    h = max(1, int(round(EVENT_HALF_WIDTH_S * fps))) if half_width is None else int(half_width)
+    h = max(1, min(h, frame, T - 1 - frame))
+    if not (0 < frame < T - 1):
+        raise ValueError(f"event_velocity needs a frame with neighbours on both sides, got {frame} of {T}")
+    c = savgol_coeffs(2 * h + 1, 2, deriv=1, delta=1.0 / fps, use="dot")
+    return c @ com[frame - h:frame + h + 1]
 
 
 class ComEvaluator:
@@ -130,7 +158,7 @@ class FlightTrajectory:
     ----------
     c0: ``(3,)`` m, COM at take-off (``b_x, c_y, b_z``).
     velocity: ``(3,)`` m/s, COM velocity at take-off (``k a_x, v0', k a_z``).
-    a_y: m/s^2 / 2, the clip's vertical quadratic coefficient (``-g/2``).
+    a_y: m/s^2 / 2, the vertical quadratic coefficient (``-g/2``, ``g`` the gravity the flight falls with).
     T_new: s, flight duration.
     """
 

@@ -14,8 +14,9 @@ to the landing level ``dy`` above the take-off level in the retimed time
 radicand is positive only for ``dy < v0 T`` (App. B's limit on raising the
 landing).
 
-**When k differs from k*** (the paper's default is ``k ~ 0.7 k*``: "higher jumps
-with slower rotations", section 5.3 / 5.4.3) the flight cannot both leave with ``k v0``
+**When k differs from k*** (the paper's choice is ``k ~ 0.7 k*``: "higher jumps
+with slower rotations", section 5.3 / 5.4.3; here ``k = k*`` is the default and ``k_ratio=0.7``
+the paper's aesthetic option) the flight cannot both leave with ``k v0``
 and land at the requested level after ``T / k``. Eq. 5.17 as printed,
 ``COM_y(t) = a_y t^2 + k b_y t + c_y`` over ``t = 0 .. T_new``, keeps the take-off velocity
 ``k b_y`` but then ends at ``a_y (T/k)^2 + b_y T`` above ``c_y`` instead of at ``dy``: for
@@ -32,9 +33,20 @@ replaced by ``v0'``; the two agree at ``k = k*``). The take-off and landing phas
 their ``k``-retimed velocities, so the vertical velocity jumps by ``v0' - k v0`` at
 take-off and by the corresponding amount at landing. With level take-off and landing
 the jump is ``(k*/k)^2 - 1`` of ``k v0``: **+104 % at k = 0.7 k***, not small, although the
-paper calls such discontinuities imperceptible; it vanishes at ``k = k*`` (``k_ratio=1``,
-CLI ``--k-ratio 1``), which is continuous at take-off and, for ``dy = 0``, at landing.
-Both jumps are in :class:`RetimePlan` and the physics report.
+paper calls such discontinuities imperceptible; it vanishes at ``k = k*`` (``k_ratio=1``, the
+default), which is continuous at take-off and, for ``dy = 0``, at landing.
+Both jumps are in :class:`RetimePlan` and the physics report (as planned values; the audit of
+the written frames measures them). :mod:`mocomp.flips.takeoff` (``multiflip(..., takeoff="repair")``,
+CLI ``--takeoff repair``) goes beyond the paper and makes ``k < k*`` physical: the last ground
+frames before take-off (and the first after landing) are reshaped so the COM reaches the new
+flight's velocity within the stance.
+
+**Gravity.** The new flight falls with ``g`` as :func:`resolve_gravity` chooses it:
+standard gravity (:data:`~mocomp.dynamics.constants.G_STANDARD`, 9.81 m/s^2) by default, after the
+loaders' known frame-rate corrections; the gravity fitted to the clip's flight is a diagnostic
+(it is 11.8 m/s^2 on CMU 88_01's flight although the clip-level fit, 10.2, is consistent with 9.81;
+7.6 and 13.0 on the DeepMimic back and side flips), ``gravity="clip"`` keeps it (the behaviour
+before issue #13), a number sets it.
 
 Relative jumps use one basis everywhere (the plan's note, :attr:`RetimePlan.p_jump_takeoff_rel`
 and the physics report's ``p_jump_takeoff_rel`` / ``p_jump_landing_rel``): the magnitude of the
@@ -53,7 +65,41 @@ import numpy as np
 
 from ..errors import PhysicsError
 
-__all__ = ["k_star", "RetimePlan", "plan_retime", "sample_positions"]
+__all__ = ["k_star", "RetimePlan", "plan_retime", "sample_positions", "resolve_gravity", "GRAVITY_CHOICES"]
+
+#: the named values of the ``gravity`` parameter (besides a number in m/s^2)
+GRAVITY_CHOICES = ("standard", "clip")
+
+
+def resolve_gravity(gravity, fitted: float) -> tuple[float, str]:
+    """The gravity a generated flight falls with, and its source in words.
+
+    ``gravity``: ``"standard"`` (9.81 m/s^2, :data:`~mocomp.dynamics.constants.G_STANDARD`),
+    ``"clip"`` (``fitted``, the gravity fitted to the input's flight: the behaviour before issue
+    #13) or a positive number of m/s^2 (as a float, or a string such as ``"9.6"``). Raises
+    ``ValueError`` naming the value otherwise."""
+    from ..dynamics.constants import G_STANDARD
+
+    if isinstance(gravity, str):
+        key = gravity.strip().lower()
+        if key == "standard":
+            return float(G_STANDARD), "standard"
+        if key == "clip":
+            if not (np.isfinite(fitted) and fitted > 0):
+                raise PhysicsError(f"gravity='clip' needs a downward flight fit, but the clip's fitted gravity is "
+                                   f"{fitted!r}")
+            return float(fitted), "clip"
+        try:
+            value = float(key)
+        except ValueError:
+            raise ValueError(f"gravity must be 'standard', 'clip' or a number of m/s^2, got {gravity!r}") from None
+    elif isinstance(gravity, bool) or not isinstance(gravity, (int, float, np.integer, np.floating)):
+        raise ValueError(f"gravity must be 'standard', 'clip' or a number of m/s^2, got {gravity!r}")
+    else:
+        value = float(gravity)
+    if not (np.isfinite(value) and 0.5 <= value <= 100.0):
+        raise ValueError(f"gravity must be a finite number of m/s^2 in [0.5, 100], got {gravity!r}")
+    return value, "given"
 
 
 def k_star(g: float, T: float, v0: float, dy: float = 0.0) -> float:
@@ -88,7 +134,7 @@ class RetimePlan:
     ----------
     k: the factor used (``k > 1`` = faster); ``k_star``: eq. B.5 (``nan`` if undefined
         and ``k`` was given explicitly); ``k_ratio``: ``k / k_star``.
-    g: m/s^2, the clip's gravity (``-2 a_y`` of the flight fit).
+    g: m/s^2, the gravity the new flight falls with (:func:`resolve_gravity`: 9.81 by default, or the clip's fit).
     T_seq: s, flight duration of the sequenced motion before retiming; ``T_new = T_seq / k``.
     v0: m/s, original take-off vertical velocity (``b_y``); ``dy``: m, landing minus take-off level.
     vy_takeoff_new: m/s, vertical take-off velocity of the new flight parabola.
@@ -126,8 +172,10 @@ class RetimePlan:
 
 def plan_retime(g: float, T_seq: float, v0: float, dy: float, v_land: float,
                 k: float | None = None, k_ratio: float | None = None, v_horizontal: float = 0.0) -> RetimePlan:
-    """Choose ``k`` (explicit, or ``k_ratio * k*``, default ``0.7 k*`` as in section 5.3) and
-    derive the new flight's vertical velocity.
+    """Choose ``k`` (explicit, or ``k_ratio * k*``, default ``k = k*``, continuous at take-off;
+    ``k_ratio=0.7`` is the paper's choice of section 5.3, whose take-off jump the note states) and
+    derive the new flight's vertical velocity. ``g`` is the gravity the new flight falls with
+    (:func:`resolve_gravity`).
 
     ``v_land`` is the original vertical velocity at landing (``b_y + 2 a_y T0``),
     used for the landing discontinuity; ``v_horizontal`` (m/s) the flight's horizontal COM
@@ -136,7 +184,7 @@ def plan_retime(g: float, T_seq: float, v0: float, dy: float, v_land: float,
     if k is not None and k_ratio is not None:
         raise ValueError("give either k or k_ratio, not both")
     if k is None and k_ratio is None:
-        k_ratio = 0.7
+        k_ratio = 1.0
     note = ""
     try:
         ks = k_star(g, T_seq, v0, dy)
@@ -165,8 +213,8 @@ def plan_retime(g: float, T_seq: float, v0: float, dy: float, v_land: float,
                 f"at {vy_new:.2f} m/s vertically while the retimed take-off reaches {kv0:.2f} m/s: the linear "
                 f"momentum jumps at take-off by {100 * rel:+.0f}% of the retimed take-off momentum M k|v| "
                 f"(k|v| = {speed:.2f} m/s; p_jump_takeoff_rel), and the vertical velocity by "
-                f"{vy_land_new - k * v_land:+.2f} m/s at landing; k = k* (k_ratio=1, --k-ratio 1) keeps it "
-                f"continuous")
+                f"{vy_land_new - k * v_land:+.2f} m/s at landing; k = k* (k_ratio=1, the default) keeps it "
+                f"continuous, takeoff='repair' (--takeoff repair) reshapes the stance to reach it")
     return RetimePlan(k=float(k), k_star=float(ks), k_ratio=float(k / ks) if np.isfinite(ks) else float("nan"),
                       g=float(g), T_seq=float(T_seq), T_new=float(T_new), v0=float(v0), dy=float(dy),
                       vy_takeoff_new=float(vy_new), vy_takeoff_jump=float(vy_new - k * v0),

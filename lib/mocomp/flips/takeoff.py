@@ -1,0 +1,449 @@
+"""Take-off and landing repair: ``k < k*`` made physical by reshaping the stance (beyond the paper).
+
+At ``k = k*`` (App. B eq. B.5) the new flight leaves with the velocity the ``k``-retimed take-off
+reaches; at any other ``k`` it cannot (:mod:`mocomp.flips.retime`): with the paper's ``k = 0.7 k*``
+(section 5.3) the flight needs about twice the vertical take-off speed, and the COM velocity
+jumps between two frames (CMU 88_01: 2.47 -> 5.81 m/s). The paper calls this imperceptible;
+Newton does not allow it. :func:`repair_stance` removes the jump where it is made: over the last
+ground frames before the take-off it adds a root displacement map ``d(t)`` (vertical, plus any
+horizontal mismatch) with
+
+    d(t_event) = 0,   d'(t_event) = dv,   d = d' = d'' = 0 where the window starts,
+
+so the COM is accelerated smoothly from the retimed take-off's velocity to the new flight's
+(and, mirrored, decelerated after the landing from the flight's arrival velocity to the retimed
+landing's). Of all such maps it takes the one with the least displacement: it minimises
+
+    J(d) = mean over the window of |d|^2  +  lambda D^6 mean |d'''|^2        (jerk-regularised)
+
+(``D`` the window length, ``lambda`` = :data:`JERK_WEIGHT`: the jerk term keeps the ground force
+smooth, as a minimum-jerk profile would [Flash & Hogan 1985]) subject to, at every output frame of
+the window, the vertical ground reaction ``M (g + a_y)`` of the repaired COM between ``min_force``
+and ``max_force`` body weights (the ground pushes, it cannot pull: ``a_y >= -g``; peak take-off
+forces of standing back somersaults are 3-6 body weights and of running ones 8-13, and ``k = 0.7 k*``
+asks for about twice the take-off speed, so ``max_force = 8`` (:data:`MAX_FORCE`), or the
+stance's own peak where that is higher). ``a_y`` is the
+retimed stance's own COM acceleration (Gaussian-smoothed over :data:`ACC_SMOOTH_S`) plus ``d''``.
+``d`` is a degree-:data:`DEGREE` polynomial in Bernstein form on the window; the end conditions fix
+five of its coefficients, and the quadratic programme in the others is solved by SLSQP
+(:func:`scipy.optimize.minimize`). Gaining ``dv`` while ending where the take-off was forces a
+deeper crouch first: even a bang-bang push (free fall, then the largest force) sinks
+``dv^2 / (2 (max_force - 1) g)`` deeper, 13 cm for the 3.2 m/s the synthetic back flip needs at
+``k = 0.7 k*``; the smooth map needs more.
+
+The feet stay planted: every window frame's ankles are put back where the unrepaired frame had
+them by the analytic two-bone leg IK of :mod:`mocomp.edit.legs` (:func:`~mocomp.edit.legs.two_bone_ik`;
+the ankle keeps its world orientation, so the toes stay too). Folding the legs moves their mass
+less than the root, so the root displacement is corrected until the whole-body COM (not the
+root) follows ``d`` (a fixed-point iteration, :data:`COM_ITERATIONS`). Where a leg cannot reach,
+a knee would have to fold further than the performer's own tightest fold anywhere in the clip
+(the tuck), or no push within the force bounds exists in the stance, :class:`StanceRepairError`
+says so, naming the frames, the velocity to add and the force or depth it would take, instead of
+writing such a motion.
+
+What the repair leaves to measurement: the ZMP. A vertical displacement changes the ZMP of
+touch-up paper eq. 4 through ``a_y`` (more push draws it toward the COM's ground projection,
+less push lets the horizontal terms dominate); :func:`repair_stance` reports the largest ZMP
+distance outside the support polygon over the window before and after (measured by
+:mod:`mocomp.audit` on both motions, with the same body), and the physics report notes it when
+the repair makes it worse.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..core.kinematics import forward_kinematics
+from ..core.motion import Motion
+from ..errors import PhysicsError
+
+__all__ = ["StanceRepair", "StanceRepairError", "repair_stance", "stance_displacement", "TAKEOFF_CHOICES",
+           "MAX_FORCE", "MIN_FORCE", "MAX_WINDOW_S", "JERK_WEIGHT", "DEGREE", "ACC_SMOOTH_S", "IK_TOLERANCE"]
+
+#: the values of ``multiflip(..., takeoff=...)`` / ``--takeoff``
+TAKEOFF_CHOICES = ("as-is", "repair")
+#: body weights: the largest vertical ground reaction the repaired stance may need (or the stance's own
+#: peak where that is higher). Standing take-offs of back somersaults peak at 3-6 body weights, running
+#: ones (round-off, back handspring) at 8-13; the real CMU 88_01 flip's own push, smoothed over 20 ms,
+#: peaks at 6.0 and the synthetic back flip's at 6.8. ``k = 0.7 k*`` asks for about twice the take-off
+#: speed, so the bound is that of a running take-off.
+MAX_FORCE = 8.0
+#: body weights: the smallest (the ground cannot pull; a margin keeps the ZMP defined)
+MIN_FORCE = 0.1
+#: s: the longest stretch of the stance the displacement map may use
+MAX_WINDOW_S = 0.8
+#: the weight of the jerk term of J(d): at 1e-5 a 3.2 m/s push over 0.8 s sinks 21 cm with forces of
+#: 0.5-3.8 body weights (1e-3: 34 cm, 0.6-2.7; 1e-7: 13 cm, the bang-bang limit, 0.1-5)
+JERK_WEIGHT = 1e-5
+#: degree of the Bernstein polynomial d(t)
+DEGREE = 15
+#: s: Gaussian smoothing (standard deviation) of the stance's own COM acceleration in the force bounds
+ACC_SMOOTH_S = 0.02
+#: m: the largest distance an ankle may be left from its planted position
+IK_TOLERANCE = 0.005
+#: root corrections so the COM (not the root) follows the displacement map
+COM_ITERATIONS = 4
+
+
+class StanceRepairError(PhysicsError):
+    """The stance cannot take the velocity change within the force bounds or the legs' reach."""
+
+
+@dataclass(frozen=True)
+class StanceRepair:
+    """What :func:`repair_stance` changed and measured (SI units).
+
+    Attributes
+    ----------
+    event: ``"take-off"`` or ``"landing"``; event_time: s, output time of the event.
+    frames: ``(start, stop)`` half-open output frames changed.
+    dv: ``(3,)`` m/s, velocity added at the event (flight minus retimed stance).
+    window: s, length of the stance the map may use (the map itself decays where it is not needed).
+    dip: m, the most negative vertical displacement (a deeper crouch); rise: the most positive.
+    horizontal: m, largest horizontal displacement of the root.
+    peak_force, min_force: body weights, vertical ground reaction of the repaired COM over the
+        window (smoothed acceleration); peak_force_before: the same before the repair.
+    peak_extra_acceleration: m/s^2, largest ``|d''|``.
+    ik_miss: m, largest distance an ankle is left from its planted position.
+    zmp_outside_before, zmp_outside_after: m, largest ZMP distance outside the support polygon over
+        the window frames (``nan`` where the audit measured none).
+    """
+
+    event: str
+    event_time: float
+    frames: tuple[int, int]
+    dv: np.ndarray
+    window: float
+    dip: float
+    rise: float
+    horizontal: float
+    peak_force: float
+    min_force: float
+    peak_force_before: float
+    peak_extra_acceleration: float
+    ik_miss: float
+    zmp_outside_before: float = float("nan")
+    zmp_outside_after: float = float("nan")
+
+    def describe(self) -> str:
+        a, b = self.frames
+        dv = np.asarray(self.dv)
+        return (f"{self.event} repaired over output frames {a}-{b - 1} ({(b - a)} frames): {np.linalg.norm(dv):.2f} m/s "
+                f"added (vertical {dv[1]:+.2f}), crouch {100 * -self.dip:.1f} cm deeper at most, vertical ground force "
+                f"{self.min_force:.2f}-{self.peak_force:.2f} body weights (before {self.peak_force_before:.2f}), "
+                f"feet held within {1000 * self.ik_miss:.1f} mm; ZMP outside the support polygon at most "
+                f"{_cm(self.zmp_outside_before)} before, {_cm(self.zmp_outside_after)} after")
+
+    def to_dict(self) -> dict:
+        d = {k: getattr(self, k) for k in self.__dataclass_fields__}
+        d["dv"] = [float(x) for x in np.asarray(self.dv)]
+        d["frames"] = list(self.frames)
+        return d
+
+
+def _cm(x: float) -> str:
+    return "-" if not np.isfinite(x) else f"{100 * x:.1f} cm"
+
+
+def _bernstein(tau: np.ndarray, D: float, n: int = DEGREE, deriv: int = 0) -> np.ndarray:
+    """``(m, n + 1)`` design matrix of the ``deriv``-th time derivative of the degree-``n``
+    Bernstein basis on ``[0, D]`` at ``tau`` (s)."""
+    from scipy.interpolate import BSpline
+
+    knots = np.r_[np.zeros(n + 1), np.full(n + 1, D)]
+    spl = BSpline(knots, np.eye(n + 1), n, extrapolate=False)
+    if deriv:
+        spl = spl.derivative(deriv)
+    out = spl(np.clip(tau, 0.0, D))
+    return np.nan_to_num(np.asarray(out, dtype=float))
+
+
+def stance_displacement(tau: np.ndarray, slope: float, D: float, lower=None, upper=None, *,
+                        jerk_weight: float = JERK_WEIGHT, n: int = DEGREE, samples: int = 241,
+                        d_lower=None, d_upper=None):
+    """One component of the displacement map, as a function of the time ``tau`` (s) from the
+    event into the stance: ``d(0) = 0``, ``dd/dtau(0) = slope``, ``d = d' = d'' = 0`` at
+    ``tau = D``, minimising ``J(d)`` (module docstring) with ``lower <= d''(tau) <= upper`` and
+    ``d_lower <= d(tau) <= d_upper`` at the times ``tau`` (arrays like ``tau`` or ``None``). Returns ``(d(tau), d''(tau), ok)``: ``ok`` is
+    ``False`` when no map within the bounds exists (the least-violating one is returned)."""
+    from scipy.optimize import minimize
+
+    tau = np.asarray(tau, dtype=float)
+    c_fixed = np.zeros(n + 1)
+    c_fixed[1] = slope * D / n                          # d'(0) = n (c1 - c0) / D
+    free = np.arange(2, n - 2)                          # c0 = 0; c_{n-2..n} = 0 (d, d', d'' at D)
+    q = np.linspace(0.0, D, samples)
+    B0, B3 = _bernstein(q, D, n), _bernstein(q, D, n, 3)
+    # J = mean (B0 c)^2 + lambda D^6 mean (B3 c)^2, c = c_fixed + E x
+    A = np.vstack([B0, math.sqrt(jerk_weight) * D ** 3 * B3]) / math.sqrt(samples)
+    r0 = A @ c_fixed
+    Af = A[:, free]
+    H = Af.T @ Af
+    f = Af.T @ r0
+    x0 = np.linalg.lstsq(Af, -r0, rcond=None)[0]
+    B2 = _bernstein(tau, D, n, 2)
+    cons = []
+    ok = True
+    rows = []
+    Bd = _bernstein(tau, D, n)
+    for M_, lo, hi in ((B2, lower, upper), (Bd, d_lower, d_upper)):
+        g0 = M_ @ c_fixed
+        if lo is not None:
+            rows.append((M_[:, free], g0 - np.asarray(lo, dtype=float)))
+        if hi is not None:
+            rows.append((-M_[:, free], np.asarray(hi, dtype=float) - g0))
+    if rows:
+        Gm = np.vstack([r[0] for r in rows])
+        hv = np.concatenate([r[1] for r in rows])
+        keep = np.isfinite(hv)
+        Gm, hv = Gm[keep], hv[keep]
+        # scale rows so SLSQP sees comparable constraint magnitudes
+        scale = np.maximum(np.linalg.norm(Gm, axis=1), 1e-12)
+        Gm, hv = Gm / scale[:, None], hv / scale
+        cons = [{"type": "ineq", "fun": lambda x: Gm @ x + hv, "jac": lambda x: Gm}]
+        if np.min(Gm @ x0 + hv) < -1e-9:
+            res = minimize(lambda x: 0.5 * x @ H @ x + f @ x, x0, jac=lambda x: H @ x + f, constraints=cons,
+                           method="SLSQP", options={"maxiter": 500, "ftol": 1e-12})
+            x = res.x
+            ok = bool(np.min(Gm @ x + hv) >= -1e-6 * max(1.0, float(np.max(np.abs(hv)))))
+        else:
+            x = x0
+    else:
+        x = x0
+    c = c_fixed.copy()
+    c[free] = x
+    return Bd @ c, B2 @ c, ok
+
+
+def _needed_force(tau, slope, D, a_own, g, min_force, max_force, d_lo=None, d_hi=None) -> float:
+    """The smallest upper force bound (body weights) for which a map exists (bisection), or inf."""
+    lo_acc = g * (min_force - 1.0) - a_own
+    lo, hi = max_force, 4.0 * max_force
+    kw = dict(d_lower=d_lo, d_upper=d_hi)
+    if not stance_displacement(tau, slope, D, lo_acc, g * (hi - 1.0) - a_own, **kw)[2]:
+        return float("inf")
+    for _ in range(10):
+        mid = 0.5 * (lo + hi)
+        if stance_displacement(tau, slope, D, lo_acc, g * (mid - 1.0) - a_own, **kw)[2]:
+            hi = mid
+        else:
+            lo = mid
+    return hi
+
+
+def _solve_map(tau, sign, dv, D, lo_acc, hi_acc, d_lo, d_hi, jerk_weight, frames, fps, event, a_own, g, min_force,
+               max_force):
+    """The three components of the displacement map (vertical: force and leg-room bounds)."""
+    disp = np.zeros((frames.size, 3))
+    acc = np.zeros((frames.size, 3))
+    for c in range(3):
+        if abs(dv[c]) < 1e-9:
+            continue
+        if c == 1:
+            d, a, ok = stance_displacement(tau, sign * dv[c], D, lo_acc, hi_acc, jerk_weight=jerk_weight,
+                                           d_lower=-d_lo, d_upper=d_hi)
+        else:
+            d, a, ok = stance_displacement(tau, sign * dv[c], D, jerk_weight=jerk_weight)
+        if not ok:
+            need = _needed_force(tau, sign * dv[1], D, a_own, g, min_force, max_force, -d_lo, d_hi)
+            a0, a1 = int(frames.min()), int(frames.max())
+            need_text = ("no vertical ground force profile does it" if not np.isfinite(need) else
+                         f"it would need a vertical ground force of {need:.1f} body weights")
+            raise StanceRepairError(
+                f"the {event} cannot be repaired: adding {dv[1]:+.2f} m/s vertically over output frames {a0}-{a1} "
+                f"({frames.size / fps:.3f} s of stance) with the vertical ground force between {min_force:g} and "
+                f"{max_force:.3g} body weights and the legs' room (the crouch may deepen by at most "
+                f"{100 * float(np.max(d_lo)):.0f} cm before a knee folds tighter than anywhere else in the clip) is "
+                f"impossible ({need_text}: a mean extra acceleration of "
+                f"{abs(dv[1]) * fps / frames.size:.1f} m/s^2, and the crouch must come back up); use k nearer k* "
+                f"(--k-ratio closer to 1) or --takeoff as-is")
+        disp[:, c], acc[:, c] = d, a
+    return disp, acc
+
+
+def repair_stance(motion: Motion, com_fn, event: str, event_frame: float, dv, stance: tuple[int, int], *,
+                  g: float, max_force: float = MAX_FORCE, min_force: float = MIN_FORCE,
+                  max_window: float = MAX_WINDOW_S, jerk_weight: float = JERK_WEIGHT, body=None,
+                  measure_zmp: bool = True) -> tuple[Motion, StanceRepair]:
+    """Add the velocity ``dv`` ``(3,)`` m/s to the stance next to an event, smoothly (module docstring).
+
+    Parameters
+    ----------
+    motion: the motion to repair (not changed; a new one is returned).
+    com_fn: ``com_fn(root_positions, rotations) -> (T, 3)`` whole-body COM (e.g. a
+        :class:`~mocomp.flips.reposition.ComEvaluator`).
+    event: ``"take-off"`` (the stance is before ``event_frame``) or ``"landing"`` (after it).
+    event_frame: the event's output time in frames (fractional).
+    dv: flight velocity minus the stance's at the event.
+    stance: ``(start, stop)`` half-open output frames of the stance next to the event (the map
+        uses at most ``max_window`` seconds of it, next to the event).
+    g: m/s^2, the gravity of the force bounds; max_force, min_force: body weights.
+    body: the :class:`~mocomp.body.BodyModel` for the ZMP measurement (``measure_zmp``).
+
+    Raises :class:`StanceRepairError` when no map within the force bounds exists in the stance or
+    the legs cannot keep the feet planted.
+    """
+    if event not in ("take-off", "landing"):
+        raise ValueError(f"event must be 'take-off' or 'landing', got {event!r}")
+    if not (np.isfinite(max_force) and np.isfinite(min_force) and 0.0 <= min_force < 1.0 < max_force):
+        raise ValueError(f"need 0 <= min_force < 1 < max_force (body weights), got {min_force!r}, {max_force!r}")
+    fps = float(motion.fps)
+    dv = np.asarray(dv, dtype=float).reshape(3)
+    s0, s1 = int(stance[0]), int(stance[1])
+    if event == "take-off":
+        frames = np.arange(max(s0, int(math.ceil(event_frame - max_window * fps))), min(s1, int(math.ceil(event_frame))))
+        tau = (event_frame - frames) / fps
+        sign = -1.0
+    else:
+        frames = np.arange(max(s0, int(math.floor(event_frame)) + 1), min(s1, int(math.floor(event_frame + max_window * fps)) + 1))
+        tau = (frames - event_frame) / fps
+        sign = 1.0
+    if frames.size < 4:
+        raise StanceRepairError(
+            f"the {event} stance has {frames.size} output frame(s) next to the event (frame {event_frame:.1f}): too short "
+            f"to add {np.linalg.norm(dv):.2f} m/s; use k = k* (--k-ratio 1) or --takeoff as-is")
+    D = float(tau.max()) + 1.0 / fps                    # the map reaches zero one frame beyond the window
+    root = np.asarray(motion.root_positions, dtype=float)
+    rot = np.asarray(motion.rotations, dtype=float)
+    from ..dynamics.derivatives import gaussian_smooth
+
+    com = com_fn(root, rot)
+    ay = np.gradient(np.gradient(gaussian_smooth(com[:, 1], ACC_SMOOTH_S * fps), 1.0 / fps), 1.0 / fps)
+    a_own = ay[frames]
+    lo_acc = g * (min_force - 1.0) - a_own
+    max_force = max(float(max_force), float(np.max(1.0 + a_own / g)))
+    hi_acc = g * (max_force - 1.0) - a_own
+    down, up = _leg_room(motion, frames)
+    gain = 1.0
+    for attempt in range(3):
+        disp, acc = _solve_map(tau, sign, dv, D, lo_acc, hi_acc, down / gain, up / gain, jerk_weight, frames, fps,
+                               event, a_own, g, min_force, max_force)
+        new_root, new_rot, miss, gain_seen = _apply_with_planted_feet(motion, com_fn, frames, disp, event,
+                                                                      raise_errors=attempt == 2)
+        if gain_seen is None:
+            break
+        gain = max(gain, gain_seen) * 1.05
+
+    source = motion.source
+    new = motion.replace(root_positions=new_root, rotations=new_rot, source=source)
+    com_new = com_fn(new_root, new_rot)
+    ay_new = np.gradient(np.gradient(gaussian_smooth(com_new[:, 1], ACC_SMOOTH_S * fps), 1.0 / fps), 1.0 / fps)
+    F_new = (g + ay_new[frames]) / g
+    F_old = (g + a_own) / g
+    zb = za = float("nan")
+    if measure_zmp:
+        zb, za = _zmp_window(motion, new, body, frames)
+    rep = StanceRepair(event=event, event_time=float(event_frame / fps), frames=(int(frames.min()), int(frames.max()) + 1),
+                       dv=dv, window=float(D), dip=float(min(disp[:, 1].min(), 0.0)), rise=float(max(disp[:, 1].max(), 0.0)),
+                       horizontal=float(np.max(np.linalg.norm(disp[:, [0, 2]], axis=1))), peak_force=float(F_new.max()),
+                       min_force=float(F_new.min()), peak_force_before=float(F_old.max()),
+                       peak_extra_acceleration=float(np.max(np.linalg.norm(acc, axis=1))), ik_miss=float(miss),
+                       zmp_outside_before=zb, zmp_outside_after=za)
+    return new, rep
+
+
+def _knee_angles(P: np.ndarray, chains) -> np.ndarray:
+    """``(T, C)`` interior knee angles (rad; pi = straight) of each leg chain."""
+    out = []
+    for h, k, a in chains:
+        u, w = P[:, h] - P[:, k], P[:, a] - P[:, k]
+        out.append(np.arctan2(np.linalg.norm(np.cross(u, w), axis=-1), np.sum(u * w, axis=-1)))
+    return np.stack(out, axis=1)
+
+
+def _leg_room(motion: Motion, frames: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(down, up)`` m per frame: how far the hips may sink (before a knee folds tighter than the
+    performer's tightest fold anywhere in the clip) or rise (before a leg is straight) with the
+    ankles where they are, the smaller over the legs (``inf`` without leg chains)."""
+    from ..edit.legs import leg_chains
+
+    chains = leg_chains(motion.skeleton)
+    n = frames.size
+    if not chains:
+        return np.full(n, np.inf), np.full(n, np.inf)
+    P_all, _ = motion.fk()
+    P_all = np.asarray(P_all)
+    own = float(np.min(_knee_angles(P_all, chains)))
+    P = P_all[frames]
+    down, up = np.full(n, np.inf), np.full(n, np.inf)
+    for h, k, a in chains:
+        l1 = np.linalg.norm(P[:, k] - P[:, h], axis=1)
+        l2 = np.linalg.norm(P[:, a] - P[:, k], axis=1)
+        r = P[:, h] - P[:, a]
+        rho2 = np.sum(r * r, axis=1)
+        lo2 = l1 * l1 + l2 * l2 - 2 * l1 * l2 * np.cos(own)
+        hi2 = (l1 + l2 - 1e-3) ** 2
+        hy = r[:, 1]
+        # |r - delta e_y|^2 = rho2 - 2 delta hy + delta^2 reaches lo2 (sinking) / hi2 (rising)
+        dn = hy - np.sqrt(np.maximum(hy * hy - (rho2 - lo2), 0.0))
+        upv = -hy + np.sqrt(np.maximum(hy * hy + (hi2 - rho2), 0.0))
+        down = np.minimum(down, np.maximum(dn, 0.0))
+        up = np.minimum(up, np.maximum(upv, 0.0))
+    return down, up
+
+
+def _apply_with_planted_feet(motion: Motion, com_fn, frames: np.ndarray, disp: np.ndarray, event: str,
+                             raise_errors: bool = True):
+    """Root positions and rotations with the COM of ``frames`` displaced by ``disp`` and each leg's
+    ankle held where it was (two-bone IK; the root corrected :data:`COM_ITERATIONS` times so the
+    whole-body COM follows ``disp``). Returns ``(root, rotations, largest ankle miss, gain)``:
+    ``gain`` is ``None`` when the legs did it, else the ratio of the root's sinking to the COM's (the
+    leg-room bounds are divided by it for another try); with ``raise_errors`` a failure raises."""
+    from ..edit.legs import leg_chains, two_bone_ik
+
+    root = np.asarray(motion.root_positions, dtype=float)
+    rot = np.asarray(motion.rotations, dtype=float)
+    sk = motion.skeleton
+    chains = leg_chains(sk)
+    new_root, new_rot = root.copy(), rot.copy()
+    com_old = com_fn(root[frames], rot[frames])
+    P_old, _ = forward_kinematics(sk.parents, sk.offsets, root[frames], rot[frames])
+    shift = disp.copy()
+    miss = 0.0
+    for _ in range(COM_ITERATIONS if chains else 1):
+        new_root[frames] = root[frames] + shift
+        block = rot[frames]
+        miss = 0.0
+        if chains:
+            P_new, G_new = forward_kinematics(sk.parents, sk.offsets, new_root[frames], block)
+            for chain in chains:
+                block, m = two_bone_ik(P_new, G_new, block, sk.parents, chain, P_old[:, chain[2]])
+                miss = max(miss, float(np.max(m)))
+        new_rot[frames] = block
+        shift += disp - (com_fn(new_root[frames], block) - com_old)
+    if chains:
+        P_all, _ = motion.fk()
+        own = float(np.min(_knee_angles(np.asarray(P_all), chains)))
+        P_chk, _ = forward_kinematics(sk.parents, sk.offsets, new_root[frames], new_rot[frames])
+        err = np.max([np.linalg.norm(P_chk[:, ch[2]] - P_old[:, ch[2]], axis=1) for ch in chains], axis=0)
+        knee = np.min(_knee_angles(P_chk, chains), axis=1)
+        bad = (err > IK_TOLERANCE) | (knee < own - 1e-6)
+        if bad.any() and not raise_errors:
+            sink = -(new_root[frames, 1] - root[frames, 1])
+            want = -disp[:, 1]
+            ok = want > 1e-3
+            return new_root, new_rot, miss, float(np.max(sink[ok] / want[ok])) if ok.any() else 2.0
+        if bad.any():
+            fb = frames[bad]
+            raise StanceRepairError(
+                f"the {event} cannot be repaired with the feet planted: the crouch {100 * -disp[:, 1].min():.1f} cm "
+                f"deeper folds a knee to {np.degrees(knee.min()):.0f} deg (the performer's tightest fold in the clip "
+                f"is {np.degrees(own):.0f} deg) or leaves an ankle up to {100 * err.max():.1f} cm from its planted "
+                f"position, on output frames {int(fb.min())}-{int(fb.max())}; use k nearer k* (--k-ratio closer to 1) "
+                f"or --takeoff as-is")
+    return new_root, new_rot, miss, None
+
+
+def _zmp_window(before: Motion, after: Motion, body, frames: np.ndarray) -> tuple[float, float]:
+    """Largest ZMP distance outside the support polygon over ``frames`` of both motions, measured by
+    :func:`mocomp.audit.audit` (with ``body``)."""
+    from ..audit import audit
+
+    out = []
+    for m in (before, after):
+        d = np.asarray(audit(m, body).zmp.distance)[frames]
+        d = d[np.isfinite(d)]
+        out.append(float(d.max()) if d.size else float("nan"))
+    return out[0], out[1]
