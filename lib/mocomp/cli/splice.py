@@ -36,7 +36,12 @@ def register(sub) -> None:
                     "by matching points, and write BODY with the arm joints driven by the aligned HAND. Both may "
                     "be files (BVH, ASF/AMC, ...) or clip names; they need arm joints with the same names. "
                     "A matching point outside the band reshapes the band so the path passes through it "
-                    "(Algorithm 1); --strict-points makes that an error instead. Ends with the verdict of mocomp.audit on the frames written, against BODY.")
+                    "(Algorithm 1); --strict-points makes that an error instead. The splice measures its own quality on "
+                    "the frames written: a frozen or reversed hand (speed far below both inputs' over 0.5 s, or moving "
+                    "against BODY's own hand), a warp slope outside 1/3-3x the mean rate, and an eq. 6.9 residual "
+                    "above 60 deg after pass 2 are warnings on stderr ('mocomp splice: warning: ...', with body "
+                    "frames); for a freeze it suggests two tolerant matching points, verified by splicing again. "
+                    "Ends with the verdict of mocomp.audit on the frames written, against BODY.")
     p.add_argument("body", metavar="BODY", help="full-body recording (file or clip name)")
     p.add_argument("hand", metavar="HAND", help="hand/gesture recording (file or clip name)")
     p.add_argument("-o", "--out", required=True, metavar="OUT.bvh", help="output BVH file")
@@ -53,9 +58,25 @@ def register(sub) -> None:
                    help="joints taken from HAND: the whole arm from the clavicle (default), forearm and below, "
                         "or wrist and below")
     p.add_argument("--phase-width", type=_fraction, default=0.30, metavar="F",
-                   help="pass-1 band half-width as a fraction of BODY's length (default 0.30)")
+                   help="pass-1 band width as a fraction of BODY's length (default 0.30, the paper's 30%%; read as "
+                        "the half-width W of eq. 6.3 unless --band-width-kind full)")
     p.add_argument("--refine-width", type=_fraction, default=0.10, metavar="F",
-                   help="pass-2 band half-width as a fraction of BODY's length (default 0.10)")
+                   help="pass-2 band width as a fraction of BODY's length (default 0.10, the paper's 10%%; same reading)")
+    p.add_argument("--band-width-kind", choices=("half", "full"), default="half",
+                   help="how the band widths are read: 'half' (default, and every earlier version): W of eq. 6.3, "
+                        "the band's extent on each side of the diagonal (a 30%% band then covers about 70-78%% of "
+                        "the matrix); 'full': the band's whole width, W = width/2")
+    p.add_argument("--subsequence", action="store_true",
+                   help="open-begin/open-end alignment: find where in BODY the whole HAND gesture was performed "
+                        "(subsequence DTW on the eq. 6.6 sign metric), splice it onto that interval only and report "
+                        "the interval; BODY keeps its own arm elsewhere (eased in and out over half the blend window). "
+                        "For a short hand clip and a long body take. Matching points must fall inside the interval")
+    p.add_argument("--map", metavar="FILE.toml", dest="joint_map",
+                   help="joint map for skeletons whose arm/hand joints are named differently: [joints] BODY_JOINT = "
+                        "\"HAND_JOINT\" (and keep = [...] for body joints that keep their own rotation), optional "
+                        "[arm.body.right] / [arm.hand.left] tables with clavicle, upper, forearm, hand. Without it, "
+                        "joints pair by name, by the body model's naming conventions and by skeleton structure; "
+                        "the error lists what stays unpaired")
     p.add_argument("--theta", choices=("window", "trunk", "none"), default="window",
                    help="rotation about the vertical before comparing: eq. 6.7 over 5-frame windows (default), "
                         "trunk-heading difference, or none")
@@ -68,13 +89,21 @@ def register(sub) -> None:
                         "leaves staircases inside phases and holds)")
     p.add_argument("--body-fps", type=fps_arg, metavar="F", help="override BODY's frame rate")
     p.add_argument("--hand-fps", type=fps_arg, metavar="F", help="override HAND's frame rate")
-    p.add_argument("--plot", metavar="PNG", help="write the bands, paths and frame map (Figure 6.3 style) to PNG; "
-                                                   "with --side both, one row per arm in the same file")
+    p.add_argument("--plot", metavar="PNG", help="write the bands, paths and frame map (Figure 6.3 style) to PNG, "
+                                                   "with the quality checks' problem stretches shaded and suggested "
+                                                   "matching points marked; with --side both, one row per arm")
+    p.add_argument("--report", metavar="report.json",
+                   help="write the report: per arm the passes, matched interval, phases, quality stretches (frozen or "
+                        "reversed hand, warp slope, eq. 6.9 residual) with frames, the verified matching-point "
+                        "suggestion, joint pairs, the final frame map; plus the audit of the written frames")
     add_audit_arg(p)
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
+    import json
+    import sys
+
     from .. import datasets
     from ..io import write_bvh
     from ..splice import SpliceConfig, splice_motions
@@ -83,20 +112,24 @@ def run(args) -> int:
     out = Path(args.out)
     if out.suffix.lower() != ".bvh":
         raise ValueError(f"output {out} must be a .bvh file")
-    for f in (out, Path(args.plot) if args.plot else None):
+    for f in (out, Path(args.plot) if args.plot else None, Path(args.report) if args.report else None):
         if f is not None and not f.parent.is_dir():
             raise FileNotFoundError(f"output folder {f.parent} does not exist")
     body = datasets.load(args.body, fps=args.body_fps)
     hand = datasets.load(args.hand, fps=args.hand_fps)
     cfg = SpliceConfig(phase_width=args.phase_width, refine_width=args.refine_width, theta=args.theta,
                        metric=args.metric, refine=not args.no_refine, frame_map=args.frame_map,
-                       strict_points=args.strict_points)
-    res = splice_motions(body, hand, args.match, side=args.side, layer=args.layer, config=cfg)
+                       strict_points=args.strict_points, band_width_kind=args.band_width_kind,
+                       subsequence=args.subsequence)
+    res = splice_motions(body, hand, args.match, side=args.side, layer=args.layer, config=cfg,
+                         joint_map=args.joint_map)
     write_bvh(res.motion, out)
     print(f"body {body.n_frames} frames at {body.fps:g} fps, hand {hand.n_frames} frames at {hand.fps:g} fps"
           + (f" (resampled to {res.hand_resampled[1]:g} fps)" if res.hand_resampled else ""))
     print(res.summary())
     print(f"wrote {out}: {', '.join(j for s in res.joints for j in res.joints[s])} from {args.hand}")
+    for w in res.warnings():
+        print(f"mocomp splice: warning: {w}", file=sys.stderr)
     if args.plot:
         import matplotlib
 
@@ -105,10 +138,16 @@ def run(args) -> int:
 
         from ..plots.dtw import plot_alignments
 
-        fig = plot_alignments(res.alignments, title=f"{Path(args.body).name} <- {Path(args.hand).name}")
+        fig = plot_alignments(res.alignments, title=f"{Path(args.body).name} <- {Path(args.hand).name}",
+                              quality=res.quality)
         fig.savefig(args.plot, dpi=110)
         plt.close(fig)
         print(f"wrote {args.plot} ({', '.join(res.alignments)} arm{'s' if len(res.alignments) > 1 else ''})")
+    if args.report:
+        d = res.to_dict()
+        d["body"], d["hand"], d["output"] = str(args.body), str(args.hand), str(out)
+        Path(args.report).write_text(json.dumps(d, indent=1) + "\n")
+        print(f"wrote {args.report}")
     result = None if args.no_audit else audit_output(out, body, input_name=str(args.body))
-    finish_audit(args, "splice", result)
+    finish_audit(args, "splice", result, args.report)
     return 0

@@ -16,7 +16,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["plot_band", "plot_alignment", "plot_alignments", "plot_metric_comparison", "plot_phases", "PHASE_COLORS"]
+__all__ = ["plot_band", "plot_alignment", "plot_alignments", "plot_metric_comparison", "plot_phases", "PHASE_COLORS",
+           "QUALITY_COLORS"]
 
 PHASE_COLORS = {"S": "#d62728", "H": "#7f7f7f", "P": "#2ca02c", "R": "#1f77b4"}
 
@@ -77,13 +78,39 @@ def plot_band(result, ax=None, *, cost: bool = True, truth=None, title: str | No
     return ax
 
 
-def plot_alignment(alignment, truth=None, fig=None, title: str | None = None):
+QUALITY_COLORS = {"frozen": "#d62728", "reversed": "#9467bd", "slope": "#ff7f0e", "residual": "#8c564b"}
+
+
+def _shade_quality(ax, quality, offset: int = 0):
+    """Problem stretches of a :class:`~mocomp.splice.quality.SpliceQuality` as
+    coloured spans (x in body-clip frames minus ``offset``), and its suggested
+    matching points as green diamonds with their tolerance."""
+    kinds = set()
+    for st in quality.stretches:
+        ax.axvspan(st.start - offset - 0.5, st.stop - offset - 0.5, color=QUALITY_COLORS[st.kind], alpha=0.18, lw=0)
+        kinds.add(st.kind)
+    for k in sorted(kinds):
+        ax.fill_between([], [], color=QUALITY_COLORS[k], alpha=0.3, label=f"{k} ({sum(s.frames for s in quality.of_kind(k))} fr)")
+    sug = quality.suggestion
+    if sug is not None:
+        for p in sug.new_points:
+            ax.errorbar([p.x - offset], [p.y], yerr=[p.tol], fmt="D", color="green", mfc="none", ms=7, capsize=3)
+        ax.plot([], [], "D", color="green", mfc="none",
+                label=f"suggested points (frozen {sug.frozen_before} -> {sug.frozen_after})")
+
+
+def plot_alignment(alignment, truth=None, fig=None, title: str | None = None, quality=None):
     """Three panels: pass 1 (sign metric, eq. 6.6) band and path, pass 2
     (hand angle, eq. 6.9) band and path on the warped hand (each with its
     near-optimal tube and frame map when the taut map was used), and the final
-    frame map (with the truth and its error if given). ``fig`` may be a
-    figure or a :class:`matplotlib.figure.SubFigure` (several alignments in
-    one file: :func:`plot_alignments`); a subfigure is left to its parent's layout."""
+    frame map (with the truth and its error if given). ``quality`` (a
+    :class:`~mocomp.splice.quality.SpliceQuality`) shades the problem
+    stretches on the frame map and marks the suggested matching points. In
+    subsequence mode (``alignment.interval``) the frame map is drawn in body-clip
+    frames with the matched interval marked, the band panels within the
+    interval. ``fig`` may be a figure or a :class:`matplotlib.figure.SubFigure`
+    (several alignments in one file: :func:`plot_alignments`); a subfigure is
+    left to its parent's layout."""
     import matplotlib.pyplot as plt
 
     if fig is None:
@@ -91,29 +118,42 @@ def plot_alignment(alignment, truth=None, fig=None, title: str | None = None):
     axs = fig.subplots(1, 3)
     metric = "eq. 6.6 sign metric" if alignment.config.metric == "sign" else "derivative values"
     tubes = getattr(alignment, "tubes", {}) or {}
-    plot_band(alignment.pass1, axs[0], truth=truth, title=f"pass 1: {metric}, W = {alignment.config.phase_width:.0%} n",
-              tube=tubes.get("pass1"), frame_map=alignment.stage1_map)
+    off = getattr(alignment, "offset", 0)
+    kind = getattr(alignment.config, "band_width_kind", "half")
+    xl = "body frame" if not off else f"body frame - {off} (matched interval)"
+    plot_band(alignment.pass1, axs[0], truth=None if truth is None else np.asarray(truth)[off:off + alignment.n],
+              title=f"pass 1: {metric}, W = {alignment.config.phase_width:.0%} n ({kind})",
+              tube=tubes.get("pass1"), frame_map=alignment.stage1_map, xlabel=xl)
     if alignment.pass2 is not None:
-        plot_band(alignment.pass2, axs[1], ylabel="warped hand frame",
-                  title=f"pass 2: eq. 6.9 hand angle, W = {alignment.config.refine_width:.0%} n",
+        plot_band(alignment.pass2, axs[1], ylabel="warped hand frame", xlabel=xl,
+                  title=f"pass 2: eq. 6.9 hand angle, W = {alignment.config.refine_width:.0%} n ({kind})",
                   tube=tubes.get("pass2"), frame_map=alignment.stage2_map)
     else:
         axs[1].set_axis_off()
     ax = axs[2]
-    i = np.arange(alignment.n)
+    i = np.arange(alignment.n) + off
     ax.plot(i, alignment.stage1_map, color="C1", lw=1, label="after pass 1")
     ax.plot(i, alignment.hand_frame, color="C0", lw=1.5, label="final")
     if truth is not None:
         truth = np.asarray(truth)
-        ax.plot(i, truth, "--", color="magenta", lw=1.2, label="truth")
-        e = alignment.error(truth)
+        tr = truth[off:off + alignment.n] if truth.shape[0] != alignment.n else truth
+        ax.plot(np.arange(truth.shape[0]) if truth.shape[0] != alignment.n else i, truth, "--", color="magenta", lw=1.2,
+                label="truth")
+        e = alignment.error(tr)
         ax2 = ax.twinx()
-        ax2.fill_between(i, 0, np.abs(alignment.hand_frame - truth), color="C3", alpha=0.25, lw=0)
+        ax2.fill_between(i, 0, np.abs(alignment.hand_frame - tr), color="C3", alpha=0.25, lw=0)
         ax2.set_ylabel("|error| (frames)", color="C3")
         ax2.set_ylim(0, max(10.0, 4 * e["mean"]))
         ax.set_title(f"frame map: mean |error| {e['mean']:.2f} frames")
     else:
-        ax.set_title("frame map")
+        ax.set_title("frame map" + ("" if quality is None else
+                                    (": no problems found" if quality.ok else f": {len(quality.stretches)} problem stretch(es)")))
+    if alignment.interval is not None:
+        for x in alignment.interval:
+            ax.axvline(x, color="k", ls=":", lw=1)
+        ax.plot([], [], ":", color="k", label=f"matched interval {alignment.interval[0]}-{alignment.interval[1]}")
+    if quality is not None:
+        _shade_quality(ax, quality)
     for p in alignment.points:
         ax.plot([p.x], [p.y], "s", mfc="none", mec="red")
     ax.set_xlabel("body frame")
@@ -126,10 +166,10 @@ def plot_alignment(alignment, truth=None, fig=None, title: str | None = None):
     return fig
 
 
-def plot_alignments(alignments: dict, truth=None, title: str | None = None):
+def plot_alignments(alignments: dict, truth=None, title: str | None = None, quality: dict | None = None):
     """:func:`plot_alignment` for several alignments (e.g. ``{"right": ..., "left": ...}``
     of a ``side="both"`` splice) stacked in one figure, one row of three panels
-    each, titled ``"<title> (<key> arm)"``."""
+    each, titled ``"<title> (<key> arm)"``; ``quality`` per key as in :func:`plot_alignment`."""
     import matplotlib.pyplot as plt
 
     if not alignments:
@@ -139,7 +179,7 @@ def plot_alignments(alignments: dict, truth=None, title: str | None = None):
     subs = np.atleast_1d(fig.subfigures(k, 1))
     for sub, (key, al) in zip(subs, alignments.items()):
         t = f"{title} ({key} arm)" if title else f"{key} arm"
-        plot_alignment(al, truth=truth, fig=sub, title=t)
+        plot_alignment(al, truth=truth, fig=sub, title=t, quality=(quality or {}).get(key))
     return fig
 
 

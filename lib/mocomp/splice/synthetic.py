@@ -55,6 +55,7 @@ __all__ = [
     "SplicePair",
     "make_splice_pair",
     "synthetic_pair",
+    "embedded_pair",
     "ambiguous_pair",
     "scale_arm_amplitude",
     "turn_about_vertical",
@@ -371,7 +372,7 @@ def _fit_length(under: Motion, n: int) -> Motion:
 def make_splice_pair(hand: Motion, under: Motion, rng=0, *, n_body: int | None = None, side: str = "right",
                      warp: np.ndarray | None = None, warp_strength: float = 0.5,
                      amplitude: tuple[float, float] | np.ndarray = (0.5, 1.5), noise_deg: float = DEFAULT_NOISE_DEG,
-                     heading_deg: float | np.ndarray = 0.0) -> SplicePair:
+                     heading_deg: float | np.ndarray = 0.0, amplitude_about: str = "mean") -> SplicePair:
     """Build a body recording of ``hand``'s gesture on top of ``under`` (e.g. a walk).
 
     The body clip has ``n_body`` frames (default ``1.2 m``) at ``hand.fps``:
@@ -379,7 +380,9 @@ def make_splice_pair(hand: Motion, under: Motion, rng=0, *, n_body: int | None =
     (clavicle, upper arm, forearm, hand and below) taken from ``hand`` at the
     warped frames ``truth = warp`` (default :func:`time_warp`), scaled about
     its mean pose by the amplitude profile (or the given per-frame factors;
-    upper arm and elbow only)
+    upper arm and elbow only; about the joints' mean rotation over the hand
+    clip, or with ``amplitude_about="first"`` about its first frame, so a
+    gesture that starts from rest still starts from rest when performed wider)
     and perturbed by white rotation noise of ``noise_deg`` degrees per axis
     (every arm-chain joint, every frame).
     ``hand`` and ``under`` need the same arm joint names.
@@ -413,7 +416,12 @@ def make_splice_pair(hand: Motion, under: Motion, rng=0, *, n_body: int | None =
     # capture records in detail)
     arm = find_arm_joints(hand.skeleton, side)
     scaled_idx = [chain_h.index(arm.upper), chain_h.index(arm.forearm)]
-    ref = np.stack([Rotation.from_quat(hand.rotations[:, chain_h[k]]).mean().as_quat() for k in scaled_idx])
+    if amplitude_about == "mean":
+        ref = np.stack([Rotation.from_quat(hand.rotations[:, chain_h[k]]).mean().as_quat() for k in scaled_idx])
+    elif amplitude_about == "first":
+        ref = np.stack([hand.rotations[0, chain_h[k]] for k in scaled_idx])
+    else:
+        raise AlignmentError(f"amplitude_about must be 'mean' or 'first', got {amplitude_about!r}")
     scaled = arm_rot.copy()
     scaled[:, scaled_idx] = scale_arm_amplitude(arm_rot[:, scaled_idx], [0, 1], amp, ref)
     if noise_deg > 0:
@@ -458,6 +466,84 @@ def synthetic_pair(rng=0, *, n_gestures: int = 4, fps: float = 30.0, side: str =
     n = kw.pop("n_body", None) or int(round(1.2 * g.motion.n_frames))
     walk = walk_clip(n, fps, skeleton=g.motion.skeleton)
     return make_splice_pair(g.motion, walk, rng, n_body=n, side=side, **kw)
+
+
+def embedded_pair(rng=0, *, body_seconds: float = 20.0, hand_seconds: float = 3.0, start: float | None = None,
+                  fps: float = 30.0, side: str = "right", rate: float = 1.1, blend: float = 0.5, **kw) -> SplicePair:
+    """Ground truth for subsequence alignment (issue #19 item 9): a short hand
+    recording performed somewhere inside a long body take.
+
+    The hand recording is one :func:`gesture_clip` gesture, preparation to
+    retraction (a trimmed take, without the rest before and after), played
+    back over exactly ``hand_seconds`` (``m`` frames); the body recording is a
+    ``body_seconds`` :func:`walk_clip` whose arm performs that gesture over
+    body frames ``a .. a + k - 1`` (``k = round(rate m)``, starting at
+    ``start`` seconds, default the middle) through :func:`make_splice_pair`
+    (time warp, amplitude change, noise; ``kw`` passes on; the warp's and the
+    amplitude's correlation lengths are those of a whole ``body_seconds``
+    pair, 0.08 and 0.1 of the take; the warp's speed variation (``warp_strength``)
+    tapers to a steady pace over the first and last 20 % of the interval; the amplitude is scaled about the
+    gesture's first pose, the rest it starts from), and swings as in
+    the walk elsewhere, easing into the gesture's first pose over ``blend``
+    seconds before the interval and out of its last pose after it (minimum-jerk
+    slerp). ``truth`` is NaN outside the interval;
+    ``params["interval"] = (a, a + k - 1)``.
+    """
+    rng = np.random.default_rng(rng)
+    g = gesture_clip(rng, 1, fps, side)
+    moving = np.nonzero(g.labels != "H")[0]  # the gesture proper: preparation .. retraction, no rest
+    g0, g1 = int(moving.min()), int(moving.max())
+    m = int(round(hand_seconds * fps))
+    hand = g.motion.sample(np.linspace(g0, g1, m) / fps)
+    hand = hand.replace(source=SourceInfo(format="synthetic", notes=(f"one gesture played over {hand_seconds:g} s",)))
+    n = int(round(body_seconds * fps))
+    k = int(round(rate * m))
+    if k >= n:
+        raise AlignmentError(f"the gesture ({k} body frames) does not fit into a {n}-frame body take")
+    a = (n - k) // 2 if start is None else int(round(start * fps))
+    if not (0 <= a <= n - k):
+        raise AlignmentError(f"start {start} s puts the gesture outside the {body_seconds:g} s body take")
+    blend = int(round(blend * fps))
+    walk = walk_clip(n, fps, skeleton=hand.skeleton)
+    # warp and amplitude vary on the time scale of the whole take (as in make_splice_pair for a clip of n
+    # frames), not of the short interval: a 3 s gesture is not played at 0.4x-2.7x within a third of a second
+    warp = kw.pop("warp", None)
+    strength = kw.pop("warp_strength", 0.5)
+    if warp is None:
+        # playback speed exp(strength z taper): the taper (0 at the interval's ends, 1 from 20 % in) makes the
+        # body start and finish the gesture at one steady pace, so its ends are where the data put them (a
+        # retraction slowed to a crawl over its last 20 frames cannot be told from a pause after it)
+        z = _smooth_noise(k - 1, rng, max(1.0, 0.08 * n))
+        u = np.minimum(np.arange(k - 1) + 0.5, k - 1.5 - np.arange(k - 1)) / (0.2 * (k - 1))
+        speed = np.exp(strength * z * _minjerk(u))
+        warp = np.concatenate([[0.0], np.cumsum(speed)]) * (m - 1) / np.sum(speed)
+    amp = kw.pop("amplitude", (0.5, 1.5))
+    if isinstance(amp, tuple):
+        amp = amplitude_profile(n, rng, *amp)[a:a + k]
+    kw.setdefault("amplitude_about", "first")
+    sub = make_splice_pair(hand, walk[a:a + k], rng, n_body=k, side=side, warp=warp, amplitude=amp, **kw)
+    rot = np.array(walk.rotations)
+    rot[a:a + k] = sub.body.rotations
+    # the walk's arm eases into the gesture's first pose before the interval and out of its last after it
+    # (smoothstep slerp over ``blend`` frames), so the body's arm is continuous and the interval is the gesture
+    chain = _arm_chain(hand.skeleton, side)
+    for lo, hi, pose, up in ((max(0, a - blend), a, rot[a, chain], True), (a + k, min(n, a + k + blend), rot[a + k - 1, chain], False)):
+        if hi <= lo:
+            continue
+        u = (np.arange(lo, hi) - lo + 1) / (hi - lo + 1)
+        u = _minjerk(u if up else 1.0 - u)
+        for c, j in enumerate(chain):
+            src = Rotation.from_quat(rot[lo:hi, j])
+            dst = Rotation.from_quat(np.repeat(pose[c][None], hi - lo, axis=0))
+            rot[lo:hi, j] = (src * Rotation.from_rotvec((src.inv() * dst).as_rotvec() * u[:, None])).as_quat()
+    body = walk.replace(rotations=rot, source=SourceInfo(format="synthetic", notes=(
+        f"embedded splice ground truth: a {hand_seconds:g} s gesture at body frames {a}-{a + k - 1} of a {body_seconds:g} s walk",)))
+    truth = np.full(n, np.nan)
+    truth[a:a + k] = sub.truth
+    amp = np.ones(n)
+    amp[a:a + k] = sub.amplitude
+    return SplicePair(body, hand, truth, amp, side, (), f"{sub.description}, embedded at body frames {a}-{a + k - 1} of {n}",
+                      dict(sub.params, interval=(a, a + k - 1), n=n, m=m))
 
 
 def ambiguous_pair(rng=0, *, n_cycles: int = 4, fps: float = 30.0, side: str = "right", noise_deg: float = DEFAULT_NOISE_DEG,
