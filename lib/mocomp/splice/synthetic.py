@@ -469,7 +469,8 @@ def synthetic_pair(rng=0, *, n_gestures: int = 4, fps: float = 30.0, side: str =
 
 
 def embedded_pair(rng=0, *, body_seconds: float = 20.0, hand_seconds: float = 3.0, start: float | None = None,
-                  fps: float = 30.0, side: str = "right", rate: float = 1.1, blend: float = 0.5, **kw) -> SplicePair:
+                  fps: float = 30.0, side: str = "right", rate: float = 1.1, blend: float = 0.5,
+                  warp_strength: float = 0.3, **kw) -> SplicePair:
     """Ground truth for subsequence alignment (issue #19 item 9): a short hand
     recording performed somewhere inside a long body take.
 
@@ -508,7 +509,7 @@ def embedded_pair(rng=0, *, body_seconds: float = 20.0, hand_seconds: float = 3.
     # warp and amplitude vary on the time scale of the whole take (as in make_splice_pair for a clip of n
     # frames), not of the short interval: a 3 s gesture is not played at 0.4x-2.7x within a third of a second
     warp = kw.pop("warp", None)
-    strength = kw.pop("warp_strength", 0.5)
+    strength = warp_strength
     if warp is None:
         # playback speed exp(strength z taper): the taper (0 at the interval's ends, 1 from 20 % in) makes the
         # body start and finish the gesture at one steady pace, so its ends are where the data put them (a
@@ -543,7 +544,7 @@ def embedded_pair(rng=0, *, body_seconds: float = 20.0, hand_seconds: float = 3.
     amp = np.ones(n)
     amp[a:a + k] = sub.amplitude
     return SplicePair(body, hand, truth, amp, side, (), f"{sub.description}, embedded at body frames {a}-{a + k - 1} of {n}",
-                      dict(sub.params, interval=(a, a + k - 1), n=n, m=m))
+                      dict(sub.params, interval=(a, a + k - 1), n=n, m=m, warp_strength=strength))
 
 
 def ambiguous_pair(rng=0, *, n_cycles: int = 4, fps: float = 30.0, side: str = "right", noise_deg: float = DEFAULT_NOISE_DEG,
