@@ -558,10 +558,12 @@ def register_analyze(subparsers) -> argparse.ArgumentParser:
                    help="d' correction for rates of 0 or 1 (default loglinear)")
     p.add_argument("--control", choices=("group", "pooled"), default="group",
                    help="false-alarm baseline: unperturbed motions of the same error group, or all of them")
-    p.add_argument("--headline", choices=("mean", "pooled"), default="mean",
-                   help="group d' the report leads with and the d' figure shows: the mean of the per-participant "
-                        "d' (Macmillan & Creelman's recommendation; default) or the pooled d' (counts pooled over "
-                        "participants, as the paper's Table 2); conditions.csv has both, with CIs")
+    p.add_argument("--headline", choices=("pooled", "mean"), default="pooled",
+                   help="group d' the report leads with and the d' figure shows: the pooled d' (counts pooled over "
+                        "participants, as the paper's Table 2; default: with 2-4 trials per participant and "
+                        "condition the correction shrinks individual d') or the mean of the per-participant d' "
+                        "(Macmillan & Creelman's recommendation, for many trials per participant and condition); "
+                        "conditions.csv has both, with CIs")
     p.add_argument("--level", choices=("nominal_level", "achieved_error"), default="nominal_level",
                    help="regressor of the psychometric fits")
     p.add_argument("--link", choices=("probit", "logit"), default="probit")

@@ -737,7 +737,8 @@ def test_mean_of_participant_dprimes_hand_computed(tmp_path):
     _mean_dprime_dataset(tmp_path)
     data = load_responses(tmp_path)
     key = ("angular_momentum", "am_abrupt/increase/25")
-    ll = condition_table(data, correction="loglinear", n_boot=300, seed=4).set_index(["group", "condition"]).loc[key]
+    ll = condition_table(data, correction="loglinear", n_boot=300, seed=4, headline="mean").set_index(
+        ["group", "condition"]).loc[key]
     assert ll["dprime_mean"] == pytest.approx(1.2039680522, abs=1e-9)
     assert ll["dprime_mean_sd"] == pytest.approx(1.1770455, abs=1e-6)
     assert ll["n_participants_dprime"] == 3 and ll["n_participants"] == 3
@@ -754,8 +755,11 @@ def test_mean_of_participant_dprimes_hand_computed(tmp_path):
     pc = participant_dprimes(data, correction="loglinear", n_boot=10)
     assert pc["dprime"].mean() == pytest.approx(ll["dprime_mean"], abs=1e-12)
     assert sorted(pc["dprime"].round(9)) == [0.524400513, 0.524400513, 2.563103131]
-    pooled_head = condition_table(data, n_boot=50, headline="pooled").set_index(["group", "condition"]).loc[key]
+    pooled_head = condition_table(data, n_boot=50).set_index(["group", "condition"]).loc[key]  # the default
     assert pooled_head["headline"] == "pooled" and pooled_head["dprime_headline"] == pooled_head["dprime"]
+    assert pooled_head["dprime_headline_ci_low"] == pooled_head["dprime_ci_low"]
+    # each participant's ceiling: z(4.5/5) - z(0.5/5) = 2.5631031311 for 4 + 4 trials, all three alike
+    assert ll["dprime_mean_ceiling"] == pytest.approx(2.5631031311, abs=1e-9)
     with pytest.raises(ValueError, match="headline"):
         condition_table(data, n_boot=10, headline="median")
 
@@ -782,15 +786,16 @@ def test_mean_dprime_bootstrap_is_the_participant_bootstrap_of_the_mean(tmp_path
 
 def test_report_states_the_headline_and_lists_both_dprimes(tmp_path):
     _mean_dprime_dataset(tmp_path / "data")
-    res = analyze(tmp_path / "data", tmp_path / "rep", n_boot=50, figures=False, mixed=False, observer_model=False)
+    res = analyze(tmp_path / "data", tmp_path / "rep", n_boot=50, figures=False, mixed=False, observer_model=False,
+                  headline="mean")
     md = (tmp_path / "rep" / "report.md").read_text()
     assert "headline d': the mean of the per-participant d' (Macmillan & Creelman's recommendation)" in md
     assert "| mean d' (headline) | 95% CI | pooled d' | 95% CI |" in md
     r = res.conditions.set_index("condition").loc["am_abrupt/increase/25"]
     assert f"**{r['dprime_mean']:.2f} (n=3)**" in md and f"| {r['dprime']:.2f} |" in md
     assert res.settings["headline"] == "mean"
-    analyze(tmp_path / "data", tmp_path / "rep2", n_boot=50, figures=True, mixed=False, observer_model=False,
-            headline="pooled")
+    res2 = analyze(tmp_path / "data", tmp_path / "rep2", n_boot=50, figures=True, mixed=False, observer_model=False)
+    assert res2.settings["headline"] == "pooled"  # the default
     md2 = (tmp_path / "rep2" / "report.md").read_text()
     assert "headline d': the pooled d'" in md2 and "| pooled d' (headline) | 95% CI | mean d' | 95% CI |" in md2
 
@@ -824,3 +829,31 @@ def test_withdrawn_sessions_are_left_out_and_listed(tmp_path, capsys):
     (tmp_path / "P1" / "S1" / WITHDRAWN_FILE).write_text("{}")
     with pytest.raises(StudyDataError, match="every session here \\(2\\) is withdrawn"):
         load_responses(tmp_path)
+
+
+def test_pooled_headline_is_the_better_estimate_at_this_design(tmp_path):
+    """Why the default headline is the pooled d': with the paper's design (each perturbed motion twice,
+    one base: 2 signal trials per participant and condition) the correction shrinks and caps every
+    individual d', so their mean is biased low and its CI misses the truth; the pooled d' is not.
+    20 simulated observers with the same sensitivities and criteria spread over 0-1.2."""
+    from study.design import DesignConfig
+    from study.observers import Observer, Psychometric, simulate_cohort
+    from study.placeholders import PAPER_LEVELS, make_placeholder_set
+
+    true = {("am_abrupt", "increase"): Psychometric(36, 2.0), ("am_abrupt", "decrease"): Psychometric(30, 2.0),
+            ("am_smooth", "increase"): Psychometric(48, 2.5), ("am_smooth", "decrease"): Psychometric(60, 2.0),
+            ("takeoff", "increase"): Psychometric(33, 2.5)}
+    stim = make_placeholder_set(tmp_path / "s", PAPER_LEVELS, base_clips=("backward",), n_frames=3)
+    obs = [Observer(true, bias=b, lapse=0.0) for b in np.linspace(0.0, 1.2, 20)]
+    simulate_cohort(stim, obs, tmp_path / "d", design=DesignConfig(), seed=1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        c = condition_table(load_responses(tmp_path / "d"), n_boot=400, seed=0)
+    c = c[c["perturbation"] != "none"]
+    d_true = np.array([float(obs[0].expected_dprime(p, d, x))
+                       for p, d, x in zip(c["perturbation"], c["direction"], c["level"])])
+    assert (c["n_trials"] == 40).all()  # 2 per participant and condition
+    err_pooled, err_mean = np.mean(c["dprime"] - d_true), np.mean(c["dprime_mean"] - d_true)
+    cover = {k: np.mean((c[k + "_ci_low"] <= d_true) & (d_true <= c[k + "_ci_high"])) for k in ("dprime", "dprime_mean")}
+    assert abs(err_pooled) < 0.1 and err_mean < -0.2, (err_pooled, err_mean)
+    assert cover["dprime"] >= 0.8 and cover["dprime_mean"] <= 0.7, cover
