@@ -3,12 +3,13 @@
 frames (:func:`mocomp.plots.render_audit.render_with_audit`), side by side with another."""
 from __future__ import annotations
 
+import argparse
 from pathlib import Path
 
 
 def register(sub) -> None:
     from ..plots.render_audit import CAMERAS
-    from ._common import add_load_args, frames_arg, render_output_arg, size_arg
+    from ._common import add_load_args, frames_arg, size_arg
 
     p = sub.add_parser(
         "render", help="draw a motion with its audit (penetration, contacts, COM path, ballistic fits, time bar): "
@@ -27,7 +28,7 @@ def register(sub) -> None:
     p.add_argument("--against", metavar="OTHER",
                    help="a second motion (file or name, loaded with the same options) drawn beside the first, "
                         "e.g. the input of an edit")
-    p.add_argument("-o", "--output", required=True, type=render_output_arg, metavar="OUT.mp4|OUT.gif|STRIP.png",
+    p.add_argument("-o", "--output", required=True, metavar="OUT.mp4|OUT.gif|STRIP.png",
                    help="what to write, by extension: .mp4 (H.264 video; at most 60 frames/s: every k-th frame of "
                         "a faster clip), .gif (animated, at most 25 frames/s) or .png (phase filmstrip)")
     p.add_argument("--frames", type=frames_arg, metavar="A:B",
@@ -53,8 +54,12 @@ def run(args) -> int:
     from ..audit import AuditThresholds, audit
     from ..plots.render3d import RenderStyle
     from ..plots.render_audit import render_with_audit
-    from ._common import load_from_args
+    from ._common import load_from_args, render_output_arg
 
+    try:                    # checked before anything is loaded (the same check as every command's --render)
+        out = render_output_arg(args.output)
+    except argparse.ArgumentTypeError as e:
+        raise ValueError(str(e)) from None
     th = AuditThresholds.from_strings(args.threshold)
     w, h = args.size
     style = RenderStyle(width=w, height=h, backend=args.backend)
@@ -63,7 +68,7 @@ def run(args) -> int:
     if args.against is not None:
         other = datasets.load(args.against, fps=args.fps, scale=args.scale, raw=args.raw)
     rep = audit(m, thresholds=th, against=other, name=str(args.motion), against_name=args.against)
-    res = render_with_audit(m, args.output, against=other, name=Path(str(args.motion)).name,
+    res = render_with_audit(m, out, against=other, name=Path(str(args.motion)).name,
                             against_name=None if other is None else Path(str(args.against)).name,
                             frames=args.frames, camera=args.camera, style=style,
                             reports=(rep,) if other is None else (rep, rep.against))
