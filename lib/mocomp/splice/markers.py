@@ -235,7 +235,11 @@ def find_arm_joints(skeleton, side: str = "right", joints: dict | None = None) -
             if v is not None and v not in skeleton:
                 raise MotionFormatError(f"joint {v!r} ({k}) is not in the skeleton; joints: {skeleton.names}")
         found = (joints.get("clavicle"), joints["upper"], joints["forearm"], joints["hand"])
-        lu = ru = None
+        # the other arm's upper-arm joint by the known conventions, for the trunk heading
+        other_upper = next((t[1].format(S=tk[other]) for t, tk in _CONVENTIONS if t[1].format(S=tk[other]) in skeleton), None)
+        pair = (other_upper, joints["upper"]) if side == "right" else (joints["upper"], other_upper)
+        lu = None if pair[0] is None else skeleton.find(pair[0])
+        ru = None if pair[1] is None else skeleton.find(pair[1])
     else:
         for templates, tokens in _CONVENTIONS:
             names = [t.format(S=tokens[side]) for t in templates]
