@@ -187,3 +187,26 @@ def test_too_short_or_too_narrow():
     # a single frame on one side still works (all cells of the one row)
     b = slanted_band(1, 7, 0.5)
     assert (b.lo[0], b.hi[0]) == (0, 6)
+
+
+def test_band_width_kind_half_and_full():
+    """Issue #19 item 11: the paper's "30 % band width" read as the half-width W of eq. 6.3
+    (default, as before) or as the full width (W = 15 % n); the full reading covers less of the matrix."""
+    from mocomp.splice import SpliceConfig, align_hands, virtual_hand_markers
+    from mocomp.splice.synthetic import synthetic_pair
+
+    pair = synthetic_pair(1)
+    hb, hh = virtual_hand_markers(pair.body, "right"), virtual_hand_markers(pair.hand, "right")
+    n = hb.n_frames
+    half = align_hands(hb, hh)
+    full = align_hands(hb, hh, band_width_kind="full")
+    assert half.pass1.band.width == pytest.approx(0.30 * n) and full.pass1.band.width == pytest.approx(0.15 * n)
+    assert half.pass2.band.width == pytest.approx(0.10 * n) and full.pass2.band.width == pytest.approx(0.05 * n)
+    assert full.pass1.band.fill < 0.75 * half.pass1.band.fill
+    assert SpliceConfig(band_width_kind="full").half_width(0.3, 200) == pytest.approx(30.0)
+    # same cells as a half-width band of half the fraction
+    same = align_hands(hb, hh, phase_width=0.15, refine_width=0.05)
+    np.testing.assert_array_equal(same.pass1.band.lo, full.pass1.band.lo)
+    np.testing.assert_array_equal(full.hand_frame, same.hand_frame)
+    with pytest.raises(ValueError, match="band_width_kind"):
+        SpliceConfig(band_width_kind="quarter")

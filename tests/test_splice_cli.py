@@ -165,3 +165,30 @@ def test_splice_ends_with_the_audit_verdict(files, capsys):
     assert ("warning: the output" in cap.err) == ("new or worse: " in last)
     assert main(["splice", str(d / "body.bvh"), str(d / "hand.bvh"), "-o", str(d / "ob.bvh"), "--no-audit"]) == 0
     assert not capsys.readouterr().out.strip().splitlines()[-1].startswith("audit:")
+
+
+def test_cli_band_width_kind_and_report(files, capsys):
+    import json
+
+    d, pair = files
+    rc = main(["splice", str(d / "body.bvh"), str(d / "hand.bvh"), "-o", str(d / "bw.bvh"), "--band-width-kind", "full",
+               "--report", str(d / "bw.json")])
+    assert rc == 0
+    out = capsys.readouterr().out
+    assert "full-width reading" in out
+    r = json.loads((d / "bw.json").read_text())
+    arm = r["arms"]["right"]
+    assert arm["band_width_kind"] == "full" and arm["pass1"]["band_fill"] < 0.6
+    assert len(arm["hand_frame"]) == pair.body.n_frames and "quality" in arm
+    assert r["audit"] is not None and "measured" in r["provenance"]
+    rc = main(["splice", str(d / "body.bvh"), str(d / "hand.bvh"), "-o", str(d / "bw2.bvh"), "--report", str(d / "bw2.json"),
+               "--no-audit"])
+    assert json.loads((d / "bw2.json").read_text())["arms"]["right"]["pass1"]["band_fill"] > 0.6
+
+
+def test_cli_help_documents_the_new_options(capsys):
+    with pytest.raises(SystemExit):
+        main(["splice", "--help"])
+    h = " ".join(capsys.readouterr().out.split())
+    for opt in ("--subsequence", "--map FILE.toml", "--band-width-kind {half,full}", "--report", "half-width W of eq. 6.3"):
+        assert opt in h

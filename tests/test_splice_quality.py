@@ -136,3 +136,22 @@ def test_paper_literal_median_map_freeze_is_warned_too(wave):
     body, hand = wave
     q = splice_motions(body, hand, frame_map="median", suggest=False).quality["right"]
     assert q.frozen_frames >= 45  # the issue: 54 frames with the paper's row medians
+
+
+@pytest.mark.realdata
+def test_cli_warns_on_stderr_and_reports(real_data_dir, tmp_path, capsys):
+    from mocomp.cli import main
+
+    d = real_data_dir / "hands"
+    rc = main(["splice", str(d / "bandai2_wave-both-hands_normal_001.bvh"), str(d / "bandai2_wave-right-hand_normal_001.bvh"),
+               "-o", str(tmp_path / "o.bvh"), "--report", str(tmp_path / "r.json"), "--plot", str(tmp_path / "p.png"),
+               "--no-audit"])
+    assert rc == 0
+    err = capsys.readouterr().err
+    lines = [x for x in err.splitlines() if x.startswith("mocomp splice: warning: right arm: hand frozen")]
+    assert lines and "body frames" in lines[0]
+    assert "mocomp splice: warning: right arm: two tolerant matching points would cut the freeze: --match" in err
+    r = json.loads((tmp_path / "r.json").read_text())
+    q = r["arms"]["right"]["quality"]
+    assert q["frozen_frames"] >= 40 and q["suggestion"]["frozen_after"] <= 4
+    assert r["warnings"] and (tmp_path / "p.png").stat().st_size > 20_000

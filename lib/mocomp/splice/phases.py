@@ -13,7 +13,11 @@ for reports and plots.
 below a threshold relative to the sequence's own 95th percentile, so the
 labels do not depend on the performance's amplitude. Labels are given per
 movement segment (between changes of direction), not per frame, because
-the profiles of Table 6.1 describe whole phases.
+the profiles of Table 6.1 describe whole phases; by default each stroke
+between two reversals of direction is its own phase (``strokes="individual"``),
+as the dissertation counts them ("phase boundaries in hand movement are
+marked by an abrupt change of direction", ch. 6); ``strokes="merged"`` keeps
+the earlier reading, in which consecutive strokes form one phase.
 """
 from __future__ import annotations
 
@@ -123,9 +127,55 @@ def _merge_short(labels: np.ndarray, min_len: int) -> np.ndarray:
     return out
 
 
+def _reversals(vel: np.ndarray, moving: np.ndarray, d: int, cos_max: float) -> np.ndarray:
+    """Frames where the hand's direction of travel turns back: local minima of the
+    cosine between the velocities ``d`` frames before and after, below ``cos_max``
+    (the zero crossings of the velocity along the stroke's axis, the sign changes
+    of eq. 6.6's first-derivative term), where the hand moves."""
+    from scipy.signal import find_peaks
+
+    T = len(vel)
+    if T < 2 * d + 3:
+        return np.zeros(0, dtype=int)
+    a, b = vel[:-2 * d], vel[2 * d:]
+    c = np.sum(a * b, axis=1) / np.maximum(np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1), 1e-12)
+    cos = np.concatenate([np.ones(d), c, np.ones(d)])
+    pk = find_peaks(-cos, height=-cos_max, distance=max(1, d))[0]
+    near = np.zeros(T, bool)
+    for s in (-d, 0, d):
+        near |= np.roll(moving, s)
+    return pk[near[pk]]
+
+
+def _segments_merge(segs: list[list], min_len: int) -> list[list]:
+    """Merge segments shorter than ``min_len`` frames into their longer neighbour
+    (taking its label), then join neighbours that are both holds, both
+    preparations or both retractions; neighbouring strokes stay separate (each
+    is one movement between reversals)."""
+    segs = [list(x) for x in segs]
+    while len(segs) > 1:
+        lens = [e - s for _, s, e in segs]
+        k = min(range(len(segs)), key=lens.__getitem__)
+        if lens[k] >= min_len:
+            break
+        if k + 1 == len(segs) or (k > 0 and lens[k - 1] >= lens[k + 1]):
+            segs[k - 1][2] = segs[k][2]
+        else:
+            segs[k + 1][1] = segs[k][1]
+        del segs[k]
+    out = [segs[0]]
+    for lab, s, e in segs[1:]:
+        if lab == out[-1][0] and lab != "S":
+            out[-1][2] = e
+        else:
+            out.append([lab, s, e])
+    return out
+
+
 def motion_phases(hm: HandMarkers, *, marker: str = "hand", smooth: float = 0.2, hold_speed: float = 0.15,
-                  stroke_acceleration: float = 0.6, split: float = 0.2, min_duration: float = 0.2,
-                  still_speed: float = 0.03, min_stroke_acceleration: float = 0.5) -> PhaseLabels:
+                  stroke_acceleration: float = 0.6, split: float = 0.2, min_duration: float | None = None,
+                  still_speed: float = 0.03, min_stroke_acceleration: float = 0.5, strokes: str = "individual",
+                  reversal_cos: float = 0.0) -> PhaseLabels:
     """Segment a hand-marker sequence into Table 6.1 phases.
 
     Frames whose speed is below ``hold_speed`` (fraction of the sequence's
@@ -138,12 +188,32 @@ def motion_phases(hm: HandMarkers, *, marker: str = "hand", smooth: float = 0.2,
     phases"), otherwise a preparation or a retraction by the sign of its net
     displacement away from the resting position (the median hand position
     over the 10 % of frames where the hand is lowest relative to the shoulder). Derivatives are Savitzky-Golay
-    over ``smooth`` seconds; runs shorter than ``min_duration`` seconds merge
-    into their longer neighbour. Absolute floors (``still_speed`` m/s,
+    over ``smooth`` seconds. Absolute floors (``still_speed`` m/s,
     ``min_stroke_acceleration`` m/s^2) keep a motionless hand a hold.
+
+    ``strokes`` (issue #19 item 10):
+
+    * ``"individual"`` (default): movements are also cut where the direction
+      of travel turns back (the cosine between the velocities 0.05 s before
+      and after drops below ``reversal_cos``: the zero crossings of the
+      velocity along the stroke, where eq. 6.6's first-derivative signs
+      flip), and every movement between two cuts is its own phase: a wave of
+      six swings is six strokes, a walk's arm swing alternates its phases
+      swing by swing, so phase counts mean what Tables 6.1/6.2 count.
+      Segments shorter than ``min_duration`` (default 0.1 s) merge into their
+      longer neighbour; neighbouring holds, preparations or retractions join,
+      neighbouring strokes stay apart.
+    * ``"merged"``: the behaviour of earlier versions: labels per segment,
+      then runs of equal labels form one phase (consecutive strokes merge: a
+      whole wave is one "S"), runs shorter than ``min_duration`` (default 0.2 s)
+      merging into their longer neighbour.
     """
     from scipy.signal import find_peaks
 
+    if strokes not in ("individual", "merged"):
+        raise ValueError(f"strokes must be 'individual' or 'merged', got {strokes!r}")
+    if min_duration is None:
+        min_duration = 0.1 if strokes == "individual" else 0.2
     k = smoothing_frames(hm.fps, smooth)
     require_frames(hm, k, f"phase labelling with a {k}-frame derivative window", "input")
     q = MARKER_ROLES.index(marker)
@@ -165,17 +235,35 @@ def motion_phases(hm: HandMarkers, *, marker: str = "hand", smooth: float = 0.2,
     lab = np.full(T, "H", dtype="<U1")
     moving = speed >= v_hold
     cuts = find_peaks(-speed, prominence=split * p95)[0] if p95 > 0 else np.zeros(0, dtype=int)
+    if strokes == "individual" and p95 > 0:
+        d = max(1, int(round(0.05 * hm.fps)))
+        cuts = np.union1d(cuts, _reversals(vel, moving, d, reversal_cos))
     edges = np.diff(np.concatenate([[0], moving.astype(int), [0]]))
+    segs = []
+    pos = 0
     for a0, b0 in zip(np.nonzero(edges == 1)[0], np.nonzero(edges == -1)[0]):
+        if a0 > pos:
+            segs.append(["H", pos, int(a0)])
         inside = cuts[np.searchsorted(cuts, a0, side="right"):np.searchsorted(cuts, b0, side="left")]
-        bounds = [a0, *inside.tolist(), b0]
+        bounds = [int(a0), *inside.tolist(), int(b0)]
         for a, b in zip(bounds[:-1], bounds[1:]):
             if np.max(np.abs(acc_t[a:b])) >= a_stroke:
                 lab[a:b] = "S"
             else:
                 lab[a:b] = "P" if dist[b - 1] - dist[a] > 0 else "R"
-    lab = _merge_short(lab, max(1, int(round(min_duration * hm.fps))))
-    phases = tuple(Phase(str(l), s, e) for l, s, e in _runs(lab))
+            segs.append([str(lab[a]), a, b])
+        pos = int(b0)
+    if pos < T:
+        segs.append(["H", pos, T])
+    min_len = max(1, int(round(min_duration * hm.fps)))
+    if strokes == "merged":
+        lab = _merge_short(lab, min_len)
+        runs = _runs(lab)
+    else:
+        runs = _segments_merge(segs, min_len)
+        for l, s0, e0 in runs:
+            lab[s0:e0] = l
+    phases = tuple(Phase(str(l), s, e) for l, s, e in runs)
     for arr in (lab, speed, radial, acc_t):
         arr.setflags(write=False)
     return PhaseLabels(lab, phases, speed, radial, acc_t,

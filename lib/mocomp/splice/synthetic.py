@@ -155,6 +155,9 @@ class GestureClip:
     pose: ``(T, 6)`` the arm pose parameters (degrees) that drove it.
     cycle_starts: first frame of each gesture.
     side: the gesturing arm.
+    strokes: ``(start, stop)`` frames of every scripted individual stroke: each
+        beat of a stroke phase swings out and back, so a phase of ``c`` beats
+        holds ``2 c`` strokes, one per movement between reversals of direction.
     """
 
     motion: Motion
@@ -162,6 +165,7 @@ class GestureClip:
     pose: np.ndarray
     cycle_starts: tuple[int, ...]
     side: str
+    strokes: tuple[tuple[int, int], ...] = ()
 
 
 def _random_gesture(rng: np.random.Generator) -> dict:
@@ -216,7 +220,7 @@ def gesture_clip(rng=0, n_gestures: int = 4, fps: float = 30.0, side: str = "rig
     rng = np.random.default_rng(rng)
     sk = skeleton or gesture_skeleton()
     segs = _gesture_script(rng, n_gestures, periodic, coda)
-    poses, labels, starts = [], [], []
+    poses, labels, starts, stroke_bounds = [], [], [], []
     t_carry = 0.0
     for k, (g, lab, dur, p0, p1, strokes) in enumerate(segs):
         n = max(1, int(round((dur + t_carry) * fps)))
@@ -229,6 +233,9 @@ def gesture_clip(rng=0, n_gestures: int = 4, fps: float = 30.0, side: str = "rig
         else:
             count, amp = strokes
             pose = p0 + amp[None, :] * (0.5 - 0.5 * np.cos(2 * np.pi * count * u))[:, None]
+            first = len(labels) + 1  # frame 0 is the initial rest frame
+            cuts = [first + int(round(k * n / (2 * count))) for k in range(2 * count + 1)]
+            stroke_bounds += list(zip(cuts[:-1], cuts[1:]))
         poses.append(pose)
         labels += [lab] * n
     pose = np.concatenate([REST_POSE[None], *poses])
@@ -248,7 +255,7 @@ def gesture_clip(rng=0, n_gestures: int = 4, fps: float = 30.0, side: str = "rig
     q[:, other.upper], q[:, other.forearm], q[:, other.hand] = ou, of, oh
     root = np.repeat(sk.offsets[:1], T, axis=0)
     m = Motion(sk, fps, root, q, SourceInfo(format="synthetic", notes=(f"gesture_clip({n_gestures} gestures, {side} arm, periodic={periodic})",)))
-    return GestureClip(m, labels, pose, tuple(starts), side)
+    return GestureClip(m, labels, pose, tuple(starts), side, tuple(stroke_bounds))
 
 
 def walk_clip(n_frames: int, fps: float = 30.0, *, skeleton: Skeleton | None = None, speed: float = 1.2,
