@@ -199,6 +199,7 @@ def stance_displacement(tau: np.ndarray, slope: float, D: float, lower=None, upp
         hv = np.concatenate([r[1] for r in rows])
         keep = np.isfinite(hv)
         Gm, hv = Gm[keep], hv[keep]
+    if rows and hv.size:
         # scale rows so SLSQP sees comparable constraint magnitudes
         scale = np.maximum(np.linalg.norm(Gm, axis=1), 1e-12)
         Gm, hv = Gm / scale[:, None], hv / scale
@@ -207,26 +208,38 @@ def stance_displacement(tau: np.ndarray, slope: float, D: float, lower=None, upp
             res = minimize(lambda x: 0.5 * x @ H @ x + f @ x, x0, jac=lambda x: H @ x + f, constraints=cons,
                            method="SLSQP", options={"maxiter": 500, "ftol": 1e-12})
             x = res.x
-            ok = bool(np.min(Gm @ x + hv) >= -1e-6 * max(1.0, float(np.max(np.abs(hv)))))
         else:
             x = x0
     else:
         x = x0
     c = c_fixed.copy()
     c[free] = x
-    return Bd @ c, B2 @ c, ok
+    d, a = Bd @ c, B2 @ c
+    for v, lo, hi in ((a, lower, upper), (d, d_lower, d_upper)):   # judged in m/s^2 and m, not scaled rows
+        if lo is not None:
+            lo = np.asarray(lo, dtype=float)
+            ok &= bool(np.all(v >= lo - 1e-6 * (1.0 + np.abs(np.where(np.isfinite(lo), lo, 0.0)))))
+        if hi is not None:
+            hi = np.asarray(hi, dtype=float)
+            ok &= bool(np.all(v <= hi + 1e-6 * (1.0 + np.abs(np.where(np.isfinite(hi), hi, 0.0)))))
+    return d, a, ok
 
 
-def _needed_force(tau, slope, D, a_own, g, min_force, max_force, d_lo=None, d_hi=None) -> float:
-    """The smallest upper force bound (body weights) for which a map exists (bisection), or inf."""
-    lo_acc = g * (min_force - 1.0) - a_own
+def _needed_force(tau, slope, D, a_own, g, min_force, max_force, d_lo=None, d_hi=None, n_free: int = 0) -> float:
+    """The smallest upper force bound (body weights) for which a map exists (bisection), or inf; the
+    first ``n_free`` samples carry no force bound."""
+    free = np.arange(tau.size) < n_free
+    lo_acc = np.where(free, -np.inf, g * (min_force - 1.0) - a_own)
+
+    def hi_acc(f):
+        return np.where(free, np.inf, g * (f - 1.0) - a_own)
     lo, hi = max_force, 4.0 * max_force
     kw = dict(d_lower=d_lo, d_upper=d_hi)
-    if not stance_displacement(tau, slope, D, lo_acc, g * (hi - 1.0) - a_own, **kw)[2]:
+    if not stance_displacement(tau, slope, D, lo_acc, hi_acc(hi), **kw)[2]:
         return float("inf")
     for _ in range(10):
         mid = 0.5 * (lo + hi)
-        if stance_displacement(tau, slope, D, lo_acc, g * (mid - 1.0) - a_own, **kw)[2]:
+        if stance_displacement(tau, slope, D, lo_acc, hi_acc(mid), **kw)[2]:
             hi = mid
         else:
             lo = mid
@@ -234,20 +247,26 @@ def _needed_force(tau, slope, D, a_own, g, min_force, max_force, d_lo=None, d_hi
 
 
 def _solve_map(tau, sign, dv, D, lo_acc, hi_acc, d_lo, d_hi, jerk_weight, frames, fps, event, a_own, g, min_force,
-               max_force):
-    """The three components of the displacement map (vertical: force and leg-room bounds)."""
+               max_force, fine):
+    """The three components of the displacement map (vertical: force bounds on the grid ``fine``,
+    leg-room bounds on the frames ``tau``). Returns ``(disp (n, 3), acc (len(fine), 3))``."""
     disp = np.zeros((frames.size, 3))
-    acc = np.zeros((frames.size, 3))
+    acc = np.zeros((fine.size, 3))
+    both = np.concatenate([tau, fine])
+    n = tau.size
+    inf = np.full(fine.size, np.inf)
     for c in range(3):
         if abs(dv[c]) < 1e-9:
             continue
         if c == 1:
-            d, a, ok = stance_displacement(tau, sign * dv[c], D, lo_acc, hi_acc, jerk_weight=jerk_weight,
-                                           d_lower=-d_lo, d_upper=d_hi)
+            d, a, ok = stance_displacement(both, sign * dv[c], D, np.r_[np.full(n, -np.inf), lo_acc],
+                                           np.r_[np.full(n, np.inf), hi_acc], jerk_weight=jerk_weight,
+                                           d_lower=np.r_[-d_lo, -inf], d_upper=np.r_[d_hi, inf])
         else:
-            d, a, ok = stance_displacement(tau, sign * dv[c], D, jerk_weight=jerk_weight)
+            d, a, ok = stance_displacement(both, sign * dv[c], D, jerk_weight=jerk_weight)
         if not ok:
-            need = _needed_force(tau, sign * dv[1], D, a_own, g, min_force, max_force, -d_lo, d_hi)
+            need = _needed_force(both, sign * dv[1], D, np.r_[np.zeros(n), a_own], g, min_force, max_force,
+                                 np.r_[-d_lo, -inf], np.r_[d_hi, inf], n)
             a0, a1 = int(frames.min()), int(frames.max())
             need_text = ("no vertical ground force profile does it" if not np.isfinite(need) else
                          f"it would need a vertical ground force of {need:.1f} body weights")
@@ -259,7 +278,7 @@ def _solve_map(tau, sign, dv, D, lo_acc, hi_acc, d_lo, d_hi, jerk_weight, frames
                 f"impossible ({need_text}: a mean extra acceleration of "
                 f"{abs(dv[1]) * fps / frames.size:.1f} m/s^2, and the crouch must come back up); use k nearer k* "
                 f"(--k-ratio closer to 1) or --takeoff as-is")
-        disp[:, c], acc[:, c] = d, a
+        disp[:, c], acc[:, c] = d[:n], a[n:]
     return disp, acc
 
 
@@ -316,10 +335,16 @@ def repair_stance(motion: Motion, com_fn, event: str, event_frame: float, dv, st
     max_force = max(float(max_force), float(np.max(1.0 + a_own / g)))
     hi_acc = g * (max_force - 1.0) - a_own
     down, up = _leg_room(motion, frames)
+    # the force bounds hold on a grid twice as fine as the frames (between frames too)
+    order = np.argsort(tau)
+    fine = np.linspace(0.0, D, 2 * frames.size + 1)[1:]
+    a_fine = np.interp(fine, tau[order], a_own[order])
+    lo_fine = g * (min_force - 1.0) - a_fine
+    hi_fine = g * (max_force - 1.0) - a_fine
     gain = 1.0
     for attempt in range(3):
-        disp, acc = _solve_map(tau, sign, dv, D, lo_acc, hi_acc, down / gain, up / gain, jerk_weight, frames, fps,
-                               event, a_own, g, min_force, max_force)
+        disp, acc = _solve_map(tau, sign, dv, D, lo_fine, hi_fine, down / gain, up / gain, jerk_weight, frames, fps,
+                               event, a_fine, g, min_force, max_force, fine)
         new_root, new_rot, miss, gain_seen = _apply_with_planted_feet(motion, com_fn, frames, disp, event,
                                                                       raise_errors=attempt == 2)
         if gain_seen is None:
@@ -328,9 +353,7 @@ def repair_stance(motion: Motion, com_fn, event: str, event_frame: float, dv, st
 
     source = motion.source
     new = motion.replace(root_positions=new_root, rotations=new_rot, source=source)
-    com_new = com_fn(new_root, new_rot)
-    ay_new = np.gradient(np.gradient(gaussian_smooth(com_new[:, 1], ACC_SMOOTH_S * fps), 1.0 / fps), 1.0 / fps)
-    F_new = (g + ay_new[frames]) / g
+    F_new = (g + a_fine + acc[:, 1]) / g                 # planned: the COM follows the map (fixed point above)
     F_old = (g + a_own) / g
     zb = za = float("nan")
     if measure_zmp:
