@@ -140,3 +140,29 @@ def test_cli_subsequence_reports_the_interval(pair, tmp_path, capsys):
     assert f"matched interval body frames {iv['start']}-{iv['end']}" in out
     assert read_bvh(tmp_path / "out.bvh", scale="m").n_frames == pair.body.n_frames
     assert (tmp_path / "p.png").stat().st_size > 10_000
+
+
+def _as_markers(motion):
+    """Plug-in-Gait-named markers (wrist A/B, forearm, finger, both shoulders) from a motion's virtual markers."""
+    from mocomp.io.markers import Markers
+
+    r, l = virtual_hand_markers(motion, "right"), virtual_hand_markers(motion, "left")
+    P = np.concatenate([r.positions, r.shoulder[:, None], l.shoulder[:, None]], axis=1)
+    names = ("RWRA", "RWRB", "RFRM", "RFIN", "RSHO", "LSHO")
+    return Markers(names, P, motion.fps, np.ones(P.shape[:2], bool))
+
+
+def test_marker_splice_in_subsequence_mode(pair):
+    from mocomp.splice import splice_markers
+
+    body, hand = _as_markers(pair.body), _as_markers(pair.hand)
+    res = splice_markers(body, hand, subsequence=True)
+    al = res.alignments["right"]
+    a, e = pair.params["interval"]
+    assert abs(al.interval[0] - a) <= 2 and abs(al.interval[1] - e) <= 2
+    out = res.markers.positions
+    k = body.names.index("RFIN")
+    np.testing.assert_allclose(out[:al.interval[0], k], body.positions[:al.interval[0], k])
+    np.testing.assert_allclose(out[al.interval[1] + 1:, k], body.positions[al.interval[1] + 1:, k])
+    q = res.quality["right"]
+    assert q.offset == al.interval[0] and q.speed.shape == (al.n,) and q.frozen_frames == 0

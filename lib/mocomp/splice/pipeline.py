@@ -294,7 +294,7 @@ def splice_motions(body: Motion, hand: Motion, points=(), *, side: str = "right"
 
 def splice_markers(body, hand, points=(), *, side: str = "right", body_names=None, hand_names=None,
                    layer: str = "auto", config: SpliceConfig | None = None, blend_window: float = 0.2,
-                   jump: float = 1.5, **overrides) -> SpliceResult:
+                   jump: float = 1.5, quality: bool = True, thresholds=None, **overrides) -> SpliceResult:
     """Splice optical hand markers (:class:`~mocomp.io.markers.Markers`, e.g. C3D)
     onto a full-body marker recording.
 
@@ -320,7 +320,13 @@ def splice_markers(body, hand, points=(), *, side: str = "right", body_names=Non
       on a table) records is the hand relative to the forearm.
     * ``"auto"`` (default): ``"arm"`` when both recordings have a shoulder
       marker, else ``"hand"``.
+
+    ``quality`` measures the written hand marker as :func:`splice_motions`
+    does (no suggestion here); ``SpliceConfig.subsequence`` replaces the
+    markers of the matched interval only (eased in and out at its ends).
     """
+    from .quality import measure_quality
+
     from .markers import forearm_frame
     from .metrics import matched_theta, rotate_vertical
 
@@ -335,8 +341,8 @@ def splice_markers(body, hand, points=(), *, side: str = "right", body_names=Non
     pts = as_points(points)
     P = np.array(body.positions)
     alignments, bph, hph, names, blends = {}, {}, {}, {}, {}
-    tm = {"markers": 0.0, "align": 0.0, "merge": 0.0, "phases": 0.0}
-    layers = {}
+    tm = {"markers": 0.0, "align": 0.0, "merge": 0.0, "phases": 0.0, "quality": 0.0}
+    layers, quals = {}, {}
     for s in _sides(side):
         ta = time.perf_counter()
         hb = hand_markers_from_markers(body, s, body_names)
@@ -355,28 +361,44 @@ def splice_markers(body, hand, points=(), *, side: str = "right", body_names=Non
         tb = time.perf_counter()
         al = align_hands(hb, hh, pts, cfg)
         tc = time.perf_counter()
+        a0 = al.offset
+        hbi = hb[a0:a0 + al.n] if al.interval is not None else hb  # the body rows the alignment covers
         if lay == "arm":
             rel = median_frames(hh.relative, al.path, al.n, al.hand_frame)  # (n, 4, 3)
             both = al.body_features.heading is not None and al.hand_features.heading is not None
             span = max(1, int(round(cfg.refine_theta_span * body.fps)) | 1)
             theta = matched_theta(al.body_features, al.hand_features, al.hand_frame, "trunk" if both else "window", span)
-            merged = hb.shoulder[:, None, :] + rotate_vertical(rel, theta)
+            merged = hbi.shoulder[:, None, :] + rotate_vertical(rel, theta)
             labels = hb.labels
         else:
             ch, Rh = forearm_frame(hh.positions, hand.source)
             local = np.einsum("tji,tj->ti", Rh, hh.positions[:, 3] - ch)  # hand marker in the hand recording's forearm frame
             local = median_frames(local, al.path, al.n, al.hand_frame)
-            cb, Rb = forearm_frame(hb.positions, body.source)
+            cb, Rb = forearm_frame(hbi.positions, body.source)
             merged = (cb + np.einsum("tij,tj->ti", Rb, local))[:, None, :]
             labels = hb.labels[3:]
         win = max(3, int(round(blend_window * body.fps)) | 1)
         merged, rep = blend_discontinuities(merged, al.hand_frame, window=win, jump=jump)
         idx = [body.names.index(lab) for lab in labels]
-        P[:, idx] = merged
+        if al.interval is not None:  # ease in from and out to the body's own markers at the interval's ends
+            own = P[a0:a0 + al.n][:, idx]
+            k = al.n
+            u = np.clip(np.minimum(np.arange(k) + 1, k - np.arange(k)) / float(max(1, win // 2) + 1), 0.0, 1.0)
+            u = (u ** 3 * (10 - 15 * u + 6 * u ** 2))[:, None, None]
+            merged = (1 - u) * own + u * merged
+            rep = replace(rep, frames=tuple(f + a0 for f in rep.frames))
+        blk = P[a0:a0 + al.n]
+        blk[:, idx] = merged
+        P[a0:a0 + al.n] = blk
         td = time.perf_counter()
         bph[s] = motion_phases(hb, smooth=cfg.smooth)
         hph[s] = motion_phases(hh, smooth=cfg.smooth)
         te = time.perf_counter()
+        if quality:
+            hand_out = merged[:, -1]  # the hand marker (FIN) as written
+            rel_out = hand_out - hbi.shoulder if hbi.shoulder is not None else hand_out
+            quals[s] = measure_quality(al, rel_out, side=s, offset=a0, thresholds=thresholds)
+        tm["quality"] += time.perf_counter() - te
         alignments[s], names[s], blends[s], layers[s] = al, labels, rep, lay
         tm["markers"] += tb - ta
         tm["align"] += tc - tb
@@ -390,4 +412,4 @@ def splice_markers(body, hand, points=(), *, side: str = "right", body_names=Non
             f"from {hand.source or 'hand recording'}")
     out = replace(body, positions=P, mask=mask, notes=tuple(getattr(body, "notes", ())) + (note,))
     tm["total"] = time.perf_counter() - t0
-    return SpliceResult(None, out, alignments, bph, hph, names, blends, pts, None, tm)
+    return SpliceResult(None, out, alignments, bph, hph, names, blends, pts, None, tm, quals)
