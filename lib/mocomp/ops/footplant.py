@@ -14,8 +14,11 @@ local rotation is kept. On the frames of :class:`~mocomp.ops.plants.FootPlants`:
 
 The translation and the rotation vector of each foot are faded in and out over ``blend`` frames
 around the planted frames (:func:`~mocomp.ops.easing.ramp_fill`), so no pose jumps. The leg then
-follows by :func:`~mocomp.ops.ik.two_bone_ik` (hip fixed, knee kept in the leg's plane, reach
-clamped; frames that cannot be reached are reported). Nothing but the hip, knee and ankle local
+follows by :func:`~mocomp.ops.ik.two_bone_ik` (hip fixed, knee kept in the leg's plane; a nearly
+straight leg, whose plane is noise, bends about its knee's hinge axis, :data:`BEND_PRIOR`). The reach
+is soft: a target within :data:`SOFT_REACH` of the leg's full length is approached smoothly by
+lifting the foot (horizontal hold kept), so the knee does not snap straight; the lifted frames and
+the few that still cannot be reached (a target beyond the leg horizontally) are reported. Nothing but the hip, knee and ankle local
 rotations changes; the root is never moved.
 
 This is the footskate cleanup of Kovar, Schreiner & Gleicher (SCA 2002) with analytic IK in place
@@ -34,13 +37,18 @@ from ..core.motion import Motion
 from ..core.rotations import quat_apply
 from ..dynamics.contacts import label_intervals
 from .easing import ramp_fill
-from .ik import REACH_MARGIN, two_bone_ik
+from .ik import REACH_MARGIN, hinge_axis, two_bone_ik
 from .plants import FootPlants, foot_plants, plant_targets
 
 __all__ = ["FootplantResult", "enforce_footplants", "plant_slides", "default_blend_frames", "foot_points"]
 
 #: m: a leg that misses its target by more than this is reported as unreachable on that frame
 UNREACHABLE_TOL = 1e-3
+#: fraction of the leg length over which the reach is softened (see :func:`_solve`)
+SOFT_REACH = 0.02
+#: weight of the knee's hinge axis (averaged over the clip in the thigh frame) against the leg's
+#: plane normal in the IK: a leg straighter than about 3 deg bends about its hinge, not about noise
+BEND_PRIOR = 0.05
 
 
 def default_blend_frames(fps: float) -> int:
@@ -84,8 +92,10 @@ class FootplantResult:
         :data:`UNREACHABLE_TOL` (reach clamped: the knee straight or folded).
     max_miss: m, largest miss over all frames and legs.
     changed_frames: frames on which any leg was solved.
+    input: the motion the feet were planted on.
     joint_speed_before, joint_speed_after: rad/s, the largest joint rotation rate between frames
-        (:func:`mocomp.audit.kinematics.step_rates`) of the input and the output.
+        (:func:`mocomp.audit.kinematics.step_rates`) of the input and the output (properties,
+        computed on first use).
     audit_before, audit_after: :class:`~mocomp.audit.AuditReport` of the input and the output
         (measured; ``None`` with ``audit=False``).
     seconds: wall time of the enforcement (without the audits).
@@ -100,12 +110,26 @@ class FootplantResult:
     unreachable: dict
     max_miss: float
     changed_frames: int
-    joint_speed_before: float
-    joint_speed_after: float
+    input: Motion
     audit_before: object | None = None
     audit_after: object | None = None
     seconds: float = 0.0
     notes: tuple[str, ...] = field(default=())
+    _cache: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def joint_speed_before(self) -> float:
+        """rad/s, the input's largest joint rotation rate between frames (computed on first use)."""
+        if "before" not in self._cache:
+            self._cache["before"] = _max_rate(self.input)
+        return self._cache["before"]
+
+    @property
+    def joint_speed_after(self) -> float:
+        """rad/s, the output's largest joint rotation rate between frames (a pose jump shows here)."""
+        if "after" not in self._cache:
+            self._cache["after"] = _max_rate(self.motion)
+        return self._cache["after"]
 
     def measured_slide(self) -> tuple[float, float]:
         """``(before, after)`` m: the largest foot/toe slide the audit measures on the input and the
@@ -140,15 +164,18 @@ def _max_rate(motion: Motion) -> float:
 
 
 def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: str, tol: float,
-           reach_margin: float, ease_kind: str):
-    """One enforcement pass: new rotations, targets, per-side unreachable runs, largest miss, changed frames."""
+           reach_margin: float, ease_kind: str, prev=None):
+    """One enforcement pass. Returns ``(rot, targets, state)`` with ``state`` per leg side:
+    ``(delta (T, 3), rotvec (T, 3), miss (T,), lift (T,), solved (T,) bool)``. With ``prev`` (the
+    ``(rot, state)`` of an earlier pass on the same motion) only the frames whose correction changed
+    are solved again (the legs are independent and each frame's IK depends on its own correction)."""
     from ..core.rotations import quat_multiply
     from .ik import arc_quaternions
 
     T = motion.n_frames
     targets = plant_targets(pts, plants, height)
-    rot = np.array(motion.rotations)
-    unreachable, max_miss, changed, lifted = {}, 0.0, np.zeros(T, bool), {}
+    rot = np.array(motion.rotations) if prev is None else np.array(prev[0])
+    state = {}
     for li, leg in enumerate(plants.legs):
         ka, kt = 2 * li, 2 * li + 1
         la, lt = plants.labels[:, ka], plants.labels[:, kt]
@@ -175,33 +202,49 @@ def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: st
         d_t[lt] = targets[lt, kt] - tip[lt]
         w_a = ramp_fill(la.astype(float), la, blend, ease_kind)
         delta = ramp_fill(d_a, la, blend, ease_kind) + (1.0 - w_a)[:, None] * ramp_fill(d_t, lt, blend, ease_kind)
-        idx = np.flatnonzero((np.linalg.norm(delta, axis=1) > tol) | (np.linalg.norm(rv, axis=1) > tol))
-        unreachable[leg.side] = []
+        solve = (np.linalg.norm(delta, axis=1) > tol) | (np.linalg.norm(rv, axis=1) > tol)
+        miss_all, lift_all = np.zeros(T), np.zeros(T)
+        if prev is not None:
+            d0, r0, miss_all, lift_all, solved0 = prev[1][leg.side]
+            miss_all, lift_all = miss_all.copy(), lift_all.copy()
+            redo = (np.abs(delta - d0).max(axis=1) > 1e-15) | (np.abs(rv - r0).max(axis=1) > 1e-15) | (solve != solved0)
+            reset = redo & ~solve                        # corrected before, not now: back to the input's pose
+            if reset.any():
+                rot[np.ix_(reset, leg.chain)] = motion.rotations[np.ix_(reset, leg.chain)]
+                miss_all[reset], lift_all[reset] = 0.0, 0.0
+            idx = np.flatnonzero(redo & solve)
+        else:
+            idx = np.flatnonzero(solve)
+        state[leg.side] = (delta, rv, miss_all, lift_all, solve)
         if idx.size == 0:
             continue
         tgt = A[idx] + delta[idx] + quat_apply(Rq[idx], P[idx, ja] - A[idx])   # the ankle joint, moved with the foot
-        # out of reach below the hip: the foot is lifted (the horizontal hold is kept, the height yields)
+        # soft reach: a target within ``soft`` of the leg's full length is brought in smoothly,
+        # d' = d_s + soft (1 - exp(-(d - d_s) / soft)), by lifting the foot (the horizontal hold is
+        # kept, the height yields), so the knee never snaps straight (its angle changes as
+        # 1 / sin(knee) near full extension)
         h, k = leg.chain[0], leg.chain[1]
         H = P[idx, h]
-        reach = (np.linalg.norm(P[idx, k] - H, axis=1) + np.linalg.norm(P[idx, ja] - P[idx, k], axis=1)
-                 - 2.0 * reach_margin)
+        full = (np.linalg.norm(P[idx, k] - H, axis=1) + np.linalg.norm(P[idx, ja] - P[idx, k], axis=1)
+                - 2.0 * reach_margin)
+        soft = SOFT_REACH * full
+        d_s = full - soft
+        d = np.linalg.norm(tgt - H, axis=1)
         hor = np.linalg.norm((tgt - H)[:, [0, 2]], axis=1)
-        far = (np.linalg.norm(tgt - H, axis=1) > reach) & (hor < reach) & (tgt[:, 1] < H[:, 1])
+        d0 = np.linalg.norm(P[idx, ja] - H, axis=1)         # the input's own reach: never softened below it,
+        want = np.where(d > d_s, np.maximum(d_s + soft * (1.0 - np.exp(-(d - d_s) / soft)),  # so a vanishing
+                                            np.minimum(d, d0)), d)                         # correction is no jump
+        far = (d > want) & (hor < want) & (tgt[:, 1] < H[:, 1])
+        lift_all[idx] = 0.0
         if far.any():
-            y = H[far, 1] - np.sqrt(reach[far] ** 2 - hor[far] ** 2)
-            lift = np.zeros(T)
-            lift[idx[far]] = y - tgt[far, 1]
+            y = H[far, 1] - np.sqrt(want[far] ** 2 - hor[far] ** 2)
+            lift_all[idx[far]] = y - tgt[far, 1]
             tgt[far, 1] = y
-            lifted[leg.side] = (label_intervals(lift > UNREACHABLE_TOL), float(lift.max()))
         end = quat_multiply(Rq[idx], G[idx, ja])
-        rot[idx], miss = two_bone_ik(P[idx], G[idx], rot[idx], motion.skeleton.parents, leg.chain, tgt,
-                                     end_rotation=end, reach_margin=reach_margin)
-        changed[idx] = True
-        max_miss = max(max_miss, float(miss.max()))
-        bad = np.zeros(T, bool)
-        bad[idx[miss > UNREACHABLE_TOL]] = True
-        unreachable[leg.side] = label_intervals(bad)
-    return rot, targets, unreachable, max_miss, changed, lifted
+        rot[idx], miss_all[idx] = two_bone_ik(P[idx], G[idx], rot[idx], motion.skeleton.parents, leg.chain, tgt,
+                                              end_rotation=end, reach_margin=reach_margin,
+                                              bend_axis=hinge_axis(P, G, leg.chain), bend_prior=BEND_PRIOR)
+    return rot, targets, state
 
 
 def enforce_footplants(motion: Motion, plants: FootPlants | None = None, *, contacts=None,
@@ -247,16 +290,19 @@ def enforce_footplants(motion: Motion, plants: FootPlants | None = None, *, cont
     P, G = motion.fk()
     pts = foot_points(P, G, plants)
     notes = []
+    prev = None
     for k in range(passes):
-        rot, targets, unreachable, max_miss, changed, lifted = _solve(motion, P, G, pts, plants, blend, height, tol,
-                                                              reach_margin, ease_kind)
+        rot, targets, state = _solve(motion, P, G, pts, plants, blend, height, tol, reach_margin, ease_kind, prev)
         out = motion.replace(rotations=rot)
         if k == passes - 1:
             break
         c = plants.contacts
-        again = detect_contacts(out) if c is None else detect_contacts(
-            out, effectors={e: (int(c.effector_joints[i]), c.effector_offsets[i]) for i, e in enumerate(c.effectors)},
-            ground_y=c.ground_y)
+        if c is None:
+            again = detect_contacts(out)
+        else:                                   # the feet only, on the floor the first detection found
+            again = detect_contacts(out, effectors={e: (int(c.effector_joints[i]), c.effector_offsets[i])
+                                                    for i, e in enumerate(c.effectors) if e in plants.effectors},
+                                    ground_y=c.ground_y)
         free = np.array([not str(plants.source[e]).startswith("csv") for e in plants.effectors])
         new = again.labels[:, [again.effectors.index(e) for e in plants.effectors]] & ~plants.labels & free[None]
         if not new.any():
@@ -266,6 +312,15 @@ def enforce_footplants(motion: Motion, plants: FootPlants | None = None, *, cont
         lev = np.where(lab, np.where(np.isnan(plants.levels), np.nanmedian(plants.levels, axis=0)[None],
                                      plants.levels), np.nan)
         plants = dataclasses.replace(plants, labels=lab, levels=lev)
+        prev = (rot, state)
+    unreachable, lifted, max_miss = {}, {}, 0.0
+    changed = np.zeros(motion.n_frames, bool)
+    for side, (_, _, miss, lift, solved) in state.items():
+        unreachable[side] = label_intervals(miss > UNREACHABLE_TOL)
+        if lift.max() > UNREACHABLE_TOL:
+            lifted[side] = (label_intervals(lift > UNREACHABLE_TOL), float(lift.max()))
+        max_miss = max(max_miss, float(miss.max()))
+        changed |= solved
     P2, G2 = out.fk()
     pts2 = foot_points(P2, G2, plants)
     seconds = time.perf_counter() - t0
@@ -278,8 +333,7 @@ def enforce_footplants(motion: Motion, plants: FootPlants | None = None, *, cont
         notes.append("unreachable: " + "; ".join(f"{s} leg frames " + ", ".join(f"{a}-{b - 1}" for a, b in v)
                                                    for s, v in unreachable.items() if v))
     res = FootplantResult(out, plants, targets, blend, plant_slides(pts, plants), plant_slides(pts2, plants),
-                          unreachable, max_miss, int(changed.sum()), _max_rate(motion), _max_rate(out),
-                          seconds=seconds, notes=tuple(notes))
+                          unreachable, max_miss, int(changed.sum()), motion, seconds=seconds, notes=tuple(notes))
     if audit:
         from ..audit import audit as run_audit
 

@@ -26,7 +26,7 @@ from ..core.kinematics import forward_kinematics
 from ..core.motion import Motion
 from ..core.rotations import quat_apply, quat_inverse, quat_multiply
 
-__all__ = ["two_bone_ik", "leg_chains", "plant_feet", "plant_rotations", "run_starts", "arc_quaternions",
+__all__ = ["two_bone_ik", "hinge_axis", "leg_chains", "plant_feet", "plant_rotations", "run_starts", "arc_quaternions",
            "axis_angle_quaternions", "REACH_MARGIN"]
 
 #: m: a target is reached with the limb at most this much shorter than fully straight (or this much
@@ -91,7 +91,7 @@ def _parent_rotation(G, parents, j):
 
 def two_bone_ik(P: np.ndarray, G: np.ndarray, rot: np.ndarray, parents, chain, target, *,
                 end_rotation: np.ndarray | None = None, reach_margin: float = REACH_MARGIN,
-                bend_axis=(1.0, 0.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:
+                bend_axis=(1.0, 0.0, 0.0), bend_prior: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """Local rotations with the chain's end joint on ``target``.
 
     Parameters
@@ -105,7 +105,13 @@ def two_bone_ik(P: np.ndarray, G: np.ndarray, rot: np.ndarray, parents, chain, t
     end_rotation: ``(..., 4)`` world orientation for the ankle (default: it keeps its own, so
         the foot does not turn).
     reach_margin: m; the hip-ankle distance is clamped to ``[|l1 - l2| + margin, l1 + l2 - margin]``.
-    bend_axis: the hip's local axis to bend about when the leg is exactly straight (no plane).
+    bend_axis: ``(3,)`` or ``(..., 3)`` the hip's local axis the knee bends about when the leg is
+        straight (no plane), e.g. the knee's hinge axis in the thigh frame
+        (:func:`hinge_axis`).
+    bend_prior: weight of ``bend_axis`` against the measured plane normal ``w x u`` (whose length
+        is ``l1 l2 sin(knee angle)``): the knee bends about ``w x u + bend_prior l1 l2 G_hip bend_axis``,
+        so a nearly straight leg, whose plane is noise, bends about its hinge. 0 (default): the axis
+        is used only where the leg is exactly straight.
 
     Returns ``(rot, miss)``: ``miss (...)`` m, the distance left between the ankle and the
     target (0 to rounding where it is reachable; the clamped excess otherwise).
@@ -120,12 +126,30 @@ def two_bone_ik(P: np.ndarray, G: np.ndarray, rot: np.ndarray, parents, chain, t
     # knee: bend in the leg's plane (normal n = w x u) so that |ankle - hip| = d
     u, w = H - K, A - K
     n = np.cross(w, u)
+    if bend_prior > 0:
+        n = n + (bend_prior * l1 * l2)[..., None] * quat_apply(G[..., h, :], np.asarray(bend_axis, dtype=float))
     straight = np.linalg.norm(n, axis=-1) < 1e-9
     if np.any(straight):
         n = np.where(straight[..., None], quat_apply(G[..., h, :], np.asarray(bend_axis, dtype=float)), n)
+    # the bend is about n: only its component normal to the leg's plane changes the hip-ankle distance
     th0 = np.arctan2(np.linalg.norm(np.cross(u, w), axis=-1), np.sum(u * w, axis=-1))
     th1 = np.arccos(np.clip((l1 * l1 + l2 * l2 - d * d) / (2 * l1 * l2), -1.0, 1.0))
-    q_knee = axis_angle_quaternions(n, th0 - th1)      # rotating w about n = w x u turns it toward u
+    if bend_prior > 0:
+        # about an axis off the plane normal, turning w by phi gives the angle th1 to u: solve for phi
+        # (w's angle to u as w turns about the unit axis a: cos = (u.a)(w.a) + |u_p||w_p| cos(phi + phi0))
+        ax = n / np.linalg.norm(n, axis=-1, keepdims=True)
+        ua, wa = np.sum(u * ax, axis=-1), np.sum(w * ax, axis=-1)
+        up, wp = u - ua[..., None] * ax, w - wa[..., None] * ax
+        nup, nwp = np.linalg.norm(up, axis=-1), np.linalg.norm(wp, axis=-1)
+        phi0 = np.arctan2(np.sum(np.cross(wp, up) * ax, axis=-1), np.sum(wp * up, axis=-1))   # from w_p to u_p
+        c = np.clip((l1 * l2 * np.cos(th1) - ua * wa) / np.maximum(nup * nwp, 1e-300), -1.0, 1.0)
+        # w_p at angle phi from its start has angle (phi0 - phi) to u_p; the smallest |phi| with the right cosine
+        cand = np.stack([phi0 - np.arccos(c), phi0 + np.arccos(c)], axis=-1)
+        cand = (cand + np.pi) % (2 * np.pi) - np.pi
+        phi = np.take_along_axis(cand, np.argmin(np.abs(cand), axis=-1)[..., None], axis=-1)[..., 0]
+        q_knee = axis_angle_quaternions(ax, phi)
+    else:
+        q_knee = axis_angle_quaternions(n, th0 - th1)      # rotating w about n = w x u turns it toward u
     A1 = K + quat_apply(q_knee, w)
     # hip: swing the whole leg onto the target
     q_hip = arc_quaternions(A1 - H, T - H)
@@ -137,6 +161,18 @@ def two_bone_ik(P: np.ndarray, G: np.ndarray, rot: np.ndarray, parents, chain, t
     out[..., k, :] = quat_multiply(quat_inverse(Gh), Gk)
     out[..., a, :] = quat_multiply(quat_inverse(Gk), Ga)
     return out, np.abs(d_want - d)
+
+
+def hinge_axis(P: np.ndarray, G: np.ndarray, chain) -> np.ndarray:
+    """``(3,)`` the knee's bending axis in the hip joint's local frame, averaged over the frames
+    (``P (T, J, 3)``, ``G (T, J, 4)``) weighted by how bent the knee is (``|w x u| = l1 l2 sin``),
+    for :func:`two_bone_ik`'s ``bend_axis``: a hinge knee bends about one axis fixed in the thigh."""
+    h, k, a = (int(c) for c in chain)
+    n = np.cross(P[:, a] - P[:, k], P[:, h] - P[:, k])
+    local = quat_apply(quat_inverse(G[:, h]), n)
+    s = local.sum(axis=0)
+    norm = np.linalg.norm(s)
+    return s / norm if norm > 1e-12 else np.array([1.0, 0.0, 0.0])
 
 
 def run_starts(on: np.ndarray) -> np.ndarray:

@@ -15,6 +15,7 @@ floor it rests on), so a foot that slid is held where it was on average, on the 
 from __future__ import annotations
 
 import csv
+import functools
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -56,11 +57,23 @@ class LegLayout:
     toe_point: tuple[int, np.ndarray]
 
 
+@functools.lru_cache(maxsize=64)
+def _effectors_cached(skeleton, ends_key) -> dict:
+    return default_effectors(skeleton)
+
+
+def effectors_of(skeleton) -> dict:
+    """:func:`mocomp.dynamics.contacts.default_effectors` of ``skeleton``, cached per skeleton (its
+    joints, offsets and end sites): the body-segment mapping behind it takes milliseconds."""
+    key = tuple((int(e.parent), tuple(np.round(e.offset, 12).tolist()), e.name) for e in skeleton.end_sites)
+    return _effectors_cached(skeleton, key)
+
+
 def leg_layout(skeleton) -> tuple[LegLayout, LegLayout]:
     """The two legs of ``skeleton`` from the body-segment mapping the contact detector uses
     (:func:`mocomp.dynamics.contacts.default_effectors`): the ankle point's joint is the chain's
     ankle, its parent the knee, its grandparent the hip."""
-    eff = default_effectors(skeleton)
+    eff = effectors_of(skeleton)
     out = []
     for side, (fa, ft) in FOOT_EFFECTORS.items():
         ja, oa = eff[fa]
@@ -121,7 +134,7 @@ def parse_contacts_rows(rows, skeleton, n_frames: int, path: str = "<contacts>")
     effector rides on (``LeftFoot``, ``Toes_R``, ...). ``start``/``stop`` are 0-based frames,
     half-open like every interval of the project (``stop`` is the first frame not planted),
     ``0 <= start < stop <= n_frames``."""
-    eff = default_effectors(skeleton)
+    eff = effectors_of(skeleton)
     feet = [e for pair in FOOT_EFFECTORS.values() for e in pair]
     by_joint = {skeleton.names[eff[e][0]]: e for e in feet}
     out: dict[str, list[tuple[int, int]]] = {}
@@ -195,7 +208,8 @@ def foot_plants(motion, overrides: dict | str | Path | None = None, *, labels: n
         source = {e: "given" for e in names}
         c = contacts
     else:
-        c = contacts if contacts is not None else detect_contacts(motion, **detector)
+        c = contacts if contacts is not None else detect_contacts(
+            motion, **dict({"effectors": effectors_of(motion.skeleton)}, **detector))
         cols = [c.effectors.index(e) for e in names]
         lab = np.array(c.labels[:, cols])
         source = {e: "detector" for e in names}
