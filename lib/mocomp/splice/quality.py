@@ -20,7 +20,8 @@ on the frames the splice writes:
   while both move), e.g. a wave half a cycle off;
 * **warp slope** outside ``slope_range``: the local playback rate of the hand
   recording ``d(hand frame)/d(body frame)``, over a window, relative to the
-  clip pair's mean rate ``(m-1)/(n-1)``;
+  clip pair's mean rate ``(m-1)/(n-1)``, where the body's own hand moves
+  (a hold played at any rate looks the same);
 * **residual misalignment after pass 2**: eq. 6.9's hand angle between the
   body's frame and the hand frame it finally shows (eq. 6.8 vectors, forearms
   aligned), windowed, above ``residual_deg``.
@@ -323,7 +324,8 @@ def measure_quality(alignment, spliced_rel: np.ndarray, *, side: str = "right", 
     mean_rate = (alignment.m - 1) / max(alignment.n - 1, 1)
     slope = (f[b_] - f[a_]) / np.maximum(b_ - a_, 1) / max(mean_rate, 1e-12)
     lo, hi = th.slope_range
-    bad_slope = (slope < lo) | (slope > hi)
+    # where the body's own hand holds, any playback rate of a hold looks the same: not reported
+    bad_slope = ((slope < lo) | (slope > hi)) & (body_w > moving)
     # eq. 6.9 residual at the final map (after pass 2)
     res = None
     bad_res = np.zeros(n, bool)
