@@ -8,7 +8,8 @@ local rotation is kept. On the frames of :class:`~mocomp.ops.plants.FootPlants`:
 * ankle point and toe tip planted: additionally turned about the ankle point by the shortest arc
   that aims the toe tip at its target; the distance between the two points is fixed by the foot,
   so where it differs from the targets' distance (a heel rolling up while still counted planted)
-  the foot is shifted along itself by half the difference (each point misses by half);
+  the foot is shifted along itself by half the difference (each point misses by half); the toe
+  tip's target is made to fit the foot (:func:`consistent_toe_targets`);
 * toe tip planted alone (heel off): translated so the tip sits on its target, turned by the
   fading rotation of the flat-foot part.
 
@@ -40,7 +41,8 @@ from .easing import ramp_fill
 from .ik import REACH_MARGIN, hinge_axis, two_bone_ik
 from .plants import FootPlants, foot_plants, plant_targets
 
-__all__ = ["FootplantResult", "enforce_footplants", "plant_slides", "default_blend_frames", "foot_points"]
+__all__ = ["FootplantResult", "enforce_footplants", "plant_slides", "default_blend_frames", "foot_points",
+           "consistent_toe_targets"]
 
 #: m: a leg that misses its target by more than this is reported as unreachable on that frame
 UNREACHABLE_TOL = 1e-3
@@ -163,6 +165,32 @@ def _max_rate(motion: Motion) -> float:
     return float(step_rates(motion)[0].max())
 
 
+def consistent_toe_targets(targets: np.ndarray, pts: np.ndarray, plants: FootPlants) -> np.ndarray:
+    """Toe-tip targets that fit the foot: for a toe plant that overlaps a plant of the same foot's
+    ankle point, the tip's horizontal target is the ankle point's target plus the mean horizontal
+    ankle-to-tip direction over the shared frames, at the mean ankle-to-tip horizontal distance. The
+    mean of each point alone is not rigid when the foot turns during the plant (a path edit turns the
+    body as it walks): the two means are then closer together than the foot is long."""
+    out = np.array(targets)
+    for li in range(len(plants.legs)):
+        ka, kt = 2 * li, 2 * li + 1
+        la, lt = plants.labels[:, ka], plants.labels[:, kt]
+        for a, b in label_intervals(lt):
+            both = np.flatnonzero(la[a:b]) + a
+            if both.size == 0:
+                continue
+            d = (pts[both, kt] - pts[both, ka])[:, [0, 2]]
+            L = np.linalg.norm(d, axis=1).mean()
+            u = d.mean(axis=0)
+            n = np.linalg.norm(u)
+            if n < 1e-9:
+                continue
+            first = both[0]
+            out[a:b, kt, 0] = targets[first, ka, 0] + L * u[0] / n
+            out[a:b, kt, 2] = targets[first, ka, 2] + L * u[1] / n
+    return out
+
+
 def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: str, tol: float,
            reach_margin: float, ease_kind: str, prev=None):
     """One enforcement pass. Returns ``(rot, targets, state)`` with ``state`` per leg side:
@@ -173,7 +201,7 @@ def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: st
     from .ik import arc_quaternions
 
     T = motion.n_frames
-    targets = plant_targets(pts, plants, height)
+    targets = consistent_toe_targets(plant_targets(pts, plants, height), pts, plants)
     rot = np.array(motion.rotations) if prev is None else np.array(prev[0])
     state = {}
     for li, leg in enumerate(plants.legs):
