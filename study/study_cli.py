@@ -358,6 +358,12 @@ class StudyServer:
         self.proc = None
 
 
+def _session_args(p: argparse.ArgumentParser) -> None:
+    """``--participant`` and ``--session``: the session folder DATA/<participant>/<session>/."""
+    p.add_argument("--participant", required=True, help="participant id (letters, digits, _ . -)")
+    p.add_argument("--session", required=True, help="session id, e.g. S1")
+
+
 def register_run(subparsers) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
         "run", help="serve the participant app (Voila on 127.0.0.1) for one participant session",
@@ -367,8 +373,7 @@ def register_run(subparsers) -> argparse.ArgumentParser:
                     "DATA/<participant>/<session>/ before the first trial; re-running the same command "
                     "resumes the session where it stopped. Stop with Ctrl-C or SIGTERM (the server and its "
                     "kernels are shut down).")
-    p.add_argument("--participant", required=True, help="participant id (letters, digits, _ . -)")
-    p.add_argument("--session", required=True, help="session id, e.g. S1")
+    _session_args(p)
     p.add_argument("--manifest", required=True, help="stimulus manifest CSV (from `mocomp study render`)")
     p.add_argument("--data", required=True, metavar="DIR", help="folder for session data")
     p.add_argument("--port", type=int, default=8866,
@@ -514,8 +519,7 @@ def register_withdraw(subparsers) -> argparse.ArgumentParser:
                     "`mocomp study analyze` leaves the session out and lists it in its report, and `mocomp "
                     "study run` refuses to reopen it. A session open in a running app is refused (withdraw "
                     "from its debrief screen, or stop the server first).")
-    p.add_argument("--participant", required=True, help="participant id")
-    p.add_argument("--session", required=True, help="session id, e.g. S1")
+    _session_args(p)
     p.add_argument("--data", required=True, metavar="DIR", help="folder of session data (as given to `study run`)")
     p.add_argument("--reason", default="", help="optional note (e.g. 'asked by e-mail, 2026-05-01')")
     p.set_defaults(func=run_withdraw)
