@@ -31,6 +31,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 from ..errors import AlignmentError
@@ -74,33 +75,45 @@ class SubsequenceResult:
                 "cost": float(self.cost), "cost_per_hand_frame": float(self.normalized_cost)}
 
 
+@numba.njit(cache=True, nogil=True)
+def _subsequence_kernel(C, G, step):  # pragma: no cover - compiled
+    """The recurrence of the module docstring: ``G (m, n)`` cumulative costs and
+    ``step (m, n)`` body frames moved back (0, 1, 2; the first minimum in that order)."""
+    n, m = C.shape
+    inf = np.inf
+    for i in range(n):
+        G[0, i] = C[i, 0]
+        step[0, i] = 0
+    for j in range(1, m):
+        for i in range(n):
+            best = G[j - 1, i]
+            k = 0
+            if i >= 1 and G[j - 1, i - 1] < best:
+                best = G[j - 1, i - 1]
+                k = 1
+            if i >= 2 and G[j - 1, i - 2] < best:
+                best = G[j - 1, i - 2]
+                k = 2
+            G[j, i] = C[i, j] + best if best < inf else inf
+            step[j, i] = k
+
+
 def subsequence_dtw(cost: np.ndarray) -> SubsequenceResult:
     """Open-begin, open-end DTW on a dense cost matrix ``cost (n, m)``: rows the
     body (reference), columns the hand (query, matched completely). See the
-    module docstring for the recurrence. Vectorised over body frames; one
-    numpy pass per hand frame, ``O(n m)`` time and memory."""
-    C = np.asarray(cost, dtype=np.float64)
+    module docstring for the recurrence. A compiled loop over the cells,
+    ``O(n m)`` time and memory."""
+    C = np.ascontiguousarray(cost, dtype=np.float64)
     if C.ndim != 2 or C.shape[0] < 1 or C.shape[1] < 1:
         raise AlignmentError(f"subsequence DTW needs an (n, m) cost matrix, got shape {C.shape}")
     if not np.all(np.isfinite(C)):
         i, j = np.argwhere(~np.isfinite(C))[0]
         raise AlignmentError(f"local cost is {C[i, j]} at cell ({i}, {j}); costs must be finite")
     n, m = C.shape
-    inf = np.inf
     G = np.empty((m, n))
-    step = np.zeros((m, n), dtype=np.int8)  # body frames moved back: 0, 1 or 2
-    G[0] = C[:, 0]
-    for j in range(1, m):
-        g = G[j - 1]
-        c0 = g
-        c1 = np.concatenate([[inf], g[:-1]])
-        c2 = np.concatenate([[inf, inf], g[:-2]]) if n > 1 else np.full(n, inf)
-        c2 = c2[:n]
-        stack = np.stack([c0, c1, c2])
-        k = np.argmin(stack, axis=0)  # the first minimum: dtw-python's pattern order
-        step[j] = k
-        G[j] = C[:, j] + stack[k, np.arange(n)]
-    end = int(np.argmin(G[m - 1]))
+    step = np.empty((m, n), dtype=np.int8)
+    _subsequence_kernel(C, G, step)
+    end = int(np.argmin(G[m - 1]))  # the first minimum, as dtw-python's nanargmin
     path = np.empty((m, 2), dtype=np.int64)
     i = end
     for j in range(m - 1, -1, -1):
