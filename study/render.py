@@ -8,7 +8,7 @@ position) and writes ``out_dir/manifest.csv``.
 
 Layout of ``out_dir``::
 
-    manifest.csv          one row per stimulus (columns: MANIFEST_COLUMNS + EXTRA_COLUMNS)
+    manifest.csv          one row per stimulus (columns: MANIFEST_COLUMNS + EXTRA_COLUMNS + AUDIT_COLUMNS)
     render_info.json      spec, camera, style, encoder, library versions, timings
     spec.toml|json        a copy of the specification
     videos/<id>.mp4       H.264 (yuv420p, +faststart) at the spec's frame rate
@@ -41,8 +41,9 @@ import pandas as pd
 from mocomp.errors import StudyDataError
 
 from .spec import StudySpec, load_spec
+from .stimuli import AUDIT_COLUMNS  # the audit of each stimulus (study/DATA_DICTIONARY.md, manifest.csv)
 
-__all__ = ["MANIFEST_COLUMNS", "EXTRA_COLUMNS", "RenderReport", "render_stimulus_set", "content_hash",
+__all__ = ["MANIFEST_COLUMNS", "EXTRA_COLUMNS", "AUDIT_COLUMNS", "RenderReport", "render_stimulus_set", "content_hash",
            "study_camera", "study_style", "RENDERER_VERSION"]
 
 #: Bump when the drawing code changes pixels for the same inputs (forces re-rendering).
@@ -83,6 +84,8 @@ class RenderReport:
     frames: video frames rendered in this run; ``seconds``: wall time of the whole run;
     render_seconds: time spent rendering + encoding videos; ``frames_per_second``: frames / render_seconds.
     notes: remarks (bases skipped for missing data, flight detection, ...).
+    audits: stimulus id -> :class:`~mocomp.audit.AuditReport` of its motion against its source
+        (every stimulus, rendered or not: the audit does not depend on the pixels).
     """
 
     manifest_path: Path
@@ -94,6 +97,7 @@ class RenderReport:
     render_seconds: float = 0.0
     frames_per_second: float = float("nan")
     notes: list[str] = field(default_factory=list)
+    audits: dict = field(default_factory=dict)
 
 
 def _versions() -> dict:
@@ -223,6 +227,8 @@ def render_stimulus_set(spec: StudySpec | str | Path, out_dir: str | Path, *, fo
 
     report = RenderReport(manifest_path=manifest_path, manifest=pd.DataFrame(), notes=notes)
     rows = []
+    bases = {b.id: b for b in built.bases}
+    base_audits: dict[str, object] = {}
     renderers: dict[str, MotionRenderer] = {}
     try:
         bar = tqdm(stimuli, desc=f"render {spec.name}", unit="stim", disable=not progress)
@@ -276,12 +282,13 @@ def render_stimulus_set(spec: StudySpec | str | Path, out_dir: str | Path, *, fo
                     row[c] = st.measures[c]
             row.update({"fps": fps, "n_frames": n_frames, "width": style.width, "height": style.height,
                         "filmstrip": fs_rel, "content_hash": ch, "base_source": st.base_source, "render_s": rsec})
+            row.update(_audit_columns(st, bases[st.base_clip], base_audits, report))
             rows.append({k: _fmt(v) for k, v in row.items()})
     finally:
         for r in renderers.values():
             r.close()
 
-    df = pd.DataFrame(rows, columns=list(MANIFEST_COLUMNS) + list(EXTRA_COLUMNS))
+    df = pd.DataFrame(rows, columns=list(MANIFEST_COLUMNS) + list(EXTRA_COLUMNS) + list(AUDIT_COLUMNS))
     tmp = manifest_path.with_name(".manifest.csv.partial")
     df.to_csv(tmp, index=False, float_format="%.6g")
     os.replace(tmp, manifest_path)
@@ -303,6 +310,28 @@ def render_stimulus_set(spec: StudySpec | str | Path, out_dir: str | Path, *, fo
     }
     (out / "render_info.json").write_text(json.dumps(info, indent=2, default=_json_default) + "\n")
     return report
+
+
+def _audit_columns(st, base, base_audits: dict, report: RenderReport) -> dict:
+    """The manifest's audit columns of one stimulus (:func:`study.stimuli.audit_stimulus`), with its
+    base's audit computed once; empty (and a note) when the audit cannot measure the skeleton."""
+    from mocomp.errors import MocompError
+
+    from .stimuli import audit_base, audit_stimulus
+
+    try:
+        if base.id not in base_audits:
+            base_audits[base.id] = audit_base(base)
+        if isinstance(base_audits[base.id], Exception):
+            raise base_audits[base.id]
+        report.audits[st.stimulus_id], cols = audit_stimulus(st, base, base_audits[base.id])
+        return cols
+    except MocompError as e:
+        if base.id not in base_audits or not isinstance(base_audits[base.id], Exception):
+            base_audits[base.id] = e
+            report.notes.append(f"base {base.id!r}: its stimuli are not audited (audit_* columns empty): "
+                                f"{' '.join(str(e).split())}")
+        return {c: "" for c in AUDIT_COLUMNS}
 
 
 def _json_default(o):

@@ -16,8 +16,10 @@ def register_render(subparsers) -> argparse.ArgumentParser:
         "render", help="render a stimulus specification (videos, posters, manifest.csv)",
         description="Render every stimulus of a specification (e.g. stimuli/paper_table2.toml) headless "
                     "(VTK EGL/OSMesa) as H.264 MP4 + poster PNG, and write DIR/manifest.csv with the "
-                    "nominal and the measured (achieved) error of each stimulus. Stimuli whose content "
-                    "hash is unchanged are not rendered again.")
+                    "nominal and the measured (achieved) error of each stimulus, and the verdict and counts of "
+                    "mocomp.audit on each stimulus' motion against its unperturbed source (audit_* columns; "
+                    "the summary ends with them, and a warning names unperturbed stimuli with violations "
+                    "their source lacks). Stimuli whose content hash is unchanged are not rendered again.")
     p.add_argument("spec", help="stimulus specification (.toml or .json)")
     p.add_argument("-o", "--out", required=True, metavar="DIR", help="output folder")
     p.add_argument("--force", action="store_true", help="re-render every stimulus")
@@ -46,6 +48,7 @@ def run_render(args) -> int:
           f"{rep.frames} frames in {rep.render_seconds:.1f} s"
           + (f" = {rep.frames_per_second:.1f} frames/s" if rep.frames else "")
           + f"; total {rep.seconds:.1f} s")
+    _print_audit(m)
     pert = m[m["perturbation"] != "none"]
     if len(pert):
         dev = (pert["achieved_error"] - pert["nominal_level"]).abs()
@@ -54,3 +57,31 @@ def run_render(args) -> int:
               f"largest {dev.max():.2f} ({worst['stimulus_id']}: nominal {worst['nominal_level']:g}%, "
               f"achieved {worst['achieved_error']:.2f}%)")
     return 0
+
+
+def _print_audit(m) -> None:
+    """The audit's part of the summary: verdicts of the stimuli against their sources, the new
+    violations per perturbation, and a warning naming unperturbed stimuli with new violations (an
+    unperturbed stimulus should be as physical as its source; a perturbed one is meant not to be)."""
+    from collections import Counter
+
+    n_fail = int((m["audit_verdict"] == "fail").sum())
+    n_pass = int((m["audit_verdict"] == "pass").sum())
+    print(f"audit (each stimulus against its unperturbed source): {n_pass} pass, {n_fail} fail"
+          + (f", {len(m) - n_pass - n_fail} not audited (see the notes)" if n_pass + n_fail < len(m) else ""))
+    m = m[m["audit_verdict"].isin(("pass", "fail"))]
+    m = m.assign(audit_new_violations=m["audit_new_violations"].astype(float))
+    for pert, g in m.groupby("perturbation", sort=False):
+        checks: Counter = Counter()
+        for text in g["audit_new_checks"].fillna(""):
+            for item in filter(None, str(text).split(";")):
+                k, _, v = item.partition(":")
+                checks[k] += int(v)
+        with_new = int((g["audit_new_violations"] > 0).sum())
+        print(f"  {pert}: {with_new} of {len(g)} with violations new or worse than their source"
+              + (f" ({', '.join(f'{k} {v}' for k, v in checks.items())})" if checks else ""))
+    bad = m[(m["perturbation"] == "none") & (m["audit_new_violations"] > 0)]
+    if len(bad):
+        names = "; ".join(f"{r.stimulus_id} ({r.audit_new_checks})" for r in bad.itertuples())
+        print(f"mocomp study render: warning: {len(bad)} unperturbed stimulus(es) with violations their source "
+              f"lacks: {names}", file=sys.stderr)

@@ -24,6 +24,13 @@ Pipeline per base motion (``[[base]]`` of a specification, :mod:`study.spec`):
    the achieved relative angular-momentum error, the change of the take-off
    velocity along the jump direction and of the take-off angle, the velocity
    jumps at take-off and landing, the flight time and apex height.
+6. **Audit** each stimulus (:func:`audit_stimulus`): :func:`mocomp.audit.audit` of the
+   motion it renders against its unperturbed source (the normalised base motion),
+   with the base's body model; the verdict and counts go into the manifest
+   (:data:`AUDIT_COLUMNS`). A perturbed stimulus is meant to break physics, so its
+   new violations (e.g. ``L_magnitude`` for an angular-momentum error, a COM
+   velocity jump for a take-off error) are the perturbation seen by an independent
+   measurement; an unperturbed stimulus should have none.
 
 The achieved error (manifest column ``achieved_error``, percent, positive in the
 nominal direction) is, for angular-momentum stimuli, the ratio
@@ -48,7 +55,7 @@ from .perturb import FlightRebuild, rebuild_flight, signed_level
 from .spec import BaseSpec, StudySpec
 
 __all__ = ["BaseMotion", "Stimulus", "BuiltStimuli", "load_base", "normalize_base", "make_stimulus",
-           "measure_stimulus", "build_stimuli", "stimulus_id"]
+           "measure_stimulus", "build_stimuli", "stimulus_id", "AUDIT_COLUMNS", "audit_base", "audit_stimulus"]
 
 
 # ------------------------------------------------------------ dynamics adapter
@@ -387,6 +394,55 @@ def make_stimulus(base: BaseMotion, perturbation: str, direction: str, level_pct
     meas = measure_stimulus(rb, control, base.body, L_control=L_control)
     return Stimulus(stimulus_id(base.id, perturbation, direction, level_pct), base.id, base.source, perturbation,
                     direction, float(level_pct), rb, meas)
+
+
+#: manifest columns written from the audit of each stimulus (study/DATA_DICTIONARY.md, "manifest.csv")
+AUDIT_COLUMNS: tuple[str, ...] = (
+    "audit_verdict", "audit_violations", "audit_advisories", "audit_new_violations", "audit_checks",
+    "audit_new_checks", "audit_source_verdict", "audit_source_violations",
+)
+
+
+def audit_base(base: BaseMotion):
+    """:func:`mocomp.audit.audit` of a base motion (the unperturbed source of its stimuli)."""
+    from mocomp.audit import audit
+
+    return audit(base.motion, base.body, name=f"base {base.id}")
+
+
+def _check_counts(findings) -> str:
+    counts: dict[str, int] = {}
+    for f in findings:
+        counts[f.check] = counts.get(f.check, 0) + 1
+    return ";".join(f"{k}:{v}" for k, v in sorted(counts.items()))
+
+
+def audit_stimulus(stimulus: "Stimulus", base: BaseMotion, base_report=None) -> tuple[object, dict]:
+    """Audit the motion a stimulus renders against its unperturbed source (``base.motion``).
+
+    Returns ``(report, columns)``: the :class:`~mocomp.audit.AuditReport` (with ``against`` the
+    source's) and the manifest's :data:`AUDIT_COLUMNS`: ``audit_verdict`` (``pass``/``fail``),
+    ``audit_violations``, ``audit_advisories``, ``audit_new_violations`` (violations the source
+    lacks at that check and place, or has smaller by more than a quarter of the threshold:
+    :func:`mocomp.cli._common.new_violations`, the rule every command's verdict uses),
+    ``audit_checks`` / ``audit_new_checks`` (``check:count`` pairs joined by ``;``, empty when
+    none) and the source's ``audit_source_verdict`` / ``audit_source_violations``.
+    """
+    import dataclasses
+
+    from mocomp.audit import audit
+    from mocomp.cli._common import new_violations
+
+    src = base_report if base_report is not None else audit_base(base)
+    rep = audit(stimulus.motion, base.body, name=stimulus.stimulus_id)
+    rep = dataclasses.replace(rep, against=src, comparison=rep.compare(src))
+    new = [f for f, _ in new_violations(rep)]
+    return rep, {
+        "audit_verdict": rep.verdict, "audit_violations": len(rep.violations),
+        "audit_advisories": len(rep.advisories), "audit_new_violations": len(new),
+        "audit_checks": _check_counts(rep.violations), "audit_new_checks": _check_counts(new),
+        "audit_source_verdict": src.verdict, "audit_source_violations": len(src.violations),
+    }
 
 
 @dataclass

@@ -131,6 +131,30 @@ def _set_id(table: pd.DataFrame) -> str:
     return h.hexdigest()[:16]
 
 
+#: The audit columns ``mocomp study render`` writes (study/DATA_DICTIONARY.md). Optional: a manifest
+#: without them (older renders, hand-made sets) loads; when present their values are checked.
+AUDIT_VERDICTS: tuple[str, ...] = ("pass", "fail")
+AUDIT_COUNT_COLUMNS: tuple[str, ...] = ("audit_violations", "audit_advisories", "audit_new_violations",
+                                        "audit_source_violations")
+
+
+def _check_audit_columns(df: pd.DataFrame, path: Path, line) -> None:
+    for col in ("audit_verdict", "audit_source_verdict"):
+        if col in df.columns:
+            v = df[col]
+            bad = v.notna() & ~v.astype(str).isin(AUDIT_VERDICTS)
+            if bad.any():
+                i = int(df.index[bad][0])
+                raise StudyDataError(f"{v[i]!r} is not one of {', '.join(AUDIT_VERDICTS)}", path, line(i), col)
+    for col in AUDIT_COUNT_COLUMNS:
+        if col in df.columns:
+            v = pd.to_numeric(df[col], errors="coerce")
+            bad = df[col].notna() & ~(v.notna() & (v >= 0) & (v == v.round()))
+            if bad.any():
+                i = int(df.index[bad][0])
+                raise StudyDataError(f"{df.at[i, col]!r} is not a count (a whole number >= 0)", path, line(i), col)
+
+
 def load_manifest(path: str | Path, *, check_files: bool = True, verify_hashes: bool = False) -> StimulusSet:
     """Read and validate a manifest CSV.
 
@@ -188,6 +212,7 @@ def load_manifest(path: str | Path, *, check_files: bool = True, verify_hashes: 
             i = int(df.index[bad][0])
             raise StudyDataError(f"not a number: {df.at[i, col]!r}", path, line(i), col)
         df[col] = vals.astype(float)
+    _check_audit_columns(df, path, line)
     for i, r in df.iterrows():
         lv = r["nominal_level"]
         if not math.isfinite(lv) or lv < 0:

@@ -397,3 +397,118 @@ def test_missing_real_data_fails_unless_skipped(tmp_path, toy_example, monkeypat
     # without the flag nothing was skipped
     rep = render_stimulus_set(_spec(tmp_path), tmp_path / "o4", progress=False)
     assert json.loads((tmp_path / "o4" / "render_info.json").read_text())["skipped_bases"] == []
+
+
+# ------------------------------------------------------- the audit of each stimulus (issue #13 section 2)
+def test_manifest_carries_each_stimulus_audit_against_its_source(tmp_path):
+    from study.render import AUDIT_COLUMNS, EXTRA_COLUMNS, MANIFEST_COLUMNS, render_stimulus_set
+    from study.spec import load_spec
+    from study.stimuli import build_stimuli
+
+    data = json.loads(_spec(tmp_path, filmstrip=False, fps=10).read_text())
+    data["base"] = [{"id": "bf", "source": "example:backflip"}]
+    data["condition"] = [{"perturbation": "am_abrupt", "directions": ["increase"], "levels": [50]},
+                         {"perturbation": "takeoff", "directions": ["increase"], "levels": [30]}]
+    spec = tmp_path / "bf.json"
+    spec.write_text(json.dumps(data))
+    rep = render_stimulus_set(spec, tmp_path / "o", progress=False)
+    m = pd.read_csv(tmp_path / "o" / "manifest.csv", keep_default_na=False)
+    assert list(m.columns) == list(MANIFEST_COLUMNS) + list(EXTRA_COLUMNS) + list(AUDIT_COLUMNS)
+    row = {r["stimulus_id"]: r for r in m.to_dict("records")}
+    # independently: audit each built stimulus' motion and its base with mocomp.audit
+    from mocomp.audit import audit
+
+    built = build_stimuli(load_spec(spec))
+    base = built.bases[0]
+    src = audit(base.motion, base.body)
+    for st in built.stimuli:
+        a = audit(st.motion, base.body)
+        r = row[st.stimulus_id]
+        assert r["audit_verdict"] == a.verdict and r["audit_violations"] == len(a.violations)
+        assert r["audit_advisories"] == len(a.advisories)
+        assert r["audit_source_verdict"] == src.verdict and r["audit_source_violations"] == len(src.violations)
+        assert sum(int(x.split(":")[1]) for x in filter(None, r["audit_checks"].split(";"))) == len(a.violations)
+        assert rep.audits[st.stimulus_id].against is not None
+    # known answers: the control is its source (nothing new); a 50 % abrupt |L| change is an L_magnitude
+    # violation (threshold 10 %) the source does not have; a 30 % take-off error adds 0.18 m/s at take-off,
+    # below the audit's 0.5 m/s jump_min
+    assert row["bf__none"]["audit_new_violations"] == 0 and row["bf__none"]["audit_new_checks"] == ""
+    sid = "bf__am_abrupt_increase_50"
+    assert "L_magnitude:1" in row[sid]["audit_new_checks"].split(";")
+    assert row[sid]["audit_verdict"] == "fail" and row[sid]["audit_new_violations"] >= 1
+    assert row["bf__takeoff_increase_30"]["audit_new_violations"] == 0
+    # the set loads (with its audit columns checked)
+    from study.stimulus_set import load_manifest
+
+    assert len(load_manifest(tmp_path / "o" / "manifest.csv").ids) == 3
+
+
+def test_a_skeleton_the_audit_cannot_measure_leaves_the_audit_columns_empty(tmp_path, toy_example, capsys):
+    from study.render import AUDIT_COLUMNS
+    from study.render_cli import register_render
+
+    parser = argparse.ArgumentParser(prog="mocomp study")
+    register_render(parser.add_subparsers(dest="sub"))
+    args = parser.parse_args(["render", str(_spec(tmp_path, filmstrip=False)), "-o", str(tmp_path / "o"),
+                              "--no-progress"])
+    assert args.func(args) == 0
+    cap = capsys.readouterr()
+    assert "0 pass, 0 fail, 4 not audited (see the notes)" in cap.out
+    assert "its stimuli are not audited (audit_* columns empty): no body-segment mapping" in cap.err
+    m = pd.read_csv(tmp_path / "o" / "manifest.csv", keep_default_na=False)
+    assert (m[list(AUDIT_COLUMNS)] == "").all().all()
+    from study.stimulus_set import load_manifest
+
+    assert len(load_manifest(tmp_path / "o" / "manifest.csv").ids) == 4
+
+
+def test_old_manifests_load_and_bad_audit_values_are_named(tmp_path):
+    from study.placeholders import make_placeholder_set
+    from study.stimulus_set import load_manifest
+    from mocomp.errors import StudyDataError
+
+    ss = make_placeholder_set(tmp_path / "s", {("takeoff", "increase"): (20,)}, base_clips=("a",), n_frames=3)
+    path = ss.path
+    df = pd.read_csv(path)
+    assert not any(c.startswith("audit_") for c in df.columns)     # an old / hand-made manifest
+    assert len(load_manifest(path).ids) == len(df)
+    for col, value, word in (("audit_verdict", "maybe", "'maybe' is not one of pass, fail"),
+                             ("audit_violations", "-1", "is not a count"),
+                             ("audit_new_violations", "1.5", "is not a count")):
+        bad = df.copy()
+        bad[col] = "pass" if col == "audit_verdict" else 0
+        bad[col] = bad[col].astype(object)
+        bad.loc[1, col] = value
+        bad.to_csv(path, index=False)
+        with pytest.raises(StudyDataError) as e:
+            load_manifest(path)
+        assert f"manifest.csv:3 [{col}]" in str(e.value) and word in str(e.value)
+
+
+def test_audit_columns_match_the_data_dictionary():
+    import re
+
+    from study.render import AUDIT_COLUMNS
+
+    md = (Path(__file__).parents[1] / "study" / "DATA_DICTIONARY.md").read_text()
+    part = md.split("## manifest.csv: audit columns", 1)[1].split("\n## ", 1)[0]
+    doc = [re.findall(r"`([a-z_]+)`", ln.split("|")[1])[0] for ln in part.splitlines()
+           if ln.startswith("| `")]
+    assert doc == list(AUDIT_COLUMNS)
+
+
+def test_render_summary_warns_about_unperturbed_stimuli_with_new_violations(capsys):
+    from study.render_cli import _print_audit
+
+    m = pd.DataFrame({"stimulus_id": ["a__none", "a__am_abrupt_increase_50", "b__none"],
+                      "perturbation": ["none", "am_abrupt", "none"],
+                      "audit_verdict": ["fail", "fail", "pass"], "audit_new_violations": [1, 2, 0],
+                      "audit_new_checks": ["floor_penetration:1", "L_magnitude:1;com_velocity_jump:1", ""]})
+    _print_audit(m)
+    cap = capsys.readouterr()
+    assert "1 pass, 2 fail" in cap.out
+    assert "am_abrupt: 1 of 1 with violations new or worse than their source (L_magnitude 1, com_velocity_jump 1)" \
+        in cap.out
+    warn = cap.err.strip().splitlines()
+    assert len(warn) == 1 and warn[0].startswith("mocomp study render: warning: 1 unperturbed")
+    assert "a__none (floor_penetration:1)" in warn[0] and "b__none" not in warn[0]
