@@ -10,12 +10,19 @@ Layers, bottom up:
   markers on a skeleton's forearm and hand.
 * :mod:`~mocomp.splice.metrics`: the sign metric (eq. 6.6-6.7), its
   value-based foil, the hand-angle metric (eq. 6.8-6.9).
-* :mod:`~mocomp.splice.phases`: Table 6.1 phase labels.
+* :mod:`~mocomp.splice.phases`: Table 6.1 phase labels, strokes one by one.
+* :mod:`~mocomp.splice.subsequence`: open-begin/open-end DTW (a short hand
+  clip located in a long body take); agrees with dtw-python's.
 * :mod:`~mocomp.splice.warpmap`: the tube of near-optimal alignments and the
   least-distorting (taut-string) frame map through it.
 * :mod:`~mocomp.splice.align`: the two-stage alignment.
 * :mod:`~mocomp.splice.merge` / :mod:`~mocomp.splice.pipeline`: median merge,
   blending, the spliced motion (:func:`splice_motions`, :func:`splice_markers`).
+* :mod:`~mocomp.splice.quality`: the splice's own quality checks (frozen or
+  reversed hand, warp slope, eq. 6.9 residual) and verified matching-point
+  suggestions.
+* :mod:`~mocomp.splice.jointmap`: pairing the layer's joints across naming
+  conventions (``--map FILE.toml``).
 * :mod:`~mocomp.splice.synthetic`: ground-truth pairs with a known warp.
 """
 from .align import Alignment, SpliceConfig, align_hands, alignment_error
@@ -23,7 +30,10 @@ from .bands import Band, MatchPoint, corridor_band, full_band, matching_band, pa
 from .dtw import DTWResult, dtw, dtw_band_costs
 from .markers import HandMarkers, hand_markers_from_markers, virtual_hand_markers
 from .phases import PhaseLabels, motion_phases
+from .jointmap import JointMap, load_joint_map, pair_joints
 from .pipeline import SpliceResult, splice_markers, splice_motions
+from .quality import QualityThresholds, SpliceQuality, Stretch, Suggestion, measure_quality, suggest_points
+from .subsequence import SubsequenceResult, subsequence_dtw
 from .warpmap import frame_map, near_optimal_tube, rasterize_map, taut_string, through_costs
 
 __all__ = [
@@ -34,4 +44,6 @@ __all__ = [
     "SpliceConfig", "Alignment", "align_hands", "alignment_error",
     "SpliceResult", "splice_motions", "splice_markers",
     "through_costs", "near_optimal_tube", "taut_string", "frame_map", "rasterize_map",
+    "QualityThresholds", "SpliceQuality", "Stretch", "Suggestion", "measure_quality", "suggest_points",
+    "SubsequenceResult", "subsequence_dtw", "JointMap", "load_joint_map", "pair_joints",
 ]
