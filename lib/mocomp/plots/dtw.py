@@ -139,7 +139,10 @@ def plot_alignment(alignment, truth=None, fig=None, title: str | None = None, qu
         tr = truth[off:off + alignment.n] if truth.shape[0] != alignment.n else truth
         ax.plot(np.arange(truth.shape[0]) if truth.shape[0] != alignment.n else i, truth, "--", color="magenta", lw=1.2,
                 label="truth")
-        e = alignment.error(tr)
+        ok = np.isfinite(tr)  # subsequence ground truth is NaN outside the true interval
+        from ..splice.align import alignment_error
+
+        e = alignment_error(alignment.hand_frame[ok], tr[ok])
         ax2 = ax.twinx()
         ax2.fill_between(i, 0, np.abs(alignment.hand_frame - tr), color="C3", alpha=0.25, lw=0)
         ax2.set_ylabel("|error| (frames)", color="C3")

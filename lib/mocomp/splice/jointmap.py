@@ -14,6 +14,12 @@ hierarchy already disagree on the finger names (``RFingers`` in 01_01,
    ``{Side}FingerBase``) are the same joint under different conventions;
 4. structure: the only still unpaired child of two paired joints.
 
+Rotations are copied as *local* joint rotations, so a pairing is only as
+good as the agreement of the two skeletons' rest poses (both CMU clips: the
+same hierarchy and T-pose, different bone lengths); pairing joints of
+different conventions by role (a Bandai hand recording on a CMU body) runs,
+but its arm pose is right only if their rest poses agree.
+
 What stays unpaired is an error (:class:`~mocomp.errors.AlignmentError`)
 listing the body joints without a counterpart and the hand recording's
 unpaired joints below the arm, unless the map's ``keep`` list names them
