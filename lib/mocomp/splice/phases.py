@@ -98,10 +98,11 @@ def _runs(labels: np.ndarray) -> list[list]:
     return [[l, s, e] for l, s, e in zip(labs, starts, stops)]
 
 
-def _merge_short(labels: np.ndarray, min_len: int) -> np.ndarray:
+def _absorb_short(runs: list[list], min_len: int, joinable=lambda label: True) -> list[list]:
     """Relabel the shortest run shorter than ``min_len`` with its longer
-    neighbour's label, join equal neighbours, repeat."""
-    runs = _runs(labels)
+    neighbour's label, join it with equal neighbours whose label is
+    ``joinable``, repeat."""
+    runs = [list(r) for r in runs]
     while len(runs) > 1:
         lens = [e - s for _, s, e in runs]
         k = min(range(len(runs)), key=lens.__getitem__)
@@ -115,14 +116,20 @@ def _merge_short(labels: np.ndarray, min_len: int) -> np.ndarray:
             runs[k + 1][1] = runs[k][1]
             del runs[k]
         # join the merged run with an equal neighbour
-        if k + 1 < len(runs) and runs[k + 1][0] == runs[k][0]:
+        if k + 1 < len(runs) and runs[k + 1][0] == runs[k][0] and joinable(runs[k][0]):
             runs[k][2] = runs[k + 1][2]
             del runs[k + 1]
-        if k > 0 and runs[k - 1][0] == runs[k][0]:
+        if k > 0 and runs[k - 1][0] == runs[k][0] and joinable(runs[k][0]):
             runs[k - 1][2] = runs[k][2]
             del runs[k]
+    return runs
+
+
+def _merge_short(labels: np.ndarray, min_len: int) -> np.ndarray:
+    """Label runs: the shortest run shorter than ``min_len`` takes its longer
+    neighbour's label, equal neighbours join, repeat (``strokes="merged"``)."""
     out = labels.copy()
-    for l, s0, e0 in runs:
+    for l, s0, e0 in _absorb_short(_runs(labels), min_len):
         out[s0:e0] = l
     return out
 
@@ -148,28 +155,18 @@ def _reversals(vel: np.ndarray, moving: np.ndarray, d: int, cos_max: float) -> n
 
 
 def _segments_merge(segs: list[list], min_len: int) -> list[list]:
-    """Merge segments shorter than ``min_len`` frames into their longer neighbour
-    (taking its label), then join neighbours that are both holds, both
-    preparations or both retractions; neighbouring strokes stay separate (each
-    is one movement between reversals)."""
-    segs = [list(x) for x in segs]
-    while len(segs) > 1:
-        lens = [e - s for _, s, e in segs]
-        k = min(range(len(segs)), key=lens.__getitem__)
-        if lens[k] >= min_len:
-            break
-        if k + 1 == len(segs) or (k > 0 and lens[k - 1] >= lens[k + 1]):
-            segs[k - 1][2] = segs[k][2]
-        else:
-            segs[k + 1][1] = segs[k][1]
-        del segs[k]
-    out = [segs[0]]
+    """Segments shorter than ``min_len`` frames merge into their longer
+    neighbour (taking its label); neighbours that are both holds, both
+    preparations or both retractions join; neighbouring strokes stay separate
+    (each is one movement between reversals)."""
+    joinable = lambda label: label != "S"  # noqa: E731
+    out = [list(segs[0])]
     for lab, s, e in segs[1:]:
-        if lab == out[-1][0] and lab != "S":
+        if lab == out[-1][0] and joinable(lab):
             out[-1][2] = e
         else:
             out.append([lab, s, e])
-    return out
+    return _absorb_short(out, min_len, joinable)
 
 
 def motion_phases(hm: HandMarkers, *, marker: str = "hand", smooth: float = 0.2, hold_speed: float = 0.15,
