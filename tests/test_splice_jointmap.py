@@ -8,7 +8,7 @@ import pytest
 from mocomp.cli import main
 from mocomp.core.skeleton import Skeleton
 from mocomp.errors import AlignmentError, MotionFormatError
-from mocomp.io import read_bvh, write_bvh
+from mocomp.io import read_bvh
 from mocomp.splice import splice_motions
 from mocomp.splice.jointmap import convention_aliases, load_joint_map, pair_joints
 from mocomp.splice.markers import find_arm_joints

@@ -35,7 +35,7 @@ longest frozen stretch and *verifies* the proposal by splicing again with it.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.ndimage import uniform_filter1d
