@@ -31,12 +31,13 @@ def yaw_quaternion(yaw) -> np.ndarray:
     return q
 
 
-def headings(motion: Motion) -> np.ndarray:
+def headings(motion: Motion, frames=None) -> np.ndarray:
     """``(T,)`` rad: the root's heading, the angle of the twist of its world orientation about the
-    vertical (swing/twist split), unwrapped over frames."""
-    _, tw = swing_twist(motion.rotations[:, 0], _UP)
+    vertical (swing/twist split), unwrapped over frames; only at ``frames`` (not unwrapped) when given."""
+    q = motion.rotations[:, 0] if frames is None else motion.rotations[np.asarray(frames, dtype=int), 0]
+    _, tw = swing_twist(q, _UP)
     ang = 2.0 * np.arctan2(tw[:, 1], tw[:, 3])
-    return np.unwrap(ang)
+    return np.unwrap(ang) if frames is None else ang
 
 
 def reference_points(motion: Motion, by: str = "root") -> np.ndarray:
@@ -97,8 +98,8 @@ def align(a: Motion, b: Motion, fa: int, fb: int, by: str = "root") -> GroundTra
     stands at frame ``fa`` (reference point ``by``: root or feet centre, on the ground) and faces
     the same way (root heading). ``align(a, a, f, f)`` is the identity."""
     fa, fb = _frame(a, fa, "A"), _frame(b, fb, "B")
-    yaw = float(headings(a)[fa] - headings(b)[fb])
+    yaw = float(headings(a, [fa])[0] - headings(b, [fb])[0])
     yaw = (yaw + np.pi) % (2 * np.pi) - np.pi
-    pa = reference_points(a, by)[fa]
-    pb = reference_points(b, by)[fb]
+    pa = reference_points(a[fa], by)[0]
+    pb = reference_points(b[fb], by)[0]
     return GroundTransform(yaw, tuple(pb.tolist()), tuple((pa - pb).tolist()))

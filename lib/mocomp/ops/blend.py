@@ -172,9 +172,11 @@ def blend(a: Motion, b: Motion, at: tuple[int, int], window: int = 10, *, by: st
     _window_frames(a.n_frames, fa, h, N, "A", fa_i)
     _window_frames(b.n_frames, fb, h, N, "B", fb_i)
     tf = align(a, b, fa, fb, by)
-    b2 = tf.apply(b)
+    off = int(np.floor(fb_i[0] + 1e-9))                 # b's frames from the window on: only they are moved
+    b2 = tf.apply(b[off:])
+    gb = fb_i - off
     sa = a.sample(fa_i / a.fps) if time_warp else a[int(fa_i[0]):int(fa_i[-1]) + 1]
-    sb = b2.sample(fb_i / b.fps) if time_warp else b2[int(fb_i[0]):int(fb_i[-1]) + 1]
+    sb = b2.sample(gb / b.fps) if time_warp else b2[int(gb[0]):int(gb[-1]) + 1]
     rot = slerp(sa.rotations, sb.rotations, np.broadcast_to(w[:, None], sa.rotations.shape[:2]))
     # root: blended horizontal velocity integrated from a's frame before the window, blended height
     start = int(np.floor(fa_i[0]))
@@ -196,12 +198,12 @@ def blend(a: Motion, b: Motion, at: tuple[int, int], window: int = 10, *, by: st
     # the rest of b, shifted horizontally to continue from the window's last root
     if time_warp:
         # after the window b plays at its own rate: frames fb_i[-1] + 1, + 2, ...
-        tb = fb_i[-1] + np.arange(1, int(np.floor(b.n_frames - 1 - fb_i[-1] + 1e-9)) + 1)
+        tb = gb[-1] + np.arange(1, int(np.floor(b2.n_frames - 1 - gb[-1] + 1e-9)) + 1)
         rest = b2.sample(tb / b.fps) if tb.size else None
-        last_b = b2.sample([fb_i[-1] / b.fps]).root_positions[0]
+        last_b = b2.sample([gb[-1] / b.fps]).root_positions[0]
     else:
-        rest = b2[int(fb_i[-1]) + 1:] if int(fb_i[-1]) + 1 < b.n_frames else None
-        last_b = b2.root_positions[int(fb_i[-1])]
+        rest = b2[int(gb[-1]) + 1:] if int(gb[-1]) + 1 < b2.n_frames else None
+        last_b = b2.root_positions[int(gb[-1])]
     shift = root[-1] - last_b
     shift[1] = 0.0
     head = a[:start] if start > 0 else None

@@ -89,7 +89,8 @@ class FootplantResult:
     targets: ``(T, 4, 3)`` m, where each planted point was held (NaN where not planted).
     blend_frames: frames of fade in/out around each plant.
     slide_before, slide_after: ``(4,)`` m, per foot point the largest slide within its plants
-        (:func:`plant_slides`; planned: on the enforced plants' frames).
+        (:func:`plant_slides`; planned: on the enforced plants' frames; properties computed on
+        first use, like the joint speeds).
     unreachable: side -> list of half-open frame runs where the leg missed its target by more than
         :data:`UNREACHABLE_TOL` (reach clamped: the knee straight or folded).
     max_miss: m, largest miss over all frames and legs.
@@ -107,8 +108,6 @@ class FootplantResult:
     plants: FootPlants
     targets: np.ndarray
     blend_frames: int
-    slide_before: np.ndarray
-    slide_after: np.ndarray
     unreachable: dict
     max_miss: float
     changed_frames: int
@@ -118,6 +117,23 @@ class FootplantResult:
     seconds: float = 0.0
     notes: tuple[str, ...] = field(default=())
     _cache: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def slide_before(self) -> np.ndarray:
+        """``(4,)`` m, per foot point the largest slide within the enforced plants, on the input
+        (:func:`plant_slides`; computed on first use)."""
+        if "slide_before" not in self._cache:
+            P, G = self.input.fk()
+            self._cache["slide_before"] = plant_slides(foot_points(P, G, self.plants), self.plants)
+        return self._cache["slide_before"]
+
+    @property
+    def slide_after(self) -> np.ndarray:
+        """``(4,)`` m, the same on the output (planned: on the enforced plants' frames)."""
+        if "slide_after" not in self._cache:
+            P, G = self.motion.fk()
+            self._cache["slide_after"] = plant_slides(foot_points(P, G, self.plants), self.plants)
+        return self._cache["slide_after"]
 
     @property
     def joint_speed_before(self) -> float:
@@ -192,7 +208,7 @@ def consistent_toe_targets(targets: np.ndarray, pts: np.ndarray, plants: FootPla
 
 
 def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: str, tol: float,
-           reach_margin: float, ease_kind: str, prev=None):
+           reach_margin: float, ease_kind: str, prev=None, hinges=None):
     """One enforcement pass. Returns ``(rot, targets, state)`` with ``state`` per leg side:
     ``(delta (T, 3), rotvec (T, 3), miss (T,), lift (T,), solved (T,) bool)``. With ``prev`` (the
     ``(rot, state)`` of an earlier pass on the same motion) only the frames whose correction changed
@@ -201,6 +217,8 @@ def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: st
     from .ik import arc_quaternions
 
     T = motion.n_frames
+    if hinges is None:
+        hinges = [hinge_axis(P, G, leg.chain) for leg in plants.legs]
     targets = consistent_toe_targets(plant_targets(pts, plants, height), pts, plants)
     rot = np.array(motion.rotations) if prev is None else np.array(prev[0])
     state = {}
@@ -271,7 +289,7 @@ def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: st
         end = quat_multiply(Rq[idx], G[idx, ja])
         rot[idx], miss_all[idx] = two_bone_ik(P[idx], G[idx], rot[idx], motion.skeleton.parents, leg.chain, tgt,
                                               end_rotation=end, reach_margin=reach_margin,
-                                              bend_axis=hinge_axis(P, G, leg.chain), bend_prior=BEND_PRIOR)
+                                              bend_axis=hinges[li], bend_prior=BEND_PRIOR)
     return rot, targets, state
 
 
@@ -319,8 +337,10 @@ def enforce_footplants(motion: Motion, plants: FootPlants | None = None, *, cont
     pts = foot_points(P, G, plants)
     notes = []
     prev = None
+    hinges = [hinge_axis(P, G, leg.chain) for leg in plants.legs]
     for k in range(passes):
-        rot, targets, state = _solve(motion, P, G, pts, plants, blend, height, tol, reach_margin, ease_kind, prev)
+        rot, targets, state = _solve(motion, P, G, pts, plants, blend, height, tol, reach_margin, ease_kind, prev,
+                                     hinges)
         out = motion.replace(rotations=rot)
         if k == passes - 1:
             break
@@ -349,8 +369,6 @@ def enforce_footplants(motion: Motion, plants: FootPlants | None = None, *, cont
             lifted[side] = (label_intervals(lift > UNREACHABLE_TOL), float(lift.max()))
         max_miss = max(max_miss, float(miss.max()))
         changed |= solved
-    P2, G2 = out.fk()
-    pts2 = foot_points(P2, G2, plants)
     seconds = time.perf_counter() - t0
     for side, (runs, amount) in lifted.items():
         if runs:
@@ -360,8 +378,7 @@ def enforce_footplants(motion: Motion, plants: FootPlants | None = None, *, cont
     if any(unreachable.values()):
         notes.append("unreachable: " + "; ".join(f"{s} leg frames " + ", ".join(f"{a}-{b - 1}" for a, b in v)
                                                    for s, v in unreachable.items() if v))
-    res = FootplantResult(out, plants, targets, blend, plant_slides(pts, plants), plant_slides(pts2, plants),
-                          unreachable, max_miss, int(changed.sum()), motion, seconds=seconds, notes=tuple(notes))
+    res = FootplantResult(out, plants, targets, blend, unreachable, max_miss, int(changed.sum()), motion, seconds=seconds, notes=tuple(notes))
     if audit:
         from ..audit import audit as run_audit
 

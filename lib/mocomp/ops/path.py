@@ -266,7 +266,9 @@ class PathEditResult:
     turn: rad, the heading change the edit added from the first frame to the last.
     heading_rate_max: rad/s, the largest rate of the added heading change.
     footplants: the :class:`~mocomp.ops.footplant.FootplantResult` (or ``None``).
-    step_before, step_after: ``(n,)`` m, step lengths (:func:`step_lengths`) of input and result.
+    input: the input motion; plants: its :class:`~mocomp.ops.plants.FootPlants` (enforced on the result).
+    step_before, step_after: ``(n,)`` m, step lengths (:func:`step_lengths`) of input and result
+        (properties, computed on first use).
     """
 
     motion: Motion
@@ -278,10 +280,25 @@ class PathEditResult:
     turn: float
     heading_rate_max: float
     footplants: object | None
-    step_before: np.ndarray
-    step_after: np.ndarray
+    input: Motion
+    plants: object
     seconds: float = 0.0
     notes: tuple[str, ...] = field(default=())
+    _cache: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def step_before(self) -> np.ndarray:
+        """``(n,)`` m, step lengths of the input (:func:`step_lengths`, computed on first use)."""
+        if "before" not in self._cache:
+            self._cache["before"] = step_lengths(self.input, self.plants)
+        return self._cache["before"]
+
+    @property
+    def step_after(self) -> np.ndarray:
+        """``(n,)`` m, step lengths of the result on the same plants."""
+        if "after" not in self._cache:
+            self._cache["after"] = step_lengths(self.motion, self.plants)
+        return self._cache["after"]
 
     def to_dict(self) -> dict:
         d = {"curve": self.curve.to_dict(), "path_length_m": self.path_length, "curve_length_m": self.curve_length,
@@ -376,5 +393,4 @@ def path_edit(motion: Motion, curve: PathCurve, *, path_sigma: float = 0.5, plan
             out = fp.motion
     rate = np.abs(np.gradient(dpsi)) * motion.fps if motion.n_frames > 1 else np.zeros(1)
     return PathEditResult(out, moved, curve, float(s[-1]), curve.length, extended, float(dpsi[-1] - dpsi[0]),
-                          float(rate.max()), fp, step_lengths(motion, plants_in),
-                          step_lengths(out, plants_in), time.perf_counter() - t0, tuple(notes))
+                          float(rate.max()), fp, motion, plants_in, time.perf_counter() - t0, tuple(notes))
