@@ -155,3 +155,14 @@ def test_cli_warns_on_stderr_and_reports(real_data_dir, tmp_path, capsys):
     q = r["arms"]["right"]["quality"]
     assert q["frozen_frames"] >= 40 and q["suggestion"]["frozen_after"] <= 4
     assert r["warnings"] and (tmp_path / "p.png").stat().st_size > 20_000
+
+
+@pytest.mark.realdata
+def test_suggestion_keeps_the_users_points(wave):
+    body, hand = wave
+    res = splice_motions(body, hand, ["160:150~4"])
+    sug = res.quality["right"].suggestion
+    assert sug is not None and "160:150~4" in [str(p) for p in sug.points]
+    xs = [p.x for p in sug.points]
+    assert xs == sorted(xs) and len(sug.points) == 3
+    assert sug.frozen_after < sug.frozen_before
