@@ -69,3 +69,15 @@ class _nothing:
 
     def __exit__(self, *a):
         return False
+
+
+def test_footplant_cli_takes_the_contacts_file(walk_bvh, tmp_path, capsys):
+    c = tmp_path / "plants.csv"
+    c.write_text("joint,start,stop\n# the left heel, first stance only\nLeftFoot,0,60\n")
+    rep = tmp_path / "r.json"
+    assert main(["footplant", str(walk_bvh), "--contacts", str(c), "-o", str(tmp_path / "o.bvh"), "--report", str(rep),
+                 "--no-audit"]) == 0
+    d = json.loads(rep.read_text())["footplant"]["plants"]
+    assert d["intervals"]["foot_l"] == [[0, 60]] and d["source"]["foot_l"] == f"csv {c}"
+    assert d["source"]["toe_l"] == "detector"
+    assert "foot_l: 1 plant(s) (csv" in capsys.readouterr().out

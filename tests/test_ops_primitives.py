@@ -324,3 +324,18 @@ def test_hinge_prior_bends_a_straight_leg_about_its_knee_axis():
 
     world_ax = quat_apply(out.global_rotations[0, h], ax)
     assert abs(np.dot(n / np.linalg.norm(n), world_ax)) > 0.95
+
+
+def test_blend_time_warp_moves_the_cadence_from_a_to_b():
+    """A walk (stride 1.1 s) into a brisker one (stride 0.786 s): the step periods are measured from
+    the plants, and through the window the frames of A advance faster and those of B slower than 1
+    per output frame at the start and 1 at the end for B."""
+    a = walk().motion
+    b = synthetic_walk(duration=4.0, fps=120.0, speed=1.4, stride_time=1.1 / 1.4).motion
+    r = blend(a, b, (240, 200), 60, time_warp=True, plant=False)
+    pa, pb = r.time_warp
+    assert pa == pytest.approx(0.55 * 120, abs=2) and pb == pytest.approx(1.1 / 1.4 / 2 * 120, abs=2)
+    da, db = np.diff(r.a_frames), np.diff(r.b_frames)
+    assert da[0] == pytest.approx(1.0, abs=0.02) and da[-1] == pytest.approx(pa / pb, rel=0.03)
+    assert db[0] == pytest.approx(pb / pa, rel=0.03) and db[-1] == pytest.approx(1.0, abs=0.02)
+    assert np.linalg.norm(np.diff(r.motion.root_positions, axis=0), axis=1).max() < 1.4 * 1.5 / 120
