@@ -262,7 +262,9 @@ def _answer_trials(page, n: int, answers: list, log: list, early: bool = False) 
         if page.query_selector(".mocomp-screen-break"):
             if "break" not in log:  # the first break: it says how long, counts down, and waits for a click
                 text = page.inner_text(".mocomp-screen-break")
-                assert "break of about 1 minute" in text and f"You have answered {done} of" in text, text
+                m = re.search(r"You have answered (\d+) of (\d+) motions; (\d+) to go", text)
+                assert "break of about 1 minute" in text and m, text
+                assert int(m.group(1)) + int(m.group(3)) == int(m.group(2)) and int(m.group(1)) % 4 == 0, text
                 first = page.inner_text(".mocomp-countdown")
                 assert re.fullmatch(r"[01]:\d\d left", first), first
                 page.wait_for_timeout(1600)
