@@ -109,10 +109,19 @@ def test_repair_removes_the_k07_jumps_and_keeps_the_feet(name):
 
 
 def test_repair_refuses_with_the_frames_and_the_force(backflip):
-    with pytest.raises(StanceRepairError, match=r"output frames \d+-\d+.*body weights"):
-        multiflip(backflip, flips=2, k_ratio=0.7, takeoff="repair", repair_options={"max_window": 0.1, "min_force": 0.95})
+    with pytest.raises(StanceRepairError, match=r"output frame\(s\) next to the event"):
+        multiflip(backflip, flips=2, k_ratio=0.7, takeoff="repair", repair_options={"max_window": 0.02})
     with pytest.raises(ValueError, match="takeoff must be one of"):
         multiflip(backflip, flips=2, takeoff="fix")
+
+
+def test_repair_refuses_a_stance_too_short(real_data_dir):
+    """The DeepMimic side flip's take-off stance is 0.33 s at k = 0.7 k*: 2.7 m/s more cannot be found
+    there within 8 body weights and the knees' room, and the error says where and what it would take."""
+    P = prepare("deepmimic_sideflip")
+    with pytest.raises(StanceRepairError, match=r"take-off cannot be repaired: adding \+2\.\d\d m/s vertically over "
+                                                r"output frames \d+-\d+ .*body weights"):
+        multiflip(P, flips=2, k_ratio=0.7, takeoff="repair")
 
 
 def test_repair_at_k_star_changes_little(backflip):

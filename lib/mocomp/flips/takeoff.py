@@ -24,9 +24,10 @@ forces of standing back somersaults are 3-6 body weights and of running ones 8-1
 asks for about twice the take-off speed, so ``max_force = 8`` (:data:`MAX_FORCE`), or the
 stance's own peak where that is higher). ``a_y`` is the
 retimed stance's own COM acceleration (Gaussian-smoothed over :data:`ACC_SMOOTH_S`) plus ``d''``.
-``d`` is a degree-:data:`DEGREE` polynomial in Bernstein form on the window; the end conditions fix
-five of its coefficients, and the quadratic programme in the others is solved by SLSQP
-(:func:`scipy.optimize.minimize`). Gaining ``dv`` while ending where the take-off was forces a
+``d`` is a clamped quintic B-spline on the window with knots every :data:`KNOT_SPACING_S` (so a
+push can be as short as the stance needs, anywhere in it); the end conditions fix five of its
+coefficients, and the least-squares problem with linear inequalities in the others is solved
+exactly by Lawson & Hanson's reduction to one non-negative least squares (:func:`_lsi`). Gaining ``dv`` while ending where the take-off was forces a
 deeper crouch first: even a bang-bang push (free fall, then the largest force) sinks
 ``dv^2 / (2 (max_force - 1) g)`` deeper, 13 cm for the 3.2 m/s the synthetic back flip needs at
 ``k = 0.7 k*``; the smooth map needs more.
@@ -60,7 +61,8 @@ from ..core.motion import Motion
 from ..errors import PhysicsError
 
 __all__ = ["StanceRepair", "StanceRepairError", "repair_stance", "stance_displacement", "TAKEOFF_CHOICES",
-           "MAX_FORCE", "MIN_FORCE", "MAX_WINDOW_S", "JERK_WEIGHT", "DEGREE", "ACC_SMOOTH_S", "IK_TOLERANCE"]
+           "MAX_FORCE", "MIN_FORCE", "MAX_WINDOW_S", "JERK_WEIGHT", "DEGREE", "KNOT_SPACING_S", "ACC_SMOOTH_S",
+           "IK_TOLERANCE"]
 
 #: the values of ``multiflip(..., takeoff=...)`` / ``--takeoff``
 TAKEOFF_CHOICES = ("as-is", "repair")
@@ -77,8 +79,10 @@ MAX_WINDOW_S = 0.8
 #: the weight of the jerk term of J(d): at 1e-5 a 3.2 m/s push over 0.8 s sinks 21 cm with forces of
 #: 0.5-3.8 body weights (1e-3: 34 cm, 0.6-2.7; 1e-7: 13 cm, the bang-bang limit, 0.1-5)
 JERK_WEIGHT = 1e-5
-#: degree of the Bernstein polynomial d(t)
-DEGREE = 15
+#: degree of the B-spline d(t)
+DEGREE = 5
+#: s: the B-spline's knot spacing (at most; the window holds a whole number of intervals, at least 3)
+KNOT_SPACING_S = 0.025
 #: s: Gaussian smoothing (standard deviation) of the stance's own COM acceleration in the force bounds
 ACC_SMOOTH_S = 0.02
 #: m: the largest distance an ankle may be left from its planted position
@@ -147,35 +151,68 @@ def _cm(x: float) -> str:
     return "-" if not np.isfinite(x) else f"{100 * x:.1f} cm"
 
 
-def _bernstein(tau: np.ndarray, D: float, n: int = DEGREE, deriv: int = 0) -> np.ndarray:
-    """``(m, n + 1)`` design matrix of the ``deriv``-th time derivative of the degree-``n``
-    Bernstein basis on ``[0, D]`` at ``tau`` (s)."""
+def _knots(D: float, spacing: float = KNOT_SPACING_S, p: int = DEGREE) -> np.ndarray:
+    """Clamped knot vector of degree ``p`` on ``[0, D]`` with uniform intervals of at most ``spacing``."""
+    m = max(3, int(math.ceil(D / spacing - 1e-9)))
+    return np.r_[np.zeros(p), np.linspace(0.0, D, m + 1), np.full(p, D)]
+
+
+def _basis(tau: np.ndarray, knots: np.ndarray, deriv: int = 0, p: int = DEGREE) -> np.ndarray:
+    """``(m, K)`` design matrix of the ``deriv``-th time derivative of the B-spline basis at ``tau`` (s)."""
     from scipy.interpolate import BSpline
 
-    knots = np.r_[np.zeros(n + 1), np.full(n + 1, D)]
-    spl = BSpline(knots, np.eye(n + 1), n, extrapolate=False)
+    K = knots.size - p - 1
+    spl = BSpline(knots, np.eye(K), p, extrapolate=False)
     if deriv:
         spl = spl.derivative(deriv)
-    out = spl(np.clip(tau, 0.0, D))
+    out = spl(np.clip(tau, 0.0, knots[-1]))
     return np.nan_to_num(np.asarray(out, dtype=float))
 
 
+def _lsi(A: np.ndarray, b: np.ndarray, G: np.ndarray, h: np.ndarray):
+    """``argmin |A x - b|`` subject to ``G x >= h`` (A of full column rank), or ``None`` when no ``x``
+    meets the constraints: Lawson & Hanson's reduction (Solving Least Squares Problems, 1974, ch. 23):
+    ``A = Q R``, ``z = R x - Q^T b`` turns it into least distance programming, ``min |z|`` with
+    ``(G R^-1) z >= h - G R^-1 Q^T b``, solved exactly by one non-negative least squares
+    (:func:`scipy.optimize.nnls`)."""
+    from scipy.linalg import solve_triangular
+    from scipy.optimize import nnls
+
+    Q, R = np.linalg.qr(A)
+    F = solve_triangular(R, G.T, trans="T").T          # G R^-1
+    qb = Q.T @ b
+    g = h - F @ qb
+    scale = np.maximum(np.linalg.norm(F, axis=1), 1e-300)
+    F, g = F / scale[:, None], g / scale              # row scaling leaves the feasible set unchanged
+    n = F.shape[1]
+    E = np.vstack([F.T, g[None, :]])
+    e = np.zeros(n + 1)
+    e[n] = 1.0
+    u, _ = nnls(E, e, maxiter=50 * E.shape[1])
+    r = E @ u - e
+    if abs(r[n]) < 1e-12:
+        return None
+    z = -r[:n] / r[n]
+    return solve_triangular(R, z + qb)
+
+
 def stance_displacement(tau: np.ndarray, slope: float, D: float, lower=None, upper=None, *,
-                        jerk_weight: float = JERK_WEIGHT, n: int = DEGREE, samples: int = 241,
+                        jerk_weight: float = JERK_WEIGHT, spacing: float = KNOT_SPACING_S, samples: int = 241,
                         d_lower=None, d_upper=None):
     """One component of the displacement map, as a function of the time ``tau`` (s) from the
     event into the stance: ``d(0) = 0``, ``dd/dtau(0) = slope``, ``d = d' = d'' = 0`` at
     ``tau = D``, minimising ``J(d)`` (module docstring) with ``lower <= d''(tau) <= upper`` and
     ``d_lower <= d(tau) <= d_upper`` at the times ``tau`` (arrays like ``tau`` or ``None``). Returns ``(d(tau), d''(tau), ok)``: ``ok`` is
     ``False`` when no map within the bounds exists (the least-violating one is returned)."""
-    from scipy.optimize import minimize
 
     tau = np.asarray(tau, dtype=float)
-    c_fixed = np.zeros(n + 1)
-    c_fixed[1] = slope * D / n                          # d'(0) = n (c1 - c0) / D
-    free = np.arange(2, n - 2)                          # c0 = 0; c_{n-2..n} = 0 (d, d', d'' at D)
+    kn = _knots(D, spacing)
+    K = kn.size - DEGREE - 1
+    c_fixed = np.zeros(K)
+    c_fixed[1] = slope * kn[DEGREE + 1] / DEGREE        # d'(0) = p (c1 - c0) / t_{p+1}
+    free = np.arange(2, K - 3)                          # c0 = 0; the last three 0 (d, d', d'' at D)
     q = np.linspace(0.0, D, samples)
-    B0, B3 = _bernstein(q, D, n), _bernstein(q, D, n, 3)
+    B0, B3 = _basis(q, kn), _basis(q, kn, 3)
     # J = mean (B0 c)^2 + lambda D^6 mean (B3 c)^2, c = c_fixed + E x
     A = np.vstack([B0, math.sqrt(jerk_weight) * D ** 3 * B3]) / math.sqrt(samples)
     r0 = A @ c_fixed
@@ -183,11 +220,11 @@ def stance_displacement(tau: np.ndarray, slope: float, D: float, lower=None, upp
     H = Af.T @ Af
     f = Af.T @ r0
     x0 = np.linalg.lstsq(Af, -r0, rcond=None)[0]
-    B2 = _bernstein(tau, D, n, 2)
+    B2 = _basis(tau, kn, 2)
     cons = []
     ok = True
     rows = []
-    Bd = _bernstein(tau, D, n)
+    Bd = _basis(tau, kn)
     for M_, lo, hi in ((B2, lower, upper), (Bd, d_lower, d_upper)):
         g0 = M_ @ c_fixed
         if lo is not None:
@@ -200,16 +237,9 @@ def stance_displacement(tau: np.ndarray, slope: float, D: float, lower=None, upp
         keep = np.isfinite(hv)
         Gm, hv = Gm[keep], hv[keep]
     if rows and hv.size:
-        # scale rows so SLSQP sees comparable constraint magnitudes
-        scale = np.maximum(np.linalg.norm(Gm, axis=1), 1e-12)
-        Gm, hv = Gm / scale[:, None], hv / scale
-        cons = [{"type": "ineq", "fun": lambda x: Gm @ x + hv, "jac": lambda x: Gm}]
-        if np.min(Gm @ x0 + hv) < -1e-9:
-            res = minimize(lambda x: 0.5 * x @ H @ x + f @ x, x0, jac=lambda x: H @ x + f, constraints=cons,
-                           method="SLSQP", options={"maxiter": 500, "ftol": 1e-12})
-            x = res.x
-        else:
-            x = x0
+        x = _lsi(Af, -r0, Gm, -hv)
+        if x is None:                                   # no map meets the bounds: report the least-squares one
+            ok, x = False, x0
     else:
         x = x0
     c = c_fixed.copy()
