@@ -18,6 +18,16 @@ Rows
   off. Ours differs by calling the render window's ``Render()`` once per frame
   and reading the back buffer itself (``write_frame`` goes through
   ``Plotter.screenshot``), writing raw RGB to ffmpeg's pipe, and keeping MSAA off.
+* ``annotated render+encode 640x480``: :func:`mocomp.plots.render_audit.render_with_audit`
+  (``mocomp render``, issue #13 section 4) of the same 300 frames to MP4: the audit of the motion,
+  the 3-D view at 640x480 with its marks (translucent ground, red bones, contact discs), the 2-D
+  marks (COM path, ballistic fits, depth mark, findings text) and the 56-pixel time bar, and H.264
+  encoding, all timed. Goal: at least 30 frames/s (``ours_s <= n / 30``); the note prints the
+  rate as a fraction of the goal. Peer: the plain ``write_video`` of the same frames (the row
+  above), so the ratio is the cost of the annotations.
+* ``annotated side by side 2x640x480``: the same with ``against=`` a second motion (two 640x480
+  views in one window, 1280x536 frames). Goal: 30 views/s (``ours_s <= 2 n / 30``, i.e. 15
+  side-by-side frames/s); the note gives both rates.
 * ``paper design``: ``study.render.render_stimulus_set`` on
   ``stimuli/paper_table2.toml`` (all stimuli rendered, nothing cached), including
   building and measuring every stimulus. Goal: a few minutes (``ours_s <= 300``).
@@ -141,6 +151,8 @@ def run(quick: bool) -> list[dict]:
                      f"+ shadows + ground; {os.environ.get('VTK_DEFAULT_OPENGL_WINDOW')}; process warm-up "
                      f"{warmup:.2f} s before any timing (excluded for ours and the peers)"))
 
+        rows += _annotated_rows(m, tmp, n, best, quick)
+
         from study.render import render_stimulus_set
         from study.spec import load_spec
 
@@ -163,4 +175,32 @@ def run(quick: bool) -> list[dict]:
                  f"frames/s; largest |achieved - nominal| {dev:.2f} points"
                  + (f"; notes: {'; '.join(rep.notes)}" if rep.notes else "")
                  + ("; --quick: one base, one level per perturbation" if quick else "")))
+    return rows
+
+
+def _annotated_rows(m, tmp: Path, n: int, plain_s: float, quick: bool) -> list[dict]:
+    """``render_with_audit`` of ``m`` (30 fps) alone and beside a second motion, to MP4."""
+    from mocomp.plots import render3d as r3
+    from mocomp.plots.render_audit import render_with_audit
+
+    style = r3.RenderStyle(width=W, height=H)
+    other = m.translated([0.0, -0.05, 0.0])      # a second motion: the same, sunk 5 cm (red feet drawn)
+    rows = []
+    for label, against in (("annotated render+encode", None), ("annotated side by side", other)):
+        best, res = float("inf"), None
+        for _ in range(1 if quick else 2):
+            r = render_with_audit(m, tmp / "annotated.mp4", against=against, style=style, name="clip",
+                                  against_name="sunk")
+            if r.seconds < best:
+                best, res = r.seconds, r
+        views = n * (1 if against is None else 2)
+        rate = views / best
+        size = f"{W}x{H}" if against is None else f"2x{W}x{H}"
+        rows.append(result(
+            f"{label} {size} {n}f", best, "plain write_video (same frames, no audit)" if against is None else None,
+            plain_s if against is None else None, goal=f"ours_s <= {views / 30.0:.3f}",
+            note=f"{rate:.1f} views/s = {rate / 30.0:.2f} x the goal of 30 frames/s at {W}x{H}"
+                 + ("" if against is None else f" ({n / best:.1f} side-by-side frames/s)")
+                 + f"; output {res.size[0]}x{res.size[1]}; audit + marks + time bar + H.264 timed; "
+                 f"VTK render+read-back {res.render_seconds:.2f} s of {best:.2f} s"))
     return rows

@@ -604,6 +604,7 @@ class AuditRenderer:
         self._to_numpy = vtk_to_numpy
         self._bars = [_TimeBar(t, style.width, ov, r) for t, r in zip(self.tracks, self.ranges)]
         self._paths = [self._static_paths(t, r) for t, r in zip(self.tracks, self.ranges)]
+        self._layers: dict = {}
         self.render_seconds = 0.0
 
     # ----------------------------------------------------------- scene state
@@ -639,59 +640,77 @@ class AuditRenderer:
         return self._panels[k]["proj"]
 
     # --------------------------------------------------------------- drawing
-    def _draw_marks(self, draw, k: int, frame: int) -> None:
+    def _px(self, k: int, P: np.ndarray, offset: int = 0) -> tuple[np.ndarray, np.ndarray]:
+        xy, ok = project_points(self.projection(k), P, self.style.width, self.style.height)
+        xy[:, 0] += offset
+        return xy, ok
+
+    def _draw_static(self, draw, k: int, title: bool, offset: int) -> None:
+        """What does not change from frame to frame under a fixed camera: COM path, ballistic fits,
+        the rings at COM jumps, the panel's name and verdict."""
         tr, ov = self.tracks[k], self.overlay
-        W, H = self.style.width, self.style.height
-        ox = k * W
-        proj = self.projection(k)
-
-        def px(P):
-            xy, ok = project_points(proj, P, W, H)
-            xy[:, 0] += ox
-            return xy, ok
-
         lw = ov.line_width
         path, fits = self._paths[k]
-        xy, ok = px(path)
+        xy, ok = self._px(k, path, offset)
         if ok.all() and len(xy) > 1:
             draw.line([tuple(p) for p in xy], fill=_rgb255(ov.com_color), width=lw)
         for _, _, pts in fits:
-            fxy, fok = px(pts)
+            fxy, fok = self._px(k, pts, offset)
             if fok.all():
                 draw.line([tuple(p) for p in fxy], fill=_rgb255(ov.fit_color), width=lw)
         red = _rgb255(ov.penetration_color)
         a, b = self.ranges[k]
-        for jf in tr.jump_frames:
-            if a <= jf < b:
-                (x, y), = px(tr.com[jf][None])[0]
+        jumps = [jf for jf in tr.jump_frames if a <= jf < b]
+        if jumps:
+            for x, y in self._px(k, tr.com[jumps], offset)[0]:
                 draw.ellipse([x - 7, y - 7, x + 7, y + 7], outline=red, width=2)
-        (x, y), = px(tr.com[frame][None])[0]
+        if title:
+            f, fb = _font(ov.font_size), _font(ov.font_size, True)
+            draw.text((offset + 8, 4), tr.name, fill=(20, 20, 20), font=fb, stroke_width=2,
+                      stroke_fill=(255, 255, 255))
+            txt, col = _verdict_text(tr.report)
+            draw.text((offset + 8, 8 + ov.font_size), txt, fill=col, font=f, stroke_width=2,
+                      stroke_fill=(255, 255, 255))
+
+    def _static_layer(self, k: int, title: bool):
+        """The static marks of panel ``k``: a transparent RGBA image cropped to what is drawn and its
+        top-left corner in the panel, drawn once per camera."""
+        from PIL import Image, ImageDraw
+
+        key = (k, title, id(self._panels[k]["camera"]))
+        if key not in self._layers:
+            layer = Image.new("RGBA", (self.style.width, self.style.height), (0, 0, 0, 0))
+            self._draw_static(ImageDraw.Draw(layer), k, title, 0)
+            box = layer.getbbox() or (0, 0, 1, 1)       # paste only the drawn part (4x faster)
+            self._layers = {kk: v for kk, v in self._layers.items() if kk[0] != k or kk[1] != title}
+            self._layers[key] = (layer.crop(box), box[:2])
+        return self._layers[key]
+
+    def _draw_dynamic(self, draw, k: int, frame: int, title: bool, findings: bool) -> None:
+        """The marks of one frame: the current COM, the depth mark of a body part below the floor
+        and the findings active at the frame in words."""
+        tr, ov = self.tracks[k], self.overlay
+        ox = k * self.style.width
+        red = _rgb255(ov.penetration_color)
+        (x, y), = self._px(k, tr.com[frame][None], ox)[0]
         draw.ellipse([x - 4, y - 4, x + 4, y + 4], fill=_rgb255(ov.com_color), outline=(255, 255, 255))
         if tr.depth[frame] > tr.report.thresholds.penetration:
             p = tr.lowest[frame]
             top = np.array([p[0], tr.floor_drawn, p[2]])
-            (x0, y0), (x1, y1) = px(np.stack([top, p]))[0]
+            (x0, y0), (x1, y1) = self._px(k, np.stack([top, p]), ox)[0]
             y1 = max(y1, y0 + 6)
             draw.line([(x0, y0), (x1, y1)], fill=red, width=3)
             draw.line([(x0 - 7, y0), (x0 + 7, y0)], fill=red, width=3)
-            draw.text((x1 + 6, y1 - 2), f"-{tr.depth[frame] * 100:.1f} cm", fill=red, font=_font(ov.font_size + 1, True),
-                      stroke_width=2, stroke_fill=(255, 255, 255))
-
-    def _draw_text(self, draw, k: int, frame: int, title: bool = True, findings: bool = True) -> None:
-        tr, ov = self.tracks[k], self.overlay
-        ox = k * self.style.width
-        f, fb = _font(ov.font_size), _font(ov.font_size, True)
-        y = 4
-        if title:
-            draw.text((ox + 8, y), tr.name, fill=(20, 20, 20), font=fb, stroke_width=2, stroke_fill=(255, 255, 255))
-            y += ov.font_size + 4
-            txt, col = _verdict_text(tr.report)
-            draw.text((ox + 8, y), txt, fill=col, font=f, stroke_width=2, stroke_fill=(255, 255, 255))
-            y += ov.font_size + 4
-        for fd in (tr.findings_at(frame)[:4] if findings else ()):
-            col = _rgb255(ov.penetration_color) if fd.is_violation else (170, 95, 0)
-            draw.text((ox + 8, y), _finding_text(fd), fill=col, font=f, stroke_width=2, stroke_fill=(255, 255, 255))
-            y += ov.font_size + 3
+            draw.text((x1 + 6, y1 - 2), f"-{tr.depth[frame] * 100:.1f} cm", fill=red,
+                      font=_font(ov.font_size + 1, True), stroke_width=2, stroke_fill=(255, 255, 255))
+        if findings:
+            f = _font(ov.font_size)
+            y = 4 + (2 * (ov.font_size + 4) if title else 0)
+            for fd in tr.findings_at(frame)[:4]:
+                col = red if fd.is_violation else (170, 95, 0)
+                draw.text((ox + 8, y), _finding_text(fd), fill=col, font=f, stroke_width=2,
+                          stroke_fill=(255, 255, 255))
+                y += ov.font_size + 3
 
     def scene(self, frames: Sequence[int]) -> np.ndarray:
         """Render every panel at its frame (``frames[k]`` for track ``k``) and read the pixels back:
@@ -718,8 +737,12 @@ class AuditRenderer:
         img = Image.fromarray(self.scene(frames))
         d = ImageDraw.Draw(img)
         for k, fr in enumerate(frames):
-            self._draw_marks(d, k, int(fr))
-            self._draw_text(d, k, int(fr), title, findings)
+            if isinstance(self.cameras[k], FollowCamera):        # the marks move with the camera
+                self._draw_static(d, k, title, k * self.style.width)
+            else:
+                layer, (x0, y0) = self._static_layer(k, title)
+                img.paste(layer, (k * self.style.width + x0, y0), layer)
+            self._draw_dynamic(d, k, int(fr), title, findings)
         out = np.asarray(img)
         if bar:
             bars = [np.asarray(self._bars[k].draw(int(fr), bool(ended[k]) if ended is not None else False,
