@@ -5,13 +5,16 @@ local rotation is kept. On the frames of :class:`~mocomp.ops.plants.FootPlants`:
 
 * ankle point planted: the foot is translated so the ankle point sits on its target
   (:func:`~mocomp.ops.plants.plant_targets`: mean position over the plant, on the support level);
+  alone (the toe not yet down, or lifted), the foot also turns about it so the toe tip follows its
+  fading correction from the toe's plant;
 * ankle point and toe tip planted: additionally turned about the ankle point by the shortest arc
   that aims the toe tip at its target; the distance between the two points is fixed by the foot,
   so where it differs from the targets' distance (a heel rolling up while still counted planted)
   the foot is shifted along itself by half the difference (each point misses by half); the toe
   tip's target is made to fit the foot (:func:`consistent_toe_targets`);
-* toe tip planted alone (heel off): translated so the tip sits on its target, turned by the
-  fading rotation of the flat-foot part.
+* toe tip planted alone (heel off): the tip exactly on its target, the foot turned about it so
+  that the ankle point follows its correction from the heel's plant as that fades (the heel rolls
+  up about the toe).
 
 The translation and the rotation vector of each foot are faded in and out over ``blend`` frames
 around the planted frames (:func:`~mocomp.ops.easing.ramp_fill`), so no pose jumps. The leg then
@@ -32,12 +35,13 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.ndimage import gaussian_filter1d
 from scipy.spatial.transform import Rotation
 
 from ..core.motion import Motion
 from ..core.rotations import quat_apply
 from ..dynamics.contacts import label_intervals
-from .easing import ramp_fill
+from .easing import ease, ramp_fill
 from .ik import REACH_MARGIN, hinge_axis, two_bone_ik
 from .plants import FootPlants, foot_plants, plant_targets
 
@@ -235,19 +239,56 @@ def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: st
         rv = ramp_fill(rv, both, blend, ease_kind)
         Rq = Rotation.from_rotvec(rv).as_quat()
         tip = A + quat_apply(Rq, Tp - A)                  # the toe tip after the foot turned about the ankle point
-        # translation: the ankle point on its target while it is planted; the toe tip on its own
-        # where only the toe is planted; the ankle's share fades out over the blend frames after
-        # heel-off (and in before heel-strike), so the switch between the two targets is smooth
+        # translation: the ankle point on its target while it is planted (with both points planted,
+        # the aimed tip misses its target along the foot by the change of the ankle-tip distance
+        # during the plant, and the foot shares that: half at the ankle point, half at the tip)
         d_a = np.zeros((T, 3))
         d_a[la] = targets[la, ka] - A[la]
         if both.any():
-            # the aimed tip misses its target along the foot by the change of the ankle-tip distance
-            # during the plant: the foot shares it, half at the ankle point, half at the toe tip
             d_a[both] += 0.5 * (targets[both, kt] - (targets[both, ka] + tip[both] - A[both]))
-        d_t = np.zeros((T, 3))
-        d_t[lt] = targets[lt, kt] - tip[lt]
-        w_a = ramp_fill(la.astype(float), la, blend, ease_kind)
-        delta = ramp_fill(d_a, la, blend, ease_kind) + (1.0 - w_a)[:, None] * ramp_fill(d_t, lt, blend, ease_kind)
+        # toe tip planted alone (heel off): the tip exactly on its target, and the foot turned about
+        # the tip so that the ankle point follows its fading correction from the heel's plant (the
+        # heel rolls up about the toe; where the two targets disagree nothing jumps at heel-off)
+        toe_only = lt & ~la
+        delta = np.where(la[:, None], d_a, 0.0)
+        if toe_only.any():
+            w_a = ramp_fill(la.astype(float), la, blend, ease_kind)
+            da_fill = ramp_fill(d_a, la, blend, ease_kind)
+            i = toe_only
+            Tt = targets[i, kt]
+            a_cur = A[i] + Tt - tip[i]                           # ankle point with the tip on its target
+            want = a_cur + da_fill[i] - w_a[i, None] * (Tt - tip[i])
+            q_e = arc_quaternions(a_cur - Tt, want - Tt)
+            R2 = quat_multiply(q_e, Rq[i])
+            delta[i] = Tt - A[i] - quat_apply(R2, Tp[i] - A[i])
+            rv[i] = Rotation.from_quat(R2).as_rotvec()
+        # ankle point planted alone (before the toe lands, after it lifts): the ankle point exactly on
+        # its target, the foot turned about it so that the toe tip follows its fading correction from
+        # the toe's plant (symmetric to the above: a toe-only frame next to an ankle-only one is no jump)
+        ankle_only = la & ~lt
+        if ankle_only.any() and lt.any():
+            w_t = ramp_fill(lt.astype(float), lt, blend, ease_kind)
+            ct_fill = ramp_fill(np.where(lt[:, None], targets[:, kt] - Tp, 0.0), lt, blend, ease_kind)
+            i = ankle_only & (w_t > 0)
+            if i.any():
+                a_new = targets[i, ka]
+                tip0 = a_new + quat_apply(Rq[i], Tp[i] - A[i])
+                want = tip0 + ct_fill[i] + w_t[i, None] * (Tp[i] - tip0)
+                R2 = quat_multiply(arc_quaternions(tip0 - a_new, want - a_new), Rq[i])
+                rv[i] = Rotation.from_quat(R2).as_rotvec()
+        if toe_only.any() or ankle_only.any():
+            rv = ramp_fill(rv, la | lt, blend, ease_kind)
+        delta = ramp_fill(delta, la | lt, blend, ease_kind)
+        # a toe-only frame next to an ankle-only one (the foot rocks from toe to heel, as in a
+        # cartwheel) holds two targets no rigid foot joins: cross-fade there over the blend frames
+        sw = np.flatnonzero((toe_only[:-1] & ankle_only[1:]) | (ankle_only[:-1] & toe_only[1:])) + 1
+        if sw.size and blend > 0:
+            t = np.arange(T)
+            m = np.max(ease(1.0 - np.abs(t[:, None] - sw[None] + 0.5) / (blend + 1.0), ease_kind), axis=1)[:, None]
+            sig = max(blend / 2.0, 1.0)
+            delta = (1 - m) * delta + m * gaussian_filter1d(delta, sig, axis=0, mode="nearest")
+            rv = (1 - m) * rv + m * gaussian_filter1d(rv, sig, axis=0, mode="nearest")
+        Rq = Rotation.from_rotvec(rv).as_quat()
         solve = (np.linalg.norm(delta, axis=1) > tol) | (np.linalg.norm(rv, axis=1) > tol)
         miss_all, lift_all = np.zeros(T), np.zeros(T)
         if prev is not None:
