@@ -81,6 +81,15 @@ def test_phase_poses_stay_inside_the_frame_range_and_pick_the_crouch(bf_track):
     assert stance and stance[0].frame == g0[0] + int(np.argmin(com_y[g0[0]:g0[1]]))
 
 
+def test_the_deepest_frame_below_the_floor_is_a_pose(sunk, bf_track):
+    bad, (a, b), tr = sunk
+    pen, = tr.report.by_check("floor_penetration")
+    poses = ra.phase_poses(tr.report)
+    # the body is pushed down in one step: the same frame is also a COM velocity jump
+    assert ra.Pose(pen.peak_frame, "COM jump + below floor") in poses
+    assert "below floor" not in {p.label for p in ra.phase_poses(bf_track.report)}   # clean: no such pose
+
+
 def test_a_double_flip_shows_more_flight_poses(bf, bf_track):
     from mocomp.flips import multiflip, prepare
 

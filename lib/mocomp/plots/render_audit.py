@@ -270,10 +270,15 @@ def audit_track(motion: Motion, report=None, *, name: str | None = None, style: 
 
 
 # ------------------------------------------------------------- phase poses
+#: violations whose peak frame becomes a filmstrip pose, with its label
+_POSE_CHECKS = {"floor_penetration": "below floor", "com_velocity_jump": "COM jump"}
+
+
 @dataclass(frozen=True)
 class Pose:
     """A filmstrip pose: ``frame`` of the motion and its ``label`` (``"take-off 1"``, ``"apex 1"``,
-    ``"landing 1"``, ``"flight 1"`` (between those), ``"stance"``, ``"start"``, ``"end"``)."""
+    ``"landing 1"``, ``"flight 1"`` (between those), ``"stance"``, ``"below floor"``, ``"COM jump"``,
+    ``"start"``, ``"end"``)."""
 
     frame: int
     label: str
@@ -287,7 +292,10 @@ def phase_poses(report, frames: tuple[int, int] | None = None, *, max_gap_s: flo
     it), and evenly spaced flight poses between take-off and apex and between apex and landing, at
     most ``max_gap_s`` apart (so a somersault shows its rotation); for each ground stage the
     frame of its lowest COM (the deepest crouch) when it lies at least 3 frames from the stage's
-    ends; the first and the last frame. Poses closer than 2 frames to a phase pose are dropped.
+    ends; the peak frame of each floor-penetration and COM-velocity-jump violation (``"below floor"``,
+    ``"COM jump"``: where the motion is worst); the first and the last frame. A pose closer than 2
+    frames to one of higher priority (flight poses, then crouches and violation peaks, then the
+    poses between flight poses, then first and last frame) is dropped.
     """
     n = report.n_frames
     a0, b0 = (0, n) if frames is None else frames
@@ -316,6 +324,11 @@ def phase_poses(report, frames: tuple[int, int] | None = None, *, max_gap_s: flo
         f = lo + int(np.argmin(com_y[lo:hi]))
         if f - lo >= 3 and hi - 1 - f >= 3:
             cand.append((f, "stance", 1))
+    worst: dict[int, list[str]] = {}   # where the motion is worst: the deepest frame below the floor, COM jumps
+    for f in report.findings:
+        if f.is_violation and f.check in _POSE_CHECKS and _POSE_CHECKS[f.check] not in worst.get(f.peak_frame, []):
+            worst.setdefault(int(f.peak_frame), []).append(_POSE_CHECKS[f.check])
+    cand += [(f, " + ".join(sorted(labels)), 1) for f, labels in worst.items()]
     cand.append((a0, "start", 3))
     cand.append((b0 - 1, "end", 3))
     cand = [c for c in cand if a0 <= c[0] < b0]
