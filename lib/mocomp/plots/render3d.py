@@ -40,7 +40,7 @@ __all__ = [
     "configure_offscreen", "RenderStyle", "Camera", "fit_camera", "BoneCapsule", "bone_capsules",
     "MotionRenderer", "VideoResult", "write_video", "render_still", "render_filmstrip", "save_png",
     "joint_matrices", "video_frame_times", "same_skeleton", "add_lights", "add_ground", "add_characters",
-    "apply_camera", "place_bones",
+    "apply_camera", "place_bones", "OffscreenScene",
 ]
 
 #: VTK render-window classes for headless rendering, by short name.
@@ -464,7 +464,44 @@ def video_frame_times(duration: float, fps: float) -> np.ndarray:
     return np.arange(n) / fps
 
 
-class MotionRenderer:
+class OffscreenScene:
+    """Owner of an offscreen PyVista plotter (``self._pl``): ``close()``, a context manager, and the
+    pixel read-back of its window."""
+
+    _pl = None
+
+    def read_pixels(self, width: int, height: int) -> np.ndarray:
+        """Render the window once and return its ``(height, width, 3)`` uint8 pixels, top row first."""
+        if not hasattr(self, "_arr"):
+            import vtk
+            from vtk.util.numpy_support import vtk_to_numpy
+
+            self._arr = vtk.vtkUnsignedCharArray()
+            self._to_numpy = vtk_to_numpy
+        rw = self._pl.ren_win
+        rw.Render()
+        rw.GetPixelData(0, 0, width - 1, height - 1, 0, self._arr, 0)
+        return self._to_numpy(self._arr).reshape(height, width, 3)[::-1].copy()
+
+    def close(self) -> None:
+        if getattr(self, "_pl", None) is not None:
+            self._pl.close()
+            self._pl = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def __del__(self):  # pragma: no cover
+        try:
+            self.close()
+        except Exception:
+            pass
+
+
+class MotionRenderer(OffscreenScene):
     """A headless scene holding one or more characters; renders frames to arrays.
 
     Use as a context manager (it owns a VTK render window)::
@@ -482,7 +519,6 @@ class MotionRenderer:
         self.style = style = style or RenderStyle()
         configure_offscreen(style.backend)
         import pyvista as pv
-        import vtk
 
         self.skeleton = skeleton
         self.camera = camera
@@ -504,10 +540,6 @@ class MotionRenderer:
         self._mats, self._shadow_mats, self._actors = add_characters(pl, style, self.capsules, colors)
         if camera is not None:
             self.set_camera(camera)
-        self._arr = vtk.vtkUnsignedCharArray()
-        from vtk.util.numpy_support import vtk_to_numpy
-
-        self._to_numpy = vtk_to_numpy
         self.render_seconds = 0.0
 
     # -- scene control
@@ -527,12 +559,8 @@ class MotionRenderer:
         """Render the scene once and return ``(H, W, 3)`` uint8 (top row first)."""
         if self.camera is None:
             raise ValueError("MotionRenderer has no camera: pass camera= or call set_camera()")
-        w, h = self.style.width, self.style.height
         t0 = time.perf_counter()
-        rw = self._pl.ren_win
-        rw.Render()
-        rw.GetPixelData(0, 0, w - 1, h - 1, 0, self._arr, 0)
-        img = self._to_numpy(self._arr).reshape(h, w, 3)[::-1].copy()
+        img = self.read_pixels(self.style.width, self.style.height)
         self.render_seconds += time.perf_counter() - t0
         return img
 
@@ -556,22 +584,6 @@ class MotionRenderer:
             self.set_pose(character, M[t])
             yield self.snapshot()
 
-    def close(self) -> None:
-        if getattr(self, "_pl", None) is not None:
-            self._pl.close()
-            self._pl = None
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        self.close()
-
-    def __del__(self):  # pragma: no cover
-        try:
-            self.close()
-        except Exception:
-            pass
 
 
 # ------------------------------------------------------------------- outputs

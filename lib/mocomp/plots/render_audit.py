@@ -48,7 +48,7 @@ from typing import Sequence
 import numpy as np
 
 from ..core.motion import Motion
-from .render3d import (RADIUS_FRACTION, Camera, RenderStyle, _open_writer, _shadow_matrix, add_characters,
+from .render3d import (RADIUS_FRACTION, Camera, OffscreenScene, RenderStyle, _open_writer, _shadow_matrix, add_characters,
                        add_ground, add_lights, apply_camera, bone_capsules, configure_offscreen, fit_camera,
                        joint_matrices, place_bones, save_png, ENCODER)
 
@@ -557,7 +557,7 @@ class _TimeBar:
         return img
 
 
-class AuditRenderer:
+class AuditRenderer(OffscreenScene):
     """One offscreen VTK window with one viewport (panel) per track, the audit's 3-D marks in each
     (translucent ground, red bones, contact discs) and its 2-D marks drawn on the pixels.
 
@@ -577,7 +577,6 @@ class AuditRenderer:
         configure_offscreen(style.backend)
         import pyvista as pv
         import vtk
-        from vtk.util.numpy_support import vtk_to_numpy
 
         n = len(self.tracks)
         self.ranges = list(ranges) if ranges is not None else [(0, t.n_frames) for t in self.tracks]
@@ -613,8 +612,6 @@ class AuditRenderer:
             self._panels.append({"renderer": pl.renderer, "mats": mats[0], "smats": smats[0], "bones": bones,
                                  "red": np.zeros(len(bones), bool), "discs": discs,
                                  "M": joint_matrices(tr.motion), "camera": None})
-        self._arr = vtk.vtkUnsignedCharArray()
-        self._to_numpy = vtk_to_numpy
         self._bars = [_TimeBar(t, style.width, ov, r) for t, r in zip(self.tracks, self.ranges)]
         self._paths = [self._static_paths(t, r) for t, r in zip(self.tracks, self.ranges)]
         self._layers: dict = {}
@@ -731,11 +728,7 @@ class AuditRenderer:
         for k, fr in enumerate(frames):
             self._pose(k, int(fr))
         t0 = time.perf_counter()
-        rw = self._pl.ren_win
-        rw.Render()
-        w, h = self.style.width * len(self.tracks), self.style.height
-        rw.GetPixelData(0, 0, w - 1, h - 1, 0, self._arr, 0)
-        img = self._to_numpy(self._arr).reshape(h, w, 3)[::-1].copy()
+        img = self.read_pixels(self.style.width * len(self.tracks), self.style.height)
         self.render_seconds += time.perf_counter() - t0
         return img
 
@@ -763,23 +756,6 @@ class AuditRenderer:
                     for k, fr in enumerate(frames)]
             out = np.concatenate([out, np.concatenate(bars, axis=1)], axis=0)
         return out
-
-    def close(self) -> None:
-        if getattr(self, "_pl", None) is not None:
-            self._pl.close()
-            self._pl = None
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        self.close()
-
-    def __del__(self):  # pragma: no cover
-        try:
-            self.close()
-        except Exception:
-            pass
 
 
 # ------------------------------------------------------------------ outputs
