@@ -33,19 +33,14 @@ def test_footplant_on_bandai_walks_slides_under_a_centimetre_without_faster_join
     assert r.joint_speed_after <= r.joint_speed_before + 1e-6
 
 
-def test_footplant_on_the_sfu_cartwheels_reduces_the_slide():
-    """SFU cartwheels: input 11.6 cm; after 1.74 cm measured, short of the 1 cm goal: a foot that
-    pivots on its toe through a 1-s plant (frames 1637-1752) has ankle and toe targets no rigid foot
-    fits, and the foot splits the difference. The slide of every other plant is below 1 cm, and no
-    joint turns faster than in the input (a toe-to-heel rock is cross-faded, not jumped)."""
+def test_footplant_on_the_sfu_cartwheels():
+    """SFU cartwheels: input 11.6 cm, after 0.84 cm (audit); no joint turns faster than in the input
+    (a toe-to-heel rock is cross-faded, not jumped)."""
     m = load("sfu_0007_Cartwheel001")
     r = enforce_footplants(m)
     before, after = r.measured_slide()
-    assert before > 0.10 and after < 0.02
-    slides = sorted(c.slide for c in r.audit_after.contacts if not c.effector.startswith("hand"))
-    assert slides[-3] < 0.01
+    assert before > 0.10 and after < 0.01
     assert r.joint_speed_after <= r.joint_speed_before + 1e-6
-    assert r.max_miss < 1e-3
 
 
 def test_blend_bandai_walk_to_run_and_to_walk_turn():
@@ -87,6 +82,18 @@ def test_footplant_on_the_sfu_and_cmu_walks():
     r = enforce_footplants(load("131_01"))
     before, after = r.measured_slide()
     assert before > 0.07 and after < 0.02
+
+
+def test_pathedit_of_a_walk_that_turns_around_on_the_spot_does_not_spin():
+    """CMU 01_01 hops forward, turns around on the spot and hops back: through the pause the path
+    tangent turns with the body, so the edited root never spins (before: a 180 deg flip of the
+    path tangent in one frame gave the root 328 rad/s)."""
+    h = load("01_01")
+    _, s, _ = motion_path(h)
+    r = path_edit(h, PathCurve.arc(float(s[-1]), np.radians(90)), plant=False)
+    from mocomp.audit.kinematics import step_rates
+
+    assert step_rates(r.motion)[0][:, 0].max() <= step_rates(h)[0][:, 0].max() + 2.0
 
 
 def test_pathedit_of_a_cmu_hop_onto_a_curve_keeps_the_flights():

@@ -334,6 +334,32 @@ def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: st
     return rot, targets, state
 
 
+def _close_gaps(plants: FootPlants, max_gap: int) -> tuple[FootPlants, int]:
+    """Plants of one foot point separated by fewer than ``max_gap`` unplanted frames joined into one
+    (a point lifted for a few frames and put back is held throughout: two targets that close in time
+    would make the foot jump between them). Points whose plants come from a CSV file are left as
+    given. Returns the plants and the number of frames added."""
+    import dataclasses
+
+    lab = np.array(plants.labels)
+    added = 0
+    for k, e in enumerate(plants.effectors):
+        if str(plants.source.get(e, "")).startswith("csv"):
+            continue
+        runs = label_intervals(lab[:, k])
+        for (a0, b0), (a1, b1) in zip(runs, runs[1:]):
+            if a1 - b0 < max_gap:
+                lab[b0:a1, k] = True
+                added += a1 - b0
+    if not added:
+        return plants, 0
+    lev = np.array(plants.levels)
+    fill = lab & np.isnan(lev)
+    if fill.any():
+        lev = np.where(fill, np.nanmedian(np.where(plants.labels, lev, np.nan), axis=0)[None], lev)
+    return dataclasses.replace(plants, labels=lab, levels=lev), added
+
+
 def enforce_footplants(motion: Motion, plants: FootPlants | None = None, *, contacts=None,
                        blend: int | None = None, height: str = "level", tol: float = 1e-6,
                        reach_margin: float = REACH_MARGIN, ease_kind: str = "smoothstep", passes: int = 2,
@@ -377,6 +403,10 @@ def enforce_footplants(motion: Motion, plants: FootPlants | None = None, *, cont
     P, G = motion.fk()
     pts = foot_points(P, G, plants)
     notes = []
+    plants, closed = _close_gaps(plants, max(1, blend // 2))
+    if closed:
+        notes.append(f"{closed} frame(s) of gaps shorter than {max(1, blend // 2)} frames between two plants of "
+                     "one foot point counted as planted")
     prev = None
     hinges = [hinge_axis(P, G, leg.chain) for leg in plants.legs]
     for k in range(passes):
@@ -401,6 +431,7 @@ def enforce_footplants(motion: Motion, plants: FootPlants | None = None, *, cont
         lev = np.where(lab, np.where(np.isnan(plants.levels), np.nanmedian(plants.levels, axis=0)[None],
                                      plants.levels), np.nan)
         plants = dataclasses.replace(plants, labels=lab, levels=lev)
+        plants, _ = _close_gaps(plants, max(1, blend // 2))
         prev = (rot, state)
     unreachable, lifted, max_miss = {}, {}, 0.0
     changed = np.zeros(motion.n_frames, bool)

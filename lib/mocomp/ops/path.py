@@ -228,10 +228,14 @@ class PathCurve:
         return {"kind": self.kind, "points": self.points.tolist(), "length_m": self.length}
 
 
-def motion_path(motion: Motion, path_sigma: float = 0.5, min_speed: float = 0.1):
+def motion_path(motion: Motion, path_sigma: float = 0.5, min_speed: float = 0.3):
     """The motion's own ground path: ``(path (T, 2) x,z m, arc length (T,) m, heading (T,) rad)``:
     the root's ground track smoothed by a Gaussian of ``path_sigma`` s, its arc length from frame 0
-    and its tangent's heading (held from the nearest frame moving faster than ``min_speed`` m/s)."""
+    and its tangent's heading. Where the path moves slower than ``min_speed`` m/s (0.3: a slow, tight
+    turn of the smoothed path near a stop is no heading to follow) the tangent is
+    undefined: at the clip's ends it is held from the nearest moving frame; through a pause it turns
+    from its direction before to its direction after with the body's heading (a walk that turns
+    around on the spot keeps facing along its path)."""
     xz = motion.root_positions[:, [0, 2]]
     sig = path_sigma * motion.fps
     path = gaussian_filter1d(xz, sig, axis=0, mode="nearest") if sig > 0 and motion.n_frames > 1 else np.array(xz)
@@ -244,12 +248,36 @@ def motion_path(motion: Motion, path_sigma: float = 0.5, min_speed: float = 0.1)
     if not moving.any():
         raise CurveError(f"{motion.source.path or 'the motion'} does not travel (its smoothed root path moves at most "
                          f"{speed.max():.3f} m/s, {s[-1]:.3f} m in all): there is no path to edit")
-    idx = np.arange(motion.n_frames)
+    T = motion.n_frames
+    idx = np.arange(T)
     prev = np.maximum.accumulate(np.where(moving, idx, -1))
-    nxt = np.minimum.accumulate(np.where(moving, idx, motion.n_frames)[::-1])[::-1]
-    near = np.where(prev < 0, nxt, np.where(nxt >= motion.n_frames, prev, np.where(idx - prev <= nxt - idx, prev, nxt)))
-    psi = np.unwrap(_angle(v[near]))
+    nxt = np.minimum.accumulate(np.where(moving, idx, T)[::-1])[::-1]
+    near = np.where(prev < 0, nxt, np.where(nxt >= T, prev, np.where(idx - prev <= nxt - idx, prev, nxt)))
+    psi = _angle(v[near])
+    # through a pause between two moving stretches (standing, turning on the spot) the tangent turns
+    # with the body: from its direction before to its direction after, in the body's sense of turning
+    from .align import headings
+
+    head = None
+    for a, b in _runs(~moving):
+        if a == 0 or b == T:
+            continue
+        if head is None:
+            head = headings(motion)
+        p0, p1 = _angle(v[a - 1]), _angle(v[b])
+        dh = float(head[b] - head[a - 1])
+        d = p1 - p0
+        d = d + 2 * np.pi * np.round((dh - d) / (2 * np.pi))            # the turn nearest the body's
+        w = (head[a:b] - head[a - 1]) / dh if abs(dh) > 1e-3 else (np.arange(a, b) - a + 1) / (b - a + 1)
+        psi[a:b] = p0 + d * np.clip(w, 0.0, 1.0)
+    psi = np.unwrap(psi)
     return path, s, psi
+
+
+def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    from ..dynamics.contacts import label_intervals
+
+    return label_intervals(mask)
 
 
 @dataclass(frozen=True, eq=False)
