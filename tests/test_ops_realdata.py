@@ -59,7 +59,7 @@ def test_pathedit_straight_walk_onto_the_captured_curved_walk():
     """Bandai straight walk (cut to the curve's length) onto the smoothed root path of the captured
     left-turning walk (measured: root 6.6 cm from the capture's root track on average, 15 cm at most --
     the capture's own sway is part of it; step 0.672 -> 0.663 m, capture 0.613 m; audit foot slide
-    6.6 -> 1.03 cm, the capture's own 1.48 cm; heading +95 deg)."""
+    6.6 cm moved, 0.76 cm planted, the capture's own 1.48 cm; heading +95 deg)."""
     w, cap = load("bandai2_walk_normal_001"), load("bandai2_walk-turn-left_normal_001")
     pc, sc, _ = motion_path(cap)
     curve = PathCurve(pc[::5])
@@ -70,7 +70,7 @@ def test_pathedit_straight_walk_onto_the_captured_curved_walk():
     err = path_distance(r.motion, cap.root_positions[:, [0, 2]])
     assert err.mean() < 0.08 and err.max() < 0.2
     assert abs(r.step_after.mean() - r.step_before.mean()) < 0.1 * r.step_before.mean()
-    assert r.footplants.measured_slide()[1] < min(0.0125, foot_slide(audit(cap)))
+    assert r.footplants.measured_slide()[1] < min(0.01, foot_slide(audit(cap)))
     assert abs(np.degrees(r.turn)) > 80
 
 
