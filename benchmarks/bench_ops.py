@@ -23,8 +23,27 @@ Rows (best of N wall time, garbage collector paused, a fresh Motion each run so 
 * ``pathedit``: :func:`mocomp.ops.path_edit` of the 10 s clip onto a 90 deg arc, feet re-planted
   (``audit=False``). No peer; the goal ratio is the goal over ours.
 
-Measured (2026-12-02, 2 shared cores, load average 3-4 from other jobs): see README row / the run's
-table; a quiet machine is ~2x faster.
+Measured (2026-12-02, 2 cores shared with three other jobs, load average 4-6; best of 15):
+
+=================================================  ================  ==================
+row                                                real SFU clip     synthetic (quick)
+=================================================  ================  ==================
+footplant, 10 s at 120 Hz (goal 30 ms)             55 ms (33-45 ms   28 ms
+                                                   in quieter runs)
+blend, 1 s window (goal 5 ms)                      3.2-3.5 ms        3.7 ms
+blend, 1 s window, feet planted (no goal)          118-136 ms        64 ms
+pathedit, 10 s onto a 90 deg arc (goal 30 ms)      132-140 ms        31 ms
+=================================================  ================  ==================
+
+The footplant and pathedit goals are not met on the real clip here. Where the time goes (profile of
+one footplant run on the real clip, ~35 ms): two contact detections (the input's, and the
+re-detection on the result that the audit will see: ~6-8 ms each), forward kinematics of input and
+result (~2 ms each), and two passes of targets, fades and IK (~10 ms each; the second re-solves only
+the frames whose correction changed, but recomputes the targets and fades). The path edit's SFU
+loop walk turns 300 deg in these 10 s and is bent by another 90 deg, so its feet need corrections
+on almost every frame of both passes; the synthetic straight walk needs far fewer. The peers are
+no match in scope (``plant_feet`` holds ankles at their touch-down, no detection, no toes, no fades)
+and say what the bare IK costs.
 """
 from __future__ import annotations
 
