@@ -40,7 +40,7 @@ __all__ = [
     "configure_offscreen", "RenderStyle", "Camera", "fit_camera", "BoneCapsule", "bone_capsules",
     "MotionRenderer", "VideoResult", "write_video", "render_still", "render_filmstrip", "save_png",
     "joint_matrices", "video_frame_times", "same_skeleton", "add_lights", "add_ground", "add_characters",
-    "apply_camera", "place_bones", "OffscreenScene",
+    "apply_camera", "place_bones", "OffscreenScene", "rotate_about_y",
 ]
 
 #: VTK render-window classes for headless rendering, by short name.
@@ -369,15 +369,25 @@ def _checker_texture(colors):
 
 
 # ------------------------------------------------------------- scene parts
-def add_lights(pl, style: RenderStyle, only_active: bool = False) -> None:
+def rotate_about_y(v, yaw: float) -> np.ndarray:
+    """``v`` (``(..., 3)``) rotated by ``yaw`` radians about the vertical (y) axis."""
+    c, s = np.cos(yaw), np.sin(yaw)
+    v = np.asarray(v, float)
+    return np.stack([c * v[..., 0] + s * v[..., 2], v[..., 1], -s * v[..., 0] + c * v[..., 2]], axis=-1)
+
+
+def add_lights(pl, style: RenderStyle, only_active: bool = False, yaw: float = 0.0) -> None:
     """Key light (along ``style.light_direction``, the shadows' light), fill light and a head light
-    on the plotter ``pl`` (its active renderer only with ``only_active``: one panel of several)."""
+    on the plotter ``pl`` (its active renderer only with ``only_active``: one panel of several).
+    ``yaw`` turns the key and fill lights about the vertical (a camera looking along another
+    direction than -z then sees the lit side, as the study's camera does)."""
     import pyvista as pv
 
     ld = np.asarray(style.light_direction, float)
-    ld /= np.linalg.norm(ld)
+    ld = rotate_about_y(ld / np.linalg.norm(ld), yaw)
     key = pv.Light(position=tuple(-ld * 10.0), focal_point=(0, 0, 0), intensity=0.85, light_type="scene light")
-    fill = pv.Light(position=(-3.0, 2.0, 6.0), focal_point=(0, 0, 0), intensity=0.35, light_type="scene light")
+    fill = pv.Light(position=tuple(rotate_about_y((-3.0, 2.0, 6.0), yaw)), focal_point=(0, 0, 0), intensity=0.35,
+                    light_type="scene light")
     head = pv.Light(intensity=0.25, light_type="headlight")
     for lt in (key, fill, head):
         pl.add_light(lt, only_active=only_active)

@@ -50,7 +50,7 @@ import numpy as np
 from ..core.motion import Motion
 from .render3d import (RADIUS_FRACTION, Camera, OffscreenScene, RenderStyle, _open_writer, _shadow_matrix, add_characters,
                        add_ground, add_lights, apply_camera, bone_capsules, configure_offscreen, fit_camera,
-                       joint_matrices, place_bones, save_png, ENCODER)
+                       joint_matrices, place_bones, rotate_about_y, save_png, ENCODER)
 
 __all__ = ["OUTPUT_KINDS", "CAMERAS", "OverlayStyle", "AuditTrack", "audit_track", "Pose", "phase_poses",
            "parse_frames", "resolve_frames", "output_kind", "view_directions", "make_cameras",
@@ -427,6 +427,16 @@ def make_cameras(kind: str, tracks: Sequence[AuditTrack], ranges: Sequence[tuple
     return [cam for _ in tracks]
 
 
+def _camera_yaw(cam) -> float:
+    """The rotation about the vertical (rad) that turns the study's viewing direction (-z) into the
+    horizontal part of ``cam``'s (for a camera looking straight down: into its ``view_up``)."""
+    c = cam.base if isinstance(cam, FollowCamera) else cam
+    d = np.subtract(c.focal_point, c.position) * np.array([1.0, 0.0, 1.0])
+    if np.linalg.norm(d) < 1e-6 * max(1.0, float(np.linalg.norm(np.subtract(c.focal_point, c.position)))):
+        d = np.asarray(c.view_up, float) * np.array([1.0, 0.0, 1.0])
+    return float(np.arctan2(-d[0], -d[2]))
+
+
 def _camera_at(cam, frame: int) -> Camera:
     return cam.at(frame) if isinstance(cam, FollowCamera) else cam
 
@@ -463,6 +473,15 @@ def _font(size: int, bold: bool = False):
         except OSError:  # pragma: no cover - matplotlib always ships DejaVu
             _FONT_CACHE[key] = ImageFont.load_default()
     return _FONT_CACHE[key]
+
+
+def _fit(draw, text: str, font, width: float) -> str:
+    """``text`` cut (with an ellipsis) to at most ``width`` pixels."""
+    if draw.textlength(text, font=font) <= width:
+        return text
+    while text and draw.textlength(text + "…", font=font) > width:
+        text = text[:-1]
+    return text.rstrip(", ") + "…"
 
 
 def _finding_text(f) -> str:
@@ -587,13 +606,15 @@ class AuditRenderer(OffscreenScene):
         self._pl = pl
         pl.ren_win.SetMultiSamples(int(style.multi_samples))
         pl.set_background(style.background)
-        self._S = _shadow_matrix(style.light_direction)
+        # the lights (and the shadows' projection) turn with the camera: every view sees the lit side
+        self.yaw = _camera_yaw(self.cameras[0])
+        self._S = _shadow_matrix(rotate_about_y(style.light_direction, self.yaw))
         self._panels = []
         disc = pv.Cylinder(center=(0, 0, 0), direction=(0, 1, 0), radius=ov.contact_radius, height=0.004,
                            resolution=24).triangulate()
         for k, tr in enumerate(self.tracks):
             pl.subplot(0, k)
-            add_lights(pl, style, only_active=True)
+            add_lights(pl, style, only_active=True, yaw=self.yaw)
             ground = add_ground(pl, style)
             ground.GetProperty().SetOpacity(ov.ground_opacity)
             # one translucent object (the ground): plain alpha blending is exact; VTK's default
@@ -890,8 +911,9 @@ def _filmstrip(tracks, ranges, style: RenderStyle, overlay: OverlayStyle, camera
                        fill=(60, 60, 60), font=_font(overlay.font_size - 1))
                 hits = sorted({f.check.replace("_", " ") for f in tr.findings_at(p.frame) if f.is_violation})
                 if hits:
-                    d.text((6, 3 + 2 * (overlay.font_size + 3)), ", ".join(hits), fill=(200, 20, 20),
-                           font=_font(overlay.font_size - 1))
+                    f = _font(overlay.font_size - 1)
+                    d.text((6, 3 + 2 * (overlay.font_size + 3)), _fit(d, ", ".join(hits), f, tile.width - 10),
+                           fill=(200, 20, 20), font=f)
                 tiles.append(np.concatenate([np.asarray(img), np.asarray(cap)], axis=0))
             render_s += r.render_seconds
         body = np.concatenate(tiles, axis=1)
