@@ -254,3 +254,22 @@ def test_video_gif_and_filmstrip_outputs(bf, tmp_path):
     ov = ra.OverlayStyle()
     n = len(s.poses[0])
     assert img.shape[1] == n * 60 and img.shape[0] == ov.header_height + 80 + ov.caption_height + ov.bar_height
+
+
+def test_lights_turn_with_the_camera(bf):
+    """A motion turned 180 deg about the vertical is seen from the other side; with the lights turning
+    with the camera (and the checker symmetric under the turn) the picture is the same, not the dark
+    side of the body."""
+    from mocomp.plots.render3d import rotate_about_y
+
+    np.testing.assert_allclose(rotate_about_y([0.0, 0.0, -1.0], np.pi / 2), [-1.0, 0.0, 0.0], atol=1e-12)
+    assert ra._camera_yaw(ra.Camera((0, 1, 5), (0, 1, 0))) == pytest.approx(0.0)
+    assert ra._camera_yaw(ra.Camera((5, 1, 0), (0, 1, 0))) == pytest.approx(np.pi / 2)
+    m = bf.motion
+    turned = m.rotated([0.0, 1.0, 0.0, 0.0])
+    imgs = []
+    for mm in (m, turned):
+        tr = ra.audit_track(mm, audit(mm, bf.body), style=SMALL)
+        with ra.AuditRenderer([tr], SMALL) as r:
+            imgs.append(r.scene([140]).astype(float))
+    assert np.abs(imgs[0] - imgs[1]).mean() < 1.0
