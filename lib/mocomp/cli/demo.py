@@ -14,7 +14,7 @@ def register(sub) -> None:
         "demo", help="embedded synthetic back flip -> double back flip (BVH, filmstrip, physics report)",
         description="Run the flagship method on the embedded default data: the synthetic single back "
                     "somersault (generated, physically exact) becomes a double back somersault that "
-                    "conserves angular momentum. Writes backflip_x2.bvh (and the original), a "
+                    "conserves angular momentum (k = k*, continuous at take-off; flight at g = 9.81 m/s^2). Writes backflip_x2.bvh (and the original), a "
                     "filmstrip PNG, momentum.png and report.json to the output folder and prints the "
                     "physics report (the model's planned values), ending with the verdict of mocomp.audit on "
                     "the frames written, against the single flip.")

@@ -4,7 +4,7 @@ and appendices B-C).
 
 >>> from mocomp import flips
 >>> prep = flips.prepare("backflip")            # pre-processing, once per clip (~0.1 s)
->>> res = flips.multiflip(prep, flips=2)        # run time (about half a millisecond)
+>>> res = flips.multiflip(prep, flips=2)        # run time (about half a millisecond); k = k*, g = 9.81
 >>> print(res.report)                           # the physics report
 >>> res.motion                                  # the new Motion
 
@@ -14,8 +14,11 @@ momentum (eq. 5.4-5.5), the angular-momentum direction and the self-looping sear
 (:mod:`.looping`, eq. 5.9). Run time (:func:`multiflip`, :class:`MultiFlipResult`):
 sequencing (:mod:`.sequence`, eq. 5.10-5.11), seam smoothing (:mod:`.smoothing`, eq. 5.14) and
 non-uniform retiming across the seams (:mod:`.seamtime`, eq. 5.22 as section 5.4.2.2 prescribes),
-retiming (:mod:`.retime`, App. B), repositioning (:mod:`.reposition`, eq. 5.15-5.17). The frame
-rate is checked from the fitted gravity of every flight of the clip (:func:`diagnose_timing`).
+retiming (:mod:`.retime`, App. B; ``k = k*`` by default, continuous at take-off), repositioning
+(:mod:`.reposition`, eq. 5.15-5.17, the new flight falling with g = 9.81 m/s^2 from the input's
+measured take-off velocity) and, beyond the paper, the take-off/landing repair that makes ``k < k*``
+physical (:mod:`.takeoff`, ``takeoff="repair"``). The frame rate is checked from the fitted
+gravity of every flight of the clip (:func:`diagnose_timing`); the fitted gravity is a diagnostic.
 """
 from .looping import SelfLoop, find_self_loop
 from .mass import (FlightFit, FlightTooShortError, MassEstimate, TimingDiagnosis, diagnose_gravity, diagnose_timing,
@@ -23,7 +26,8 @@ from .mass import (FlightFit, FlightTooShortError, MassEstimate, TimingDiagnosis
 from .multiflip import MultiFlipResult, PhysicsReport, landing_change_for_k, multiflip
 from .phases import FlightDetection, detect_flights
 from .preprocess import PreparedFlip, clip_prior, clip_timing, prepare, prepare_cached, spline_resample
-from .retime import RetimePlan, k_star, plan_retime
+from .retime import RetimePlan, k_star, plan_retime, resolve_gravity
+from .takeoff import StanceRepair, StanceRepairError, repair_stance
 from .sequence import Sequence, build_sequence, loop_count
 from .similarity import SimilarityWeights, frame_distance, similarity_weights
 
@@ -32,14 +36,16 @@ __all__ = [
     "landing_change_for_k",
     "detect_flights", "FlightDetection", "estimate_masses", "MassEstimate", "FlightFit", "fit_ballistic",
     "diagnose_gravity", "FlightTooShortError", "find_self_loop", "SelfLoop", "build_sequence", "Sequence",
-    "loop_count", "k_star", "plan_retime", "RetimePlan", "similarity_weights", "SimilarityWeights",
+    "loop_count", "k_star", "plan_retime", "RetimePlan", "resolve_gravity", "StanceRepair", "StanceRepairError",
+    "repair_stance", "similarity_weights", "SimilarityWeights",
     "frame_distance", "clip_prior", "spline_resample", "diagnose_timing", "TimingDiagnosis", "clip_timing",
 ]
 
 
 def demo(out_dir="mocomp-demo", flips: int = 2, source: str = "backflip", renderer: str = "auto",
          verbose: bool = True) -> dict:
-    """The project's demo: the embedded synthetic back flip turned into a double flip.
+    """The project's demo: the embedded synthetic back flip turned into a double flip (the
+    :func:`multiflip` defaults: ``k = k*``, flight at g = 9.81 m/s^2, take-off as is).
 
     Writes to ``out_dir``: ``<source>_x<flips>.bvh`` (the new motion), ``<source>_original.bvh``,
     ``filmstrip.png`` (original in yellow, multi-flip in turquoise; 3-D when offscreen
