@@ -81,3 +81,9 @@ def test_footplant_cli_takes_the_contacts_file(walk_bvh, tmp_path, capsys):
     assert d["intervals"]["foot_l"] == [[0, 60]] and d["source"]["foot_l"] == f"csv {c}"
     assert d["source"]["toe_l"] == "detector"
     assert "foot_l: 1 plant(s) (csv" in capsys.readouterr().out
+
+
+def test_blend_without_at_is_one_line_after_the_inputs_are_read(walk_bvh, tmp_path, capsys):
+    assert main(["blend", str(walk_bvh), str(walk_bvh), "-o", str(tmp_path / "x.bvh")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "--at A_FRAME:B_FRAME" in err and "frames 0-360" in err

@@ -31,8 +31,9 @@ def register(sub) -> None:
                     "written, against A.")
     p.add_argument("motion", metavar="A", help="first motion (file or clip name)")
     p.add_argument("motion_b", metavar="B", help="second motion (file or clip name)")
-    p.add_argument("--at", type=_at, required=True, metavar="A_FRAME:B_FRAME",
-                   help="corresponding frames (0-based), the centre of the window")
+    p.add_argument("--at", type=_at, metavar="A_FRAME:B_FRAME",
+                   help="corresponding frames (0-based), the centre of the window (required; checked after the "
+                        "inputs are read, so a bad input file is reported first)")
     p.add_argument("--window", type=int_in(1, 100000), default=10, metavar="N",
                    help="frames of the transition (default 10; at least 2)")
     p.add_argument("--align", choices=("root", "feet"), default="root",
@@ -56,6 +57,9 @@ def run(args) -> int:
     out = check_outputs(args)
     a = datasets.load(args.motion, fps=args.a_fps)
     b = datasets.load(args.motion_b, fps=args.b_fps)
+    if args.at is None:
+        raise ValueError(f"give the corresponding frames with --at A_FRAME:B_FRAME (A has frames 0-{a.n_frames - 1}, "
+                         f"B has frames 0-{b.n_frames - 1})")
     r = blend(a, b, args.at, args.window, by=args.align, ease_kind=args.ease, time_warp=args.time_warp,
               plant=not args.no_plant)
     t = r.transform

@@ -36,10 +36,10 @@ def run(args) -> int:
     from ._common import load_from_args
     from .footplant import check_outputs, finish
 
-    if args.curve is None and args.curve_file is None and args.turn is None:
-        raise ValueError("give the new path: --curve \"x,z;x,z;...\", --curve-file F.csv or --turn DEG")
     out = check_outputs(args)
     m = load_from_args(args)
+    if args.curve is None and args.curve_file is None and args.turn is None:
+        raise ValueError("give the new path: --curve \"x,z;x,z;...\", --curve-file F.csv or --turn DEG")
     kind = "polyline" if args.polyline else "spline"
     if args.curve is not None:
         curve = PathCurve.parse(args.curve, kind)
