@@ -137,9 +137,11 @@ def splice_files(tmp_path_factory):
 
 def _argv(command, tmp_path, splice_files):
     out = str(tmp_path / "o.bvh")
+    # join refuses a physically invalid join unless forced (issue #13 section 3), where that is built
+    force = ["--force"] if "--force" in {o for a in _leaf("join")._actions for o in a.option_strings} else []
     return {"flips": ["flips", "backflip", "--flips", "2", "-o", out],
             "edit": ["edit", "backflip", "--preset", "arms-twist", "-o", out],
-            "join": ["join", "backflip", "sideflip", "-o", out],
+            "join": ["join", "backflip", "sideflip", "-o", out, *force],
             "twist": ["twist", "twist180", "--degrees", "240", "-o", out],
             "splice": ["splice", str(splice_files / "body.bvh"), str(splice_files / "hand.bvh"), "-o", out],
             "demo": ["demo", "-o", str(tmp_path / "demo")]}[command]
