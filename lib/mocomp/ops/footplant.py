@@ -22,8 +22,15 @@ follows by :func:`~mocomp.ops.ik.two_bone_ik` (hip fixed, knee kept in the leg's
 straight leg, whose plane is noise, bends about its knee's hinge axis, :data:`BEND_PRIOR`). The reach
 is soft: a target within :data:`SOFT_REACH` of the leg's full length is approached smoothly by
 lifting the foot (horizontal hold kept), so the knee does not snap straight; the lifted frames and
-the few that still cannot be reached (a target beyond the leg horizontally) are reported. Nothing but the hip, knee and ankle local
-rotations changes; the root is never moved.
+the few that still cannot be reached (a target beyond the leg horizontally) are reported. Nothing
+but the hip, knee and ankle local rotations changes; the root is never moved.
+
+Around the plants: gaps of fewer than ``blend / 2`` frames between two plants of one point are
+closed (two targets that close in time would make the foot jump); a direct switch from toe-only to
+ankle-only frames (a foot rocking from toe to heel) is cross-faded over the blend frames; and the
+contact detector is run again on the result, the frames it finds planted there are added and the
+changed frames solved again (``passes``), so the audit, which uses the same detector, measures the
+plants that were enforced.
 
 This is the footskate cleanup of Kovar, Schreiner & Gleicher (SCA 2002) with analytic IK in place
 of their per-frame numerical solve, as the touch-up paper (Shin et al. 2003, sec. 3.1) uses it
