@@ -19,7 +19,8 @@ landing's). Of all such maps it takes the one with the least displacement: it mi
 (``D`` the window length, ``lambda`` = :data:`JERK_WEIGHT`: the jerk term keeps the ground force
 smooth, as a minimum-jerk profile would [Flash & Hogan 1985]) subject to, at every output frame of
 the window, the vertical ground reaction ``M (g + a_y)`` of the repaired COM between ``min_force``
-and ``max_force`` body weights (the ground pushes, it cannot pull: ``a_y >= -g``; peak take-off
+(0.5, :data:`MIN_FORCE`; 0.1 where the stance needs it, which the measured ZMP then shows) and
+``max_force`` body weights (the ground pushes, it cannot pull: ``a_y >= -g``; peak take-off
 forces of standing back somersaults are 3-6 body weights and of running ones 8-13, and ``k = 0.7 k*``
 asks for about twice the take-off speed, so ``max_force = 8`` (:data:`MAX_FORCE`), or the
 stance's own peak where that is higher). ``a_y`` is the
@@ -61,7 +62,7 @@ from ..core.motion import Motion
 from ..errors import PhysicsError
 
 __all__ = ["StanceRepair", "StanceRepairError", "repair_stance", "stance_displacement", "TAKEOFF_CHOICES",
-           "MAX_FORCE", "MIN_FORCE", "MAX_WINDOW_S", "JERK_WEIGHT", "DEGREE", "KNOT_SPACING_S", "ACC_SMOOTH_S",
+           "MAX_FORCE", "MIN_FORCE", "MIN_FORCE_FALLBACK", "MAX_WINDOW_S", "JERK_WEIGHT", "DEGREE", "KNOT_SPACING_S", "ACC_SMOOTH_S",
            "IK_TOLERANCE"]
 
 #: the values of ``multiflip(..., takeoff=...)`` / ``--takeoff``
@@ -72,8 +73,14 @@ TAKEOFF_CHOICES = ("as-is", "repair")
 #: peaks at 6.0 and the synthetic back flip's at 6.8. ``k = 0.7 k*`` asks for about twice the take-off
 #: speed, so the bound is that of a running take-off.
 MAX_FORCE = 8.0
-#: body weights: the smallest (the ground cannot pull; a margin keeps the ZMP defined)
-MIN_FORCE = 0.1
+#: body weights: the smallest vertical ground reaction the repaired stance may have (the ground cannot
+#: pull). Near zero the ZMP of eq. 4 is the ratio of two small numbers and runs far outside the support
+#: polygon (synthetic side flip at 0.7 k*: 0.49 m before the repair, 2.87 m after with a 0.1 floor,
+#: 0.42 m with 0.5); where no map keeps 0.5 (CMU 88_01's 0.3 s landing stance) the floor drops to
+#: :data:`MIN_FORCE_FALLBACK` and the measured ZMP says what it costs
+MIN_FORCE = 0.5
+#: body weights: the floor used where :data:`MIN_FORCE` cannot be kept
+MIN_FORCE_FALLBACK = 0.1
 #: s: the longest stretch of the stance the displacement map may use
 MAX_WINDOW_S = 0.8
 #: the weight of the jerk term of J(d): at 1e-5 a 3.2 m/s push over 0.8 s sinks 21 cm with forces of
@@ -369,12 +376,20 @@ def repair_stance(motion: Motion, com_fn, event: str, event_frame: float, dv, st
     order = np.argsort(tau)
     fine = np.linspace(0.0, D, 2 * frames.size + 1)[1:]
     a_fine = np.interp(fine, tau[order], a_own[order])
-    lo_fine = g * (min_force - 1.0) - a_fine
     hi_fine = g * (max_force - 1.0) - a_fine
     gain = 1.0
+    # the least vertical force: min_force, and only where the stance cannot do it so, MIN_FORCE_FALLBACK
+    floors = (float(min_force),) + ((MIN_FORCE_FALLBACK,) if min_force > MIN_FORCE_FALLBACK else ())
     for attempt in range(3):
-        disp, acc = _solve_map(tau, sign, dv, D, lo_fine, hi_fine, down / gain, up / gain, jerk_weight, frames, fps,
-                               event, a_fine, g, min_force, max_force, fine)
+        for i, floor in enumerate(floors):
+            lo_fine = g * (floor - 1.0) - a_fine
+            try:
+                disp, acc = _solve_map(tau, sign, dv, D, lo_fine, hi_fine, down / gain, up / gain, jerk_weight,
+                                       frames, fps, event, a_fine, g, floor, max_force, fine)
+                break
+            except StanceRepairError:
+                if i == len(floors) - 1:
+                    raise
         new_root, new_rot, miss, gain_seen = _apply_with_planted_feet(motion, com_fn, frames, disp, event,
                                                                       raise_errors=attempt == 2)
         if gain_seen is None:
