@@ -23,8 +23,13 @@ def load(name):
 
 @pytest.mark.parametrize("name", ["bandai1_walk_normal_001", "bandai2_walk_normal_001",
                                   "bandai2_walk-turn-left_normal_001", "bandai2_walk-turn-right_normal_001",
-                                  "bandai2_run_normal_001"])
-def test_footplant_on_bandai_walks_slides_under_a_centimetre_without_faster_joints(name):
+                                  "bandai2_run_normal_001", "bandai1_run_normal_001", "sfu_0005_Jogging001",
+                                  "deepmimic_walk", "deepmimic_run"])
+def test_footplant_on_walks_slides_under_a_centimetre_without_faster_joints(name):
+    """Measured after (audit): Bandai 0.38-0.61 cm, runs 0.07-0.25 cm, SFU jog 0.25 cm, DeepMimic walk
+    0.87 cm / run 0.17 cm; the inputs' own 0.5-3 cm. Not here (see the next tests): the ASE walk
+    (14.4 -> 1.05 cm; a heel that rolls up while the detector still counts it planted keeps half of
+    the ankle-toe residual) and the stylised CMU 131_01/131_02 (7.7 -> 1.8 cm, 4.6 -> 2.3 cm)."""
     m = load(name)
     r = enforce_footplants(m)
     before, after = r.measured_slide()
@@ -72,6 +77,13 @@ def test_pathedit_straight_walk_onto_the_captured_curved_walk():
     assert abs(r.step_after.mean() - r.step_before.mean()) < 0.1 * r.step_before.mean()
     assert r.footplants.measured_slide()[1] < min(0.01, foot_slide(audit(cap)))
     assert abs(np.degrees(r.turn)) > 80
+
+
+def test_footplant_on_the_ase_walk_short_of_the_goal():
+    r = enforce_footplants(load("ase_rl_WalkForward01"))
+    before, after = r.measured_slide()
+    assert before > 0.1 and after < 0.011
+    assert r.joint_speed_after < 1.1 * r.joint_speed_before       # measured 9.05 vs 8.48 rad/s
 
 
 def test_footplant_on_the_sfu_and_cmu_walks():

@@ -273,3 +273,19 @@ def test_lights_turn_with_the_camera(bf):
         with ra.AuditRenderer([tr], SMALL) as r:
             imgs.append(r.scene([140]).astype(float))
     assert np.abs(imgs[0] - imgs[1]).mean() < 1.0
+
+
+def test_real_88_01_landing_below_the_floor_is_drawn_red(real_data_dir):
+    """CMU 88_01 (real capture): every frame the audit finds below the floor has a red bone, and no
+    other frame; the filmstrip shows the flight by its take-off, apex and landing."""
+    from mocomp import datasets
+
+    m = datasets.load("88_01")
+    tr = ra.audit_track(m, name="88_01", style=SMALL)
+    rep = tr.report
+    np.testing.assert_array_equal(tr.penetrating.any(axis=1), rep.penetration.depth > rep.thresholds.penetration)
+    assert rep.by_check("floor_penetration")                 # the capture's own landing goes below its floor
+    labels = {p.label: p.frame for p in ra.phase_poses(rep)}
+    assert labels["take-off 1"] == rep.phases.takeoffs[0] and labels["landing 1"] == rep.phases.landings[0]
+    a, b = rep.phases.flights[0]
+    assert sum(a <= p.frame < b for p in ra.phase_poses(rep)) >= 4
