@@ -221,7 +221,7 @@ def consistent_toe_targets(targets: np.ndarray, pts: np.ndarray, plants: FootPla
 def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: str, tol: float,
            reach_margin: float, ease_kind: str, prev=None, hinges=None):
     """One enforcement pass. Returns ``(rot, targets, state)`` with ``state`` per leg side:
-    ``(delta (T, 3), rotvec (T, 3), miss (T,), lift (T,), solved (T,) bool)``. With ``prev`` (the
+    ``(delta (T, 3), rotvec (T, 3), miss (T,), lift (T,), solved (T,) bool, labels (T, 2))``. With ``prev`` (the
     ``(rot, state)`` of an earlier pass on the same motion) only the frames whose correction changed
     are solved again (the legs are independent and each frame's IK depends on its own correction)."""
     from ..core.rotations import quat_multiply
@@ -236,6 +236,9 @@ def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: st
     for li, leg in enumerate(plants.legs):
         ka, kt = 2 * li, 2 * li + 1
         la, lt = plants.labels[:, ka], plants.labels[:, kt]
+        if prev is not None and np.array_equal(prev[1][leg.side][5], plants.labels[:, [ka, kt]]):
+            state[leg.side] = prev[1][leg.side]          # this leg's plants did not change: nor does its solve
+            continue
         A, Tp = pts[:, ka], pts[:, kt]
         both = la & lt
         ja = leg.chain[2]
@@ -299,7 +302,7 @@ def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: st
         solve = (np.linalg.norm(delta, axis=1) > tol) | (np.linalg.norm(rv, axis=1) > tol)
         miss_all, lift_all = np.zeros(T), np.zeros(T)
         if prev is not None:
-            d0, r0, miss_all, lift_all, solved0 = prev[1][leg.side]
+            d0, r0, miss_all, lift_all, solved0, _ = prev[1][leg.side]
             miss_all, lift_all = miss_all.copy(), lift_all.copy()
             redo = (np.abs(delta - d0).max(axis=1) > 1e-15) | (np.abs(rv - r0).max(axis=1) > 1e-15) | (solve != solved0)
             reset = redo & ~solve                        # corrected before, not now: back to the input's pose
@@ -309,7 +312,7 @@ def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: st
             idx = np.flatnonzero(redo & solve)
         else:
             idx = np.flatnonzero(solve)
-        state[leg.side] = (delta, rv, miss_all, lift_all, solve)
+        state[leg.side] = (delta, rv, miss_all, lift_all, solve, plants.labels[:, [ka, kt]])
         if idx.size == 0:
             continue
         tgt = A[idx] + delta[idx] + quat_apply(Rq[idx], P[idx, ja] - A[idx])   # the ankle joint, moved with the foot
@@ -442,7 +445,7 @@ def enforce_footplants(motion: Motion, plants: FootPlants | None = None, *, cont
         prev = (rot, state)
     unreachable, lifted, max_miss = {}, {}, 0.0
     changed = np.zeros(motion.n_frames, bool)
-    for side, (_, _, miss, lift, solved) in state.items():
+    for side, (_, _, miss, lift, solved, _) in state.items():
         unreachable[side] = label_intervals(miss > UNREACHABLE_TOL)
         if lift.max() > UNREACHABLE_TOL:
             lifted[side] = (label_intervals(lift > UNREACHABLE_TOL), float(lift.max()))
