@@ -28,6 +28,10 @@ Rows
 * ``annotated side by side 2x640x480``: the same with ``against=`` a second motion (two 640x480
   views in one window, 1280x536 frames). Goal: 30 views/s (``ours_s <= 2 n / 30``, i.e. 15
   side-by-side frames/s); the note gives both rates.
+  Measured when they were added (2 cores, load 4-8 from other jobs): plain 19.8-31.1 frames/s,
+  annotated 14.9-20.0 (0.50-0.67 x the goal; 0.67-0.75 x plain at the same load), side by side
+  14.2-16.9 views/s. The VTK render is the same as the plain renderer's (36-40 ms at load 6,
+  ~11 ms unloaded); the marks, the time bar and the larger frame add ~5 ms a frame unloaded.
 * ``paper design``: ``study.render.render_stimulus_set`` on
   ``stimuli/paper_table2.toml`` (all stimuli rendered, nothing cached), including
   building and measuring every stimulus. Goal: a few minutes (``ours_s <= 300``).
