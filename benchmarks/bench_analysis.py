@@ -45,6 +45,13 @@ Measured: 1,000 participants 5.2 s, peak RSS 322 MB; 10,000: 32.7 s, 880 MB (loa
 average ~2-3; goal met); a second run at load ~1: 3.3 s and 25.9 s, same memory. Under heavy load (load ~4-5, another job holding 11 GB) the
 same code took 20 s / 72 s (10,000: 852 MB): then the directory walk and file reads
 dominate (page cache evicted), not the statistics.
+Issue 19 added the mean of the per-participant d' with its CI (two more matrix products per
+bootstrap chunk on the same resamples; the multinomial draws, ~1.5 s CPU at 10,000, were already
+there): +0.3-0.5 s CPU on the bootstrap of 22 rows x 10,000 participants (1.5-1.9 s -> 1.9-2.0 s).
+Whole runs at 10,000 on the shared host at load 6-8, old (eebdfa2) and new alternated in fresh
+processes: old 108.6 s / 892 MB, new 108.4 s / 881 MB, old 82.3 s / 881 MB, new 68.2 s / 881 MB;
+`run.py --only analysis` at load 4-6: 1,000 in 10.6 s / 323 MB, 10,000 in 85.6 s / 881 MB (goal
+missed under this load, as the old code misses it; memory unchanged, far under 2 GB).
 """
 from __future__ import annotations
 
