@@ -37,7 +37,7 @@ def test_edit_bad_inputs(tmp_path, capsys):
 
 def test_join_and_its_refusal(tmp_path, capsys):
     out = tmp_path / "j.bvh"
-    assert main(["join", "backflip", "sideflip", "-o", str(out)]) == 0
+    assert main(["join", "backflip", "sideflip", "-o", str(out), "--force"]) == 0
     assert read_bvh(out).n_frames > 200
     assert main(["join", "backflip", "twist180", "-o", str(out)]) == 2
     err = capsys.readouterr().err
@@ -182,8 +182,10 @@ def test_edit_explicit_short_flight_is_used_with_a_one_line_warning(tmp_path, ca
     assert "0.200 s, shorter than the 0.25 s minimum" in warn[0] and "used anyway" in warn[0]
     assert out.exists()
     # the edit of a flight that is not one is worse than its input: the audit of the output says so, one line
+    # (the body is airborne until frame 199, so the restoration runs the flight on to the touchdown there)
     assert len(warn) == 2 and warn[1].startswith(f"mocomp edit: warning: the output {out} has ")
-    assert "com_velocity_jump" in warn[1] and cap.out.splitlines()[-1].startswith("audit: FAIL")
+    assert "new or worse than its input" in warn[1] and cap.out.splitlines()[-1].startswith("audit: FAIL")
+    assert "until the body reaches the floor (frame 199)" in cap.out
 
 
 def test_edit_detected_synthetic_flight_passes_without_warning(tmp_path, capsys):
@@ -268,7 +270,7 @@ def _verdict(cap):
 @pytest.mark.parametrize("argv", [
     ["edit", "backflip", "--preset", "arms-twist"],
     ["twist", "twist180", "--degrees", "240"],
-    ["join", "backflip", "sideflip"],
+    ["join", "backflip", "sideflip", "--force"],
 ])
 def test_commands_end_with_the_audit_verdict(tmp_path, capsys, argv):
     out, rep = tmp_path / "o.bvh", tmp_path / "r.json"

@@ -94,7 +94,7 @@ def _plant_feet_reference(motion, start, weights, chains, tol=1e-3):
     return motion.replace(rotations=rot), solves
 
 
-def _recover_upright_reference(motion, first_ground, up_now, seconds, ce, contact=(0.05, 0.12)):
+def _recover_upright_reference(motion, first_ground, up_now, seconds, ce, contact=(0.05, 0.12), pivot=None):
     fix = seams._shortest_arc(np.asarray(up_now, dtype=float), np.array([0.0, 1.0, 0.0]))
     n = motion.n_frames - first_ground
     m = max(1, int(round(seconds * motion.fps)))
@@ -103,8 +103,9 @@ def _recover_upright_reference(motion, first_ground, up_now, seconds, ce, contac
     ident = np.broadcast_to([0.0, 0.0, 0.0, 1.0], (n, 4))
     q = slerp(ident, np.broadcast_to(fix, (n, 4)), s)
     c = ce(motion.root_positions[first_ground:first_ground + 1], motion.rotations[first_ground:first_ground + 1])[0]
-    low = motion[first_ground:first_ground + 1].positions[0, :, 1].min()
-    pivot = np.array([c[0], low, c[2]])
+    if pivot is None:
+        low = motion[first_ground:first_ground + 1].positions[0, :, 1].min()
+        pivot = np.array([c[0], low, c[2]])
     rp = np.array(motion.root_positions)
     rot = np.array(motion.rotations)
     rp[first_ground:] = pivot + quat_apply(q, rp[first_ground:] - pivot)
@@ -141,19 +142,25 @@ def test_upright_recovery_equals_the_reference(name, monkeypatch):
     real = seams.recover_upright
 
     def spy(*args, **kw):
-        seen["args"] = args
-        return real(*args, **kw)
+        seen["args"], seen["kw"] = args, kw
+        seen["out"] = real(*args, **kw)
+        return seen["out"]
 
     monkeypatch.setattr(seams, "recover_upright", spy)
     res = restore_momentum(r.body, r.motion, ed, r.flight, L_star=r.L0)
     assert res.foot_slide is not None and res.landing_tilt_deg > 1.0     # the recovery ran
     motion, fg, up_now, secs, _ = seen["args"]
-    ref, slide_ref = _recover_upright_reference(motion.replace(), fg, up_now, secs, ComEvaluator(r.body))
-    np.testing.assert_allclose(res.motion.root_positions, ref.root_positions, rtol=0, atol=1e-12)
-    np.testing.assert_allclose(res.motion.rotations, ref.rotations, rtol=0, atol=1e-12)
-    assert abs(res.foot_slide - slide_ref) < 1e-12
-    # frames before touchdown are left alone
+    pivot = seen["kw"]["pivot"]
+    assert pivot[1] == pytest.approx(res.landing.floor, abs=1e-12)       # on the floor (issue 13)
+    ref, slide_ref = _recover_upright_reference(motion.replace(), fg, up_now, secs, ComEvaluator(r.body),
+                                                pivot=pivot)
+    out, slide = seen["out"]
+    np.testing.assert_allclose(out.root_positions, ref.root_positions, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(out.rotations, ref.rotations, rtol=0, atol=1e-12)
+    assert abs(slide - slide_ref) < 1e-12
+    # frames before touchdown are left alone, by the recovery and by the landing after it
     assert np.array_equal(res.motion.rotations[:fg], motion.rotations[:fg])
+    assert np.array_equal(out.rotations[:fg], motion.rotations[:fg])
 
 
 def test_held_shift_known_answer():

@@ -128,8 +128,9 @@ def test_seam_evidence_is_measured_and_bounded_on_the_synthetic_join():
     """Issue 5 section 3: the join's seam evidence equals an independent measurement of the output,
     and stays within what the method achieves here (direction error at the seam 0.62 rad -- the
     bodies are 62 deg apart perpendicular to L there, documented; |L| within 7.4%; take-off velocity
-    as the back flip's own, landing within 0.34 m/s of the side flip's own); the direction bound is
-    flagged as a violation."""
+    within 0.1 m/s of the back flip's own, landing within 0.5 m/s of the side flip's own; the
+    landing now rests on the back flip's take-off floor, issue 13: the side flip's part came 7.5 cm
+    lower); the direction bound is flagged as a violation (``mocomp join`` refuses this join)."""
     r = joined("backflip", "sideflip")
     s = r.seam
     err = _direction_errors(r)
@@ -143,7 +144,7 @@ def test_seam_evidence_is_measured_and_bounded_on_the_synthetic_join():
     np.testing.assert_allclose(s["velocity_jump_landing_m_s"], jl, atol=1e-9)
     jt0 = _jumps(r, r.takeoff.motion, r.takeoff.flight)[0]
     jl0 = _jumps(r, r.landing.motion, r.landing.flight)[1]
-    assert np.abs(jt - jt0).max() < 0.05
+    assert np.abs(jt - jt0).max() < 0.1
     assert np.abs(jl - jl0).max() < 0.5
     assert s["velocity_jump_landing_excess_m_s"] == pytest.approx(np.abs(jl - jl0).max())
     assert len(s["violations"]) == 1 and "direction error" in s["violations"][0]
@@ -159,16 +160,17 @@ def test_direction_step_removes_the_seam_error_but_tilts_the_landing():
     r = joined("backflip", "sideflip", direction_step=True)
     assert _direction_errors(r).max() < 1e-6
     assert r.seam["direction_error_seam_rad"] < 1e-6
-    assert r.seam["velocity_jump_takeoff_excess_m_s"] < 0.05
+    assert r.seam["velocity_jump_takeoff_excess_m_s"] < 0.1
     assert 10.0 < r.landing_tilt_deg < 30.0
 
 
-@pytest.mark.parametrize("landing,dir_max,mag_max", [("deepmimic_sideflip", 1.3, 0.30),
+@pytest.mark.parametrize("landing,dir_max,mag_max", [("deepmimic_sideflip", 1.3, 0.35),
                                                      ("deepmimic_spinkick", 1.4, 0.06)])
 def test_real_join_seam_evidence_bounds_and_flags(real_data_dir, landing, dir_max, mag_max):
-    """DeepMimic joins (measured: direction 1.23 / 1.34 rad, |L| 28.8% / 4.7%, the take-off 1.5 m/s
-    off the captured one because the clips' flights are not ballistic): the numbers are the output's
-    and every exceeded bound is flagged."""
+    """DeepMimic joins (measured: direction 1.23 / 1.34 rad, |L| 34.0% / 4.7% -- the side flip's
+    flight now runs on 11 frames past the detector's end, to its touchdown, and the clip's own |L|
+    varies by 65% --, the take-off 1.5 m/s off the captured one because the clips' flights are not
+    ballistic): the numbers are the output's and every exceeded bound is flagged."""
     r = join_flights("deepmimic_backflip", landing)
     s = r.seam
     assert s["direction_error_max_rad"] == pytest.approx(_direction_errors(r).max(), abs=1e-6)

@@ -336,7 +336,9 @@ def test_unedited_real_clip_passes_through_unturned(real_data_dir, name):
     assert res.stages["original"].max_direction > 0.01          # the clip's own variation is real
     assert res.direction.first_departure is None
     assert res.direction.max_rotation_deg < 1e-9
-    assert res.report()["polish_max_rotation_deg"] < 1.0
+    # the final sweep evens out the resampling noise, also over the airborne frames after the
+    # detected flight up to the touchdown, where a captured body moves fastest (1.08 deg on 88_05)
+    assert res.report()["polish_max_rotation_deg"] < 1.5
     assert res.landing_tilt_deg < 1.0
     assert np.all(np.abs(res.magnitude.ratio - 1.0) < 1e-9)
 
@@ -382,8 +384,10 @@ def test_real_edit_leaves_frames_before_the_edit_untouched(real_data_dir, name, 
 @pytest.mark.parametrize("name,preset", [("cmu_88_01_backflip", "arms-twist"), ("cmu_90_08_sideflip", "straight-legs")])
 def test_foot_slide_of_the_upright_recovery_is_reported_beside_the_captures_own(real_data_dir, name, preset):
     """The CLI's 11.9 cm foot slide on CMU 88_01 + arms-twist is mostly the capture's own: its feet
-    already travel 10.5 cm during the landing contacts. The report gives both; the recovery adds
-    < 2 cm on these clips (measured +1.4 and +1.8 cm)."""
+    already travel 10.5 cm during the landing contacts. The report gives both, on this crude
+    contact measure (feet within 5-12 cm of their lowest; the recovery adds < 3 cm: measured +0.9
+    and +2.9 cm); the audit's planted contacts of the output slide no more than the input's."""
+    from mocomp.audit import audit
     from mocomp.edit.seams import _contact_weights, stance_slide
     from mocomp.flips.preprocess import prepare_cached
 
@@ -396,7 +400,12 @@ def test_foot_slide_of_the_upright_recovery_is_reported_beside_the_captures_own(
     own = stance_slide(pos, _contact_weights(pos[..., 1], (0.05, 0.12)))
     assert res.foot_slide_own == pytest.approx(own, abs=1e-12)
     assert own > 0.05
-    assert res.foot_slide < own + 0.02
+    assert res.foot_slide < own + 0.03
+
+    def slide(m):
+        return next(x.value for x in audit(m).measures() if x.key == "max_foot_slide_m")
+
+    assert slide(res.motion) <= slide(p.motion) + 0.0075     # the audit comparison's tolerance
     assert res.report(curves=False)["foot_slide_own_m"] == pytest.approx(own)
     assert "the input's own" in res.summary()
 

@@ -3,10 +3,33 @@ section 5.5; dissertation section 5.5)."""
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 
 from ._common import add_audit_arg, finite_float, fps_arg
 from ._common import positive_float as _positive
+
+
+def gravity_arg(text: str):
+    """``--gravity`` value: ``standard`` (9.81 m/s^2), ``clip`` (the input flight's fitted gravity)
+    or a positive number of m/s^2."""
+    if text in ("standard", "clip"):
+        return text
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is neither 'standard', 'clip' nor a number of m/s^2") from None
+    if not (math.isfinite(v) and 0.0 < v <= 1000.0):
+        raise argparse.ArgumentTypeError(f"must be 'standard', 'clip' or a positive number of m/s^2 up to 1000, "
+                                         f"got {text}")
+    return v
+
+
+def add_gravity_arg(p: argparse.ArgumentParser, what: str = "the input flight") -> None:
+    p.add_argument("--gravity", type=gravity_arg, default="standard", metavar="standard|clip|G",
+                   help="gravity the generated flight falls with: standard (9.81 m/s^2, default), clip (the "
+                        f"gravity fitted to {what}, the paper's choice, which carries a frame-rate or unit error "
+                        "of the clip into the output) or G in m/s^2; the fitted value is reported either way")
 
 
 def add_restore_args(p: argparse.ArgumentParser, k_default: str = "1 (k = k*)") -> None:
@@ -17,6 +40,35 @@ def add_restore_args(p: argparse.ArgumentParser, k_default: str = "1 (k = k*)") 
     k.add_argument("--k", type=_positive, default=None, help="explicit uniform retiming factor (>1 = faster)")
     p.add_argument("--takeoff-height", type=finite_float, default=0.0, metavar="H",
                    help="raise the take-off by H metres (a dive from a platform; the body is kept clear of it)")
+    add_gravity_arg(p)
+
+
+def write_motion(motion, out: Path) -> list[str]:
+    """Write ``motion`` as BVH at ``out``, the skeleton's channel layout kept except for joints with
+    fewer than three rotation channels (a DeepMimic elbow or knee hinge) that the command turned
+    about an axis they lack (an edit preset aims the forearm): those get all three rotation
+    channels, so the frames are written as computed. Returns the names of such joints."""
+    import numpy as np
+    from scipy.spatial.transform import Rotation
+
+    from ..core.rotations import euler_sequence
+    from ..io.bvh import write_bvh
+
+    sk = motion.skeleton
+    chans = [tuple(c) for c in sk.channels]
+    widened = []
+    for j, ch in enumerate(chans):
+        rot = [c for c in ch if c.endswith("rotation")]
+        if j == 0 or not 0 < len(rot) < 3:
+            continue
+        seq = euler_sequence(rot)
+        full = seq + "".join(a for a in "XYZ" if a not in seq)
+        eul = Rotation.from_quat(motion.rotations[:, j]).as_euler(full, degrees=True)
+        if np.abs(eul[:, len(seq):]).max() > 1e-6:
+            chans[j] = tuple(c for c in ch if not c.endswith("rotation")) + tuple(f"{a}rotation" for a in full)
+            widened.append(sk.names[j])
+    write_bvh(motion, out, channels=chans if widened else None)
+    return widened
 
 
 def check_output(path: str) -> Path:
@@ -69,7 +121,6 @@ def register(subparsers) -> None:
 def run(args: argparse.Namespace) -> int:
     from ..edit import apply_preset, restore_momentum
     from ..flips.preprocess import prepare
-    from ..io.bvh import write_bvh
     from ._common import audit_output, check_flight, finish_audit
 
     out = check_output(args.output)
@@ -80,15 +131,18 @@ def run(args: argparse.Namespace) -> int:
     body = P.body if args.estimate_masses else P.prior
     edited, plan = apply_preset(P.motion, P.flight, args.preset, up_side=args.up_side)
     res = restore_momentum(body, P.motion, edited, P.flight, k_ratio=args.k_ratio, k=args.k,
-                           reference=args.reference, method=args.method, takeoff_height=args.takeoff_height)
-    write_bvh(res.motion, out)
+                           reference=args.reference, method=args.method, takeoff_height=args.takeoff_height,
+                           gravity=args.gravity)
+    widened = write_motion(res.motion, out)
     print(f"{P.name}: flight frames {P.flight[0]}-{P.flight[1] - 1} at {P.fps:g} Hz; preset {args.preset} on frames "
           f"{plan.start}-{plan.stop - 1}")
     print("planned (the method's model values; the audit line at the end measures the frames written):")
     print(res.summary())
-    print(f"wrote {out} ({res.motion.n_frames} frames at {res.motion.fps:g} Hz)")
+    print(f"wrote {out} ({res.motion.n_frames} frames at {res.motion.fps:g} Hz)"
+          + (f"; {', '.join(widened)} written with three rotation channels (the edit turns them off their hinge)"
+             if widened else ""))
     if edited_out is not None:
-        write_bvh(edited, edited_out)
+        write_motion(edited, edited_out)
         print(f"wrote {edited_out} (the edit before restoration)")
     if args.report:
         res.write_report(args.report)

@@ -25,7 +25,10 @@ def register(subparsers) -> None:
                     "summary and report give the seam evidence (direction error at the seam, |L| error, COM "
                     "velocity jumps at take-off and landing against the inputs' own) and list the bounds "
                     "exceeded as notes (the model's planned values); the output ends with the verdict of mocomp.audit on "
-                    "the frames written, against both inputs.")
+                    "the frames written, against both inputs. A join whose frames the audit finds worse than its "
+                    "inputs (violations they do not have: L turning at the seam, COM velocity jumps, feet below the "
+                    "floor, ...) is not physically valid and is refused (exit 2, naming the findings); --force "
+                    "writes it anyway, with the warning.")
     p.add_argument("takeoff", metavar="A", help="motion whose take-off is used (file or clip name)")
     p.add_argument("landing", metavar="B", help="motion whose landing is used (file or clip name)")
     p.add_argument("-o", "--output", required=True, metavar="OUT.bvh", help="joined motion (BVH)")
@@ -46,44 +49,66 @@ def register(subparsers) -> None:
                             "7.0-13.7 m/s^2 is refused; a flight given here is measured the same way but only "
                             "noted")
     add_restore_args(p)
+    p.add_argument("--force", action="store_true",
+                   help="write the joined motion even when the audit of its frames finds violations its inputs do "
+                        "not have (by default such a join is refused: it is not physically valid)")
     add_audit_arg(p)
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..edit.join import join_flights
-    from ..io.bvh import write_bvh
-    from ._common import audit_output, finish_audit
-    from .edit import check_output
+    import os
 
-    from ..errors import ImplausibleFlightError
+    from ..edit.join import join_flights, load_part
+    from ..errors import ImplausibleFlightError, JoinError
+    from ._common import audit_output, finish_audit
+    from .edit import check_output, write_motion
 
     out = check_output(args.output)
+    if args.no_audit and not args.force:
+        raise JoinError("--no-audit skips the audit of the joined frames that decides whether the join is physically "
+                        "valid; add --force to write it unchecked")
     flights = tuple(None if f is None else tuple(f) for f in (args.takeoff_flight, args.landing_flight))
     try:
         res = join_flights(args.takeoff, args.landing, flights=flights, match=args.match,
                            full_alignment=not args.no_full_alignment, max_tilt_deg=args.max_tilt,
                            k_ratio=args.k_ratio, k=args.k, takeoff_height=args.takeoff_height,
-                           upright=not args.no_upright, direction_step=args.direction_step)
+                           upright=not args.no_upright, direction_step=args.direction_step,
+                           gravity=args.gravity)
     except ImplausibleFlightError as e:         # the Python API's override hint -> the CLI option
         if e.check is not None and e.source in ("takeoff", "landing"):
             name = args.takeoff if e.source == "takeoff" else args.landing
             e.args = (e.check.describe(str(name), override=f"--{e.source}-flight START STOP",
                                        fps_hint="convert it first: mocomp convert IN OUT.bvh --fps F"),)
         raise
-    write_bvh(res.motion, out)
     print("planned (the method's model values; the audit line at the end measures the frames written):")
     print(res.summary())
-    print(f"wrote {out} ({res.motion.n_frames} frames at {res.motion.fps:g} Hz)")
-    if args.report:
-        with open(args.report, "w") as fh:
-            json.dump(res.report(), fh, indent=1)
-        print(f"wrote {args.report}")
+    # the frames are written next to the output first and audited there (read back): a join whose
+    # frames are worse than its inputs is refused unless --force
+    tmp = out.with_name(f".{out.stem}.{os.getpid()}.partial.bvh")
     result = None
-    if not args.no_audit:
-        from .. import datasets
-
-        result = audit_output(out, datasets.load(args.takeoff), input_name=str(args.takeoff),
-                              other_inputs=((str(args.landing), datasets.load(args.landing)),))
+    try:
+        widened = write_motion(res.motion, tmp)
+        if not args.no_audit:
+            # against the inputs as the join used them (key-framed clips resampled, as load_part does)
+            result = audit_output(tmp, load_part(args.takeoff)[0], name=str(out), input_name=str(args.takeoff),
+                                  other_inputs=((str(args.landing), load_part(args.landing)[0]),))
+            if result.new and not args.force:
+                raise JoinError(f"the joined motion is not physically valid, so {out} was not written: "
+                                f"{result.warning}; --force writes it anyway")
+        os.replace(tmp, out)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+    print(f"wrote {out} ({res.motion.n_frames} frames at {res.motion.fps:g} Hz)"
+          + (f"; {', '.join(widened)} written with three rotation channels (turned off their hinge)" if widened else ""))
+    if args.report:
+        d = res.report()
+        d["refusal"] = {"refused_without_force": bool(result is not None and result.new), "forced": bool(args.force),
+                        "rule": "refused when the audit of the joined frames finds violations (by check and place) "
+                                "that neither input has, or has smaller (mocomp audit's new-or-worse rule)"}
+        with open(args.report, "w") as fh:
+            json.dump(d, fh, indent=1)
+        print(f"wrote {args.report}")
     finish_audit(args, "join", result, args.report)
     return 0

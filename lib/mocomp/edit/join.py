@@ -31,8 +31,13 @@ and the rest of the flight and the landing of motion ``B``:
    (:func:`~mocomp.edit.pipeline.three_steps`) with the target ``L_A``: the magnitude of L is
    restored across the transition by non-uniform retiming (step 1, the direction, only on
    request: section 5.2 adjusts transitions by retiming), then uniform retiming by ``k*``
-   and COM repositioning onto the parabola from ``A``'s take-off, with an optional raised
-   take-off (App. B; ``takeoff_height``) and the platform clearance of Fig. 5.10.
+   and COM repositioning onto the parabola (under 9.81 m/s^2 unless ``gravity`` says otherwise)
+   from ``A``'s take-off, with an optional raised take-off (App. B; ``takeoff_height``) and the
+   platform clearance of Fig. 5.10.
+5. **Land on A's floor.** ``B``'s part is translated so that its COM continues ``A``'s at the
+   seam, which moves ``B``'s floor with it (23-33 cm below ``A``'s for CMU 88_01 + 88_05, 7.6 cm
+   for the synthetic back flip + side flip); the parabola is planned to end where ``B``'s landing
+   touches the floor ``A`` took off from, and the landing is kept on it (:mod:`mocomp.edit.landing`).
 
 **The seam's tie rule.** Where several pairs fit equally well the plain argmin of the cost is
 ill-conditioned: joining a flight with a copy of itself makes every pair ``f = g`` of a held
@@ -77,7 +82,9 @@ either side; :func:`boundary_velocity_jumps`) and compared with the inputs' own;
 DeepMimic clips step 3's parabola does not match the captured take-off (the clips' flights
 are not ballistic: fitted gravity 7.8 m/s^2 for the back flip, 14.8 for the side flip), a
 1.5 m/s vertical jump. :attr:`JoinResult.seam` carries these numbers and the bounds they
-break (:data:`SEAM_LIMITS`, also in the notes).
+break (:data:`SEAM_LIMITS`, also in the notes). These are the model's numbers; ``mocomp join``
+audits the frames it would write and refuses a join that the audit finds worse than its inputs
+(``--force`` writes it anyway).
 """
 from __future__ import annotations
 
@@ -429,7 +436,7 @@ def join_flights(takeoff, landing, *, body=None, flights=(None, None), match: st
                  margin: float = 0.15, window_s: float = 0.1, phi_weight: float | None = None,
                  max_phi_deg: float = 120.0, max_root_mismatch_deg: float = 120.0, takeoff_height: float = 0.0, k_ratio: float | None = None,
                  k: float | None = None, upright: bool = True, recover_s: float = 0.3,
-                 direction_step: bool = False, polish: bool = True) -> JoinResult:
+                 direction_step: bool = False, polish: bool = True, gravity="standard") -> JoinResult:
     """Join the take-off of ``takeoff`` with the landing of ``landing`` in mid-flight (section 6).
 
     Parameters
@@ -454,6 +461,10 @@ def join_flights(takeoff, landing, *, body=None, flights=(None, None), match: st
         non-uniform motion retiming" (section 5.2); the transition's brief direction change is
         reported. Step 1 would turn the whole landing part to absorb it (a tilted landing).
     polish: final direction sweep when ``direction_step`` (see :func:`~mocomp.edit.restore_momentum`).
+    gravity: the joined flight's gravity: ``"standard"`` (9.81 m/s^2, default), ``"clip"`` (the take-off
+        part's fitted gravity) or m/s^2 (:func:`~mocomp.edit.linear.resolve_gravity`).
+
+    The landing comes to rest on the floor ``takeoff`` took off from (:mod:`mocomp.edit.landing`).
 
     The transition pair is the lowest-cost one up to the documented tie rule (module docstring,
     *The seam's tie rule*: cost ties within ``TIE_RTOL``/``TIE_ATOL``, then the smallest ``|phi|``,
@@ -622,12 +633,17 @@ def join_flights(takeoff, landing, *, body=None, flights=(None, None), match: st
     from ..flips.mass import fit_ballistic
 
     fitA = fit_ballistic(ce(mA2.root_positions[flA2[0]:flA2[1]], mA2.rotations[flA2[0]:flA2[1]]), mA2.fps, flA2[0])
-    # the intended landing: the joined motion's landing part without the full alignment's tilt
+    # the intended landing: the joined motion's landing part without the full alignment's tilt,
+    # resting on the floor A took off from (the landing part came with B's floor, moved by the
+    # translation that continues A's COM at the seam: 23-33 cm below A's for CMU 88_01 + 88_05)
+    from .landing import floor_level, lowest_heights
+
     q_untilt = quat_multiply(q_yaw, quat_inverse(q_B))
+    floor_A = floor_level(lowest_heights(mA2, 0, max(flA2[0], 1)), mA2.fps)
     res = three_steps(body, joined, fl_joined, LA2, fitA, original=mA2, original_flight=flA2, k=k,
                       k_ratio=k_ratio, takeoff_height=takeoff_height, polish=polish, com_eval=ce,
                       direction=direction_step, upright_ref=joined, upright_pre=q_untilt,
-                      recover_s=recover_s if upright else 0.0)
+                      recover_s=recover_s if upright else 0.0, landing_floor=floor_A, gravity=gravity)
     timings["restore"] = time.perf_counter() - t
     out = res.motion
     tilt_land = res.landing_tilt_deg

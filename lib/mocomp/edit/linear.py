@@ -43,7 +43,45 @@ from ..flips.mass import FlightFit
 from ..flips.reposition import ComEvaluator, FlightTrajectory, flight_trajectory
 from ..flips.retime import RetimePlan, plan_retime
 
-__all__ = ["LinearResult", "PlatformCheck", "correct_linear"]
+__all__ = ["LinearResult", "PlatformCheck", "correct_linear", "resolve_gravity", "GRAVITY_CHOICES"]
+
+#: the named choices of ``gravity`` (``"standard"``: 9.81 m/s^2, ``"clip"``: the input flight's fitted g)
+GRAVITY_CHOICES = ("standard", "clip")
+
+
+def resolve_gravity(gravity, fit: FlightFit | None = None) -> tuple[float, str]:
+    """``(g m/s^2, source)`` for the ``gravity`` option of the generated flights (issue #13 section 3).
+
+    ``"standard"`` (default; also ``None``): :data:`mocomp.dynamics.constants.G_STANDARD` = 9.81, the
+    gravity a physically valid output falls with; ``"clip"``: the input flight's fitted gravity
+    (``fit.gravity``; the paper's choice, which carries a clip's frame-rate or unit error into the
+    output: CMU 88_01's flight fits 11.82, the DeepMimic back flip 7.60); a number: that value in
+    m/s^2 (``source`` ``"given"``). The fitted value stays in the reports as a diagnostic."""
+    from ..dynamics.constants import G_STANDARD
+
+    if gravity is None or (isinstance(gravity, str) and gravity == "standard"):
+        return float(G_STANDARD), "standard"
+    if isinstance(gravity, str):
+        if gravity != "clip":
+            try:
+                gravity = float(gravity)
+            except ValueError:
+                raise ValueError(f"gravity must be 'standard', 'clip' or a number of m/s^2, got {gravity!r}") from None
+        else:
+            if fit is None:
+                raise ValueError("gravity='clip' needs the input flight's ballistic fit")
+            g = float(fit.gravity)
+            if not (np.isfinite(g) and g > 0):
+                raise PhysicsError(f"the input flight's fitted gravity is {g:.3f} m/s^2 (not downward): the flight "
+                                   "fit is not ballistic; use gravity='standard' (--gravity standard)")
+            return g, "clip"
+    try:
+        g = float(gravity)
+    except (TypeError, ValueError):
+        raise ValueError(f"gravity must be 'standard', 'clip' or a number of m/s^2, got {gravity!r}") from None
+    if not (np.isfinite(g) and 0.0 < g <= 1000.0):
+        raise ValueError(f"gravity must be a positive, finite number of m/s^2 (at most 1000), got {gravity!r}")
+    return g, "given"
 
 
 @dataclass(frozen=True)
@@ -84,6 +122,9 @@ class LinearResult:
     takeoff_height: m, height change applied to the take-off (App. B).
     platform: :class:`PlatformCheck` or ``None``.
     seconds: wall time.
+    gravity: m/s^2, the gravity the new flight falls with; gravity_source: ``"standard"``,
+        ``"clip"`` or ``"given"`` (:func:`resolve_gravity`); gravity_fitted: m/s^2, the input
+        flight's fitted gravity (a diagnostic of its frame rate and units).
     """
 
     motion: Motion
@@ -96,6 +137,9 @@ class LinearResult:
     takeoff_height: float
     platform: PlatformCheck | None
     seconds: float
+    gravity: float = 9.81
+    gravity_source: str = "standard"
+    gravity_fitted: float = float("nan")
 
     @property
     def k(self) -> float:
@@ -114,8 +158,8 @@ def _lowest_and_forward(motion: Motion, frame: int, direction: np.ndarray) -> tu
 
 def correct_linear(body, motion: Motion, flight, fit: FlightFit, *, k: float | None = None,
                    k_ratio: float | None = None, takeoff_height: float = 0.0, platform: bool | str = "auto",
-                   clearance: float = 0.0, gravity: float | None = None,
-                   com_eval: ComEvaluator | None = None) -> LinearResult:
+                   clearance: float = 0.0, gravity="standard",
+                   com_eval: ComEvaluator | None = None, landing_lift: float = 0.0) -> LinearResult:
     """Uniform retiming by ``k`` and COM repositioning over the flight (section 5.5.3).
 
     Parameters
@@ -125,14 +169,19 @@ def correct_linear(body, motion: Motion, flight, fit: FlightFit, *, k: float | N
         shorter than the original's; frames before ``start`` are the original's).
     flight: ``(start, stop)`` of ``motion``'s flight.
     fit: the *original* flight's ballistic fit (:func:`mocomp.flips.mass.fit_ballistic`):
-        take-off velocity ``(a_x, b_y, a_z)`` and duration; its gravity is used unless
-        ``gravity`` is given.
+        take-off velocity ``(a_x, b_y, a_z)`` and duration (its gravity only with ``gravity="clip"``).
+    gravity: the new flight's gravity, ``"standard"`` (9.81 m/s^2, default), ``"clip"`` (the
+        fit's) or m/s^2 (:func:`resolve_gravity`).
     k, k_ratio: retiming factor, or its ratio to ``k*`` (default 0.7, section 5.4.3).
     takeoff_height: m, raise the take-off (all frames before the flight) by this much.
     platform: enforce clearance over the take-off platform: ``"auto"`` (when
         ``takeoff_height > 0``), ``True`` or ``False``.
     clearance: m, required margin above the platform top.
     com_eval: a prepared :class:`~mocomp.flips.reposition.ComEvaluator` for ``body``.
+    landing_lift: m, raise the landing (the flight's last frame and every frame after it) by this
+        much above where the input puts it: the parabola is planned for ``dy + landing_lift`` (App. B)
+        and the frames after the flight follow. The pipeline uses it to make a landing pose that
+        the corrections turned touch the floor it lands on (:func:`mocomp.edit.landing.landing_lift`).
     """
     t0 = time.perf_counter()
     a, b = int(flight[0]), int(flight[1])
@@ -140,10 +189,7 @@ def correct_linear(body, motion: Motion, flight, fit: FlightFit, *, k: float | N
         raise ValueError(f"flight [{a}, {b}) is not a flight of this {motion.n_frames}-frame motion")
     fps = motion.fps
     ce = com_eval if com_eval is not None else ComEvaluator(body)
-    g = float(fit.gravity if gravity is None else gravity)
-    if not g > 0:
-        raise PhysicsError(f"the original flight's fitted gravity is {g:.3f} m/s^2 (not downward); "
-                           "the flight fit is not ballistic")
+    g, g_source = resolve_gravity(gravity, fit)
     h = float(takeoff_height)
     if not np.isfinite(h):
         raise ValueError(f"takeoff_height must be finite, got {takeoff_height!r}")
@@ -153,7 +199,10 @@ def correct_linear(body, motion: Motion, flight, fit: FlightFit, *, k: float | N
     T0 = (fit.stop - 1 - fit.start) / fps
     v0 = fit.b_y
     v_land = fit.b_y + 2.0 * fit.a_y * T0
-    dy = float(c_land[1] - c_take[1] - h)
+    lift = float(landing_lift)
+    if not np.isfinite(lift):
+        raise ValueError(f"landing_lift must be finite, got {landing_lift!r}")
+    dy = float(c_land[1] + lift - c_take[1] - h)
     try:
         plan = plan_retime(g, T_seq, v0, dy, v_land, k=k, k_ratio=k_ratio,
                            v_horizontal=float(np.hypot(fit.a_x, fit.a_z)))
@@ -241,10 +290,11 @@ def correct_linear(body, motion: Motion, flight, fit: FlightFit, *, k: float | N
     after = src > tl + eps
     if np.any(after):
         c_land_new = traj(np.array([(tl - ta) / kk]))[0]
-        rp[after] += c_land_new - c_land
+        rp[after] += c_land_new - c_land      # vertically: the lift (dy is planned with it)
     res = out.replace(root_positions=rp)
     com_out = ce(rp[fl], rot[fl])
     resid = float(np.max(np.linalg.norm(com_out - target, axis=1))) if fl.size else 0.0
     return LinearResult(motion=res, flight=(ja, jb + 1), source_times=src, plan=plan, trajectory=traj,
                         takeoff_time=float(tau_a), com_residual=resid, takeoff_height=h, platform=pcheck,
-                        seconds=time.perf_counter() - t0)
+                        seconds=time.perf_counter() - t0, gravity=g, gravity_source=g_source,
+                        gravity_fitted=float(fit.gravity))

@@ -38,6 +38,11 @@ from .restore import (DirectionResult, MagnitudeResult, correct_direction, corre
 __all__ = ["StageErrors", "RestoreResult", "restore_momentum", "three_steps", "changed_frames", "STAGES",
            "boundary_velocity_jumps"]
 
+#: deg/s: the upright recovery after a turned landing eases the tilt out no faster than this
+RECOVER_RATE = 90.0
+#: deg: a landing turned further than this off the vertical cannot end standing (noted)
+MAX_STANDING_TILT = 45.0
+
 #: evidence stages in order
 STAGES = ("original", "edited", "direction", "magnitude", "final")
 
@@ -112,10 +117,14 @@ class RestoreResult:
     timings: seconds per step (``direction``, ``magnitude``, ``linear``, ``polish``, ``evidence``, ``total``).
     polish: the final direction sweep over the output flight (``None`` if disabled).
     landing_tilt_deg: how far the corrections turned the landing off the vertical (degrees);
-    foot_slide: m, the largest horizontal travel of a foot on the ground while the tilt is eased back,
-        feet pinned by root translation and leg IK (:func:`mocomp.edit.seams.recover_upright`;
-        ``None``: no recovery); foot_slide_own: m, the same measure on the input's own frames after
+    foot_slide: m, the largest horizontal travel of a foot on the ground from the touchdown on, when
+        a tilt was eased back (feet pinned by root translation and leg IK,
+        :func:`mocomp.edit.seams.recover_upright` and :mod:`mocomp.edit.landing`), measured on the
+        output frames as :func:`_own_slide` (``None``: no recovery); foot_slide_own: m, the same measure on the input's own frames after
         its flight (captured landings slide too: 10.5 cm on CMU 88_01), for comparison.
+    landing: :class:`~mocomp.edit.landing.LandingCheck`, where the output's landing rests against the
+        floor it lands on, measured on its frames from the touchdown on (``None``: no frame after
+        the flight).
     velocity_jumps: measured COM velocity jumps (m/s, :func:`boundary_velocity_jumps`) across the
         output's take-off and landing (``takeoff_m_s``, ``landing_m_s``) and the original's
         (``..._own_m_s``); the retime plan's ``vy_*_jump`` are the model's (fitted parabola vs
@@ -143,10 +152,16 @@ class RestoreResult:
     foot_slide: float | None = None
     foot_slide_own: float | None = None
     velocity_jumps: dict | None = None
+    landing: "LandingCheck | None" = None
 
     @property
     def k(self) -> float:
         return self.linear.plan.k
+
+    @property
+    def gravity(self) -> float:
+        """m/s^2, the gravity the output flight falls with (``fit.gravity`` is the input's fitted one)."""
+        return self.linear.gravity
 
     @property
     def k_star(self) -> float:
@@ -174,6 +189,7 @@ class RestoreResult:
             lines.append(f"{name:<11} {e.max_direction:>17.2e}   {100 * e.max_magnitude:>15.2f}   "
                          f"{100 * e.rms_magnitude:>15.2f}")
         p = self.linear.plan
+        lines.append(self.gravity_line())
         lines.append(f"k = {p.k:.3f} (k* = {p.k_star:.3f}), take-off vy jump {p.vy_takeoff_jump:+.3f} m/s, "
                      f"landing vy jump {p.vy_landing_jump:+.3f} m/s; COM parabola residual "
                      f"{self.linear.com_residual:.1e} m")
@@ -190,9 +206,26 @@ class RestoreResult:
                          + ("" if self.foot_slide_own is None
                             else f"; the input's own {100 * self.foot_slide_own:.1f} cm")
                          + ")")
+        if self.landing is not None:
+            lines.append(self.landing_line())
         lines.append("time: " + ", ".join(f"{k} {1e3 * v:.1f} ms" for k, v in self.timings.items()))
         lines += [f"note: {n}" for n in self.notes]
         return "\n".join(lines)
+
+    def gravity_line(self) -> str:
+        return (f"gravity {self.gravity:.2f} m/s^2 ({self.linear.gravity_source}; the input flight's fitted "
+                f"{self.fit.gravity:.2f} m/s^2, a diagnostic)")
+
+    def landing_line(self) -> str:
+        """One line on where the landing rests (:attr:`landing`)."""
+        lc = self.landing
+        if lc is None:
+            return "landing: no frame after the flight"
+        return (f"landing: rests {100 * lc.offset:+.1f} cm from the floor it lands on (y = {lc.floor:.3f} m), "
+                f"deepest point {100 * lc.depth:.1f} cm below it (intended landing's own "
+                f"{100 * lc.reference_depth:.1f} cm); touchdown frame {lc.touchdown}, planned lift "
+                f"{100 * lc.lift:+.1f} cm, root height corrected by up to {100 * lc.shift_max:.1f} cm"
+                + ("" if lc.ok else " -- NOT on the floor (see note)"))
 
     def report(self, curves: bool = True) -> dict:
         """A JSON-serialisable report (numbers, and the per-frame curves when ``curves``).
@@ -206,7 +239,9 @@ class RestoreResult:
                                   "final": self.flight_duration()},
             "fps": self.motion.fps, "edit_frames": None if self.edit_frames is None else list(self.edit_frames),
             "reference": self.reference, "L_star": self.L_star.tolist(),
-            "gravity": self.fit.gravity, "takeoff_velocity": [self.fit.a_x, self.fit.b_y, self.fit.a_z],
+            "gravity_m_s2": self.gravity, "gravity_source": self.linear.gravity_source,
+            "gravity_fitted_m_s2": self.fit.gravity,
+            "takeoff_velocity": [self.fit.a_x, self.fit.b_y, self.fit.a_z],
             "direction": {"method": self.direction.method, "first_departure": self.direction.first_departure,
                           "evaluations": self.direction.evaluations,
                           "roughness_deg": self.direction.roughness_deg,
@@ -220,6 +255,7 @@ class RestoreResult:
                 2 * np.arccos(np.clip(np.abs(self.polish.corrections[:, 3]), 0, 1))))),
             "landing_tilt_deg": self.landing_tilt_deg, "foot_slide_m": self.foot_slide,
             "foot_slide_own_m": self.foot_slide_own, "velocity_jumps_measured": self.velocity_jumps,
+            "landing": None if self.landing is None else self.landing.as_dict(),
             "com_parabola_residual_m": self.linear.com_residual,
             "takeoff_height_m": self.linear.takeoff_height,
             "platform": None if self.linear.platform is None else {
@@ -312,7 +348,7 @@ def _stage(name, body, motion, flight, src_of_frame, target_fn, scale=1.0, L=Non
 def restore_momentum(body, original: Motion, edited: Motion, flight, *, k_ratio: float | None = None,
                      k: float | None = None, reference: str = "auto", L_star=None,
                      method: str = "smooth", takeoff_height: float = 0.0, platform: bool | str = "auto",
-                     clearance: float = 0.0, gravity: float | None = None, oversample: int = 8,
+                     clearance: float = 0.0, gravity="standard", oversample: int = 8,
                      tol: float = 1e-7, fit: FlightFit | None = None, polish: bool = True,
                      upright: bool = True, recover_s: float = 0.3,
                      auto_tol: float = AUTO_REFERENCE_TOL) -> RestoreResult:
@@ -354,7 +390,10 @@ def restore_momentum(body, original: Motion, edited: Motion, flight, *, k_ratio:
     method: step 1's solver, ``"smooth"`` (default: per-frame sweep, then all frames' corrections
         smoothed jointly under the same constraints), ``"gauss-newton"`` (the per-frame sweep
         alone) or ``"bfgs"`` (the paper's); see :func:`~mocomp.edit.restore.correct_direction`.
-    takeoff_height, platform, clearance, gravity: step 3 options (:func:`~mocomp.edit.linear.correct_linear`).
+    takeoff_height, platform, clearance: step 3 options (:func:`~mocomp.edit.linear.correct_linear`).
+    gravity: the gravity the restored flight falls with: ``"standard"`` (9.81 m/s^2, default),
+        ``"clip"`` (the input flight's fitted gravity, the paper's choice) or m/s^2
+        (:func:`~mocomp.edit.linear.resolve_gravity`); the fitted value stays in the report.
     oversample: step 2's fine grid (x the frame rate).
     tol: step 1's direction tolerance (rad).
     fit: the original flight's ballistic fit, if already computed.
@@ -362,7 +401,7 @@ def restore_momentum(body, original: Motion, edited: Motion, flight, *, k_ratio:
         frames' source times): the in-between poses that steps 2-3 interpolate move the
         finite-difference ``L`` off its direction by about the data's own frame-to-frame
         noise. The rotations are about each frame's COM, so the parabola stays exact; the
-        frames after the landing turn rigidly with the last one (reported).
+        frames after the landing turn with the last one, each about its own COM.
     upright, recover_s: step 1 turns every frame after the edit, the landing too (that is how
         asymmetric arms make a twist, Fig. 5.10). A standing landing tilted that way is eased back
         to the original's vertical over ``recover_s`` seconds after touchdown (about the ground
@@ -421,18 +460,30 @@ def restore_momentum(body, original: Motion, edited: Motion, flight, *, k_ratio:
 def three_steps(body, edited: Motion, flight, L_const, fit: FlightFit, *, original: Motion,
                 original_flight, L_orig=None, reference: str = "constant", method: str = "smooth",
                 tol: float = 1e-7, oversample: int = 8, k=None, k_ratio=None, takeoff_height: float = 0.0,
-                platform="auto", clearance: float = 0.0, gravity=None, polish: bool = True, notes=(),
+                platform="auto", clearance: float = 0.0, gravity="standard", polish: bool = True, notes=(),
                 edit_frames=None, com_eval=None, t_start=None, direction: bool = True,
-                upright_ref: Motion | None = None, upright_pre=None, recover_s: float = 0.3) -> RestoreResult:
+                upright_ref: Motion | None = None, upright_pre=None, recover_s: float = 0.3,
+                landing_floor: float | None = None, settle: bool = True) -> RestoreResult:
     """Steps 1-3 (and the final direction sweep) on ``edited``'s flight with the constant target
     ``L_const`` (or, with ``reference="original"``, ``original``'s per-frame ``L_orig`` on the same
-    frames); ``fit`` gives the take-off velocity and gravity for step 3. The ``original`` stage of
+    frames); ``fit`` gives the take-off velocity for step 3 (and its gravity with ``gravity="clip"``). The ``original`` stage of
     the evidence is ``original`` over ``original_flight`` against ``L_const`` (its own variation).
     ``direction=False`` skips step 1 and the final sweep (joins: section 5.2 adjusts a transition's
     momentum by retiming only). ``upright_ref``: a motion on ``edited``'s frame times whose root
     orientation (pre-multiplied by ``upright_pre``, if given) is the intended one; where the
     corrections turned the output's landing off its vertical, the tilt is eased back over
-    ``recover_s`` seconds after touchdown (:func:`mocomp.edit.seams.recover_upright`). Used by :func:`restore_momentum` and :func:`mocomp.edit.join.join_flights`."""
+    ``recover_s`` seconds after touchdown (:func:`mocomp.edit.seams.recover_upright`).
+
+    The landing comes to rest on the floor it lands on (:mod:`mocomp.edit.landing`): the intended
+    landing is ``upright_ref`` (turned by ``upright_pre``; ``edited`` without ``upright_ref``), its
+    floor the level it rests on after the flight, or ``landing_floor`` (m, in ``edited``'s
+    coordinates: a join lands on its take-off floor). Step 3 plans the parabola so that the
+    corrected pose touches that floor at the intended touchdown, the upright recovery starts
+    there and turns the body over the point it touches, and with ``settle`` the frames from the
+    touchdown on get the intended landing's clearance above the floor (root height, leg IK,
+    levelled planted feet). :attr:`RestoreResult.landing` measures the result; a landing that
+    does not rest within 1 cm of the floor gets a note. Used by :func:`restore_momentum`,
+    :func:`mocomp.edit.join.join_flights` and :func:`mocomp.edit.twist.twist_jump`."""
     t_all = time.perf_counter() if t_start is None else t_start
     if k is None and k_ratio is None:
         k_ratio = 1.0
@@ -443,6 +494,22 @@ def three_steps(body, edited: Motion, flight, L_const, fit: FlightFit, *, origin
     L_const = np.asarray(L_const, dtype=float)
     if L_orig is None:
         L_orig = flight_momentum(body, original, original_flight)
+    # the intended landing and its floor (mocomp.edit.landing), and the flight up to its touchdown
+    from .landing import landing_lift, landing_reference
+
+    if upright_ref is None:
+        land_motion = edited
+    else:
+        land_motion = upright_ref if upright_pre is None else upright_ref.rotated(np.asarray(upright_pre, dtype=float))
+    land_ref = landing_reference(land_motion, b)
+    b_detected = b
+    if land_ref is not None and land_ref.touchdown > b:
+        notes.append(f"the flight (frames {a}-{b - 1}) goes on for {land_ref.touchdown - b} more frame(s) until the "
+                     f"body reaches the floor (frame {land_ref.touchdown}): they are restored with it (frozen "
+                     "corrections there stopped a twist in mid-air)")
+        b = land_ref.touchdown
+        if reference != "constant":     # the per-frame target over the whole airborne phase (same frames)
+            L_orig = flight_momentum(body, original, (a, b))
     # step 1
     t = time.perf_counter()
     target1 = L_const if reference == "constant" else L_orig
@@ -467,18 +534,29 @@ def three_steps(body, edited: Motion, flight, L_const, fit: FlightFit, *, origin
                      f"{d.roughness_deg:.1f} deg): eq. 5.21's two-step recurrence oscillates when limbs move fast "
                      "relative to the frame rate; use method='smooth' (the joint solve), ease the edit in and out "
                      "more slowly or resample the clip to a higher frame rate")
+    floor_target, lift = None, 0.0
+    m1, L1 = d.motion, d.L_after
+    if land_ref is not None:
+        floor_target = land_ref.floor if landing_floor is None else float(landing_floor)
+        td = land_ref.touchdown
+        if settle:      # feet as level as the intended landing's by the touchdown (prepared in the air)
+            from .landing import level_feet
+
+            m1, lev_start = level_feet(d.motion, land_motion, td, land_ref.chains, earliest=(a + b) // 2)
+            if lev_start < b:
+                L1 = None                                   # flight frames changed: step 2 measures L again
+        lift = landing_lift(m1, td, floor_target, land_ref.touchdown_clearance)
     # step 2
     t = time.perf_counter()
     if reference == "constant":
-        mg = correct_magnitude(body, d.motion, (a, b), L_star=L_const, oversample=oversample, L_before=d.L_after)
+        mg = correct_magnitude(body, m1, (a, b), L_star=L_const, oversample=oversample, L_before=L1)
     else:
-        mg = correct_magnitude(body, d.motion, (a, b), oversample=oversample, reference=original,
-                               L_before=d.L_after)
+        mg = correct_magnitude(body, m1, (a, b), oversample=oversample, reference=original, L_before=L1)
     timings["magnitude"] = time.perf_counter() - t
     # step 3
     t = time.perf_counter()
     lin = correct_linear(body, mg.motion, mg.flight, fit, k=k, k_ratio=k_ratio, takeoff_height=takeoff_height,
-                         platform=platform, clearance=clearance, gravity=gravity, com_eval=ce)
+                         platform=platform, clearance=clearance, gravity=gravity, com_eval=ce, landing_lift=lift)
     timings["linear"] = time.perf_counter() - t
     # evidence
     t = time.perf_counter()
@@ -545,6 +623,8 @@ def three_steps(body, edited: Motion, flight, L_const, fit: FlightFit, *, origin
                              L=None if polish_res is None else polish_res.L_after)
     timings["evidence"] = time.perf_counter() - t
     tilt, slide, slide_own = 0.0, None, None
+    # the output frame of the touchdown: the first after the flight (which runs until the body reaches the floor)
+    td_out = lin.flight[1]
     if upright_ref is not None:
         from .seams import landing_tilt, recover_upright
 
@@ -554,17 +634,47 @@ def three_steps(body, edited: Motion, flight, L_const, fit: FlightFit, *, origin
         if upright_pre is not None:
             q_ref = quat_multiply(np.asarray(upright_pre, dtype=float), q_ref)
         tilt, up_now = landing_tilt(q_ref, final.rotations[fl_last, 0])
-        if tilt > 1.0 and recover_s > 0 and lin.flight[1] < final.n_frames:
+        if tilt > 1.0 and recover_s > 0 and td_out < final.n_frames:
             tr = time.perf_counter()
-            final, slide = recover_upright(final, lin.flight[1], up_now, recover_s, ce)
+            # no faster than RECOVER_RATE: a 56 deg tilt (CMU 90_08 + straight-legs) eased out within
+            # 0.3 s swung the COM by 0.75 m in 0.3 s (4 m/s velocity jumps on the ground)
+            recover_s = max(recover_s, tilt / RECOVER_RATE)
+            pivot = None
+            if floor_target is not None:    # under the COM on the floor (not at the lowest joint, which
+                # for a turned body is above the floor or below it: 6.8 cm on the synthetic back flip)
+                c = ce(final.root_positions[td_out:td_out + 1], final.rotations[td_out:td_out + 1])[0]
+                pivot = np.array([c[0], floor_target, c[2]])
+            final, slide = recover_upright(final, td_out, up_now, recover_s, ce, pivot=pivot)
             timings["upright"] = time.perf_counter() - tr
-            slide_own = _own_slide(upright_ref, b)
-            notes.append(f"the corrections turned the landing {tilt:.1f} deg off the vertical; it is eased back "
-                         f"upright over {recover_s:g} s after touchdown (a torque from the ground), the feet on "
-                         f"the ground held by root translation and leg IK (largest slide {100 * slide:.1f} cm"
-                         + ("" if slide_own is None else
-                            f"; the input's own feet travel {100 * slide_own:.1f} cm during its landing contacts")
-                         + ")")
+            slide_own = _own_slide(upright_ref, b_detected)
+            if tilt > MAX_STANDING_TILT:
+                notes.append(f"the corrections turned the landing {tilt:.0f} deg off the vertical (more than "
+                             f"{MAX_STANDING_TILT:g} deg): no standing landing follows from that; easing it upright "
+                             "needs a torque from the ground no landing gives (see the audit's COM velocity jumps and "
+                             "ZMP) -- a smaller edit, or a landing that rolls out, would be physical")
+    landing = None
+    if land_ref is not None and td_out < final.n_frames:
+        from .landing import check_landing, rest_on_floor
+
+        tr = time.perf_counter()
+        fr = np.arange(td_out, final.n_frames)
+        info = None
+        if settle:
+            final, info = rest_on_floor(final, td_out, floor_target, land_ref, src3(fr))
+        landing = check_landing(final, td_out, floor_target, land_ref, lift, info)
+        timings["landing"] = time.perf_counter() - tr
+    if slide is not None:
+        # the feet's slide on the frames written (after the floor contact was restored), the measure
+        # of the input's own landing contacts (foot_slide_own)
+        slide = _own_slide(final, td_out) or 0.0
+        notes.append(f"the corrections turned the landing {tilt:.1f} deg off the vertical; it is eased back "
+                     f"upright over {recover_s:.2g} s after touchdown (a torque from the ground), the feet on "
+                     f"the ground held by root translation and leg IK (largest slide {100 * slide:.1f} cm"
+                     + ("" if slide_own is None else
+                        f"; the input's own feet travel {100 * slide_own:.1f} cm during its landing contacts")
+                     + ")")
+        if not landing.ok:
+            notes.append(f"landing: {landing.describe()}")
     comF = ce(final.root_positions, final.rotations)
     comO = ce(original.root_positions, original.rotations)
     jt, jl = boundary_velocity_jumps(comF, lin.flight, final.fps)
@@ -585,4 +695,4 @@ def three_steps(body, edited: Motion, flight, L_const, fit: FlightFit, *, origin
                          flight_out=lin.flight, reference=reference, L_star=L_const, fit=fit,
                          edit_frames=edit_frames, direction=d, magnitude=mg, linear=lin, stages=stages,
                          timings=timings, notes=tuple(notes), polish=polish_res, landing_tilt_deg=tilt,
-                         foot_slide=slide, foot_slide_own=slide_own, velocity_jumps=vjumps)
+                         foot_slide=slide, foot_slide_own=slide_own, velocity_jumps=vjumps, landing=landing)

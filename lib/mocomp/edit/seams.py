@@ -125,10 +125,14 @@ def _held_shift(w: np.ndarray, err: np.ndarray) -> np.ndarray:
 
 
 def recover_upright(motion: Motion, first_ground: int, up_now: np.ndarray, seconds: float, ce,
-                    pin_feet: bool = True, contact: tuple[float, float] = (0.05, 0.12)):
+                    pin_feet: bool = True, contact: tuple[float, float] = (0.05, 0.12),
+                    pivot=None):
     """Ease the landing tilt out after touchdown: frames from ``first_ground`` turn by a growing
-    fraction of the rotation taking ``up_now`` back to vertical, about the ground point under the
-    COM at touchdown.
+    fraction of the rotation taking ``up_now`` back to vertical, about ``pivot`` (``(3,)`` m;
+    default: the ground point under the COM at touchdown, at the lowest joint's height -- which for
+    a turned body is not the floor: :func:`mocomp.edit.pipeline.three_steps` gives the point under
+    the COM on the floor). ``first_ground`` must be the frame where the body reaches the floor:
+    turning it earlier turns it in mid-air (:mod:`mocomp.edit.landing`).
 
     The rotation alone carries the feet with it, and brings to the floor feet that the tilted
     landing (a join's fully aligned landing part) was moving in the air: on the DeepMimic back
@@ -157,8 +161,10 @@ def recover_upright(motion: Motion, first_ground: int, up_now: np.ndarray, secon
     ident = np.broadcast_to([0.0, 0.0, 0.0, 1.0], (n, 4))
     q = slerp(ident, np.broadcast_to(fix, (n, 4)), s)
     c = ce(motion.root_positions[first_ground:first_ground + 1], motion.rotations[first_ground:first_ground + 1])[0]
-    low = motion_fk(motion, first_ground, first_ground + 1)[0][0, :, 1].min()
-    pivot = np.array([c[0], low, c[2]])
+    if pivot is None:
+        low = motion_fk(motion, first_ground, first_ground + 1)[0][0, :, 1].min()
+        pivot = np.array([c[0], low, c[2]])
+    pivot = np.asarray(pivot, dtype=float)
     rp = np.array(motion.root_positions)
     rot = np.array(motion.rotations)
     rp[first_ground:] = pivot + quat_apply(q, rp[first_ground:] - pivot)

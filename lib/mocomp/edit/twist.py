@@ -119,6 +119,8 @@ class TwistResult:
             f = self.restore.stages["final"]
             lines.append(f"  L over the new flight: direction error <= {f.max_direction:.1e} rad, |L| error <= "
                          f"{100 * f.max_magnitude:.1f}% (against k |L*|)")
+            lines.append(f"  {self.restore.gravity_line()}")
+            lines.append(f"  {self.restore.landing_line()}")
         lines += [f"  note: {n}" for n in self.notes]
         return "\n".join(lines)
 
@@ -209,7 +211,7 @@ def _cut_sequence(P, deficit: float, max_mean_angle: float = 15.0):
 
 def twist_jump(source, degrees: float, *, body=None, k_ratio: float | None = None, k: float | None = None,
                max_k: float = 1.5, window_s: float = 0.08, prepared=None, direction_step: bool = True,
-               tol_deg: float = 1.0, max_rounds: int = 5) -> TwistResult:
+               tol_deg: float = 1.0, max_rounds: int = 5, gravity="standard") -> TwistResult:
     """A twist jump turning ``degrees`` in all (from the first to the last frame), made from
     the twist jump ``source`` (a :class:`Motion`, file or clip name; see the module docstring).
 
@@ -221,7 +223,9 @@ def twist_jump(source, degrees: float, *, body=None, k_ratio: float | None = Non
     (small inertia about the vertical), so the seams' brief tilt mismatches swing L's direction
     a lot unless it is restored. Step 1 turns the frames after each disturbance a little, which
     changes the total rotation by a few degrees, so the request is corrected and the jump rebuilt
-    (secant steps, at most ``max_rounds``) until it is met within ``tol_deg``.
+    (secant steps, at most ``max_rounds``) until it is met within ``tol_deg``. ``gravity``: the new
+    flight's, ``"standard"`` (9.81 m/s^2, default), ``"clip"`` (the input flight's fitted gravity) or
+    m/s^2 (:func:`~mocomp.edit.linear.resolve_gravity`).
     """
     P = prepared if prepared is not None else prepare_twist(source, body)
     want = float(degrees)
@@ -231,7 +235,7 @@ def twist_jump(source, degrees: float, *, body=None, k_ratio: float | None = Non
     lo_r, hi_r = reachable_range(P, max_k)
     for _ in range(max(1, int(max_rounds))):
         r = _twist_once(source, ask, k_ratio=k_ratio, k=k, max_k=max_k, window_s=window_s, prepared=P,
-                        direction_step=direction_step)
+                        direction_step=direction_step, gravity=gravity)
         err = r.achieved_deg - want
         tried.append((ask, r.achieved_deg))
         if best is None or abs(err) < abs(best.achieved_deg - want):
@@ -266,7 +270,7 @@ def _with_note(r, note):
 
 
 def _twist_once(source, degrees: float, *, k_ratio=None, k=None, max_k: float = 1.5, window_s: float = 0.08,
-                prepared=None, direction_step: bool = True) -> TwistResult:
+                prepared=None, direction_step: bool = True, gravity="standard") -> TwistResult:
     """One build of :func:`twist_jump` for the angle ``degrees`` (no angle correction)."""
     t0 = time.perf_counter()
     timings = {}
@@ -388,7 +392,7 @@ def _twist_once(source, degrees: float, *, k_ratio=None, k=None, max_k: float = 
     try:
         res = three_steps(body, seq_motion, fl_seq, L_const, P.fit, original=P.motion, original_flight=(s, e),
                           L_orig=L_orig, k=k, k_ratio=k_ratio, com_eval=ce, direction=direction_step,
-                          upright_ref=seq_motion)
+                          upright_ref=seq_motion, gravity=gravity)
     except PhysicsError as exc:
         raise TwistRangeError(f"{degrees:g} deg: {exc}") from exc
     timings["restore"] = time.perf_counter() - t
@@ -399,7 +403,7 @@ def _twist_once(source, degrees: float, *, k_ratio=None, k=None, max_k: float = 
     th_out, _ = split_root(np.asarray(out.rotations[:, 0]), P.axis, getattr(P, "root_ref", None))
     achieved = float(np.degrees(abs(th_out[-1] - th_out[0])))
     plan = res.linear.plan
-    g_ = res.fit.gravity
+    g_ = res.gravity                    # the new flight's (the input's apex height at the same g)
     v_new = plan.vy_takeoff_new
     v_old = P.fit.b_y
     fl_rot_new = abs(th_out[fb - 1] - th_out[fa])
