@@ -36,12 +36,13 @@ two-stage splice 16-18 ms (alignment 12-14 ms), error 0.80 frames.
 ``--quick``: 138 us vs dtaidistance 229 us (1.7x; equal cells 132 us, 1.0x)
 and dtw-python 2.4 ms. Of the quick call ~55 us are the local costs, ~50 us
 the recurrence with step codes, ~13 us the band, the rest Python glue.
-Issue #19 run (load average 6-8 on the 2 cores, so everything ~3-4x slower
-than the figures above: banded DTW 9-12 ms against the 2.3-3.0 ms above,
-ratio to dtaidistance 2.7-3.9x): subsequence DTW 3600 x 360 18 ms vs
-dtw-python 99 ms (5.5x), same cost, end frame and path; the two-stage splice
-59-125 ms with the quality checks (8-47 ms of it under that load; measured
-apart, 13 ms of 97-124 ms), so its 50 ms goal could not be checked in that run.
+Issue #19 runs: at load average ~1.4 banded DTW 5.0 ms vs dtaidistance
+12.4 ms (2.5x) and dtw-python 56 ms (11x); subsequence DTW 3600 x 360
+8.3 ms vs dtw-python's open_begin/open_end 55.5 ms (6.7x), same cost, end
+frame and path; the two-stage splice 27.8 ms (goal met), of which the quality
+checks take ~5 ms (31.3 ms with them, 25.0 ms with ``quality=False``, best of
+9). At load 6-8 everything was ~3-4x slower (splice 59-125 ms, subsequence
+18 ms vs 99 ms).
 """
 from __future__ import annotations
 
