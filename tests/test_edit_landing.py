@@ -259,3 +259,28 @@ def test_twist_not_a_flip_names_the_cli_option(tmp_path, capsys):
     assert main(["twist", "jump", "--degrees", "90", "-o", str(tmp_path / "t.bvh")]) == 2
     err = capsys.readouterr().err
     assert "--min-angle" in err and "prepare(" not in err and "loop_options" not in err
+
+
+# ------------------------------------------------------------- take-off velocity
+def test_takeoff_velocity_keeps_an_exact_fit_and_follows_a_push_off_the_fit_misses():
+    """Known answers on the synthetic back flip (exact ballistic flight): ``"auto"`` keeps the fit's
+    take-off velocity; given a fit 1 m/s off vertically (a flight that is not ballistic, as the
+    DeepMimic back flip's), it takes the captured push-off's instead, within the push-off
+    quadratic's bias (0.15 m/s) of the true one."""
+    import dataclasses
+
+    from mocomp.edit.linear import takeoff_velocity_of
+    from mocomp.flips.reposition import ComEvaluator
+
+    r = example("backflip")
+    a, b = r.flight
+    ce = ComEvaluator(r.body)
+    fit = fit_ballistic(center_of_mass(r.body, r.motion)[a:b], r.motion.fps, a)
+    v, src = takeoff_velocity_of(r.motion, a, fit, ce)
+    assert src == "fit" and np.allclose(v, [fit.a_x, fit.b_y, fit.a_z])
+    off = dataclasses.replace(fit, b_y=fit.b_y - 1.0)
+    v2, src2 = takeoff_velocity_of(r.motion, a, off, ce)
+    assert src2 == "frames" and abs(v2[1] - fit.b_y) < 0.15
+    assert takeoff_velocity_of(r.motion, a, off, ce, "fit")[1] == "fit"
+    with pytest.raises(ValueError, match="takeoff_velocity"):
+        takeoff_velocity_of(r.motion, a, fit, ce, "guess")

@@ -43,7 +43,8 @@ from ..flips.mass import FlightFit
 from ..flips.reposition import ComEvaluator, FlightTrajectory, flight_trajectory
 from ..flips.retime import RetimePlan, plan_retime
 
-__all__ = ["LinearResult", "PlatformCheck", "correct_linear", "resolve_gravity", "GRAVITY_CHOICES"]
+__all__ = ["LinearResult", "PlatformCheck", "correct_linear", "resolve_gravity", "GRAVITY_CHOICES",
+           "takeoff_velocity_of"]
 
 #: the named choices of ``gravity`` (``"standard"``: 9.81 m/s^2, ``"clip"``: the input flight's fitted g)
 GRAVITY_CHOICES = ("standard", "clip")
@@ -125,6 +126,9 @@ class LinearResult:
     gravity: m/s^2, the gravity the new flight falls with; gravity_source: ``"standard"``,
         ``"clip"`` or ``"given"`` (:func:`resolve_gravity`); gravity_fitted: m/s^2, the input
         flight's fitted gravity (a diagnostic of its frame rate and units).
+    takeoff_velocity: ``(3,)`` m/s, the COM velocity the flight leaves with before the retiming
+        (``k`` times it after); takeoff_velocity_source: ``"frames"`` (the captured push-off's) or
+        ``"fit"`` (the ballistic fit's).
     """
 
     motion: Motion
@@ -140,10 +144,54 @@ class LinearResult:
     gravity: float = 9.81
     gravity_source: str = "standard"
     gravity_fitted: float = float("nan")
+    takeoff_velocity: tuple = (float("nan"),) * 3
+    takeoff_velocity_source: str = "fit"
 
     @property
     def k(self) -> float:
         return self.plan.k
+
+
+#: s: the ground frames up to the take-off whose COM gives the captured take-off velocity (a
+#: one-sided quadratic fit, as :mod:`mocomp.audit.com` measures velocity jumps)
+TAKEOFF_WINDOW_S = 0.03
+#: m/s: ``takeoff_velocity="auto"`` keeps the ballistic fit's take-off velocity unless the captured
+#: push-off's differs from it by more than this (any component)
+TAKEOFF_TOL = 0.3
+
+
+def takeoff_velocity_of(motion: Motion, start: int, fit: FlightFit, ce, mode: str = "auto") -> tuple[np.ndarray, str]:
+    """``((3,) m/s, source)``: the velocity a new flight starting at frame ``start`` of ``motion``
+    leaves with (before the retiming by ``k``).
+
+    ``"fit"``: the flight's ballistic fit ``(a_x, b_y, a_z)`` (the paper's). ``"frames"``: the
+    captured push-off's, the derivative at ``start`` of a least-squares quadratic through the COM
+    of frames ``start - w .. start`` (``w = max(2, round(0.03 s fps))``,
+    :func:`mocomp.audit.com.endpoint_derivative_weights`: the audit's left-side velocity there),
+    so the flight continues the push-off. ``"auto"`` (default): the fit's, unless the push-off's
+    differs from it by more than :data:`TAKEOFF_TOL`: a flight that is not ballistic (the DeepMimic
+    back flip leaves the ground at 2.1 m/s vertically, its fit says 0.8: a 1.4 m/s jump). On an
+    exact flight the fit is exact and the push-off's quadratic is biased by the push-off's jerk
+    (~0.1 m/s on the synthetic flips), and a detector's take-off a frame or two early or late
+    moves a one-sided estimate but not the fit, hence the tolerance. With fewer than ``w`` frames
+    before ``start`` the fit's."""
+    fitted = np.array([fit.a_x, fit.b_y, fit.a_z], dtype=float)
+    if mode not in ("auto", "fit", "frames"):
+        raise ValueError(f"takeoff_velocity must be 'auto', 'fit' or 'frames', got {mode!r}")
+    if mode == "fit":
+        return fitted, "fit"
+    from ..audit.com import endpoint_derivative_weights
+
+    w = max(2, int(round(TAKEOFF_WINDOW_S * motion.fps)))
+    a = int(start)
+    if a < w:
+        return fitted, "fit"
+    c = ce(motion.root_positions[a - w:a + 1], motion.rotations[a - w:a + 1])
+    _, left = endpoint_derivative_weights(w, 1.0 / motion.fps)
+    pushed = left @ c
+    if mode == "frames" or np.max(np.abs(pushed - fitted)) > TAKEOFF_TOL:
+        return pushed, "frames"
+    return fitted, "fit"
 
 
 def _lowest_and_forward(motion: Motion, frame: int, direction: np.ndarray) -> tuple[float, float]:
@@ -159,7 +207,8 @@ def _lowest_and_forward(motion: Motion, frame: int, direction: np.ndarray) -> tu
 def correct_linear(body, motion: Motion, flight, fit: FlightFit, *, k: float | None = None,
                    k_ratio: float | None = None, takeoff_height: float = 0.0, platform: bool | str = "auto",
                    clearance: float = 0.0, gravity="standard",
-                   com_eval: ComEvaluator | None = None, landing_lift: float = 0.0) -> LinearResult:
+                   com_eval: ComEvaluator | None = None, landing_lift: float = 0.0,
+                   takeoff_velocity: str = "auto") -> LinearResult:
     """Uniform retiming by ``k`` and COM repositioning over the flight (section 5.5.3).
 
     Parameters
@@ -178,6 +227,9 @@ def correct_linear(body, motion: Motion, flight, fit: FlightFit, *, k: float | N
         ``takeoff_height > 0``), ``True`` or ``False``.
     clearance: m, required margin above the platform top.
     com_eval: a prepared :class:`~mocomp.flips.reposition.ComEvaluator` for ``body``.
+    takeoff_velocity: the velocity the new flight leaves with (before the retiming by ``k``):
+        ``"auto"`` (default), ``"fit"`` (the paper's) or ``"frames"`` (the captured push-off's),
+        :func:`takeoff_velocity_of`.
     landing_lift: m, raise the landing (the flight's last frame and every frame after it) by this
         much above where the input puts it: the parabola is planned for ``dy + landing_lift`` (App. B)
         and the frames after the flight follow. The pipeline uses it to make a landing pose that
@@ -197,7 +249,8 @@ def correct_linear(body, motion: Motion, flight, fit: FlightFit, *, k: float | N
     c_take, c_land = com_in[0], com_in[1]
     T_seq = (b - 1 - a) / fps
     T0 = (fit.stop - 1 - fit.start) / fps
-    v0 = fit.b_y
+    v_take, v_source = takeoff_velocity_of(motion, a, fit, ce, takeoff_velocity)
+    v0 = float(v_take[1])
     v_land = fit.b_y + 2.0 * fit.a_y * T0
     lift = float(landing_lift)
     if not np.isfinite(lift):
@@ -205,7 +258,7 @@ def correct_linear(body, motion: Motion, flight, fit: FlightFit, *, k: float | N
     dy = float(c_land[1] + lift - c_take[1] - h)
     try:
         plan = plan_retime(g, T_seq, v0, dy, v_land, k=k, k_ratio=k_ratio,
-                           v_horizontal=float(np.hypot(fit.a_x, fit.a_z)))
+                           v_horizontal=float(np.hypot(v_take[0], v_take[2])))
     except PhysicsError as e:
         if h != 0.0:
             raise PhysicsError(f"{e} (take-off raised by {h:.3f} m, so the landing lies {dy:.3f} m above it)") from e
@@ -222,7 +275,7 @@ def correct_linear(body, motion: Motion, flight, fit: FlightFit, *, k: float | N
     ja = int(np.ceil(ta * fps / kk - eps))
     jb = int(np.floor(tl * fps / kk + eps))
     c0 = c_take + np.array([0.0, h, 0.0])
-    traj = flight_trajectory(c0, fit.a_x, fit.a_z, -0.5 * g, kk, plan.vy_takeoff_new, plan.T_new)
+    traj = flight_trajectory(c0, float(v_take[0]), float(v_take[2]), -0.5 * g, kk, plan.vy_takeoff_new, plan.T_new)
     rp = np.array(out.root_positions)
     rot = out.rotations
     before = src < ta - eps
@@ -297,4 +350,5 @@ def correct_linear(body, motion: Motion, flight, fit: FlightFit, *, k: float | N
     return LinearResult(motion=res, flight=(ja, jb + 1), source_times=src, plan=plan, trajectory=traj,
                         takeoff_time=float(tau_a), com_residual=resid, takeoff_height=h, platform=pcheck,
                         seconds=time.perf_counter() - t0, gravity=g, gravity_source=g_source,
-                        gravity_fitted=float(fit.gravity))
+                        gravity_fitted=float(fit.gravity), takeoff_velocity=tuple(float(x) for x in v_take),
+                        takeoff_velocity_source=v_source)

@@ -241,7 +241,9 @@ class RestoreResult:
             "reference": self.reference, "L_star": self.L_star.tolist(),
             "gravity_m_s2": self.gravity, "gravity_source": self.linear.gravity_source,
             "gravity_fitted_m_s2": self.fit.gravity,
-            "takeoff_velocity": [self.fit.a_x, self.fit.b_y, self.fit.a_z],
+            "takeoff_velocity": list(self.linear.takeoff_velocity),
+            "takeoff_velocity_source": self.linear.takeoff_velocity_source,
+            "takeoff_velocity_fitted": [self.fit.a_x, self.fit.b_y, self.fit.a_z],
             "direction": {"method": self.direction.method, "first_departure": self.direction.first_departure,
                           "evaluations": self.direction.evaluations,
                           "roughness_deg": self.direction.roughness_deg,
@@ -348,7 +350,7 @@ def _stage(name, body, motion, flight, src_of_frame, target_fn, scale=1.0, L=Non
 def restore_momentum(body, original: Motion, edited: Motion, flight, *, k_ratio: float | None = None,
                      k: float | None = None, reference: str = "auto", L_star=None,
                      method: str = "smooth", takeoff_height: float = 0.0, platform: bool | str = "auto",
-                     clearance: float = 0.0, gravity="standard", oversample: int = 8,
+                     clearance: float = 0.0, gravity="standard", takeoff_velocity: str = "auto", oversample: int = 8,
                      tol: float = 1e-7, fit: FlightFit | None = None, polish: bool = True,
                      upright: bool = True, recover_s: float = 0.3,
                      auto_tol: float = AUTO_REFERENCE_TOL) -> RestoreResult:
@@ -394,6 +396,10 @@ def restore_momentum(body, original: Motion, edited: Motion, flight, *, k_ratio:
     gravity: the gravity the restored flight falls with: ``"standard"`` (9.81 m/s^2, default),
         ``"clip"`` (the input flight's fitted gravity, the paper's choice) or m/s^2
         (:func:`~mocomp.edit.linear.resolve_gravity`); the fitted value stays in the report.
+    takeoff_velocity: the velocity the flight leaves with: ``"auto"`` (default: the ballistic fit's,
+        unless the captured push-off reaches a different one, a flight that is not ballistic: then the
+        push-off's, so the flight continues it), ``"fit"`` (the paper's) or ``"frames"``
+        (:func:`~mocomp.edit.linear.takeoff_velocity_of`).
     oversample: step 2's fine grid (x the frame rate).
     tol: step 1's direction tolerance (rad).
     fit: the original flight's ballistic fit, if already computed.
@@ -452,7 +458,8 @@ def restore_momentum(body, original: Motion, edited: Motion, flight, *, k_ratio:
     return three_steps(body, edited, (a, b), L_const, fit, original=original, original_flight=(a, b),
                        L_orig=L_orig, reference=reference, method=method, tol=tol, oversample=oversample, k=k,
                        k_ratio=k_ratio, takeoff_height=takeoff_height, platform=platform, clearance=clearance,
-                       gravity=gravity, polish=polish, notes=notes, edit_frames=edit_frames, com_eval=ce,
+                       gravity=gravity, takeoff_velocity=takeoff_velocity, polish=polish, notes=notes,
+                       edit_frames=edit_frames, com_eval=ce,
                        t_start=t_all, upright_ref=edited if upright else None,
                        recover_s=recover_s)
 
@@ -460,7 +467,8 @@ def restore_momentum(body, original: Motion, edited: Motion, flight, *, k_ratio:
 def three_steps(body, edited: Motion, flight, L_const, fit: FlightFit, *, original: Motion,
                 original_flight, L_orig=None, reference: str = "constant", method: str = "smooth",
                 tol: float = 1e-7, oversample: int = 8, k=None, k_ratio=None, takeoff_height: float = 0.0,
-                platform="auto", clearance: float = 0.0, gravity="standard", polish: bool = True, notes=(),
+                platform="auto", clearance: float = 0.0, gravity="standard", takeoff_velocity: str = "auto",
+                polish: bool = True, notes=(),
                 edit_frames=None, com_eval=None, t_start=None, direction: bool = True,
                 upright_ref: Motion | None = None, upright_pre=None, recover_s: float = 0.3,
                 landing_floor: float | None = None, settle: bool = True) -> RestoreResult:
@@ -556,7 +564,8 @@ def three_steps(body, edited: Motion, flight, L_const, fit: FlightFit, *, origin
     # step 3
     t = time.perf_counter()
     lin = correct_linear(body, mg.motion, mg.flight, fit, k=k, k_ratio=k_ratio, takeoff_height=takeoff_height,
-                         platform=platform, clearance=clearance, gravity=gravity, com_eval=ce, landing_lift=lift)
+                         platform=platform, clearance=clearance, gravity=gravity, com_eval=ce, landing_lift=lift,
+                         takeoff_velocity=takeoff_velocity)
     timings["linear"] = time.perf_counter() - t
     # evidence
     t = time.perf_counter()
