@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["ease", "EASE_KINDS", "ramp_fill"]
+__all__ = ["ease", "EASE_KINDS", "ramp_fill", "RampPlan"]
 
 EASE_KINDS = ("linear", "smoothstep", "smootherstep", "cosine")
 
@@ -24,26 +24,43 @@ def ease(x, kind: str = "smoothstep") -> np.ndarray:
     raise ValueError(f"ease must be one of {', '.join(EASE_KINDS)}, got {kind!r}")
 
 
+class RampPlan:
+    """The weights of :func:`ramp_fill` for one mask, width and ease curve, to fill several arrays
+    (``plan.fill(values)``) without recomputing them."""
+
+    def __init__(self, defined: np.ndarray, width: int, kind: str = "smoothstep"):
+        d = np.asarray(defined, dtype=bool)
+        self.defined = d
+        T = d.shape[0]
+        self.trivial = width <= 0 or not d.any() or d.all()
+        if self.trivial:
+            return
+        idx = np.arange(T)
+        prev = np.maximum.accumulate(np.where(d, idx, -1))
+        nxt = np.minimum.accumulate(np.where(d, idx, T)[::-1])[::-1]
+        wp = np.where(prev >= 0, ease(1.0 - (idx - prev) / (width + 1.0), kind), 0.0)
+        wn = np.where(nxt < T, ease(1.0 - (nxt - idx) / (width + 1.0), kind), 0.0)
+        s = np.maximum(1.0, wp + wn)
+        und = ~d
+        self.und = und
+        self.wp, self.wn = (wp / s)[und], (wn / s)[und]
+        self.prev, self.nxt = np.clip(prev, 0, T - 1)[und], np.clip(nxt, 0, T - 1)[und]
+
+    def fill(self, values: np.ndarray) -> np.ndarray:
+        values = np.asarray(values, dtype=float)
+        T = self.defined.shape[0]
+        out = np.where(self.defined.reshape((T,) + (1,) * (values.ndim - 1)), values, 0.0)
+        if self.trivial:
+            return out
+        shape = (-1,) + (1,) * (values.ndim - 1)
+        out[self.und] = self.wp.reshape(shape) * values[self.prev] + self.wn.reshape(shape) * values[self.nxt]
+        return out
+
+
 def ramp_fill(values: np.ndarray, defined: np.ndarray, width: int, kind: str = "smoothstep") -> np.ndarray:
     """``values (T, ...)`` kept where ``defined (T,)``; elsewhere faded from the nearest defined
     frames to zero over ``width`` frames on each side (the ease curve ``kind``). A frame within
     reach of a defined frame on both sides takes the weighted mix of both, normalised when the
-    weights sum above 1 (a short gap between two plants is bridged, not dipped to zero)."""
-    values = np.asarray(values, dtype=float)
-    defined = np.asarray(defined, dtype=bool)
-    T = defined.shape[0]
-    out = np.where(defined.reshape((T,) + (1,) * (values.ndim - 1)), values, 0.0)
-    if width <= 0 or not defined.any() or defined.all():
-        return out
-    idx = np.arange(T)
-    prev = np.maximum.accumulate(np.where(defined, idx, -1))
-    nxt = np.minimum.accumulate(np.where(defined, idx, T)[::-1])[::-1]
-    wp = np.where(prev >= 0, ease(1.0 - (idx - prev) / (width + 1.0), kind), 0.0)
-    wn = np.where(nxt < T, ease(1.0 - (nxt - idx) / (width + 1.0), kind), 0.0)
-    s = np.maximum(1.0, wp + wn)
-    shape = (T,) + (1,) * (values.ndim - 1)
-    mix = ((wp / s).reshape(shape) * values[np.clip(prev, 0, T - 1)]
-           + (wn / s).reshape(shape) * values[np.clip(nxt, 0, T - 1)])
-    und = ~defined
-    out[und] = mix[und]
-    return out
+    weights sum above 1 (a short gap between two plants is bridged, not dipped to zero).
+    :class:`RampPlan` fills several arrays with one mask."""
+    return RampPlan(defined, width, kind).fill(values)

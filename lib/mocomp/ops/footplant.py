@@ -48,7 +48,7 @@ from scipy.spatial.transform import Rotation
 from ..core.motion import Motion
 from ..core.rotations import quat_apply
 from ..dynamics.contacts import label_intervals
-from .easing import ease, ramp_fill
+from .easing import RampPlan, ease
 from .ik import REACH_MARGIN, hinge_axis, two_bone_ik
 from .plants import FootPlants, foot_plants, plant_targets
 
@@ -246,7 +246,8 @@ def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: st
         if both.any():
             q = arc_quaternions(Tp[both] - A[both], targets[both, kt] - targets[both, ka])
             rv[both] = Rotation.from_quat(q).as_rotvec()
-        rv = ramp_fill(rv, both, blend, ease_kind)
+        rv = RampPlan(both, blend, ease_kind).fill(rv)
+        plan_a, plan_t, plan_any = (RampPlan(x, blend, ease_kind) for x in (la, lt, la | lt))
         Rq = Rotation.from_rotvec(rv).as_quat()
         tip = A + quat_apply(Rq, Tp - A)                  # the toe tip after the foot turned about the ankle point
         # translation: the ankle point on its target while it is planted (with both points planted,
@@ -262,8 +263,8 @@ def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: st
         toe_only = lt & ~la
         delta = np.where(la[:, None], d_a, 0.0)
         if toe_only.any():
-            w_a = ramp_fill(la.astype(float), la, blend, ease_kind)
-            da_fill = ramp_fill(d_a, la, blend, ease_kind)
+            w_a = plan_a.fill(la.astype(float))
+            da_fill = plan_a.fill(d_a)
             i = toe_only
             Tt = targets[i, kt]
             a_cur = A[i] + Tt - tip[i]                           # ankle point with the tip on its target
@@ -277,8 +278,8 @@ def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: st
         # the toe's plant (symmetric to the above: a toe-only frame next to an ankle-only one is no jump)
         ankle_only = la & ~lt
         if ankle_only.any() and lt.any():
-            w_t = ramp_fill(lt.astype(float), lt, blend, ease_kind)
-            ct_fill = ramp_fill(np.where(lt[:, None], targets[:, kt] - Tp, 0.0), lt, blend, ease_kind)
+            w_t = plan_t.fill(lt.astype(float))
+            ct_fill = plan_t.fill(np.where(lt[:, None], targets[:, kt] - Tp, 0.0))
             i = ankle_only & (w_t > 0)
             if i.any():
                 a_new = targets[i, ka]
@@ -287,8 +288,8 @@ def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: st
                 R2 = quat_multiply(arc_quaternions(tip0 - a_new, want - a_new), Rq[i])
                 rv[i] = Rotation.from_quat(R2).as_rotvec()
         if toe_only.any() or ankle_only.any():
-            rv = ramp_fill(rv, la | lt, blend, ease_kind)
-        delta = ramp_fill(delta, la | lt, blend, ease_kind)
+            rv = plan_any.fill(rv)
+        delta = plan_any.fill(delta)
         # a toe-only frame next to an ankle-only one (the foot rocks from toe to heel, as in a
         # cartwheel) holds two targets no rigid foot joins: cross-fade there over the blend frames
         sw = np.flatnonzero((toe_only[:-1] & ankle_only[1:]) | (ankle_only[:-1] & toe_only[1:])) + 1
