@@ -23,27 +23,27 @@ Rows (best of N wall time, garbage collector paused, a fresh Motion each run so 
 * ``pathedit``: :func:`mocomp.ops.path_edit` of the 10 s clip onto a 90 deg arc, feet re-planted
   (``audit=False``). No peer; the goal ratio is the goal over ours.
 
-Measured (2026-12-02, 2 cores shared with three other jobs, load average 4-6; best of 15):
+Measured (2026-12-02, 2 cores shared with three other jobs; best of 15-25):
 
-=================================================  ================  ==================
-row                                                real SFU clip     synthetic (quick)
-=================================================  ================  ==================
-footplant, 10 s at 120 Hz (goal 30 ms)             55 ms (33-45 ms   28 ms
-                                                   in quieter runs)
-blend, 1 s window (goal 5 ms)                      3.2-3.5 ms        3.7 ms
-blend, 1 s window, feet planted (no goal)          118-136 ms        64 ms
-pathedit, 10 s onto a 90 deg arc (goal 30 ms)      132-140 ms        31 ms
-=================================================  ================  ==================
+=================================================  =========================  ==================
+row                                                real SFU clip              synthetic walk
+=================================================  =========================  ==================
+footplant, 10 s at 120 Hz (goal 30 ms)             33-48 ms (load 1-2),       28-34 ms
+                                                   55 ms at load 6
+blend, 1 s window (goal 5 ms)                      2.6-3.5 ms                 2.3-3.7 ms
+blend, 1 s window, feet planted (no goal)          50-52 ms (load 1-2)        57-64 ms
+pathedit, 10 s onto a 90 deg arc (goal 30 ms)      53-56 ms (load 1-2)        31-41 ms
+=================================================  =========================  ==================
 
-The footplant and pathedit goals are not met on the real clip here. Where the time goes (profile of
-one footplant run on the real clip, ~35 ms): two contact detections (the input's, and the
-re-detection on the result that the audit will see: ~6-8 ms each), forward kinematics of input and
-result (~2 ms each), and two passes of targets, fades and IK (~10 ms each; the second re-solves only
-the frames whose correction changed, but recomputes the targets and fades). The path edit's SFU
-loop walk turns 300 deg in these 10 s and is bent by another 90 deg, so its feet need corrections
-on almost every frame of both passes; the synthetic straight walk needs far fewer. The peers are
-no match in scope (``plant_feet`` holds ankles at their touch-down, no detection, no toes, no fades)
-and say what the bare IK costs.
+The blend goal is met; the footplant goal is met at best on the synthetic walk and missed by up
+to 1.6x on the real clip; pathedit misses by ~1.8x. Where the footplant time goes (real clip,
+~34 ms): the contact detection of the input (~6 ms), the re-detection on the result that the audit
+will see (~5 ms), forward kinematics (~2 ms) and two passes of targets, fades and IK (~10 ms each;
+the second skips a leg whose plants did not change and re-solves only frames whose correction
+changed, but recomputes targets and fades). A path edit adds the input's detection and its own
+plants; the SFU loop walk turns 300 deg in these 10 s and is bent by another 90 deg, so its feet
+need corrections on almost every frame. The peer is no match in scope (``plant_feet`` holds ankles
+at their touch-down: no detection, no toes, no fades) and says what the bare IK costs.
 """
 from __future__ import annotations
 
@@ -72,7 +72,7 @@ def run(quick: bool) -> list[dict]:
     from mocomp.ops import PathCurve, blend, enforce_footplants, foot_plants, motion_path, path_edit
 
     m, origin = clip()
-    repeat = 5 if quick else 15
+    repeat = 5 if quick else 25
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     rows = []
     fresh = lambda: m.replace()                                        # noqa: E731  (empty FK cache)
