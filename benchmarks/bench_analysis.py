@@ -51,7 +51,8 @@ there): +0.3-0.5 s CPU on the bootstrap of 22 rows x 10,000 participants (1.5-1.
 Whole runs at 10,000 on the shared host at load 6-8, old (eebdfa2) and new alternated in fresh
 processes: old 108.6 s / 892 MB, new 108.4 s / 881 MB, old 82.3 s / 881 MB, new 68.2 s / 881 MB;
 `run.py --only analysis` at load 4-6: 1,000 in 10.6 s / 323 MB, 10,000 in 85.6 s / 881 MB (goal
-missed under this load, as the old code misses it; memory unchanged, far under 2 GB).
+missed under this load, as the old code misses it; memory unchanged, far under 2 GB); at load
+~2.7-3: 1,000 in 10.8 s, 10,000 in 35.9 s (goal met).
 """
 from __future__ import annotations
 
