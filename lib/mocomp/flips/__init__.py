@@ -43,9 +43,16 @@ __all__ = [
 
 
 def demo(out_dir="mocomp-demo", flips: int = 2, source: str = "backflip", renderer: str = "auto",
-         verbose: bool = True) -> dict:
-    """The project's demo: the embedded synthetic back flip turned into a double flip (the
-    :func:`multiflip` defaults: ``k = k*``, flight at g = 9.81 m/s^2, take-off as is).
+         verbose: bool = True, k_ratio: float | None = None, takeoff: str | None = None) -> dict:
+    """The project's demo: the embedded synthetic back flip turned into a double flip at the paper's
+    take-off speed (``k = 0.7 k*``, section 5.3; Fig. 4a) made physical: the take-off and landing
+    stances are reshaped (``takeoff="repair"``, :mod:`mocomp.flips.takeoff`) so the centre of mass
+    reaches the faster flight's velocity without a jump; the flight falls at g = 9.81 m/s^2.
+    ``k_ratio=1, takeoff="as-is"`` gives :func:`multiflip`'s own defaults (continuous at ``k = k*``
+    without reshaping, the whole clip played k* times faster). When neither is given and the stance
+    cannot take the repair (a triple flip at 0.7 k* would need about 9.6 body weights of push), the
+    demo says so and uses those defaults instead; a ``k_ratio``/``takeoff`` given explicitly is
+    never replaced (:class:`~mocomp.flips.takeoff.StanceRepairError` is raised).
 
     Writes to ``out_dir``: ``<source>_x<flips>.bvh`` (the new motion), ``<source>_original.bvh``,
     ``filmstrip.png`` (original in yellow, multi-flip in turquoise; 3-D when offscreen
@@ -70,8 +77,20 @@ def demo(out_dir="mocomp-demo", flips: int = 2, source: str = "backflip", render
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     prep = prepare(source)
-    multiflip(prep, flips=flips, evaluate=False)       # warm-up: the reported times are a warm call's
-    res = multiflip(prep, flips=flips)
+    from .takeoff import StanceRepairError
+
+    opts = dict(flips=flips, k_ratio=0.7 if k_ratio is None else k_ratio,
+                takeoff="repair" if takeoff is None else takeoff)
+    try:
+        multiflip(prep, evaluate=False, **opts)        # warm-up: the reported times are a warm call's
+    except StanceRepairError as exc:
+        if k_ratio is not None or takeoff is not None:
+            raise
+        if verbose:
+            print(f"note: {exc}; the demo uses k = k* with the take-off as is instead")
+        opts.update(k_ratio=1.0, takeoff="as-is")
+        multiflip(prep, evaluate=False, **opts)
+    res = multiflip(prep, **opts)
     paths = {
         "bvh": write_bvh(res.motion, out / f"{source}_x{flips}.bvh"),
         "original_bvh": write_bvh(prep.motion, out / f"{source}_original.bvh"),
