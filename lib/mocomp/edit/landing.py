@@ -55,7 +55,7 @@ from ..core.kinematics import end_site_positions
 from ..core.motion import Motion, slerp
 from ..core.rotations import quat_apply, quat_inverse, quat_multiply, swing_twist
 from ._kernels import fk_arrays
-from .legs import leg_chains, run_starts, two_bone_ik
+from .legs import _descends, leg_chains, run_starts, two_bone_ik
 
 __all__ = ["TOUCH_TOL", "REST_TOL", "LandingReference", "LandingCheck", "lowest_heights", "floor_level",
            "landing_reference", "landing_lift", "foot_points", "touchdown_index", "level_feet", "rest_on_floor", "check_landing"]
@@ -230,13 +230,6 @@ def foot_points(skeleton, chains) -> tuple[np.ndarray, ...]:
         out.append(np.array(below + sites, dtype=int))
     return tuple(out)
 
-
-def _descends(parents, j: int, ancestor: int) -> bool:
-    while j >= 0:
-        if j == ancestor:
-            return True
-        j = int(parents[j])
-    return False
 
 
 def landing_lift(motion: Motion, frame: int, floor: float, clearance: float) -> float:
