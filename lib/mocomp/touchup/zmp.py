@@ -1,0 +1,110 @@
+"""ZMP of a motion and its place relative to the support polygon (touch-up paper, Shin et al.
+2003, eq. 4, sec. 3.3).
+
+The ZMP is eq. 4 for point masses at the segment COMs (:func:`mocomp.dynamics.zmp.zmp_of_point_masses`),
+with accelerations by finite differences of the motion smoothed by a Gaussian first (the paper's
+remark: "a gaussian filter of width 5", here ``smooth_sigma`` frames, by default the audit's, so
+that what touch-up drives to zero is what :func:`mocomp.audit.audit` measures). The support polygon
+is the convex hull of the planted foot points on each frame; the distance is the project's signed
+distance (:func:`mocomp.dynamics.zmp.support_polygon_distance`, positive outside) and the
+projection ``Z'`` (the target of eq. 7) is the nearest point of the polygon.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..audit.thresholds import AuditThresholds
+from ..audit.zmp import smoothed_segment_positions
+from ..dynamics.constants import G_STANDARD
+from ..dynamics.derivatives import second_difference
+from ..dynamics.zmp import support_polygon_distance, zmp_of_point_masses
+
+__all__ = ["ZmpState", "zmp_state", "project_to_polygon", "DEFAULT_SMOOTH_SIGMA", "MIN_SUPPORT"]
+
+#: frames: Gaussian smoothing before differentiating (the audit's default)
+DEFAULT_SMOOTH_SIGMA = AuditThresholds().zmp_smooth_sigma
+#: fraction of the body weight below which the vertical ground force leaves the ZMP undefined
+MIN_SUPPORT = 0.05
+
+
+@dataclass(frozen=True, eq=False)
+class ZmpState:
+    """Eq. 4 on every frame, with everything eq. 6-7 need.
+
+    Attributes
+    ----------
+    r: ``(T, S, 3)`` m, segment COMs of the smoothed motion.
+    a: ``(T, S, 3)`` m/s^2, their accelerations.
+    zmp: ``(T, 3)`` m (NaN where undefined: flight, or vertical force below ``MIN_SUPPORT``).
+    distance: ``(T,)`` m, signed distance to the support polygon (positive outside, NaN without
+        polygon or ZMP).
+    target: ``(T, 3)`` m, the ZMP's projection onto the support polygon (the ZMP itself inside).
+    ground_y: m, the floor.
+    """
+
+    r: np.ndarray
+    a: np.ndarray
+    zmp: np.ndarray
+    distance: np.ndarray
+    target: np.ndarray
+    ground_y: float
+
+    def outside(self, tol: float = 0.0) -> np.ndarray:
+        """``(T,)`` bool: ZMP defined and more than ``tol`` m outside the polygon."""
+        d = self.distance
+        return np.isfinite(d) & (np.nan_to_num(d, nan=-1.0) > tol)
+
+    def summary(self, ground: np.ndarray | None = None) -> dict:
+        """Mean and max distance outside (m; inside counts 0) over the frames with a distance."""
+        d = self.distance if ground is None else np.where(ground, self.distance, np.nan)
+        ok = np.isfinite(d)
+        out = np.clip(d[ok], 0.0, None)
+        return {"frames": int(ok.sum()), "mean_outside_m": float(out.mean()) if ok.any() else float("nan"),
+                "max_outside_m": float(out.max()) if ok.any() else float("nan"),
+                "frames_outside": int((out > 0).sum())}
+
+
+def project_to_polygon(p: np.ndarray, pts: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """``(T, 2)``: the nearest point to ``p`` ``(T, 2)`` on the segments between every pair of the
+    masked points ``pts`` ``(T, K, 2)``. For a ``p`` outside their convex hull this is the nearest
+    point of the hull (it lies on a hull edge, and every segment lies in the hull); callers use it
+    only there. NaN where a frame has no masked point or ``p`` is not finite."""
+    T, K = mask.shape
+    iu, ju = np.triu_indices(K)
+    a, b = pts[:, iu], pts[:, ju]
+    valid = mask[:, iu] & mask[:, ju]
+    ab = b - a
+    den = np.einsum("tpk,tpk->tp", ab, ab)
+    ap = p[:, None] - a
+    tt = np.clip(np.einsum("tpk,tpk->tp", ap, ab) / np.where(den > 0, den, 1.0), 0.0, 1.0)
+    tt = np.where(den > 0, tt, 0.0)
+    near = a + tt[..., None] * ab
+    dist = np.linalg.norm(p[:, None] - near, axis=-1)
+    dist = np.where(valid & np.isfinite(dist), dist, np.inf)
+    k = np.argmin(dist, axis=1)
+    out = near[np.arange(T), k]
+    out[~np.isfinite(dist[np.arange(T), k])] = np.nan
+    return out
+
+
+def zmp_state(body, motion, contact_points: np.ndarray, contact_mask: np.ndarray, ground_y: float, *,
+              smooth_sigma: float | None = DEFAULT_SMOOTH_SIGMA, g: float = G_STANDARD) -> ZmpState:
+    """Eq. 4 of ``motion`` with ``body``'s masses; support polygons from ``contact_points``
+    ``(T, K, 3)`` where ``contact_mask`` ``(T, K)``; floor at ``ground_y``."""
+    if smooth_sigma is not None and not (np.isfinite(smooth_sigma) and smooth_sigma >= 0):
+        raise ValueError(f"smooth_sigma must be 0 or more frames, got {smooth_sigma!r}")
+    if motion.n_frames < 3:
+        raise ValueError("the ZMP needs accelerations: at least 3 frames")
+    r = smoothed_segment_positions(body, motion, smooth_sigma or None)
+    a = second_difference(r, motion.times)
+    Z, _, _ = zmp_of_point_masses(body.masses, r, a, ground_y, g, MIN_SUPPORT * body.total_mass * g)
+    mask = np.asarray(contact_mask, bool)
+    d = support_polygon_distance(Z, contact_points, mask)
+    tgt = np.array(Z)
+    out = np.isfinite(d) & (np.nan_to_num(d) > 0)
+    if out.any():
+        pr = project_to_polygon(Z[out][:, [0, 2]], np.asarray(contact_points)[out][..., [0, 2]], mask[out])
+        tgt[out, 0], tgt[out, 2] = pr[:, 0], pr[:, 1]
+    return ZmpState(r, a, Z, d, tgt, float(ground_y))
