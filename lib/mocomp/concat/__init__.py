@@ -1,0 +1,18 @@
+"""Angular-momentum-guided concatenation of dynamic motions (Shum, Komura & Yadav 2009; issue 17).
+
+* :func:`momentum_track` (eq. 1) and :func:`find_phases` (preparatory, main, posterior);
+* :func:`choose_rule` (forward / reverse, or auto with the reason), :func:`alignment_yaw` (eq. 2,
+  closed form), :func:`blendable_periods`;
+* :func:`timing_table` / :func:`optimal_timing` (eq. 3-7 over the whole (T, f) table at once);
+* :func:`concatenate`: the whole method, eq. 8 blending and the supporting feet held
+  (:mod:`mocomp.ops`).
+"""
+from .method import MAX_FACING, ConcatResult, check_same_skeleton, concatenate
+from .phases import MIN_MAIN_LEVEL, ConcatError, MomentumTrack, Phases, find_phases, momentum_track
+from .rules import RULES, RuleChoice, alignment_yaw, blendable_periods, choose_rule, support_truncate
+from .timing import TimingTable, optimal_timing, timing_table
+
+__all__ = ["ConcatError", "MomentumTrack", "Phases", "momentum_track", "find_phases", "MIN_MAIN_LEVEL",
+           "RULES", "RuleChoice", "choose_rule", "alignment_yaw", "blendable_periods", "support_truncate",
+           "TimingTable", "timing_table", "optimal_timing",
+           "ConcatResult", "concatenate", "check_same_skeleton", "MAX_FACING"]

@@ -1,0 +1,270 @@
+"""Two motions concatenated by their angular momentum (Shum, Komura & Yadav 2009), end to end.
+
+:func:`concatenate` runs the paper's steps on motion A then motion B (same skeleton):
+
+1. eq. 1 trajectories and the phases (:mod:`.phases`);
+2. the rule, forward or reverse, given or chosen from the main phases' mean L (:mod:`.rules`);
+3. eq. 2: B turned about the vertical, in closed form, to align (forward) or oppose (reverse) the
+   main phases' mean angular momenta;
+4. the blendable periods of the rule, truncated to double support where the motion is on the
+   ground (:func:`~.rules.support_truncate`, the project's foot-plant detector);
+5. eq. 3-7: the offset ``T`` and blending centre ``f_T`` (:mod:`.timing`), rejected above ``max_F``;
+   the ground-projected facing of the two bodies at ``f_T`` (root headings,
+   :func:`mocomp.ops.headings`) must differ by at most ``max_facing`` (pi/4);
+6. the blend window ``[f_i0, f_if]`` traced from ``f_T`` backward and forward while
+   ``||L1(f) - L2(f - T)||^2`` stays at most ``window_threshold`` and both blendable periods last;
+   B moved (:class:`mocomp.ops.GroundTransform`) so that the centre of its feet at the first frame
+   of the window is where A's is (:func:`mocomp.ops.reference_points`, ``by="feet"``);
+7. eq. 8: ``M(f) = alpha M1(f) + (1 - alpha) M2(f - T)`` on ``[f_i0, f_if]`` with
+   ``alpha = (f_if - f) / (f_if - f_i0)`` (1 -> 0), joint rotations by slerp, the root position
+   linearly (both motions are in one frame after step 6, so there is no jump at either edge);
+   then the supporting feet held with :func:`mocomp.ops.enforce_footplants` (A's plants before
+   ``f_T``, B's from it on).
+
+The output plays A up to ``f_i0``, the blend, then B from ``f_if - T + 1``: ``T + len(B)`` frames,
+frame ``f`` of the output being frame ``f`` of A and frame ``f - T`` of B.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..core.motion import Motion, slerp
+from ..ops import GroundTransform, enforce_footplants, foot_plants, headings, reference_points
+from ..ops.align import yaw_quaternion
+from .phases import MIN_MAIN_LEVEL, ConcatError, MomentumTrack, Phases, find_phases, momentum_track
+from .rules import RuleChoice, alignment_yaw, blendable_periods, choose_rule, support_truncate
+from .timing import TimingTable, optimal_timing
+
+__all__ = ["ConcatResult", "concatenate", "check_same_skeleton", "MAX_FACING", "WINDOW_FRACTION", "F_FRACTION"]
+
+#: rad, the largest difference of the ground-projected facing of the two bodies at f_T
+MAX_FACING = np.pi / 4
+#: the blend window is traced while ||L1 - L2|| <= WINDOW_FRACTION x the main phases' mean |L|
+WINDOW_FRACTION = 0.5
+#: the timing is rejected when F > (F_FRACTION x the larger main-phase peak |L|)^2 (F_time alone
+#: reaches ~peak^2 when the blend centre is late in a main phase that decays to zero)
+F_FRACTION = 1.5
+#: the two main-phase peaks stay at least this fraction of the mean main-phase length apart in the
+#: output: eq. 5 alone, on a motion concatenated with itself, picks T = 1 (adjacent frames of one
+#: flip match best), which plays a single flip; the paper's figures always keep both main phases
+MIN_PEAK_GAP = 0.5
+#: frames: a window shorter than this is widened symmetrically inside the blendable periods
+MIN_WINDOW = 3
+
+
+def check_same_skeleton(a: Motion, b: Motion, names=("A", "B")) -> None:
+    """Raise :class:`ConcatError` naming the joints that differ unless ``a`` and ``b`` share a skeleton."""
+    sa, sb = a.skeleton, b.skeleton
+    na, nb = names
+    if sa.names != sb.names or not np.array_equal(sa.parents, sb.parents):
+        only_a = [n for n in sa.names if n not in sb.names]
+        only_b = [n for n in sb.names if n not in sa.names]
+        raise ConcatError(f"{na} and {nb} have different skeletons ({sa.n_joints} vs {sb.n_joints} joints): "
+                          + (f"joints only in {na}: {', '.join(only_a[:8])}; " if only_a else "")
+                          + (f"joints only in {nb}: {', '.join(only_b[:8])}" if only_b else
+                             "same joint names, different hierarchy"))
+    if not np.allclose(sa.offsets, sb.offsets, atol=1e-3):
+        j = int(np.argmax(np.abs(sa.offsets - sb.offsets).max(axis=1)))
+        raise ConcatError(f"{na} and {nb} have different bone lengths: joint {sa.names[j]!r} offset "
+                          f"{np.round(sa.offsets[j], 4).tolist()} vs {np.round(sb.offsets[j], 4).tolist()} m")
+
+
+@dataclass(frozen=True, eq=False)
+class ConcatResult:
+    """A concatenation and its planned values (see :meth:`to_dict`)."""
+
+    motion: Motion
+    phases: tuple[Phases, Phases]
+    rule: RuleChoice
+    yaw: float
+    eq2_value: float
+    facing_difference: float
+    periods: tuple[str, tuple[int, int], tuple[int, int]]
+    period_notes: tuple[str, str]
+    table: TimingTable
+    T: int
+    f_T: int
+    window: tuple[int, int]
+    window_threshold: float
+    max_F: float
+    min_T: int
+    transform: GroundTransform
+    tracks: tuple[MomentumTrack, MomentumTrack]
+    footplants: object | None
+    seconds: float
+    notes: tuple[str, ...] = field(default=())
+
+    @property
+    def L_reference(self) -> float:
+        """kg m^2/s, the mean |L| over both main phases (the scale of the thresholds)."""
+        return _main_level(self.tracks, self.phases)
+
+    def to_dict(self) -> dict:
+        tab = self.table
+        ru = tab.runner_up()
+        d = {
+            "phases": {"A": self.phases[0].to_dict(), "B": self.phases[1].to_dict()},
+            "rule": self.rule.to_dict(),
+            "alignment": {"yaw_deg": float(np.degrees(self.yaw)), "eq2_value": self.eq2_value,
+                          "transform": self.transform.to_dict()},
+            "facing_check": {"difference_deg": float(np.degrees(self.facing_difference)),
+                             "limit_deg": float(np.degrees(MAX_FACING)), "passed": True},
+            "blendable_periods": {"case": self.periods[0], "A": list(self.periods[1]), "B": list(self.periods[2]),
+                                  "notes": list(self.period_notes)},
+            "timing": {"T": self.T, "f_T": self.f_T, "optimum": tab.row(tab.best),
+                       "runner_up": None if ru is None else tab.row(ru), "offsets_scanned": int(len(tab.T)),
+                       "max_F": self.max_F, "min_T": self.min_T},
+            "blend_window": {"f_i0": self.window[0], "f_if": self.window[1],
+                             "frames": self.window[1] - self.window[0] + 1,
+                             "threshold_dL2": self.window_threshold,
+                             "B_frames": [self.window[0] - self.T, self.window[1] - self.T]},
+            "L_kind": self.tracks[0].kind, "L_reference": self.L_reference,
+            "frames": self.motion.n_frames, "duration_s": self.motion.n_frames / self.motion.fps,
+            "seconds": self.seconds, "notes": list(self.notes),
+        }
+        if self.footplants is not None:
+            d["footplants"] = self.footplants.to_dict()
+        return d
+
+
+def _main_level(tracks, phases) -> float:
+    return float(np.mean([t.magnitude[p.main[0]:p.main[1]].mean() for t, p in zip(tracks, phases)]))
+
+
+def _trace_window(d: np.ndarray, lo: int, hi: int, c: int, thr: float) -> tuple[int, int]:
+    """From ``c`` walk down and up over ``[lo, hi]`` while ``d <= thr``; ``d`` indexed by frame - lo."""
+    i0 = c
+    while i0 - 1 >= lo and d[i0 - 1 - lo] <= thr:
+        i0 -= 1
+    i1 = c
+    while i1 + 1 <= hi and d[i1 + 1 - lo] <= thr:
+        i1 += 1
+    while i1 - i0 + 1 < MIN_WINDOW and (i0 > lo or i1 < hi):
+        if i0 > lo:
+            i0 -= 1
+        if i1 - i0 + 1 < MIN_WINDOW and i1 < hi:
+            i1 += 1
+    return i0, i1
+
+
+def _blend_labels(la: np.ndarray, lb: np.ndarray, T: int, f_T: int, n: int) -> np.ndarray:
+    lab = np.zeros((n, 4), bool)
+    k = min(f_T, len(la), n)
+    lab[:k] = la[:k]
+    g = np.arange(k, n) - T
+    ok = (g >= 0) & (g < len(lb))
+    lab[k:][ok] = lb[g[ok]]
+    return lab
+
+
+def concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, borders_b=None,
+                t_m_a: int | None = None, t_m_b: int | None = None, kind: str = "paper",
+                body_a=None, body_b=None, max_F: float | None = None, window_threshold: float | None = None,
+                max_facing: float = MAX_FACING, min_level: float = MIN_MAIN_LEVEL, plant: bool = True,
+                weights=(1.0, 1.0, 1.0), min_peak_gap: float = MIN_PEAK_GAP) -> ConcatResult:
+    """Concatenate ``b`` after ``a`` (see the module docstring).
+
+    Parameters
+    ----------
+    rule: ``"forward"``, ``"reverse"`` or ``"auto"`` (by the sign of the main phases' mean-L dot product).
+    borders_a, borders_b: ``(start, stop)`` main-phase frames by hand (else detected from ``t_m``).
+    t_m_a, t_m_b: the reference frame of each main phase (default: the peak of ``|L|``).
+    kind: ``"paper"`` (eq. 1) or ``"full"`` (the project's complete L about the COM).
+    max_F: reject the timing above this F (default ``(F_FRACTION L_peak)^2``, ``L_peak`` the larger main-phase peak |L|).
+    window_threshold: ``||L1 - L2||^2`` limit of the window trace (default ``(WINDOW_FRACTION L_ref)^2``).
+    max_facing: rad, the facing check at ``f_T``.
+    min_peak_gap: offsets with ``T + t_m(B) - t_m(A)`` below this fraction of the mean main-phase
+        length are not considered (:data:`MIN_PEAK_GAP`).
+    plant: hold the supporting feet on the result.
+    """
+    t0 = time.perf_counter()
+    check_same_skeleton(a, b)
+    notes = []
+    if abs(a.fps - b.fps) > 1e-6 * a.fps:
+        b = b.resample(a.fps)
+        notes.append(f"B resampled to A's {a.fps:g} fps")
+    t1 = momentum_track(a, body_a, kind=kind)
+    t2 = momentum_track(b, body_b, kind=kind)
+    p1 = find_phases(t1, t_m_a, borders_a, min_level=min_level, name="A")
+    p2 = find_phases(t2, t_m_b, borders_b, min_level=min_level, name="B")
+    choice = choose_rule(a, t1, p1, b, t2, p2, rule)
+    L1_bar = t1.L[p1.main[0]:p1.main[1]].mean(axis=0)
+    L2_bar = t2.L[p2.main[0]:p2.main[1]].mean(axis=0)
+    yaw, value = alignment_yaw(L1_bar, L2_bar, choice.rule)
+    q = yaw_quaternion(yaw)
+    t2r = t2.rotated(q)
+    L_ref = _main_level((t1, t2), (p1, p2))
+    L_peak = max(float(t.magnitude[p.main[0]:p.main[1]].max()) for t, p in ((t1, p1), (t2, p2)))
+    max_F = (F_FRACTION * L_peak) ** 2 if max_F is None else float(max_F)
+    thr = (WINDOW_FRACTION * L_ref) ** 2 if window_threshold is None else float(window_threshold)
+    la = foot_plants(a, require=False).labels
+    lb = foot_plants(b, require=False).labels
+    gap = int(np.ceil(min_peak_gap * 0.5 * ((p1.main[1] - p1.main[0]) + (p2.main[1] - p2.main[0]))))
+    min_T = p1.t_m - p2.t_m + gap
+    best, failed = None, []
+    for case, pa, pb in blendable_periods(choice.rule, p1, p2):
+        pa2, na = support_truncate(la, pa)
+        pb2, nb = support_truncate(lb, pb)
+        try:
+            tab = optimal_timing(t1, t2r, pa2, pb2, weights=weights, min_T=min_T)
+        except ConcatError as e:
+            failed.append(f"{case}: {e}")
+            continue
+        if best is None or tab.F[tab.best] < best[3].F[best[3].best]:
+            best = (case, pa2, pb2, tab, (f"A {pa[0]}-{pa[1]}: {na}", f"B {pb[0]}-{pb[1]}: {nb}"))
+    if best is None:
+        raise ConcatError(f"the {choice.rule} rule cannot apply: " + "; ".join(failed))
+    notes.extend(f"blendable periods {f}" for f in failed)
+    case, pa, pb, tab, pnotes = best
+    k = tab.best
+    if tab.F[k] > max_F:
+        r = tab.row(k)
+        raise ConcatError(f"the motions are too different to be blended ({choice.rule} rule, {case}): the best "
+                          f"timing T={r['T']} (f_T={r['f_T']}) has F = {r['F']:.4g} (F_dm {r['F_dm']:.4g}, F_inertia "
+                          f"{r['F_inertia']:.4g}, F_time {r['F_time']:.4g}) above the threshold {max_F:.4g}")
+    T, f_T = int(tab.T[k]), int(tab.f_T[k])
+    ha = float(headings(a, [f_T])[0])
+    hb = float(headings(b, [f_T - T])[0]) + yaw
+    facing = float(abs((ha - hb + np.pi) % (2 * np.pi) - np.pi))
+    if facing > max_facing:
+        raise ConcatError(f"the bodies face different ways at the blending centre (A frame {f_T}, B frame {f_T - T}) "
+                          f"after the eq. 2 alignment (B turned by {np.degrees(yaw):+.1f} deg): their ground-projected "
+                          f"facings differ by {np.degrees(facing):.1f} deg, more than {np.degrees(max_facing):.0f} deg")
+    # window: f in period A with f - T in period B
+    lo, hi = max(pa[0], pb[0] + T), min(pa[1], pb[1] + T) - 1
+    f = np.arange(lo, hi + 1)
+    d = ((t1.L[f] - t2r.L[f - T]) ** 2).sum(1)
+    f0, f1 = _trace_window(d, lo, hi, f_T, thr)
+    if f1 - f0 + 1 < MIN_WINDOW:
+        notes.append(f"the overlap of the blendable periods allows only {f1 - f0 + 1} frame(s) of blending")
+    # translation: the feet centres coincide at f_i0
+    pivot = reference_points(b[f0 - T], "feet")[0]
+    target = reference_points(a[f0], "feet")[0]
+    tf = GroundTransform(yaw, tuple(pivot.tolist()), tuple((target - pivot).tolist()))
+    b2 = tf.apply(b)
+    # eq. 8
+    fr = np.arange(f0, f1 + 1)
+    alpha = (f1 - fr) / max(f1 - f0, 1)
+    ra, qa = a.root_positions[fr], a.rotations[fr]
+    rb, qb = b2.root_positions[fr - T], b2.rotations[fr - T]
+    w = np.broadcast_to((1.0 - alpha)[:, None], qa.shape[:2])
+    rot = np.concatenate([a.rotations[:f0], slerp(qa, qb, w), b2.rotations[f1 - T + 1:]])
+    root = np.concatenate([a.root_positions[:f0], alpha[:, None] * ra + (1.0 - alpha)[:, None] * rb,
+                           b2.root_positions[f1 - T + 1:]])
+    out = a.replace(root_positions=root, rotations=rot)
+    fp = None
+    if plant:
+        pl = foot_plants(out, labels=_blend_labels(la, lb, T, f_T, out.n_frames), require=False)
+        if pl.labels.any():
+            try:
+                fp = enforce_footplants(out, pl, audit=False)
+                out = fp.motion
+            except ValueError as e:         # mocomp.ops' IK fails on some inputs (reported upstream)
+                notes.append(f"feet not held: mocomp.ops.enforce_footplants failed ({e})")
+        else:
+            notes.append("no foot planted in A or B: nothing to enforce")
+    return ConcatResult(out, (p1, p2), choice, yaw, value, facing, (case, pa, pb), pnotes, tab, T, f_T, (f0, f1),
+                        thr, max_F, min_T, tf, (t1, t2r), fp, time.perf_counter() - t0, tuple(notes))

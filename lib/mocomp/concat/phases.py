@@ -1,0 +1,146 @@
+"""Angular momentum trajectory (Shum, Komura & Yadav 2009, eq. 1) and the three phases of a motion.
+
+``L(t) = sum_j m_j r_j(t) x p_j(t)`` (eq. 1): ``r_j`` the moment arm from the whole-body centre of
+mass to the COM of segment ``j``, ``p_j`` its velocity, ``m_j`` its mass. The segments, masses,
+positions and velocities are the project's (:func:`mocomp.dynamics.momentum` on the body model of
+:func:`mocomp.audit.default_body`); eq. 1 is the orbital part of the angular momentum about the
+COM (the segments' own spin ``I_j w_j`` is left out, as in the paper); ``kind="full"`` takes the
+project's complete ``L`` instead.
+
+Phases (sec. "Typical Angular Momentum Trajectories"): from a frame ``t_m`` in the main phase
+(default the peak of ``|L|``) walk backward to the first frame with ``L(t) . L(t_m) < 0``: the main
+phase starts after it and everything before is the preparatory phase; likewise forward for the
+posterior phase. Either border may be given by hand.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import MocompError
+
+__all__ = ["ConcatError", "MomentumTrack", "Phases", "momentum_track", "find_phases", "L_KINDS", "MIN_MAIN_LEVEL"]
+
+L_KINDS = ("paper", "full")
+#: kg m^2/s: a motion whose |L| never exceeds this has no main phase (a person standing, shifting
+#: weight or walking slowly stays below ~3; a punch peaks at ~5-15, a spinning kick or a flip at 20-50)
+MIN_MAIN_LEVEL = 4.0
+#: s, Gaussian sigma of the pre-smoothing of the motion before differentiating (capture noise)
+SMOOTH_SECONDS = 0.02
+
+
+class ConcatError(MocompError, ValueError):
+    """Two motions cannot be concatenated as asked (no main phase, a rule that cannot apply, the
+    facing check or the timing threshold failed); the message states the measured value."""
+
+
+@dataclass(frozen=True, eq=False)
+class MomentumTrack:
+    """A motion's angular momentum trajectory and what eq. 6 needs.
+
+    Attributes
+    ----------
+    L: ``(T, 3)`` kg m^2/s, eq. 1 (or the full L with ``kind="full"``), world axes (y up).
+    arms: ``(T, S, 3)`` m, moment arms ``r_j`` (segment COM minus body COM).
+    masses: ``(S,)`` kg.
+    fps: frames per second.
+    kind: ``"paper"`` (eq. 1) or ``"full"``.
+    """
+
+    L: np.ndarray
+    arms: np.ndarray
+    masses: np.ndarray
+    fps: float
+    kind: str = "paper"
+
+    @property
+    def n_frames(self) -> int:
+        return len(self.L)
+
+    @property
+    def magnitude(self) -> np.ndarray:
+        return np.linalg.norm(self.L, axis=1)
+
+    def rotated(self, quat) -> "MomentumTrack":
+        """The track of the motion turned by the rotation ``quat`` (L and the arms rotate with it)."""
+        from ..core.rotations import quat_apply
+
+        q = np.asarray(quat, dtype=float)
+        return MomentumTrack(quat_apply(q, self.L), quat_apply(q, self.arms), self.masses, self.fps, self.kind)
+
+
+def momentum_track(motion, body=None, *, kind: str = "paper", smooth_seconds: float | None = SMOOTH_SECONDS
+                   ) -> MomentumTrack:
+    """Eq. 1 over every frame of ``motion`` (body model: ``body`` or :func:`mocomp.audit.default_body`)."""
+    from ..audit import default_body
+    from ..dynamics import momentum
+
+    if kind not in L_KINDS:
+        raise ValueError(f"kind must be one of {', '.join(L_KINDS)}, got {kind!r}")
+    body = default_body(motion) if body is None else body
+    sigma = smooth_seconds * motion.fps if smooth_seconds else None
+    r = momentum(body, motion, smooth_sigma=sigma if sigma and sigma >= 0.5 else None)
+    arms = r.segment_positions - r.com[:, None]
+    if kind == "paper":
+        m = np.asarray(body.masses, dtype=float)
+        L = np.einsum("s,tsk->tk", m, np.cross(arms, r.segment_velocities))
+    else:
+        L = np.asarray(r.angular)
+    return MomentumTrack(L, arms, np.asarray(body.masses, dtype=float), float(motion.fps), kind)
+
+
+@dataclass(frozen=True)
+class Phases:
+    """Half-open frame ranges: preparatory ``[0, main[0])``, main ``[main[0], main[1])``,
+    posterior ``[main[1], n)``; ``t_m`` the reference frame; ``given`` whether the borders were set by hand."""
+
+    n_frames: int
+    t_m: int
+    main: tuple[int, int]
+    given: bool = False
+
+    @property
+    def preparatory(self) -> tuple[int, int]:
+        return (0, self.main[0])
+
+    @property
+    def posterior(self) -> tuple[int, int]:
+        return (self.main[1], self.n_frames)
+
+    def to_dict(self) -> dict:
+        return {"t_m": self.t_m, "preparatory": list(self.preparatory), "main": list(self.main),
+                "posterior": list(self.posterior), "borders": "given" if self.given else "detected"}
+
+
+def find_phases(track: MomentumTrack, t_m: int | None = None, borders: tuple[int, int] | None = None, *,
+                min_level: float = MIN_MAIN_LEVEL, name: str = "the motion") -> Phases:
+    """Segment a motion into preparatory, main and posterior phases (see the module docstring).
+
+    ``borders=(m0, m1)``: the main phase is ``[m0, m1)`` as given (``t_m`` then defaults to the
+    peak of ``|L|`` inside it). Raises :class:`ConcatError` when ``|L|`` never exceeds ``min_level``
+    (no main phase) or the borders are out of range.
+    """
+    L = track.L
+    n = len(L)
+    mag = np.linalg.norm(L, axis=1)
+    if borders is not None:
+        m0, m1 = (int(x) for x in borders)
+        if not 0 <= m0 < m1 <= n:
+            raise ConcatError(f"{name}: main phase borders {m0},{m1} must satisfy 0 <= start < stop <= {n} "
+                              f"(the motion has {n} frames)")
+        tm = int(m0 + np.argmax(mag[m0:m1])) if t_m is None else int(t_m)
+        return Phases(n, tm, (m0, m1), True)
+    peak = float(mag.max()) if n else 0.0
+    if peak < min_level:
+        raise ConcatError(f"{name} has no main phase: |L| peaks at {peak:.2f} kg m^2/s (frame "
+                          f"{int(np.argmax(mag)) if n else 0}), never above {min_level:g} kg m^2/s")
+    tm = int(np.argmax(mag)) if t_m is None else int(t_m)
+    if not 0 <= tm < n:
+        raise ConcatError(f"{name}: t_m {tm} is outside the motion's frames 0-{n - 1}")
+    neg = (L @ L[tm]) < 0.0
+    before = np.flatnonzero(neg[:tm])
+    after = np.flatnonzero(neg[tm:])
+    m0 = int(before[-1]) + 1 if before.size else 0
+    m1 = tm + int(after[0]) if after.size else n
+    return Phases(n, tm, (m0, m1), False)
