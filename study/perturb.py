@@ -85,6 +85,36 @@ linear jump but also alter the ground phases, which the study holds fixed (the
 paper's study retimed "during the flight phase" only; section 5.3 notes that
 small linear-momentum discontinuities are not perceptible). What a participant
 sees, with the numbers of the paper design: ``stimuli/README.md``.
+
+Rotation-only angular-momentum errors (``am_mode = "rotation"``, :func:`rotate_flight`)
+------------------------------------------------------------------------------------
+The retiming above changes the flight time, the jump height and the take-off speed
+together with ``L`` (issue 19: the synthetic back flip at -50 % abrupt rises 0.47 ->
+1.14 m and flies 0.66 -> 0.99 s), so a study on it partly measures those cues. The
+rotation-only mode changes the rotation alone: every frame keeps the base's posture
+(joint angles) and its COM at the same time (the COM trajectory, the flight's frames
+and duration, and every ground frame are the base's exactly); only the body's
+orientation about the axis ``n`` of the flight's mean ``L`` is retimed. With
+``omega_n(u) = L_n(u) / I_nn(u)`` the base's effective somersault rate (``I`` the
+whole-body inertia about the COM, :func:`mocomp.dynamics.composite_inertia`), the
+stimulus turns at ``rho(u) omega_n(u)`` with ``rho(u) = s r(u)``: ``r(u)`` the paper's
+rate profile (abrupt: 1 before the switch, ``1 + e`` after; smooth: ``1 + e u / T``) and
+``s`` chosen so that the total turn over the flight is the base's (for ``L`` along ``n``,
+``s = int omega_n du / int r omega_n du``) and the character lands on its feet in the base's landing pose. Each frame is
+rotated rigidly about ``n`` through its COM by
+``dtheta(u) = int_0^u (rho - 1) omega_n du`` (zero at take-off and at landing), which adds
+``I n x`` to ``L`` for an extra rate ``x = d dtheta / du`` (a rigid turn ``R`` about ``n`` maps
+``L`` to ``R (L + I n x)``, which has the same length, and translating about the COM does not
+change ``L``, flips paper section 5.1); ``x`` is the root nearest 0 of
+``|L + x I n| = rho |L|`` per frame, so ``|L|`` becomes exactly ``rho |L|`` even where the
+capture's ``L`` is not along ``n`` (for ``L`` along ``n``: ``x = (rho - 1) omega_n``). The nominal error is therefore the *change* of ``|L|`` the paper's profile
+makes: abrupt, ``|L|`` after the switch over ``|L|`` before it is ``1 + e``; smooth,
+``|L|`` at landing over ``|L|`` at take-off is ``1 + e``. The price of holding the landing
+pose with a fixed flight time: ``|L|`` is ``s`` times the base's at take-off and ``s (1 + e)``
+times at landing (abrupt +50 %: 0.80 and 1.20 for a rigid body), so the rotation speed
+changes at take-off and at touchdown; both are measured and written to the manifest
+(``takeoff_rotation_ratio``, ``landing_rotation_ratio``), as the paper-literal mode's
+touchdown change (``landing_rate``) is.
 """
 from __future__ import annotations
 
@@ -96,8 +126,12 @@ import numpy as np
 from mocomp.core.motion import Motion
 from mocomp.errors import NoFlightPhaseError, PhysicsError
 
-__all__ = ["KINDS", "TimeWarp", "time_warp", "ballistic_velocity", "FlightRebuild", "rebuild_flight",
-           "signed_level"]
+__all__ = ["KINDS", "AM_MODES", "TimeWarp", "time_warp", "ballistic_velocity", "FlightRebuild", "rebuild_flight",
+           "rotate_flight", "signed_level"]
+
+#: How angular-momentum errors are made: ``"rotation"`` (:func:`rotate_flight`, the default of new
+#: specs) or ``"retime"`` (the paper-literal flight retiming of :func:`rebuild_flight`).
+AM_MODES = ("rotation", "retime")
 
 #: Perturbation kinds understood by :func:`rebuild_flight`.
 KINDS = ("none", "am_abrupt", "am_smooth", "takeoff")
@@ -200,6 +234,9 @@ class FlightRebuild:
     rate: ``(T_new,)`` retiming rate at each new frame (1 outside the flight).
     root_offset: ``(T_new,)`` m, magnitude of the root translation applied per frame.
     com_mode: ``"capture"`` or ``"ballistic"`` (module docstring, step 2).
+    am_mode: ``"retime"`` (this function's flights) or ``"rotation"`` (:func:`rotate_flight`; then
+        ``rate`` is the orientation's rate ``rho``, ``rotation_angle`` the ``(T_new,)`` rad added about
+        ``rotation_axis`` and ``rotation_scale`` the factor ``s``).
     capture_deviation: m, largest distance of the base flight's COM from its
         ideal parabola ``P0`` (0 for an exact flight; the capture's non-ballistic part).
     """
@@ -221,6 +258,10 @@ class FlightRebuild:
     root_offset: np.ndarray
     com_mode: str = "capture"
     capture_deviation: float = 0.0
+    am_mode: str = "retime"
+    rotation_angle: np.ndarray | None = None
+    rotation_scale: float = 1.0
+    rotation_axis: np.ndarray | None = None
 
     @property
     def flight_duration(self) -> float:
@@ -342,3 +383,95 @@ def rebuild_flight(base: Motion, flight: tuple[int, int], com: Callable[[Motion]
         takeoff_time=ta, velocity=v, base_velocity=v0, jump_direction=h, landing_shift=shift,
         gravity=float(gravity), original_time=s, rate=rate, root_offset=np.linalg.norm(delta, axis=1),
         com_mode=com_mode, capture_deviation=dev)
+
+
+def rotate_flight(base: Motion, flight: tuple[int, int], com: Callable[[Motion], np.ndarray],
+                  angular: Callable[[Motion], np.ndarray], inertia: Callable[[Motion], np.ndarray], *,
+                  kind: str, error: float, gravity: float = 9.81, switch_fraction: float = 0.5) -> FlightRebuild:
+    """Rotation-only angular-momentum error (module docstring, "Rotation-only"): the base's COM,
+    posture, flight frames and ground frames kept exactly; the orientation about the flight's
+    mean ``L`` retimed by ``rho(u) = s r(u)`` so the total turn is the base's.
+
+    ``angular(motion) -> (T, 3)`` angular momentum about the COM (eq. 5.5) and
+    ``inertia(motion) -> (T, 3, 3)`` whole-body inertia about the COM.
+    """
+    from scipy.integrate import cumulative_trapezoid, trapezoid
+    from scipy.spatial.transform import Rotation
+
+    if kind not in ("am_abrupt", "am_smooth"):
+        raise ValueError(f"rotate_flight makes angular-momentum errors (am_abrupt, am_smooth), got {kind!r}")
+    a, b = int(flight[0]), int(flight[1])
+    n = base.n_frames
+    if not (1 <= a and b - a >= 5 and b < n):
+        raise NoFlightPhaseError(f"flight frames [{a}, {b}) of a {n}-frame motion: need >= 5 airborne frames and "
+                                 "ground frames before and after")
+    fps = base.fps
+    T = (b - 1 - a) / fps
+    time_warp(kind, error, T, switch_fraction)  # validates error and switch_fraction
+    # the paper's rate profile r(u) over the base's own flight time (the duration is kept)
+    u = (np.arange(a, b) - a) / fps
+    if kind == "am_abrupt":
+        r = np.where(u < switch_fraction * T, 1.0, 1.0 + error)
+        # the frame nearest the switch shows the mean of both rates (the step falls between frames)
+        ks = int(np.argmin(np.abs(u - switch_fraction * T)))
+        if abs(u[ks] - switch_fraction * T) < 1e-9:
+            r[ks] = 1.0 + 0.5 * error
+    else:
+        r = 1.0 + error * u / T
+    L = np.asarray(angular(base), dtype=float)[a:b]
+    I = np.asarray(inertia(base), dtype=float)[a:b]
+    Lin = L[1:-1] if b - a >= 5 else L                 # end frames' differences straddle the ground
+    nvec = Lin.mean(axis=0)
+    if np.linalg.norm(nvec) < 1e-9:
+        raise PhysicsError("the base flight has no angular momentum to change")
+    nvec = nvec / np.linalg.norm(nvec)
+    In = np.einsum("tij,j->ti", I, nvec)                 # I n: the L one rad/s about n adds
+    # the first and last airborne frames' L straddles take-off/landing: use their neighbours'
+    L = L.copy()
+    L[0], L[-1] = L[1], L[-2]
+    qa = np.einsum("ti,ti->t", In, In)
+    qb = 2.0 * np.einsum("ti,ti->t", L, In)
+    L2 = np.einsum("ti,ti->t", L, L)
+
+    def extra_rate(rho):
+        """Rate x about n with |L + x I n| = rho |L| (the root nearest 0); for L along n this is
+        (rho - 1) L_n / I_nn (the module docstring's)."""
+        disc = np.maximum(qb * qb - 4.0 * qa * L2 * (1.0 - rho * rho), 0.0)
+        sq = np.sqrt(disc)
+        x1, x2 = (-qb + sq) / (2.0 * qa), (-qb - sq) / (2.0 * qa)
+        return np.where(np.abs(x1) <= np.abs(x2), x1, x2)
+
+    from scipy.optimize import brentq
+
+    net = lambda sc: float(trapezoid(extra_rate(sc * r), u))  # noqa: E731  total extra turn
+    s = float(brentq(net, 0.2, 5.0, xtol=1e-12))
+    rho = s * r
+    dtheta = cumulative_trapezoid(extra_rate(rho), u, initial=0.0)
+    angle = np.zeros(n)
+    angle[a:b] = dtheta
+    q = Rotation.from_rotvec(np.outer(angle, nvec)).as_quat()
+    c = np.asarray(com(base), dtype=float)
+    turned = base.rotated(q, center=c)   # rigid turn of each frame about its own COM: the COM stays
+    rp, rot = np.array(base.root_positions), np.array(base.rotations)
+    rp[a:b], rot[a:b] = turned.root_positions[a:b], turned.rotations[a:b]   # ground frames: the base's bytes
+    out = base.replace(root_positions=rp, rotations=rot)
+    rate = np.ones(n)
+    rate[a:b] = rho
+    t = np.arange(n) / fps
+    c0, c1 = c[a], c[b - 1]
+    v0 = ballistic_velocity(c0, c1, T, gravity)
+    vh = v0 * np.array([1.0, 0.0, 1.0])
+    sh = float(np.linalg.norm(vh))
+    h = vh / sh if sh > 1e-12 else np.zeros(3)
+    warp_r = TimeWarp(kind, float(error), T, T, switch_fraction * T if kind == "am_abrupt" else None)
+    kb = np.arange(a, b)
+    uu = (kb - a) / fps
+    ideal = c0 + np.outer(uu, v0) - 0.5 * gravity * (uu ** 2)[:, None] * _Y
+    dev = float(np.linalg.norm(c[kb] - ideal, axis=1).max())
+    return FlightRebuild(
+        motion=out, kind=kind, error=float(error), warp=warp_r, flight=(a, b), base_flight=(a, b),
+        takeoff_time=a / fps, velocity=v0, base_velocity=v0, jump_direction=h, landing_shift=np.zeros(3),
+        gravity=float(gravity), original_time=t, rate=rate, root_offset=np.linalg.norm(
+            out.root_positions - base.root_positions, axis=1),
+        com_mode="capture", capture_deviation=dev, am_mode="rotation", rotation_angle=angle,
+        rotation_scale=s, rotation_axis=nvec)

@@ -67,7 +67,13 @@ EXTRA_COLUMNS = (
     "achieved_signed_pct", "L_error_pct", "velocity_error_pct", "takeoff_angle_deg", "takeoff_angle_change_deg",
     "takeoff_speed_ms", "speed_ratio", "flight_s", "base_flight_s", "apex_m", "landing_shift_m",
     "takeoff_dv_ms", "landing_dv_ms", "takeoff_dv_added_ms", "landing_dv_added_ms", "landing_rate",
-    "L_direction_change_deg", "com_capture_dev_m", "fps", "n_frames", "width", "height",
+    "L_direction_change_deg", "com_capture_dev_m",
+    # issue 19: how the error was made, and every cue the audit measures on the stimulus' frames
+    "am_mode", "level_unit", "imposed_velocity_change_pct", "cue_flight_s", "cue_flight_change_s", "cue_apex_m",
+    "cue_apex_change_m", "cue_takeoff_jump_ms", "cue_landing_jump_ms", "cue_takeoff_angle_deg",
+    "cue_takeoff_angle_change_deg", "cue_L_change_pct", "cue_takeoff_rotation_ratio", "cue_landing_rotation_ratio",
+    "cue_landing_rotation_speed_rads", "cue_com_change_m", "base_correction_m", "base_g_fit",
+    "fps", "n_frames", "width", "height",
     "filmstrip", "content_hash", "base_source", "render_s",
 )
 
@@ -280,6 +286,9 @@ def render_stimulus_set(spec: StudySpec | str | Path, out_dir: str | Path, *, fo
             for c in EXTRA_COLUMNS:
                 if c in st.measures:
                     row[c] = st.measures[c]
+            binfo = bases[st.base_clip].info
+            row["base_correction_m"] = binfo.get("ballistic_correction_m", float("nan"))
+            row["base_g_fit"] = binfo.get("g_fit_before_correction", float("nan"))
             row.update({"fps": fps, "n_frames": n_frames, "width": style.width, "height": style.height,
                         "filmstrip": fs_rel, "content_hash": ch, "base_source": st.base_source, "render_s": rsec})
             row.update(_audit_columns(st, bases[st.base_clip], base_audits, report))

@@ -32,6 +32,14 @@ except ``[[base]]`` and ``[[condition]]`` entries are optional; defaults below):
     switch_fraction = 0.5               # abrupt errors switch on at this fraction of the flight
     contact_height = 0.05               # m, for real clips' flight detection (see stimuli.py)
     com = "capture"                     # "capture" (control = the capture) | "ballistic" (study/perturb.py)
+    am_mode = "rotation"                # angular-momentum errors: "rotation" (only the orientation about L
+                                        # retimed; COM, flight time, take-off and landing kept) | "retime"
+                                        # (the paper's flight retiming); study/perturb.py
+    base_correction = "ballistic"       # "ballistic": bases' flight COM put on a 9.81 parabola first
+                                        # (study.stimuli.make_ballistic) | "none"
+    max_correction_m = 0.2              # m: a base whose correction moves its COM further is refused
+    takeoff_levels = "velocity"         # take-off levels mean: "velocity" (percent of the horizontal
+                                        # speed) | "angle" (degrees of take-off angle, from the vertical)
 
     [[base]]                            # one per base motion
     id = "synthetic_backflip"
@@ -44,7 +52,7 @@ except ``[[base]]`` and ``[[condition]]`` entries are optional; defaults below):
     [[condition]]                       # one per perturbation type
     perturbation = "am_abrupt"          # am_abrupt | am_smooth | takeoff
     directions = ["increase", "decrease"]
-    levels = [17, 25, 37, 50]           # percent
+    levels = [17, 25, 37, 50]           # percent (take-off with takeoff_levels = "angle": degrees)
 
 Every base gets one unperturbed stimulus (``perturbation = "none"``) plus one
 stimulus per condition x direction x level. Errors name the file and the key.
@@ -124,6 +132,10 @@ class StudySpec:
     switch_fraction: float = 0.5
     contact_height: float = 0.05
     com_mode: str = "capture"
+    am_mode: str = "rotation"
+    base_correction: str = "ballistic"
+    max_correction_m: float = 0.2
+    takeoff_levels: str = "velocity"
     raw: dict = field(default_factory=dict, repr=False, compare=False)
 
     def design(self) -> list[tuple[str, str, str, float]]:
@@ -211,13 +223,21 @@ def parse_spec(data: dict, path: str | Path | None = None) -> StudySpec:
     pre_s = _get(c, "pre_s", float, 0.7, path, "clip", nonneg)
     post_s = _get(c, "post_s", float, 1.0, path, "clip", nonneg)
     f = data.get("flight", {})
-    _unknown(f, {"gravity", "switch_fraction", "contact_height", "com"}, path, "flight")
+    _unknown(f, {"gravity", "switch_fraction", "contact_height", "com", "am_mode", "base_correction",
+                 "max_correction_m", "takeoff_levels"}, path, "flight")
     gravity = _get(f, "gravity", float, 9.81, path, "flight", pos)
     switch = _get(f, "switch_fraction", float, 0.5, path, "flight",
                   lambda v: None if 0.05 <= v <= 0.95 else "must be in [0.05, 0.95]")
     contact_h = _get(f, "contact_height", float, 0.05, path, "flight", pos)
     com_mode = _get(f, "com", str, "capture", path, "flight",
                     lambda v: None if v in ("capture", "ballistic") else 'must be "capture" or "ballistic"')
+    am_mode = _get(f, "am_mode", str, "rotation", path, "flight",
+                   lambda v: None if v in ("rotation", "retime") else 'must be "rotation" or "retime"')
+    base_corr = _get(f, "base_correction", str, "ballistic", path, "flight",
+                     lambda v: None if v in ("ballistic", "none") else 'must be "ballistic" or "none"')
+    max_corr = _get(f, "max_correction_m", float, 0.2, path, "flight", pos)
+    to_levels = _get(f, "takeoff_levels", str, "velocity", path, "flight",
+                     lambda v: None if v in ("velocity", "angle") else 'must be "velocity" or "angle"')
 
     bases_raw = data.get("base")
     if not isinstance(bases_raw, list) or not bases_raw:
@@ -269,11 +289,12 @@ def parse_spec(data: dict, path: str | Path | None = None) -> StudySpec:
         lv = cd.get("levels")
         if not isinstance(lv, list) or not lv or any(isinstance(x, bool) or not isinstance(x, (int, float)) for x in lv):
             raise _err(path, f"{w}.levels", f"must be a non-empty list of numbers (percent), got {lv!r}")
-        hi = 95.0 if p != "takeoff" else 300.0
+        hi = 95.0 if p != "takeoff" else (300.0 if to_levels == "velocity" else 45.0)
+        unit = "degrees" if (p == "takeoff" and to_levels == "angle") else "percent"
         bad = [x for x in lv if not (0 < x <= hi)]
         if bad:
-            raise _err(path, f"{w}.levels", f"levels are percent in (0, {hi:g}], got {bad}")
-        if "decrease" in dirs and p == "takeoff" and max(lv) >= 100:
+            raise _err(path, f"{w}.levels", f"levels are {unit} in (0, {hi:g}], got {bad}")
+        if "decrease" in dirs and p == "takeoff" and to_levels == "velocity" and max(lv) >= 100:
             raise _err(path, f"{w}.levels", "a take-off decrease of 100% or more reverses the jump direction")
         if len(set(lv)) != len(lv):
             raise _err(path, f"{w}.levels", f"duplicate levels in {lv}")
@@ -281,7 +302,8 @@ def parse_spec(data: dict, path: str | Path | None = None) -> StudySpec:
     return StudySpec(path=None if path is None else Path(path), name=name, title=title, reference=reference,
                      render=render, bases=tuple(bases), conditions=tuple(conds), pre_s=pre_s, post_s=post_s,
                      gravity=gravity, switch_fraction=switch, contact_height=contact_h, com_mode=com_mode,
-                     raw=data)
+                     am_mode=am_mode, base_correction=base_corr, max_correction_m=max_corr,
+                     takeoff_levels=to_levels, raw=data)
 
 
 def load_spec(path: str | Path) -> StudySpec:

@@ -51,7 +51,7 @@ from mocomp.core.motion import Motion
 from mocomp.core.rotations import quat_multiply
 from mocomp.errors import DataNotFoundError, NoFlightPhaseError, PhysicsError, StudyDataError
 
-from .perturb import FlightRebuild, rebuild_flight, signed_level
+from .perturb import FlightRebuild, rebuild_flight, rotate_flight, signed_level
 from .spec import BaseSpec, StudySpec
 
 __all__ = ["BaseMotion", "Stimulus", "BuiltStimuli", "load_base", "normalize_base", "make_stimulus",
@@ -71,6 +71,13 @@ def _angular_momentum(body, motion: Motion) -> np.ndarray:
     from mocomp.dynamics import momentum
 
     return np.asarray(momentum(body, motion).angular, dtype=float)
+
+
+def _inertia(body, motion: Motion) -> np.ndarray:
+    """``(T, 3, 3)`` whole-body inertia about the COM (:func:`mocomp.dynamics.composite_inertia`)."""
+    from mocomp.dynamics import composite_inertia
+
+    return np.asarray(composite_inertia(body, motion), dtype=float)
 
 
 def _airborne_intervals(motion: Motion, body, contact_height: float) -> list[tuple[int, int]]:
@@ -204,6 +211,49 @@ def normalize_base(motion: Motion, body, flight: tuple[int, int], *, pre_s: floa
     return m, (int(a), int(b)), info
 
 
+def make_ballistic(motion: Motion, body, flight: tuple[int, int], *, max_correction: float, base_id: str = "",
+                   spec_path=None) -> tuple[Motion, tuple[int, int], dict]:
+    """Put a base's flight COM on a g = 9.81 m/s^2 parabola before it is perturbed (issue 19 item 2).
+
+    The edit pipeline's COM repositioning (:func:`mocomp.edit.linear.correct_linear`, dissertation
+    section 5.5.3 / flips paper section 5.4.4) with ``k = 1`` (no retiming: the flight keeps its
+    frames and duration), ``gravity = G_STANDARD`` (:data:`mocomp.dynamics.constants.G_STANDARD`) and
+    the ballistic fit's take-off velocity (``takeoff_velocity="fit"``, the paper's; the captured
+    push-off's moves CMU 88_05's landing 0.44 m): every flight frame is translated so its COM lies
+    on the parabola through the take-off COM that lands at the captured landing height; frames after
+    the landing get the landing's offset (horizontal only). The correction's size is the largest
+    COM displacement over the whole motion (``ballistic_correction_m``; flight frames and the
+    landing phase's shift are also given). A base that needs more than ``max_correction`` m is
+    refused (:class:`~mocomp.errors.StudyDataError` naming the base and ``flight.max_correction_m``).
+    Measured (60 Hz CMU clips): 88_01 0.164 m, 88_05 back flip 0.135 m, 90_08 side flip 0.036 m;
+    the synthetic flips < 1e-6 m.
+    """
+    from mocomp.dynamics.constants import G_STANDARD
+    from mocomp.edit.linear import correct_linear
+    from mocomp.flips.mass import fit_ballistic
+
+    a, b = flight
+    C = _center_of_mass(body, motion)
+    fit = fit_ballistic(C[a:b], motion.fps, a)
+    res = correct_linear(body, motion, flight, fit, k=1.0, gravity=G_STANDARD, takeoff_velocity="fit")
+    out = res.motion
+    if out.n_frames != motion.n_frames or tuple(res.flight) != (a, b):
+        raise PhysicsError(f"base {base_id!r}: the ballistic correction changed the frames "
+                           f"({motion.n_frames} -> {out.n_frames}, flight {flight} -> {res.flight})")
+    d = np.linalg.norm(_center_of_mass(body, out) - C, axis=1)
+    size = float(d.max())
+    info = {"ballistic_correction": "correct_linear(k=1, g=9.81, takeoff_velocity='fit')",
+            "ballistic_correction_m": size, "ballistic_correction_flight_m": float(d[a:b].max()),
+            "ballistic_landing_shift_m": float(d[b:].max()) if b < len(d) else 0.0,
+            "g_fit_before_correction": float(fit.gravity), "ballistic_correction_max_m": float(max_correction)}
+    if size > max_correction:
+        raise StudyDataError(
+            f"base {base_id!r}: making its flight ballistic (g = 9.81 m/s^2) moves its COM by {size:.3f} m "
+            f"(flight fits g = {fit.gravity:.2f} m/s^2), more than the bound {max_correction:g} m; check its "
+            "frame rate and units, or raise flight.max_correction_m", spec_path, column="flight.max_correction_m")
+    return out, (a, b), info
+
+
 def load_base(b: BaseSpec, spec: StudySpec) -> BaseMotion:
     """Load and normalise one base motion (module docstring, steps 1-3)."""
     from mocomp.body import BodyModel
@@ -231,6 +281,10 @@ def load_base(b: BaseSpec, spec: StudySpec) -> BaseMotion:
     clearance = RADIUS_FRACTION["toe"] * motion.skeleton.height()
     m, fl, info = normalize_base(motion, body, flight, pre_s=spec.pre_s, post_s=spec.post_s,
                                  floor_clearance=clearance)
+    if spec.base_correction == "ballistic":
+        m, fl, corr = make_ballistic(m, body, fl, max_correction=spec.max_correction_m, base_id=b.id,
+                                     spec_path=spec.path)
+        info.update(corr)
     info.update({"source": b.source, "first_frame": first, "flight_detection": how,
                  "loaded_frames": motion.n_frames, "unit_scale": motion.source.unit_scale,
                  "notes": list(motion.source.notes) + notes, "body_table": getattr(body, "table", ""),
@@ -250,8 +304,9 @@ def stimulus_id(base_id: str, perturbation: str, direction: str, level_pct: floa
 class Stimulus:
     """One stimulus: the perturbed motion, what was asked and what was achieved.
 
-    ``nominal_level`` is in percent (0 for the control); ``measures`` holds the
-    manifest's measured columns (:func:`measure_stimulus`).
+    ``nominal_level`` is in percent (0 for the control; degrees for take-off stimuli of a spec with
+    ``takeoff_levels = "angle"``); ``measures`` holds the manifest's measured columns
+    (:func:`measure_stimulus`); ``audit`` the :class:`~mocomp.audit.AuditReport` of its motion.
     """
 
     stimulus_id: str
@@ -262,6 +317,7 @@ class Stimulus:
     nominal_level: float
     rebuild: FlightRebuild
     measures: dict
+    audit: object = None
 
     @property
     def motion(self) -> Motion:
@@ -282,8 +338,53 @@ def _flight_velocity(com: np.ndarray, fps: float, a: int, b: int, gravity: float
     return (com[b - 1] - com[a]) / T + 0.5 * gravity * T * np.array([0.0, 1.0, 0.0])
 
 
+def _motion_cues(motion: Motion, body, flight: tuple[int, int], report=None, L: np.ndarray | None = None) -> dict:
+    """The perceptual cues of one motion's flight, measured on its frames: with :func:`mocomp.audit.audit`
+    (``report``; computed when ``None``) the flight time, the COM apex above take-off, the COM
+    velocity jumps at take-off and landing and the take-off angle (degrees from the vertical), of the
+    audit's flight that overlaps ``flight`` most; with :mod:`mocomp.dynamics` the whole-body rotation
+    speed ``|I^-1 L|`` (rad/s, inertia and L about the COM) averaged over the first (``rot_first``)
+    and last (``rot_last``) two inner flight frames."""
+    a, b = flight
+    Lm = _angular_momentum(body, motion) if L is None else L
+    I = _inertia(body, motion[a + 1:b - 1])
+    w = np.linalg.norm(np.linalg.solve(I, Lm[a + 1:b - 1][..., None])[..., 0], axis=1)
+    out = {"cue_flight_s": np.nan, "cue_apex_m": np.nan, "cue_takeoff_jump_ms": np.nan,
+           "cue_landing_jump_ms": np.nan, "cue_takeoff_angle_deg": np.nan,
+           "rot_first": float(w[:2].mean()), "rot_last": float(w[-2:].mean())}
+    rep = _audit_or_none(motion, body) if report is None else report
+    if rep is None:  # a skeleton the audit cannot measure (e.g. no contact points): audit cues NaN
+        return out
+    best, ov = None, 0
+    for f in rep.flights:
+        o = min(b, f.frames[1]) - max(a, f.frames[0])
+        if o > ov and f.fit is not None:
+            best, ov = f, o
+    if best is None:
+        raise NoFlightPhaseError(f"the audit finds no flight overlapping frames [{a}, {b})")
+    jumps = {e.kind: e.jump for e in rep.com.events if e.flight == best.index}
+    out.update({"cue_flight_s": float(best.duration), "cue_apex_m": float(best.rise),
+                "cue_takeoff_jump_ms": float(jumps.get("take-off", np.nan)),
+                "cue_landing_jump_ms": float(jumps.get("landing", np.nan)),
+                "cue_takeoff_angle_deg": float(np.degrees(best.takeoff_angle))})
+    return out
+
+
+def _audit_or_none(motion: Motion, body, name: str | None = None):
+    """:func:`mocomp.audit.audit` of ``motion``, or ``None`` when the audit cannot measure its skeleton."""
+    from mocomp.audit import audit
+    from mocomp.errors import MocompError
+
+    try:
+        return audit(motion, body, name=name)
+    except MocompError:
+        return None
+
+
 def measure_stimulus(rb: FlightRebuild, control: FlightRebuild, body, *, L_control: np.ndarray | None = None,
-                     com: np.ndarray | None = None, com_control: np.ndarray | None = None) -> dict:
+                     com: np.ndarray | None = None, com_control: np.ndarray | None = None,
+                     stimulus_audit=None, control_audit=None, control_cues: dict | None = None,
+                     takeoff_levels: str = "velocity") -> dict:
     """The achieved errors and the evidence of one stimulus (module docstring).
 
     Returns a dict with ``achieved_error`` (percent, in the nominal direction),
@@ -304,6 +405,24 @@ def measure_stimulus(rb: FlightRebuild, control: FlightRebuild, body, *, L_contr
     flight's COM is from a ballistic parabola). Velocities are those of the
     ballistic flight through the stimulus' COM at its first and last airborne
     frames (:func:`_flight_velocity`).
+
+    The ``cue_*`` entries are the cues a participant may see besides the nominal error, each
+    measured on the stimulus' frames with :func:`mocomp.audit.audit` (``stimulus_audit``, computed
+    when ``None``) and :mod:`mocomp.dynamics` (:func:`_motion_cues`), never taken from the
+    perturbation's plan: ``cue_flight_s`` / ``cue_flight_change_s``, ``cue_apex_m`` /
+    ``cue_apex_change_m`` (COM rise of the audit's ballistic fit), ``cue_takeoff_jump_ms`` /
+    ``cue_landing_jump_ms`` (the audit's COM velocity jumps there), ``cue_takeoff_angle_deg`` /
+    ``cue_takeoff_angle_change_deg`` (the audit's take-off angle from the vertical, and its change
+    against the control's), ``cue_L_change_pct`` (= ``L_error_pct``), ``cue_takeoff_rotation_ratio``
+    / ``cue_landing_rotation_ratio`` (whole-body rotation speed ``|I^-1 L|`` over the first / last
+    two inner flight frames against the control's: the change a participant sees where the flight
+    meets the ground phases), ``cue_landing_rotation_speed_rads`` and ``cue_com_change_m`` (largest
+    COM distance from the control's, rotation-only stimuli). With ``takeoff_levels="angle"`` a
+    take-off stimulus' ``achieved_error`` is ``cue_takeoff_angle_change_deg`` (degrees).
+
+    Rotation-only stimuli (``rb.am_mode == "rotation"``): ``L_error_pct`` is the change of ``|L|``
+    the nominal level names (:mod:`study.perturb`): the median ratio to the control after the
+    abrupt switch over that before it, or the landing over the take-off value of the fitted line.
     """
     m = rb.motion
     fps = m.fps
@@ -325,16 +444,20 @@ def measure_stimulus(rb: FlightRebuild, control: FlightRebuild, body, *, L_contr
     ratio = np.linalg.norm(L[idx], axis=1) / np.linalg.norm(Lc_at, axis=1)
     u = (idx - fa) / fps
     Tn = rb.warp.new_T
+    rotation = rb.am_mode == "rotation"
     if rb.kind == "am_abrupt":
         keep = np.abs(u - rb.warp.switch_u) > 1.5 / fps
         post = keep & (u > rb.warp.switch_u)
-        if post.sum() < 2:
-            raise NoFlightPhaseError("too few flight frames after the abrupt switch to measure the error")
-        L_err = float(np.median(ratio[post]) - 1.0)
+        pre = keep & (u < rb.warp.switch_u)
+        if post.sum() < 2 or (rotation and pre.sum() < 2):
+            raise NoFlightPhaseError("too few flight frames around the abrupt switch to measure the error")
+        # rotation-only: the change across the switch; retimed: after the switch against the control
+        L_err = float(np.median(ratio[post]) / (np.median(ratio[pre]) if rotation else 1.0) - 1.0)
     else:
         A = np.stack([np.ones_like(u), u / Tn], axis=1)
         (c0, c1), *_ = np.linalg.lstsq(A, ratio, rcond=None)
-        L_err = float(c0 + c1 - 1.0)
+        # rotation-only: landing over take-off of the fitted line; retimed: at landing against the control
+        L_err = float((c0 + c1) / (c0 if rotation else 1.0) - 1.0)
     cosang = np.sum(L[idx] * Lc_at, axis=1) / (np.linalg.norm(L[idx], axis=1) * np.linalg.norm(Lc_at, axis=1))
     L_dir = float(np.degrees(np.arccos(np.clip(cosang, -1.0, 1.0))).max())
 
@@ -356,7 +479,25 @@ def measure_stimulus(rb: FlightRebuild, control: FlightRebuild, body, *, L_contr
     else:
         signed = L_err
     sign = -1.0 if rb.error < 0 else 1.0
-    return {
+    cues = _motion_cues(m, body, rb.flight, stimulus_audit, L=L)
+    ccues = _motion_cues(control.motion, body, control.flight, control_audit, L=L_control) \
+        if control_cues is None else control_cues
+    angle_change = cues["cue_takeoff_angle_deg"] - ccues["cue_takeoff_angle_deg"]
+    if rb.kind == "takeoff" and takeoff_levels == "angle":
+        signed = angle_change / 100.0  # degrees, reported as "percent" x 100 below
+    out_cues = {
+        "cue_flight_s": cues["cue_flight_s"], "cue_flight_change_s": cues["cue_flight_s"] - ccues["cue_flight_s"],
+        "cue_apex_m": cues["cue_apex_m"], "cue_apex_change_m": cues["cue_apex_m"] - ccues["cue_apex_m"],
+        "cue_takeoff_jump_ms": cues["cue_takeoff_jump_ms"], "cue_landing_jump_ms": cues["cue_landing_jump_ms"],
+        "cue_takeoff_angle_deg": cues["cue_takeoff_angle_deg"], "cue_takeoff_angle_change_deg": angle_change,
+        "cue_L_change_pct": 100.0 * L_err,
+        "cue_takeoff_rotation_ratio": cues["rot_first"] / ccues["rot_first"],
+        "cue_landing_rotation_ratio": cues["rot_last"] / ccues["rot_last"],
+        "cue_landing_rotation_speed_rads": cues["rot_last"],
+        "cue_com_change_m": float(np.linalg.norm(C[:min(len(C), len(Cc))] - Cc[:min(len(C), len(Cc))],
+                                                 axis=1).max()) if rb.am_mode == "rotation" else float("nan"),
+    }
+    return out_cues | {
         "achieved_error": 100.0 * sign * signed,
         "achieved_signed_pct": 100.0 * signed,
         "L_error_pct": 100.0 * L_err,
@@ -380,20 +521,58 @@ def measure_stimulus(rb: FlightRebuild, control: FlightRebuild, body, *, L_contr
     }
 
 
+def takeoff_error_for_angle(v0: np.ndarray, direction: str, degrees: float) -> float:
+    """The relative change ``e`` of the horizontal take-off speed that turns the take-off angle
+    (from the vertical, as :mod:`mocomp.audit` measures it) by ``degrees`` (``+`` increase: flatter):
+    ``tan(alpha0 +- d) / tan(alpha0) - 1`` with ``alpha0 = atan(|v_h| / v_y)``; the vertical speed
+    and the flight time are kept (:mod:`study.perturb`, step 3)."""
+    vh, vy = float(np.hypot(v0[0], v0[2])), float(v0[1])
+    if vy <= 0:
+        raise PhysicsError(f"the take-off velocity does not rise (v_y = {vy:.3f} m/s)")
+    a0 = np.arctan2(vh, vy)
+    a1 = a0 + np.radians(signed_level(direction, degrees))
+    if not (0.0 < a1 < np.radians(89.0)):
+        raise PhysicsError(f"a take-off angle of {np.degrees(a0):.1f} deg from the vertical cannot change by "
+                           f"{signed_level(direction, degrees):+g} deg (result must lie in (0, 89) deg)")
+    return float(np.tan(a1) / np.tan(a0) - 1.0)
+
+
 def make_stimulus(base: BaseMotion, perturbation: str, direction: str, level_pct: float, *,
                   gravity: float = 9.81, switch_fraction: float = 0.5, com_mode: str = "capture",
-                  control: FlightRebuild | None = None, L_control: np.ndarray | None = None) -> Stimulus:
-    """Build and measure one stimulus of ``base`` (``level_pct`` in percent)."""
+                  control: FlightRebuild | None = None, L_control: np.ndarray | None = None,
+                  am_mode: str = "rotation", takeoff_levels: str = "velocity",
+                  control_audit=None, control_cues: dict | None = None) -> Stimulus:
+    """Build, audit and measure one stimulus of ``base`` (``level_pct`` in percent; degrees for a
+    take-off stimulus with ``takeoff_levels="angle"``); ``am_mode``: ``"rotation"``
+    (:func:`study.perturb.rotate_flight`) or ``"retime"`` (:func:`study.perturb.rebuild_flight`)."""
     com = lambda mm: _center_of_mass(base.body, mm)  # noqa: E731
-    e = signed_level(direction, level_pct / 100.0)
+    if perturbation == "takeoff" and takeoff_levels == "angle":
+        e = 0.0
+    else:
+        e = signed_level(direction, level_pct / 100.0)
     if control is None:
         control = rebuild_flight(base.motion, base.flight, com, kind="none", gravity=gravity, com_mode=com_mode)
-    rb = control if perturbation == "none" else rebuild_flight(
-        base.motion, base.flight, com, kind=perturbation, error=e, gravity=gravity, switch_fraction=switch_fraction,
-        com_mode=com_mode)
-    meas = measure_stimulus(rb, control, base.body, L_control=L_control)
-    return Stimulus(stimulus_id(base.id, perturbation, direction, level_pct), base.id, base.source, perturbation,
-                    direction, float(level_pct), rb, meas)
+    if perturbation == "takeoff" and takeoff_levels == "angle":
+        e = takeoff_error_for_angle(control.base_velocity, direction, level_pct)
+    if perturbation == "none":
+        rb = control
+    elif perturbation.startswith("am_") and am_mode == "rotation":
+        rb = rotate_flight(base.motion, base.flight, com, lambda mm: _angular_momentum(base.body, mm),
+                           lambda mm: _inertia(base.body, mm), kind=perturbation, error=e, gravity=gravity,
+                           switch_fraction=switch_fraction)
+    else:
+        rb = rebuild_flight(base.motion, base.flight, com, kind=perturbation, error=e, gravity=gravity,
+                            switch_fraction=switch_fraction, com_mode=com_mode)
+    sid = stimulus_id(base.id, perturbation, direction, level_pct)
+    rep = _audit_or_none(rb.motion, base.body, name=sid)
+    if perturbation == "none":
+        control_audit = rep
+    meas = measure_stimulus(rb, control, base.body, L_control=L_control, stimulus_audit=rep,
+                            control_audit=control_audit, control_cues=control_cues, takeoff_levels=takeoff_levels)
+    meas["am_mode"] = am_mode if perturbation.startswith("am_") else ""
+    meas["level_unit"] = "deg" if (perturbation == "takeoff" and takeoff_levels == "angle") else "percent"
+    meas["imposed_velocity_change_pct"] = 100.0 * e if perturbation == "takeoff" else float("nan")
+    return Stimulus(sid, base.id, base.source, perturbation, direction, float(level_pct), rb, meas, rep)
 
 
 #: manifest columns written from the audit of each stimulus (study/DATA_DICTIONARY.md, "manifest.csv")
@@ -434,7 +613,8 @@ def audit_stimulus(stimulus: "Stimulus", base: BaseMotion, base_report=None) -> 
     from mocomp.cli._common import new_violations
 
     src = base_report if base_report is not None else audit_base(base)
-    rep = audit(stimulus.motion, base.body, name=stimulus.stimulus_id)
+    rep = stimulus.audit if stimulus.audit is not None else audit(stimulus.motion, base.body,
+                                                                  name=stimulus.stimulus_id)
     rep = dataclasses.replace(rep, against=src, comparison=rep.compare(src))
     new = [f for f, _ in new_violations(rep)]
     return rep, {
@@ -491,11 +671,15 @@ def build_stimuli(spec: StudySpec, *, skip_missing_data: bool = False, progress:
             com = lambda mm, body=base.body: _center_of_mass(body, mm)  # noqa: E731
             ctl = rebuild_flight(base.motion, base.flight, com, kind="none", gravity=spec.gravity,
                                  com_mode=spec.com_mode)
-            controls[bid] = (ctl, _angular_momentum(base.body, ctl.motion))
-        ctl, Lc = controls[bid]
+            Lc = _angular_momentum(base.body, ctl.motion)
+            rep_c = _audit_or_none(ctl.motion, base.body, name=stimulus_id(bid, "none", "none", 0))
+            controls[bid] = (ctl, Lc, rep_c, _motion_cues(ctl.motion, base.body, ctl.flight, rep_c, L=Lc))
+        ctl, Lc, rep_c, cues_c = controls[bid]
         try:
             out.append(make_stimulus(base, p, d, lv, gravity=spec.gravity, switch_fraction=spec.switch_fraction,
-                                     com_mode=spec.com_mode, control=ctl, L_control=Lc))
+                                     com_mode=spec.com_mode, control=ctl, L_control=Lc, am_mode=spec.am_mode,
+                                     takeoff_levels=spec.takeoff_levels, control_audit=rep_c,
+                                     control_cues=cues_c))
         except PhysicsError as e:
             raise PhysicsError(f"stimulus {stimulus_id(bid, p, d, lv)}: {e}") from None
     info = {bm.id: bm.info for bm in bases}
