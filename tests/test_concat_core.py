@@ -89,8 +89,11 @@ def test_support_truncation_to_double_support():
     lab[:, 0] = True
     lab[12:20, 2] = True
     lab[25:27, 3] = True
-    assert support_truncate(lab, (10, 30))[0] == (12, 20)
+    assert support_truncate(lab, (10, 30))[0] == (12, 20)        # single support left out
     assert support_truncate(lab, (0, 10))[0] == (0, 10)          # never both feet: kept whole
+    lab[14:24] = False                                           # airborne 14-23, then double 24-26
+    lab[24:27, 2] = True
+    assert support_truncate(lab, (10, 30))[0] == (12, 27)
 
 
 # ---- eq. 3-7

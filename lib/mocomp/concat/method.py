@@ -19,10 +19,13 @@
    ``alpha = (f_if - f) / (f_if - f_i0)`` (1 -> 0), joint rotations by slerp, the root position
    linearly (both motions are in one frame after step 6, so there is no jump at either edge);
    then the supporting feet held with :func:`mocomp.ops.enforce_footplants` (A's plants before
-   ``f_T``, B's from it on).
+   ``f_T``, B's from it on);
+8. eq. 9: the blended period re-timed by the factor ``s`` so its mean |L| matches its ends' (on by
+   default; ``time_scale=False`` leaves it out).
 
-The output plays A up to ``f_i0``, the blend, then B from ``f_if - T + 1``: ``T + len(B)`` frames,
-frame ``f`` of the output being frame ``f`` of A and frame ``f - T`` of B.
+Without time scaling the output plays A up to ``f_i0``, the blend, then B from ``f_if - T + 1``:
+``T + len(B)`` frames, frame ``f`` of the output being frame ``f`` of A and frame ``f - T`` of B;
+with it the frames after the window move by ``window_frames_out - (f_if - f_i0 + 1)``.
 """
 from __future__ import annotations
 
@@ -93,6 +96,8 @@ class ConcatResult:
     min_T: int
     transform: GroundTransform
     tracks: tuple[MomentumTrack, MomentumTrack]
+    scale: float
+    window_frames_out: int
     footplants: object | None
     seconds: float
     notes: tuple[str, ...] = field(default=())
@@ -121,6 +126,9 @@ class ConcatResult:
                              "frames": self.window[1] - self.window[0] + 1,
                              "threshold_dL2": self.window_threshold,
                              "B_frames": [self.window[0] - self.T, self.window[1] - self.T]},
+            "time_scaling": {"s": self.scale, "window_frames_before": self.window[1] - self.window[0] + 1,
+                             "window_frames_after": self.window_frames_out,
+                             "output_window": [self.window[0], self.window[0] + self.window_frames_out - 1]},
             "L_kind": self.tracks[0].kind, "L_reference": self.L_reference,
             "frames": self.motion.n_frames, "duration_s": self.motion.n_frames / self.motion.fps,
             "seconds": self.seconds, "notes": list(self.notes),
@@ -160,11 +168,37 @@ def _blend_labels(la: np.ndarray, lb: np.ndarray, T: int, f_T: int, n: int) -> n
     return lab
 
 
+def _time_scale(out: Motion, lab: np.ndarray, f0: int, f1: int, body, kind: str, max_scale: float):
+    """Eq. 9: ``s = (||L(f_i0) + L(f_if)|| / 2) / (sum_{f_i0}^{f_if} ||L(f)|| / (f_if - f_i0))`` of the
+    blended motion, and the blended period played over ``(f_if - f_i0) / s`` frame intervals (slower
+    when the blend made it fast), so its mean |L| matches its ends'. ``s`` is clamped to
+    ``[1 / max_scale, max_scale]`` (noted)."""
+    L = momentum_track(out, body, kind=kind).L
+    num = 0.5 * float(np.linalg.norm(L[f0] + L[f1]))
+    den = float(np.linalg.norm(L[f0:f1 + 1], axis=1).sum()) / (f1 - f0)
+    s = num / den if den > 0 else 1.0
+    note = ""
+    if not 1.0 / max_scale <= s <= max_scale:
+        c = float(np.clip(s, 1.0 / max_scale, max_scale))
+        note = f"eq. 9 scale factor {s:.3g} clamped to {c:.3g}"
+        s = c
+    n_new = max(2, int(round((f1 - f0) / s)) + 1)
+    seg = out[f0:f1 + 1]
+    win = seg.sample(np.linspace(0.0, (f1 - f0) / out.fps, n_new))
+    res = out.replace(root_positions=np.concatenate([out.root_positions[:f0], win.root_positions,
+                                                     out.root_positions[f1 + 1:]]),
+                      rotations=np.concatenate([out.rotations[:f0], win.rotations, out.rotations[f1 + 1:]]))
+    src = np.rint(np.linspace(f0, f1, n_new)).astype(int)
+    lab2 = np.concatenate([lab[:f0], lab[src], lab[f1 + 1:]])
+    return res, lab2, s, n_new, note
+
+
 def concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, borders_b=None,
                 t_m_a: int | None = None, t_m_b: int | None = None, kind: str = "paper",
                 body_a=None, body_b=None, max_F: float | None = None, window_threshold: float | None = None,
                 max_facing: float = MAX_FACING, min_level: float = MIN_MAIN_LEVEL, plant: bool = True,
-                weights=(1.0, 1.0, 1.0), min_peak_gap: float = MIN_PEAK_GAP) -> ConcatResult:
+                weights=(1.0, 1.0, 1.0), min_peak_gap: float = MIN_PEAK_GAP, time_scale: bool = True,
+                max_scale: float = 4.0) -> ConcatResult:
     """Concatenate ``b`` after ``a`` (see the module docstring).
 
     Parameters
@@ -176,6 +210,7 @@ def concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bor
     max_F: reject the timing above this F (default ``(F_FRACTION L_peak)^2``, ``L_peak`` the larger main-phase peak |L|).
     window_threshold: ``||L1 - L2||^2`` limit of the window trace (default ``(WINDOW_FRACTION L_ref)^2``).
     max_facing: rad, the facing check at ``f_T``.
+    time_scale: apply eq. 9 (the scale factor is reported; ``max_scale`` bounds it both ways).
     min_peak_gap: offsets with ``T + t_m(B) - t_m(A)`` below this fraction of the mean main-phase
         length are not considered (:data:`MIN_PEAK_GAP`).
     plant: hold the supporting feet on the result.
@@ -255,9 +290,15 @@ def concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bor
     root = np.concatenate([a.root_positions[:f0], alpha[:, None] * ra + (1.0 - alpha)[:, None] * rb,
                            b2.root_positions[f1 - T + 1:]])
     out = a.replace(root_positions=root, rotations=rot)
+    lab = _blend_labels(la, lb, T, f_T, out.n_frames)
+    scale, n_new = 1.0, f1 - f0 + 1
+    if time_scale and f1 > f0:
+        out, lab, scale, n_new, note = _time_scale(out, lab, f0, f1, body_a, kind, max_scale)
+        if note:
+            notes.append(note)
     fp = None
     if plant:
-        pl = foot_plants(out, labels=_blend_labels(la, lb, T, f_T, out.n_frames), require=False)
+        pl = foot_plants(out, labels=lab, require=False)
         if pl.labels.any():
             try:
                 fp = enforce_footplants(out, pl, audit=False)
@@ -267,4 +308,4 @@ def concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bor
         else:
             notes.append("no foot planted in A or B: nothing to enforce")
     return ConcatResult(out, (p1, p2), choice, yaw, value, facing, (case, pa, pb), pnotes, tab, T, f_T, (f0, f1),
-                        thr, max_F, min_T, tf, (t1, t2r), fp, time.perf_counter() - t0, tuple(notes))
+                        thr, max_F, min_T, tf, (t1, t2r), scale, n_new, fp, time.perf_counter() - t0, tuple(notes))

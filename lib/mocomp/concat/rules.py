@@ -126,17 +126,20 @@ def blendable_periods(rule: str, p1: Phases, p2: Phases) -> list[tuple[str, tupl
 
 def support_truncate(labels: np.ndarray, period: tuple[int, int]) -> tuple[tuple[int, int], str]:
     """Truncate a blendable period to double support where the motion is on the ground: with
-    ``labels`` ``(T, 4)`` foot-plant labels (foot_l, toe_l, foot_r, toe_r), the longest run of frames
-    with both feet planted inside the period when there is one; else the period as is (airborne or
-    on one foot throughout), with a note."""
+    ``labels`` ``(T, 4)`` foot-plant labels (foot_l, toe_l, foot_r, toe_r), the frames allowed are
+    those in the air (no foot planted) or on both feet; the period becomes the longest run of
+    allowed frames in it. When it has none (on one foot throughout, as in a kick) it is kept whole,
+    with a note."""
     a, b = period
     lab = np.asarray(labels, dtype=bool)[a:b]
-    both = (lab[:, 0] | lab[:, 1]) & (lab[:, 2] | lab[:, 3])
-    if not both.any():
-        return period, "no double support in it: kept whole"
-    if both.all():
-        return period, "double support throughout"
-    d = np.diff(np.concatenate([[0], both.astype(int), [0]]))
+    left, right = lab[:, 0] | lab[:, 1], lab[:, 2] | lab[:, 3]
+    ok = (left & right) | ~(left | right)
+    if not ok.any():
+        return period, "on one foot throughout: kept whole"
+    if ok.all():
+        return period, "airborne or on both feet throughout"
+    d = np.diff(np.concatenate([[0], ok.astype(int), [0]]))
     starts, stops = np.flatnonzero(d == 1), np.flatnonzero(d == -1)
     k = int(np.argmax(stops - starts))
-    return (a + int(starts[k]), a + int(stops[k])), f"truncated to double support {a + int(starts[k])}-{a + int(stops[k])}"
+    lo, hi = a + int(starts[k]), a + int(stops[k])
+    return (lo, hi), f"truncated to {lo}-{hi} (airborne or double support; single support left out)"

@@ -1,0 +1,125 @@
+"""mocomp.concat.concatenate end to end on the embedded synthetic flips (issue 17): known answers
+(a known yaw recovered, the output is A then B at the offset T), rules, rejections, the audit."""
+from __future__ import annotations
+
+import dataclasses
+import warnings
+
+import numpy as np
+import pytest
+
+from mocomp import datasets
+from mocomp.audit import audit
+from mocomp.concat import ConcatError, concatenate, momentum_track
+from mocomp.ops import blend, reference_points
+from mocomp.ops.align import yaw_quaternion
+
+
+@pytest.fixture(scope="module")
+def flip():
+    return datasets.load("backflip")
+
+
+@pytest.fixture(scope="module")
+def double(flip):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        return concatenate(flip, flip, plant=False, time_scale=False)
+
+
+def _reversed(m):
+    return m.replace(root_positions=m.root_positions[::-1].copy(), rotations=m.rotations[::-1].copy())
+
+
+def test_forward_rule_and_the_output_is_A_then_B_at_T(flip, double):
+    r = double
+    assert r.rule.rule == "forward" and r.rule.reason.startswith("auto:") and "same direction" in r.rule.reason
+    assert r.yaw == pytest.approx(0.0, abs=1e-6)
+    f0, f1 = r.window
+    T = r.T
+    assert f0 <= r.f_T <= f1 and f1 - f0 + 1 >= 3
+    assert r.motion.n_frames == T + flip.n_frames
+    np.testing.assert_allclose(r.motion.rotations[:f0], flip.rotations[:f0], atol=1e-12)
+    b2 = r.transform.apply(flip)
+    np.testing.assert_allclose(r.motion.root_positions[f1 + 1:], b2.root_positions[f1 + 1 - T:], atol=1e-9)
+    # the centres of the feet coincide at the first blending frame (translation of sec. "Transition Rules")
+    np.testing.assert_allclose(reference_points(b2[f0 - T], "feet")[0], reference_points(flip[f0], "feet")[0],
+                               atol=1e-9)
+    # both main phases are kept: the output's peaks are at least half the mean main-phase length apart
+    gap = T + r.phases[1].t_m - r.phases[0].t_m
+    assert T >= r.min_T and gap >= 0.5 * (r.phases[0].main[1] - r.phases[0].main[0])
+
+
+def test_known_yaw_is_recovered(flip, double):
+    for deg in (40.0, -125.0):
+        turned = flip.rotated(yaw_quaternion(np.radians(deg)))
+        r = concatenate(flip, turned, plant=False, time_scale=False)
+        assert np.degrees(r.yaw) == pytest.approx(-deg, abs=1e-6)
+        assert (r.T, r.f_T, r.window) == (double.T, double.f_T, double.window)
+        np.testing.assert_allclose(r.motion.root_positions, double.motion.root_positions, atol=1e-6)
+
+
+def test_reverse_rule_auto_for_opposite_momenta(flip):
+    back = _reversed(flip)                       # time reversed: L(t) -> -L(T - t)
+    r = concatenate(flip, back, plant=False)
+    assert r.rule.rule == "reverse" and "opposite directions" in r.rule.reason
+    assert r.rule.dot < 0
+    assert abs(np.degrees(r.yaw)) < 1e-6 or abs(abs(np.degrees(r.yaw)) - 180) < 1e-6
+    assert r.eq2_value < 0                       # eq. 2 minimised: the mean momenta oppose
+    assert r.periods[0].startswith("latter half of main A") or r.periods[0].startswith("initial half of posterior A")
+
+
+def test_forward_keeps_momentum_between_the_main_phases(flip, double):
+    """The acceptance measure: |L| (measured on the output) between the two main-phase peaks stays
+    above 30 % of the main-phase level; a plain ops blend at the same frames into B aligned by heading
+    is the baseline blend (same frames, so the same level is expected: the gain of the method is in
+    choosing the frames)."""
+    r = double
+    L = momentum_track(r.motion).magnitude
+    a, b = r.phases[0].t_m, r.phases[1].t_m + r.T
+    level = 0.5 * (r.tracks[0].magnitude[slice(*r.phases[0].main)].mean()
+                   + r.tracks[1].magnitude[slice(*r.phases[1].main)].mean())
+    assert L[a:b].min() > 0.3 * level
+    # the capture-free alternative: B played after A ends (the Motion-Graph stop) drops to ~0
+    assert r.motion.n_frames < 2 * flip.n_frames
+    ref = blend(flip, flip, (r.f_T, r.f_T - r.T), window=r.window[1] - r.window[0] + 1, plant=False)
+    Lb = momentum_track(ref.motion).magnitude
+    assert Lb[a:b].min() > 0.3 * level
+
+
+def test_audit_of_the_output_against_the_input_and_a_plain_blend(flip):
+    """Measured on the output: no COM velocity jump beyond the input's, feet within 1 cm and not
+    in the floor; the root's fastest step (the blend must drop the root 0.45 m from the landing of
+    flip 1 to the crouch of flip 2 within the window) is slower than a plain ops blend's at the same
+    frames thanks to eq. 9 (s < 1: the window is played slower)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        r = concatenate(flip, flip)
+        plain = blend(flip, flip, (r.f_T, r.f_T - r.T), window=r.window[1] - r.window[0] + 1)
+    assert 0.25 <= r.scale < 1.0 and r.window_frames_out > r.window[1] - r.window[0] + 1
+    rep, base, ref = audit(r.motion, against=flip), audit(flip), audit(plain.motion)
+    assert rep.measure("max_com_jump_mps") <= 1.1 * base.measure("max_com_jump_mps")
+    assert rep.measure("max_foot_slide_m") <= 0.01
+    assert rep.measure("max_penetration_m") <= 0.005
+    assert rep.measure("max_root_speed") < 0.9 * ref.measure("max_root_speed")
+
+
+def test_rejections_state_the_measured_value(flip):
+    twist = datasets.load("twist360")            # turning about the vertical: the facings differ at f_T
+    ok = concatenate(twist, twist, plant=False)
+    assert 0.0 < ok.facing_difference < np.pi / 4
+    lim = 0.5 * ok.facing_difference
+    with pytest.raises(ConcatError, match=rf"facings differ by {np.degrees(ok.facing_difference):.1f} deg, more than "
+                                          rf"{np.degrees(lim):.0f} deg"):
+        concatenate(twist, twist, max_facing=lim, plant=False)
+    with pytest.raises(ConcatError, match=r"too different to be blended .* has F = [0-9.e+-]+ .* above the threshold 1e-06"):
+        concatenate(flip, flip, max_F=1e-6, plant=False)
+
+
+def test_different_skeletons_name_the_joints(flip):
+    sk = flip.skeleton
+    names = list(sk.names)
+    names[-1] = names[-1] + "_x"
+    other = flip.replace(skeleton=dataclasses.replace(sk, names=tuple(names)))
+    with pytest.raises(ConcatError, match=r"different skeletons .* joints only in A: " + names[-1][:-2]):
+        concatenate(flip, other)
