@@ -300,10 +300,16 @@ def test_render_set_manifest_hashes_and_skipping(tmp_path, toy_example):
     pert = m[m.perturbation != "none"]
     # (a full turn in 0.5 s at 60 fps: central differences under-read fast rotation by ~1 %)
     assert np.allclose(pert["achieved_error"], pert["nominal_level"], atol=1.5)
-    # abrupt increase shortens the flight, decrease lengthens it; take-off keeps it
+    # rotation-only (the default am_mode): every stimulus keeps the flight time and the COM path
+    # (issue 19); the rotation speed changes at take-off and landing, measured
     fl = dict(zip(m.stimulus_id, m.flight_s))
-    assert fl["toy__am_abrupt_increase_50"] < fl["toy__none"] < fl["toy__am_abrupt_decrease_50"]
-    assert fl["toy__none"] == pytest.approx(fl["toy__takeoff_increase_30"])
+    assert len({round(v, 9) for v in fl.values()}) == 1
+    am = m[m.perturbation == "am_abrupt"].set_index("stimulus_id")
+    assert (am["am_mode"] == "rotation").all() and (m["level_unit"] == "percent").all()
+    assert (am["cue_com_change_m"] < 1e-3).all()
+    assert am.at["toy__am_abrupt_increase_50", "cue_landing_rotation_ratio"] == pytest.approx(1.5 / 1.25, abs=0.03)
+    assert am.at["toy__am_abrupt_decrease_50", "cue_takeoff_rotation_ratio"] == pytest.approx(1 / 0.75, abs=0.03)
+    assert (m["base_correction_m"] < 1e-6).all()  # exact toy flight: nothing to correct
     info = json.loads((out / "render_info.json").read_text())
     assert info["n_stimuli"] == 4 and info["camera"]["view_angle"] == 30.0
     assert (out / "spec.json").is_file()
