@@ -1,0 +1,201 @@
+"""``mocomp concat A B [C ...] -o OUT.bvh``: dynamic motions chained by their angular momentum
+(Shum, Komura & Yadav 2009; issue 17)."""
+from __future__ import annotations
+
+import argparse
+import json
+import string
+from pathlib import Path
+
+
+def _phases(text: str) -> tuple[str, tuple[int, int]]:
+    """``A:a0,a1`` -> ``("A", (a0, a1))``."""
+    name, sep, rng = text.partition(":")
+    parts = rng.split(",")
+    if not sep or len(name) != 1 or name.upper() not in string.ascii_uppercase or len(parts) != 2:
+        raise argparse.ArgumentTypeError(f"{text!r} is not MOTION:START,STOP (e.g. A:40,95; motions A, B, C, ... "
+                                         "in the order given)")
+    try:
+        a, b = int(parts[0]), int(parts[1])
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: START and STOP must be frame numbers") from None
+    if not 0 <= a < b:
+        raise argparse.ArgumentTypeError(f"{text!r}: need 0 <= START < STOP (main phase frames, STOP exclusive)")
+    return name.upper(), (a, b)
+
+
+def _rules(text: str) -> list[str]:
+    rules = [r.strip() for r in text.split(",")]
+    bad = [r for r in rules if r not in ("forward", "reverse", "auto")]
+    if bad or not rules:
+        raise argparse.ArgumentTypeError(f"{text!r}: each rule must be forward, reverse or auto (one for all joints "
+                                         "or a comma-separated list, one per joint)")
+    return rules
+
+
+def register(sub) -> None:
+    from ._common import add_audit_arg, float_in
+
+    p = sub.add_parser(
+        "concat", help="chain dynamic motions by their angular momentum (forward / reverse rule)",
+        description="Concatenate full-body motions (kicks, punches, flips, cartwheels) the way people chain them "
+                    "(Shum, Komura & Yadav 2009): the angular momentum of each motion (eq. 1) splits it into "
+                    "preparatory, main and posterior phases; the forward rule keeps the momentum of the first main "
+                    "phase up to start the second, the reverse rule uses the end of the first to wind up the second "
+                    "(auto: by the sign of the main phases' mean-L dot product, with the reason); B is turned about "
+                    "the vertical in closed form (eq. 2) and moved so the centres of the feet coincide; the offset T "
+                    "and blending centre f_T minimise F = F_dm + F_inertia + F_time (eq. 3-7) over the blendable "
+                    "periods; the motions are blended linearly (eq. 8, slerp) over a window traced from f_T, the "
+                    "blended period re-timed (eq. 9) and the supporting feet held (mocomp.ops). With more than two "
+                    "motions each joint is chosen by its own rule. The printed values are the method's planned "
+                    "ones; the summary ends with the verdict of mocomp.audit on the frames written, against the "
+                    "inputs.")
+    p.add_argument("motions", nargs="+", metavar="MOTION", help="two or more motions (files or clip names), in order")
+    p.add_argument("-o", "--out", required=True, metavar="OUT.bvh", help="output BVH file (the chained motion)")
+    p.add_argument("--report", metavar="r.json", help="write the planned values (and the audit) as JSON")
+    p.add_argument("--rule", type=_rules, default=["auto"], metavar="forward|reverse|auto",
+                   help="transition rule (default auto); one for every joint or a comma-separated list, one per joint")
+    p.add_argument("--phases", type=_phases, nargs="+", default=[], metavar="X:START,STOP",
+                   help="main-phase borders by hand, e.g. A:40,95 B:12,60 (motions A, B, C, ... in the order given; "
+                        "frames 0-based, STOP exclusive); default: detected from the peak of |L|")
+    p.add_argument("--L", dest="kind", choices=("paper", "full"), default="paper",
+                   help="angular momentum: paper (eq. 1, the segments' orbital momentum about the COM; default) or "
+                        "full (with the segments' own spin)")
+    p.add_argument("--max-f", type=float_in(0.0, 1e12), metavar="F",
+                   help="reject a timing whose F exceeds this (default (1.5 x the larger main-phase peak |L|)^2)")
+    p.add_argument("--window-threshold", type=float_in(0.0, 1e12), metavar="DL2",
+                   help="trace the blend window while ||L1 - L2||^2 stays below this (default (0.5 x the main "
+                        "phases' mean |L|)^2)")
+    p.add_argument("--max-facing", type=float_in(0.0, 180.0), default=45.0, metavar="DEG",
+                   help="largest difference of the two bodies' ground-projected facing at f_T (default 45)")
+    p.add_argument("--no-time-scale", action="store_true", help="leave out eq. 9's time scaling of the blend")
+    p.add_argument("--no-plant", action="store_true", help="do not hold the supporting feet")
+    p.add_argument("--plot", metavar="L.png", help="plot |L| of the inputs (placed at their offsets) and of the output")
+    add_audit_arg(p)
+    p.set_defaults(func=run)
+
+
+def _print_joint(k: int, na: str, nb: str, r) -> None:
+    d = r.to_dict()
+    ph = d["phases"]
+    print(f"joint {k + 1}: {na} -> {nb}")
+    for w, n in (("A", na), ("B", nb)):
+        x = ph[w]
+        print(f"  phases of {n} ({x['borders']}): preparatory {x['preparatory'][0]}-{x['preparatory'][1]}, main "
+              f"{x['main'][0]}-{x['main'][1]} (t_m {x['t_m']}), posterior {x['posterior'][0]}-{x['posterior'][1]}")
+    print(f"  rule: {r.rule.rule} ({r.rule.reason})")
+    print(f"  planned alignment (eq. 2): B turned by {d['alignment']['yaw_deg']:+.1f} deg, moved by "
+          f"({r.transform.shift[0]:+.3f}, {r.transform.shift[2]:+.3f}) m; facing at f_T differs by "
+          f"{d['facing_check']['difference_deg']:.1f} deg (limit {d['facing_check']['limit_deg']:.0f})")
+    bp = d["blendable_periods"]
+    print(f"  blendable periods ({bp['case']}): A {bp['A'][0]}-{bp['A'][1]}, B {bp['B'][0]}-{bp['B'][1]}; "
+          + "; ".join(bp["notes"]))
+    t = d["timing"]
+    o, ru = t["optimum"], t["runner_up"]
+    print(f"  planned timing (eq. 3-7, {t['offsets_scanned']} offsets): T = {o['T']}, f_T = {o['f_T']}, F = {o['F']:.4g} "
+          f"(F_dm {o['F_dm']:.4g} + F_inertia {o['F_inertia']:.4g} + F_time {o['F_time']:.4g}; limit {t['max_F']:.4g})"
+          + ("" if ru is None else f"; runner-up T = {ru['T']}: F = {ru['F']:.4g} (F_dm {ru['F_dm']:.4g} + F_inertia "
+                                   f"{ru['F_inertia']:.4g} + F_time {ru['F_time']:.4g})"))
+    w = d["blend_window"]
+    ts = d["time_scaling"]
+    print(f"  planned blend (eq. 8): A frames {w['f_i0']}-{w['f_if']} with B frames {w['B_frames'][0]}-{w['B_frames'][1]} "
+          f"({w['frames']} frames); eq. 9 scale s = {ts['s']:.3f} -> {ts['window_frames_after']} frames")
+    if r.footplants is not None:
+        fp = r.footplants
+        print(f"  feet: largest slide within plants {fp.slide_before.max() * 100:.2f} -> {fp.slide_after.max() * 100:.2f} cm")
+    for n in r.notes:
+        print(f"  note: {n}")
+
+
+def _plot(path, inputs, offsets, out, tracks_fn) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    fig, ax = plt.subplots(figsize=(9, 3.5))
+    for (name, m), off in zip(inputs, offsets):
+        L = tracks_fn(m).magnitude
+        ax.plot((np.arange(len(L)) + off) / m.fps, L, lw=1, alpha=0.6, label=f"{Path(name).name} (planned offset)")
+    Lo = tracks_fn(out).magnitude
+    ax.plot(np.arange(len(Lo)) / out.fps, Lo, "k", lw=1.6, label="output (measured)")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("|L| (kg m$^2$/s)")
+    ax.legend(fontsize=7)
+    ax.set_title("angular momentum (eq. 1) of the inputs and of the concatenation")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def run(args) -> int:
+    import numpy as np
+
+    from .. import datasets
+    from ..concat import concatenate, momentum_track
+    from ..io import write_bvh
+    from ._common import audit_output, check_output_path, finish_audit
+
+    out = Path(args.out)
+    if out.suffix.lower() != ".bvh":
+        raise ValueError(f"output {out} must be a .bvh file")
+    check_output_path(out)
+    if args.report:
+        check_output_path(Path(args.report), "report")
+    if args.plot:
+        check_output_path(Path(args.plot), "plot")
+    names = list(args.motions)
+    if len(names) < 2:
+        raise ValueError(f"give at least two motions to concatenate (got {len(names)})")
+    if len(names) > 26:
+        raise ValueError(f"at most 26 motions (A-Z), got {len(names)}")
+    n_j = len(names) - 1
+    rules = args.rule if len(args.rule) == n_j else (args.rule * n_j if len(args.rule) == 1 else None)
+    if rules is None:
+        raise ValueError(f"--rule lists {len(args.rule)} rules for {n_j} joint(s): give one, or one per joint")
+    letters = string.ascii_uppercase[:len(names)]
+    borders = {}
+    for k, rng in args.phases:
+        if k not in letters:
+            raise ValueError(f"--phases {k}:{rng[0]},{rng[1]}: there are only motions {letters[0]}-{letters[-1]}")
+        borders[k] = rng
+    motions = [datasets.load(n) for n in names]
+    for k, (n, m) in zip(letters, zip(names, motions)):
+        if k in borders and borders[k][1] > m.n_frames:
+            raise ValueError(f"--phases {k}:{borders[k][0]},{borders[k][1]}: {n} has only {m.n_frames} frames")
+    acc, acc_borders, acc_tm = motions[0], borders.get("A"), None
+    joints, offsets = [], [0]               # offsets: the output frame of each input's frame 0
+    for j in range(n_j):
+        b = motions[j + 1]
+        r = concatenate(acc, b, rule=rules[j], borders_a=acc_borders, t_m_a=acc_tm, borders_b=borders.get(letters[j + 1]),
+                        kind=args.kind, max_F=args.max_f, window_threshold=args.window_threshold,
+                        max_facing=np.radians(args.max_facing), plant=not args.no_plant,
+                        time_scale=not args.no_time_scale)
+        _print_joint(j, "the chain so far" if j else names[0], names[j + 1], r)
+        joints.append(r)
+        # B's frame g is the output frame g + T + delta after the window
+        delta = r.window_frames_out - (r.window[1] - r.window[0] + 1)
+        sh = r.T + delta
+        offsets.append(sh)
+        m2 = r.phases[1]
+        lo = max(m2.main[0] + sh, r.window[0] + r.window_frames_out)
+        acc_borders = (min(lo, m2.main[1] + sh - 1), m2.main[1] + sh)
+        acc_tm = min(max(m2.t_m + sh, acc_borders[0]), acc_borders[1] - 1)
+        acc = r.motion
+    total_in = sum(m.n_frames / m.fps for m in motions)
+    write_bvh(acc, out)
+    print(f"wrote {out} ({acc.n_frames} frames at {acc.fps:g} fps, {acc.n_frames / acc.fps:.2f} s; the inputs played "
+          f"one after the other last {total_in:.2f} s)")
+    if args.plot:
+        _plot(args.plot, list(zip(names, motions)), offsets, acc, lambda m: momentum_track(m, kind=args.kind))
+        print(f"wrote {args.plot}")
+    if args.report:
+        rep = {"inputs": names, "joints": [r.to_dict() for r in joints],
+               "output": {"frames": acc.n_frames, "fps": acc.fps, "duration_s": acc.n_frames / acc.fps,
+                          "inputs_back_to_back_s": total_in}}
+        Path(args.report).write_text(json.dumps(rep, indent=1, default=float) + "\n")
+    result = None if args.no_audit else audit_output(out, motions[0], input_name=names[0],
+                                                      other_inputs=tuple(zip(names[1:], motions[1:])))
+    finish_audit(args, "concat", result, args.report)
+    return 0
