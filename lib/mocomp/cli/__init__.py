@@ -29,7 +29,7 @@ COMMAND_MODULES: list[str] = [
     "demo",
     "edit", "join", "twist",
     "audit", "render",
-    "footplant", "blend", "pathedit", "slope",
+    "footplant", "blend", "pathedit", "slope", "concat",
 ]
 
 
