@@ -53,10 +53,27 @@ def run_render(args) -> int:
     if len(pert):
         dev = (pert["achieved_error"] - pert["nominal_level"]).abs()
         worst = pert.loc[dev.idxmax()]
+        unit = "deg" if worst.get("level_unit") == "deg" else "%"
         print(f"achieved vs nominal error: median |difference| {dev.median():.2f} points, "
-              f"largest {dev.max():.2f} ({worst['stimulus_id']}: nominal {worst['nominal_level']:g}%, "
-              f"achieved {worst['achieved_error']:.2f}%)")
+              f"largest {dev.max():.2f} ({worst['stimulus_id']}: nominal {worst['nominal_level']:g}{unit}, "
+              f"achieved {worst['achieved_error']:.2f}{unit})")
+        _print_cues(m)
     return 0
+
+
+def _print_cues(m) -> None:
+    """The confounds besides the nominal error, measured (manifest ``cue_*`` columns): the largest change
+    of flight time, jump height and take-off angle, and the range of rotation-speed ratios at touchdown."""
+    if "cue_flight_change_s" not in m.columns:
+        return
+    for pert, g in m[m["perturbation"] != "none"].groupby("perturbation", sort=False):
+        def mx(c):
+            v = g[c].abs().max()
+            return float("nan") if v != v else float(v)
+        print(f"  cues {pert}: |flight time change| <= {mx('cue_flight_change_s'):.3f} s, |apex change| <= "
+              f"{mx('cue_apex_change_m'):.3f} m, |take-off angle change| <= {mx('cue_takeoff_angle_change_deg'):.2f} "
+              f"deg, landing rotation ratio {g['cue_landing_rotation_ratio'].min():.2f}-"
+              f"{g['cue_landing_rotation_ratio'].max():.2f}")
 
 
 def _print_audit(m) -> None:
