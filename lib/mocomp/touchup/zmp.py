@@ -21,7 +21,7 @@ from ..dynamics.constants import G_STANDARD
 from ..dynamics.derivatives import second_difference
 from ..dynamics.zmp import support_polygon_distance, zmp_of_point_masses
 
-__all__ = ["ZmpState", "zmp_state", "project_to_polygon", "DEFAULT_SMOOTH_SIGMA", "MIN_SUPPORT"]
+__all__ = ["ZmpState", "zmp_state", "project_to_polygon", "DEFAULT_SMOOTH_SIGMA", "floor_levels", "MIN_SUPPORT"]
 
 #: frames: Gaussian smoothing before differentiating (the audit's default)
 DEFAULT_SMOOTH_SIGMA = AuditThresholds().zmp_smooth_sigma
@@ -41,7 +41,7 @@ class ZmpState:
     distance: ``(T,)`` m, signed distance to the support polygon (positive outside, NaN without
         polygon or ZMP).
     target: ``(T, 3)`` m, the ZMP's projection onto the support polygon (the ZMP itself inside).
-    ground_y: m, the floor.
+    ground_y: ``(T,)`` m, the floor height of eq. 4 on each frame.
     """
 
     r: np.ndarray
@@ -49,7 +49,7 @@ class ZmpState:
     zmp: np.ndarray
     distance: np.ndarray
     target: np.ndarray
-    ground_y: float
+    ground_y: np.ndarray
 
     def outside(self, tol: float = 0.0) -> np.ndarray:
         """``(T,)`` bool: ZMP defined and more than ``tol`` m outside the polygon."""
@@ -89,17 +89,31 @@ def project_to_polygon(p: np.ndarray, pts: np.ndarray, mask: np.ndarray) -> np.n
     return out
 
 
+def floor_levels(levels: np.ndarray, default: float) -> np.ndarray:
+    """``(T,)`` m: the mean support level of each frame's planted points (``levels`` ``(T, K)``, NaN
+    where not planted; :attr:`mocomp.ops.FootPlants.levels`), ``default`` on frames with none."""
+    lv = np.asarray(levels, float)
+    n = np.isfinite(lv).sum(axis=1)
+    return np.where(n > 0, np.nansum(lv, axis=1) / np.maximum(n, 1), default)
+
+
 def zmp_state(body, motion, contact_points: np.ndarray, contact_mask: np.ndarray, ground_y: float, *,
               smooth_sigma: float | None = DEFAULT_SMOOTH_SIGMA, g: float = G_STANDARD) -> ZmpState:
     """Eq. 4 of ``motion`` with ``body``'s masses; support polygons from ``contact_points``
-    ``(T, K, 3)`` where ``contact_mask`` ``(T, K)``; floor at ``ground_y``."""
+    ``(T, K, 3)`` where ``contact_mask`` ``(T, K)``; the floor at ``ground_y`` (m, a number or
+    ``(T,)`` per frame: on a slope, eq. 4's plane ``y = y0`` is the support level of the frame's
+    planted points, :func:`floor_levels`)."""
     if smooth_sigma is not None and not (np.isfinite(smooth_sigma) and smooth_sigma >= 0):
         raise ValueError(f"smooth_sigma must be 0 or more frames, got {smooth_sigma!r}")
     if motion.n_frames < 3:
         raise ValueError("the ZMP needs accelerations: at least 3 frames")
     r = smoothed_segment_positions(body, motion, smooth_sigma or None)
     a = second_difference(r, motion.times)
-    Z, _, _ = zmp_of_point_masses(body.masses, r, a, ground_y, g, MIN_SUPPORT * body.total_mass * g)
+    y0 = np.broadcast_to(np.asarray(ground_y, float), (motion.n_frames,))
+    shift = np.zeros((motion.n_frames, 1, 3))
+    shift[:, 0, 1] = y0
+    Z, _, _ = zmp_of_point_masses(body.masses, r - shift, a, 0.0, g, MIN_SUPPORT * body.total_mass * g)
+    Z[:, 1] += y0
     mask = np.asarray(contact_mask, bool)
     d = support_polygon_distance(Z, contact_points, mask)
     tgt = np.array(Z)
@@ -107,4 +121,4 @@ def zmp_state(body, motion, contact_points: np.ndarray, contact_mask: np.ndarray
     if out.any():
         pr = project_to_polygon(Z[out][:, [0, 2]], np.asarray(contact_points)[out][..., [0, 2]], mask[out])
         tgt[out, 0], tgt[out, 2] = pr[:, 0], pr[:, 1]
-    return ZmpState(r, a, Z, d, tgt, float(ground_y))
+    return ZmpState(r, a, Z, d, tgt, y0)

@@ -1,0 +1,186 @@
+"""Flight-frame adjustment: the centre of mass onto the ballistic parabola (touch-up paper, Shin
+et al. 2003, sec. 3.4.2, eq. 10), g = 9.81 m/s^2 (:data:`mocomp.dynamics.constants.G_STANDARD`).
+
+For a flight block of frames ``a .. b-1`` (no foot planted), duration ``T = (b-1-a)/fps`` and COM
+displacement ``d = c(b-1) - c(a)``, the parabola through the block's end points is::
+
+    v0 = d / T - g T / 2,    c*(t) = c(t0) + v0 (t - t0) + g (t - t0)^2 / 2.
+
+With S1 empty the root is translated by ``c* - c``. Otherwise S2 is rotated about the joint
+bordering S1 and S2 (``p``) so that S2's COM ``c_M2`` comes as close as it can to its goal (eq. 10)::
+
+    c*_M2 = (c*_M sum_i m_i - c_M1 sum_{S1} m_i) / sum_{S2} m_i,
+
+the smallest rotation turning ``c_M2 - p`` toward ``c*_M2 - p`` (its length cannot change).
+The ground frames within ``neighbourhood`` of a flight are adjusted as flight frames with weights
+that ease to zero away from it (Fig. 4); the parabola's correction is zero at the block's end
+points, so there it carries only the smoothing's spread.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from ..dynamics.constants import G_STANDARD
+from ..ops import ease
+from .ground import rotation_centres
+from .linksets import LinkSets, local_from_global, rotate_sets
+
+__all__ = ["ballistic_targets", "FlightAdjustment", "flight_com_adjustment", "com_residual", "angular_momentum",
+           "flight_momentum_adjustment"]
+
+
+def ballistic_targets(com: np.ndarray, a: int, b: int, fps: float, g: float = G_STANDARD) -> np.ndarray:
+    """``(b - a, 3)`` m: the g parabola through ``com[a]`` and ``com[b-1]`` on frames ``a .. b-1``."""
+    if b - a < 2:
+        return np.array(com[a:b])
+    t = (np.arange(a, b) - a) / fps
+    T = t[-1]
+    gv = np.array([0.0, -g, 0.0])
+    v0 = (com[b - 1] - com[a]) / T - gv * T / 2
+    return com[a] + t[:, None] * v0 + 0.5 * t[:, None] ** 2 * gv
+
+
+def com_residual(com: np.ndarray, a: int, b: int, fps: float, g: float = G_STANDARD) -> float:
+    """m: the largest distance of ``com[a:b]`` from the g parabola through its end points."""
+    return float(np.linalg.norm(com[a:b] - ballistic_targets(com, a, b, fps, g), axis=1).max(initial=0.0))
+
+
+@dataclass(frozen=True, eq=False)
+class FlightAdjustment:
+    """``correction`` ``(T, 3)`` m wanted COM shift (weighted), ``weight`` ``(T,)``, the adjusted
+    ``root_positions`` and local ``rotations``."""
+
+    correction: np.ndarray
+    weight: np.ndarray
+    root_positions: np.ndarray
+    rotations: np.ndarray
+
+
+def _weights(T: int, flights, nb: int) -> tuple[np.ndarray, np.ndarray]:
+    """Per frame the blend weight (1 in flight, easing to 0 over ``nb`` ground frames each side) and
+    the index of the flight it belongs to (-1: none)."""
+    w = np.zeros(T)
+    owner = np.full(T, -1)
+    for k, (a, b) in enumerate(flights):
+        w[a:b] = 1.0
+        owner[a:b] = k
+        for i in range(1, nb + 1):
+            v = float(ease(np.array([1.0 - i / (nb + 1)]))[0])
+            for f in (a - i, b - 1 + i):
+                if 0 <= f < T and v > w[f]:
+                    w[f], owner[f] = v, k
+    return w, owner
+
+
+def flight_com_adjustment(body, motion, sets: LinkSets, flights, com: np.ndarray, *, neighbourhood: int,
+                          g: float = G_STANDARD) -> FlightAdjustment:
+    """Sec. 3.4.2 on the ``flights`` (half-open frame runs) of ``motion``; ``com`` ``(T, 3)`` its COM."""
+    T = motion.n_frames
+    P, G = motion.fk()
+    corr = np.zeros((T, 3))
+    for a, b in flights:
+        corr[a:b] = ballistic_targets(com, a, b, motion.fps, g) - com[a:b]
+    w, owner = _weights(T, flights, neighbourhood)
+    # neighbourhood frames: the correction of the nearest flight frame, eased (zero at the end
+    # points for the parabola through them)
+    for f in np.flatnonzero((w > 0) & (w < 1)):
+        a, b = flights[owner[f]]
+        corr[f] = corr[a] if f < a else corr[b - 1]
+    corr *= w[:, None]
+    root = int(np.flatnonzero(sets.parents < 0)[0])
+    if not sets.s1.any():
+        return FlightAdjustment(corr, w, motion.root_positions + corr, np.array(motion.rotations))
+    C = rotation_centres(P, sets, None)
+    sj = np.asarray(body.segment_joint)
+    from ..dynamics.com import segment_positions
+
+    r = segment_positions(body, motion)
+    m = np.asarray(body.masses)
+    in2 = sets.component[sj] >= 0
+    M, M2 = m.sum(), m[in2].sum()
+    if M2 <= 0:
+        raise ValueError("S2 carries no mass: nothing to rotate toward the parabola")
+    c2 = np.einsum("s,tsk->tk", m[in2], r[:, in2]) / M2
+    goal2 = c2 + corr * M / M2                       # eq. 10 with c_M1 unchanged
+    pivots = sets.pivots
+    if len(pivots) != 1:
+        raise ValueError(f"a flight step with S1 needs one connected S2 (one S1/S2 joint), got {len(pivots)}")
+    p = C[:, pivots[0]]
+    u, v = c2 - p, goal2 - p
+    ax = np.cross(u, v)
+    ang = np.arctan2(np.linalg.norm(ax, axis=1), np.einsum("tk,tk->t", u, v))
+    n = np.linalg.norm(ax, axis=1, keepdims=True)
+    rv = np.where(n > 1e-15, ax / np.where(n > 0, n, 1.0), 0.0) * ang[:, None]
+    R = Rotation.from_rotvec(rv).as_matrix()
+    Pn, Gn = rotate_sets(P, G, sets, R, C)
+    return FlightAdjustment(corr, w, Pn[:, root], local_from_global(Gn, sets.parents))
+
+
+def angular_momentum(masses, r: np.ndarray, v: np.ndarray, about: np.ndarray) -> np.ndarray:
+    """``(T, 3)``: ``sum_i m_i (r_i - about) x v_i`` (eq. 2 about the point ``about`` ``(T, 3)``)."""
+    return np.einsum("s,tsk->tk", np.asarray(masses, float), np.cross(r - about[:, None], v))
+
+
+def flight_momentum_adjustment(body, motion, sets: LinkSets, flights, *, neighbourhood: int) -> FlightAdjustment:
+    """Sec. 3.4.1, eq. 8-9: on each flight frame S2 is turned so that the angular momentum about the
+    centre of rotation ``p`` (the COM when S1 is empty, else the S1/S2 joint) is the one the
+    block's average ``h_CM`` asks for, with the velocities held::
+
+        h*_p = mean(h_CM) - r_c x p_lin,    w*_S2 = I_S2^-1 (h*_p - h_S1),    w_S2 = I_S2^-1 h_S2,
+        dq = exp(w*_S2 dt / 2) exp(-w_S2 dt / 2)                                       (eq. 8-9)
+
+    (``r_c = p - c_M``; ``I_S2`` the point masses' inertia tensor about ``p``,
+    ``sum m (|u|^2 1 - u u^T)``: the paper's footnote prints ``sum m u u^T``, which is not an
+    inertia). Eq. 9 relates frame ``t`` to the adjusted frame ``t - 1`` (``q = exp(w dt/2) q'``),
+    so the per-frame turns accumulate from the take-off frame (unchanged) through the block; the
+    landing neighbourhood eases the last frame's turn to zero. ``correction`` holds the turn's
+    rotation vector (rad)."""
+    from ..dynamics.com import segment_positions
+
+    T = motion.n_frames
+    P, G = motion.fk()
+    r = segment_positions(body, motion)
+    dt = 1.0 / motion.fps
+    v = np.gradient(r, dt, axis=0)
+    m = np.asarray(body.masses, float)
+    M = m.sum()
+    c = np.einsum("s,tsk->tk", m, r) / M
+    p_lin = np.einsum("s,tsk->tk", m, v)
+    sj = np.asarray(body.segment_joint)
+    in2 = sets.component[sj] >= 0
+    if sets.s1.any():
+        C = rotation_centres(P, sets, None)
+        pivots = sets.pivots
+        if len(pivots) != 1:
+            raise ValueError(f"a flight step with S1 needs one connected S2 (one S1/S2 joint), got {len(pivots)}")
+        prot = C[:, pivots[0]]
+    else:
+        prot = c
+        C = np.broadcast_to(c[:, None], P.shape).copy()
+    h_cm = angular_momentum(m, r, v, c)
+    u = r - prot[:, None]
+    h_s2 = angular_momentum(m * in2, r, v, prot)
+    h_s1 = angular_momentum(m * ~in2, r, v, prot)
+    uu = np.einsum("s,tsi,tsj->tij", m * in2, u, u)
+    I = np.trace(uu, axis1=1, axis2=2)[:, None, None] * np.eye(3) - uu
+    rot = np.zeros((T, 3))
+    w, owner = _weights(T, flights, neighbourhood)
+    for k, (a, b) in enumerate(flights):
+        h_star = h_cm[a:b].mean(axis=0) - np.cross(prot[a:b] - c[a:b], p_lin[a:b])
+        Iinv = np.linalg.pinv(I[a:b])
+        w_star = np.einsum("tij,tj->ti", Iinv, h_star - h_s1[a:b])
+        w_now = np.einsum("tij,tj->ti", Iinv, h_s2[a:b])
+        acc = Rotation.identity()
+        for i, f in enumerate(range(a, b)):
+            if f > a:
+                acc = Rotation.from_rotvec(w_star[i] * dt) * Rotation.from_rotvec(-w_now[i] * dt) * acc
+            rot[f] = acc.as_rotvec()
+        for f in np.flatnonzero((owner == k) & (w < 1) & (np.arange(T) >= b)):
+            rot[f] = rot[b - 1] * w[f]
+    R = Rotation.from_rotvec(rot).as_matrix()
+    Pn, Gn = rotate_sets(P, G, sets, R, C)
+    root = int(np.flatnonzero(sets.parents < 0)[0])
+    return FlightAdjustment(rot, w, Pn[:, root], local_from_global(Gn, sets.parents))

@@ -1,0 +1,138 @@
+"""The touch-up loop (Shin et al. 2003, sec. 3.1, Fig. 2, sec. 4.1): for every step of a schedule
+and each of its iterations, compute the per-frame adjustments (ground: eq. 6-7; flight: the
+ballistic COM, eq. 10), smooth them into a displacement map of the step's width, damp by ``rho``
+and add (:func:`mocomp.ops.apply_hierarchy`), then hold the planted feet again
+(:func:`mocomp.ops.enforce_footplants`, the input's plants). The ZMP distance outside the support
+polygon and the flights' COM residuals are measured after every iteration.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..dynamics.com import center_of_mass, segment_positions
+from ..dynamics.constants import G_STANDARD
+from ..ops import HierarchyStep, apply_hierarchy, enforce_footplants
+from ..ops.footplant import foot_points
+from .flight import angular_momentum, com_residual, flight_com_adjustment, flight_momentum_adjustment
+from .ground import ground_adjustment
+from .linksets import link_sets
+from .schedule import Step, schedule_from_spec
+from .stages import Stages, stages
+from .zmp import DEFAULT_SMOOTH_SIGMA, floor_levels, zmp_state
+
+__all__ = ["TouchupResult", "touchup", "NEIGHBOURHOOD_S"]
+
+#: s: ground frames this close to a flight are adjusted with it (the paper's 15 frames, 1/2 s)
+NEIGHBOURHOOD_S = 0.5
+
+
+@dataclass(frozen=True, eq=False)
+class TouchupResult:
+    """The touched-up ``motion``, its ``stages``, the ``schedule``, per iteration a record
+    (``history``: step, iteration, mean/max ZMP distance outside, clamped frames, flight COM
+    residuals, map magnitudes), the ``clamped`` frames per step, and the wall time."""
+
+    motion: object
+    input: object
+    stages: Stages
+    schedule: tuple
+    history: tuple
+    clamped: dict
+    before: dict
+    after: dict
+    seconds: float
+
+    def to_dict(self) -> dict:
+        return {"stages": self.stages.to_dict(), "schedule": [s.to_dict() for s in self.schedule],
+                "planned": {"before": self.before, "after": self.after, "iterations": list(self.history),
+                            "clamped_frames": {k: v for k, v in self.clamped.items()}},
+                "seconds": self.seconds}
+
+
+def _measure(body, motion, st: Stages, ground_y: float, smooth_sigma, g: float) -> dict:
+    P, G = motion.fk()
+    pts = foot_points(P, G, st.plants)
+    z = zmp_state(body, motion, pts, st.contact_mask, ground_y, smooth_sigma=smooth_sigma, g=g)
+    out = z.summary(st.ground)
+    com = center_of_mass(body, motion)
+    r = segment_positions(body, motion)
+    L = np.linalg.norm(angular_momentum(body.masses, r, np.gradient(r, 1.0 / motion.fps, axis=0), com), axis=1)
+    out["flights"] = [{"frames": [a, b], "com_residual_m": com_residual(com, a, b, motion.fps, g),
+                       "L_variation": float((L[a:b].max() - L[a:b].min()) / max(L[a:b].mean(), 1e-9))}
+                      for a, b in st.flight_runs]
+    return out
+
+
+def touchup(motion, body=None, schedule=None, *, contacts=None, iterations: int | None = None,
+            smooth_sigma: float | None = DEFAULT_SMOOTH_SIGMA, neighbourhood_s: float = NEIGHBOURHOOD_S,
+            g: float = G_STANDARD, footplants: bool = True) -> TouchupResult:
+    """Touch up ``motion`` (module docstring).
+
+    ``schedule``: a sequence of :class:`~mocomp.touchup.schedule.Step`, a preset name or a TOML
+    path (default: ``ground-default`` then ``flight-default``); ``contacts``: plant overrides
+    (:func:`mocomp.touchup.stages.stages`); ``iterations``: replaces every step's count."""
+    from ..audit import default_body
+
+    t0 = time.perf_counter()
+    if not (np.isfinite(neighbourhood_s) and neighbourhood_s >= 0):
+        raise ValueError(f"neighbourhood must be 0 or more seconds, got {neighbourhood_s!r}")
+    body = default_body(motion) if body is None else body
+    steps = tuple(schedule) if isinstance(schedule, (list, tuple)) else schedule_from_spec(schedule, motion.fps,
+                                                                                             iterations)
+    if iterations is not None and isinstance(schedule, (list, tuple)):
+        from dataclasses import replace
+
+        steps = tuple(replace(s, iterations=int(iterations)) for s in steps)
+    st = stages(motion, contacts)
+    ground_y = floor_levels(st.plants.levels, float(np.nanmin(st.plants.levels)))
+    sets = [link_sets(body, s.s1, s.s2, s.s3, where=s.where) for s in steps]
+    foot_joints = {leg.ankle_point[0] for leg in st.plants.legs} | {leg.toe_point[0] for leg in st.plants.legs}
+    nb = int(round(neighbourhood_s * motion.fps))
+    flights = st.flight_runs
+    ground_mask = st.ground
+    clamped: dict[int, list[int]] = {}
+    history = []
+    before = _measure(body, motion, st, ground_y, smooth_sigma, g)
+
+    def adjust(cur, hstep):
+        k = int(hstep.label)
+        step, ls = steps[k], sets[k]
+        if step.stage == "ground":
+            P, G = cur.fk()
+            z = zmp_state(body, cur, foot_points(P, G, st.plants), st.contact_mask, ground_y,
+                          smooth_sigma=smooth_sigma, g=g)
+            feet_in_s1 = any(ls.s1[j] for j in foot_joints)
+            adj = ground_adjustment(body, cur, ls, z, ground_mask & z.outside(), feet_in_s1=feet_in_s1, g=g)
+            clamped.setdefault(k, []).extend(np.flatnonzero(adj.clamped).tolist())
+        else:
+            if not flights:
+                return cur
+            mom = flight_momentum_adjustment(body, cur, ls, flights, neighbourhood=nb)
+            cur = cur.replace(root_positions=mom.root_positions, rotations=mom.rotations)
+            adj = flight_com_adjustment(body, cur, ls, flights, center_of_mass(body, cur), neighbourhood=nb, g=g)
+        return cur.replace(root_positions=adj.root_positions, rotations=adj.rotations)
+
+    def post(cur):
+        return enforce_footplants(cur, st.plants, audit=False, passes=1).motion if footplants else cur
+
+    hsteps = [HierarchyStep(s.sigma_frames(motion.fps), s.rho, s.kernel, s.iterations, str(k))
+              for k, s in enumerate(steps)]
+    cur = motion
+    for k, hs in enumerate(hsteps):
+        if steps[k].stage == "flight" and not flights:
+            continue
+        for it in range(hs.iterations):
+            res = apply_hierarchy(cur, adjust, [HierarchyStep(hs.sigma, hs.rho, hs.kernel, 1, hs.label)], post)
+            cur = res.motion
+            rec = _measure(body, cur, st, ground_y, smooth_sigma, g)
+            rec.update(step=k, iteration=it, label=steps[k].label(), map_root_m=res.magnitudes[0][0],
+                       map_angle_rad=res.magnitudes[0][1])
+            history.append(rec)
+    after = history[-1] if history else before
+    return TouchupResult(cur, motion, st, steps, tuple(history),
+                         {steps[k].label(): sorted(set(v)) for k, v in clamped.items()},
+                         before, {k: v for k, v in after.items() if k not in ("step", "iteration", "label")},
+                         time.perf_counter() - t0)

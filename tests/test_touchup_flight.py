@@ -1,0 +1,110 @@
+"""mocomp.touchup.flight: the ballistic COM (sec. 3.4.2, eq. 10) and the angular momentum (sec.
+3.4.1, eq. 8-9) on a flight block made by contact overrides on the synthetic walk, and on a real jump."""
+import numpy as np
+import pytest
+
+from mocomp.audit import default_body
+from mocomp.dynamics.com import center_of_mass, segment_positions
+from mocomp.dynamics.constants import G_STANDARD
+from mocomp.ops.synthetic import synthetic_walk
+from mocomp.touchup.flight import (angular_momentum, ballistic_targets, com_residual, flight_com_adjustment,
+                                   flight_momentum_adjustment)
+from mocomp.touchup.linksets import link_sets
+from mocomp.touchup.stages import stages
+
+
+@pytest.fixture(scope="module")
+def hop():
+    m = synthetic_walk(duration=2.0, fps=60).motion
+    T = m.n_frames
+    over = {"foot_l": [(0, 40)], "toe_l": [(0, 40)], "foot_r": [(70, T)], "toe_r": [(70, T)]}
+    st = stages(m, over, max_plant_travel=5.0)
+    return m, default_body(m), st.flight_runs
+
+
+def test_ballistic_target_known_answer():
+    fps = 100.0
+    t = np.arange(50) / fps
+    v0 = np.array([1.0, 3.0, -0.5])
+    c = np.array([0.2, 1.0, 0.3]) + t[:, None] * v0 + 0.5 * t[:, None] ** 2 * [0.0, -G_STANDARD, 0.0]
+    noisy = c + np.where(np.arange(50)[:, None] % 7 == 3, 0.01, 0.0) * [0, 1, 0]
+    tgt = ballistic_targets(noisy, 0, 50, fps)
+    assert np.allclose(ballistic_targets(c, 0, 50, fps), c, atol=1e-12)
+    assert np.allclose(tgt[[0, -1]], noisy[[0, -1]])
+    acc = np.diff(tgt, 2, axis=0) * fps ** 2
+    assert np.allclose(acc, [0.0, -G_STANDARD, 0.0], atol=1e-9)
+    assert com_residual(c, 0, 50, fps) < 1e-12 and abs(com_residual(noisy, 0, 50, fps) - 0.01) < 1e-3
+
+
+def test_com_onto_parabola_by_root_translation_is_exact(hop):
+    m, body, fl = hop
+    assert fl == [(40, 70)]
+    c0 = center_of_mass(body, m)
+    assert com_residual(c0, 40, 70, m.fps) > 0.01
+    adj = flight_com_adjustment(body, m, link_sets(body, s2="all"), fl, c0, neighbourhood=8)
+    m2 = m.replace(root_positions=adj.root_positions, rotations=adj.rotations)
+    c2 = center_of_mass(body, m2)
+    assert com_residual(c2, 40, 70, m.fps) < 1e-9
+    assert np.allclose(c2[:30], c0[:30]) and np.allclose(c2[80:], c0[80:])   # beyond the neighbourhood
+    assert adj.weight[39] < 1 and adj.weight[40] == 1 and adj.weight[31] == 0
+
+
+def test_com_by_rotating_s2_points_s2_com_at_its_goal(hop):
+    """Eq. 10: S2 turns about the S1/S2 joint until its COM lies on the ray to its goal
+    c*_M2 = (c*_M M - c_M1 M1) / M2 (the closest it can come: its distance to the joint is fixed)."""
+    m, body, fl = hop
+    c0 = center_of_mass(body, m)
+    ls = link_sets(body, s1="lower", s2="upper")
+    adj = flight_com_adjustment(body, m, ls, fl, c0, neighbourhood=8)
+    m2 = m.replace(root_positions=adj.root_positions, rotations=adj.rotations)
+    in2 = ls.component[np.asarray(body.segment_joint)] >= 0
+    mass = np.asarray(body.masses)
+    M, M2 = mass.sum(), mass[in2].sum()
+    c_m2 = lambda mm: np.einsum("s,tsk->tk", mass[in2], segment_positions(body, mm)[:, in2]) / M2  # noqa: E731
+    tgt = np.array(c0)
+    tgt[40:70] = ballistic_targets(c0, 40, 70, m.fps)
+    goal = (tgt * M - (c0 * M - c_m2(m) * M2)) / M2            # c_M1 unchanged
+    p = m.fk()[0][:, m.skeleton.index("LowerBack")]
+    u, v = c_m2(m2) - p, goal - p
+    cosang = np.einsum("tk,tk->t", u, v) / np.linalg.norm(u, axis=1) / np.linalg.norm(v, axis=1)
+    assert np.all(cosang[40:70] > 1 - 1e-9)
+    assert np.allclose(np.linalg.norm(u, axis=1), np.linalg.norm(c_m2(m) - p, axis=1))
+    P0, _ = m.fk()
+    P2, _ = m2.fk()
+    assert np.abs(P2[:, :11] - P0[:, :11]).max() < 1e-9          # S1 (the lower body) unchanged
+
+
+def _L_spread(body, motion, a, b):
+    r = segment_positions(body, motion)
+    h = angular_momentum(body.masses, r, np.gradient(r, 1 / motion.fps, axis=0), center_of_mass(body, motion))[a:b]
+    return float(np.linalg.norm(h - h.mean(0), axis=1).max())
+
+
+@pytest.mark.parametrize("spec", [dict(s2="all"), dict(s1="upper", s2="lower"), dict(s1="lower", s2="upper")])
+def test_momentum_adjustment_evens_out_L(hop, spec):
+    m, body, fl = hop
+    cur = m
+    for _ in range(3):
+        adj = flight_momentum_adjustment(body, cur, link_sets(body, **spec), fl, neighbourhood=8)
+        cur = cur.replace(root_positions=adj.root_positions, rotations=adj.rotations)
+    assert _L_spread(body, cur, 40, 70) < 0.7 * _L_spread(body, m, 40, 70)
+    assert np.allclose(cur.rotations[:40], m.rotations[:40]) and np.allclose(cur.root_positions[:40], m.root_positions[:40])
+
+
+def test_real_jump_flight(real_data_dir):
+    from mocomp import datasets
+
+    m = datasets.load(real_data_dir / "jumps" / "sfu_0005_2FeetJump001.bvh").slice(0, 400)
+    body = default_body(m)
+    fl = stages(m).flight_runs
+    assert fl[:2] == [(100, 137), (306, 352)]
+    ls = link_sets(body, s2="all")
+    cur = m
+    for _ in range(3):
+        adj = flight_momentum_adjustment(body, cur, ls, fl, neighbourhood=15)
+        cur = cur.replace(root_positions=adj.root_positions, rotations=adj.rotations)
+    assert _L_spread(body, cur, 100, 137) < 0.4 * _L_spread(body, m, 100, 137)
+    adj = flight_com_adjustment(body, cur, ls, fl, center_of_mass(body, cur), neighbourhood=15)
+    out = cur.replace(root_positions=adj.root_positions, rotations=adj.rotations)
+    for a, b in fl:
+        assert com_residual(center_of_mass(body, out), a, b, m.fps) < 1e-6
