@@ -168,13 +168,16 @@ def _blend_labels(la: np.ndarray, lb: np.ndarray, T: int, f_T: int, n: int) -> n
     return lab
 
 
-def _time_scale(out: Motion, lab: np.ndarray, f0: int, f1: int, body, kind: str, max_scale: float):
+def _time_scale(out: Motion, lab: np.ndarray, f0: int, f1: int, body, kind: str, max_scale: float,
+                L_ends: tuple):
     """Eq. 9: ``s = (||L(f_i0) + L(f_if)|| / 2) / (sum_{f_i0}^{f_if} ||L(f)|| / (f_if - f_i0))`` of the
     blended motion, and the blended period played over ``(f_if - f_i0) / s`` frame intervals (slower
-    when the blend made it fast), so its mean |L| matches its ends'. ``s`` is clamped to
-    ``[1 / max_scale, max_scale]`` (noted)."""
+    when the blend made it fast), so its mean |L| matches its ends'. The ends are ``L1(f_i0)`` and
+    ``L2(f_if - T)`` (``L_ends``), what eq. 8 gives there (alpha = 1 and 0): the blended motion's own
+    finite differences at the window's edges already carry part of the blend's speed-up. ``s`` is
+    clamped to ``[1 / max_scale, max_scale]`` (noted)."""
     L = momentum_track(out, body, kind=kind).L
-    num = 0.5 * float(np.linalg.norm(L[f0] + L[f1]))
+    num = 0.5 * float(np.linalg.norm(L_ends[0] + L_ends[1]))
     den = float(np.linalg.norm(L[f0:f1 + 1], axis=1).sum()) / (f1 - f0)
     s = num / den if den > 0 else 1.0
     note = ""
@@ -293,7 +296,8 @@ def concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bor
     lab = _blend_labels(la, lb, T, f_T, out.n_frames)
     scale, n_new = 1.0, f1 - f0 + 1
     if time_scale and f1 > f0:
-        out, lab, scale, n_new, note = _time_scale(out, lab, f0, f1, body_a, kind, max_scale)
+        out, lab, scale, n_new, note = _time_scale(out, lab, f0, f1, body_a, kind, max_scale,
+                                                   (t1.L[f0], t2r.L[f1 - T]))
         if note:
             notes.append(note)
     fp = None

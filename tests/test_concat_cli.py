@@ -1,0 +1,79 @@
+"""``mocomp concat`` (issue 17): the command line contract, its report (planned values + the audit
+of the written file) and one-line errors."""
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from mocomp.cli import main
+from mocomp.io.bvh import read_bvh
+
+
+def test_concat_two_flips_writes_report_and_audit(tmp_path, capsys):
+    out, rep, png = tmp_path / "o.bvh", tmp_path / "r.json", tmp_path / "L.png"
+    assert main(["concat", "backflip", "backflip", "-o", str(out), "--report", str(rep), "--plot", str(png)]) == 0
+    text = capsys.readouterr().out
+    assert "rule: forward (auto:" in text and "planned timing (eq. 3-7" in text and "runner-up" in text
+    assert text.strip().splitlines()[-1].startswith("audit: ")
+    d = json.loads(rep.read_text())
+    j = d["joints"][0]
+    assert j["rule"]["rule"] == "forward"
+    assert set(j["timing"]["optimum"]) == {"T", "f_T", "F", "F_dm", "F_inertia", "F_time"}
+    o = j["timing"]["optimum"]
+    assert o["F"] == pytest.approx(o["F_dm"] + o["F_inertia"] + o["F_time"])
+    assert 0 < j["time_scaling"]["s"] < 1
+    assert d["audit"] is not None and "planned" in d["provenance"]["planned"]
+    m = read_bvh(out, scale=1.0)
+    assert m.n_frames == d["output"]["frames"]
+    assert d["output"]["duration_s"] < d["output"]["inputs_back_to_back_s"]
+    assert png.stat().st_size > 10000
+
+
+def test_concat_given_phases_and_rule(tmp_path, capsys):
+    out, rep = tmp_path / "o.bvh", tmp_path / "r.json"
+    assert main(["concat", "backflip", "backflip", "--rule", "forward", "--phases", "A:90,200", "B:90,200",
+                 "-o", str(out), "--report", str(rep), "--no-audit"]) == 0
+    j = json.loads(rep.read_text())["joints"][0]
+    assert j["phases"]["A"]["main"] == [90, 200] and j["phases"]["A"]["borders"] == "given"
+    assert j["rule"]["why"].startswith("given:")
+    assert j["blendable_periods"]["A"][0] >= 145 and j["blendable_periods"]["B"][1] <= 145
+
+
+def test_concat_chain_of_three(tmp_path, capsys):
+    out, rep = tmp_path / "o.bvh", tmp_path / "r.json"
+    assert main(["concat", "backflip", "backflip", "backflip", "-o", str(out), "--report", str(rep),
+                 "--no-audit"]) == 0
+    d = json.loads(rep.read_text())
+    assert len(d["joints"]) == 2
+    # the second joint's A main phase is the second flip's, placed at its offset in the chain
+    j1, j2 = d["joints"]
+    sh = j1["timing"]["T"] + j1["time_scaling"]["window_frames_after"] - j1["blend_window"]["frames"]
+    assert j2["phases"]["A"]["main"][1] == j1["phases"]["B"]["main"][1] + sh
+    assert read_bvh(out, scale=1.0).n_frames == d["output"]["frames"]
+
+
+@pytest.mark.parametrize("argv, msg", [
+    (["backflip"], "give at least two motions"),
+    (["backflip", "backflip", "--phases", "C:1,5"], "there are only motions A-B"),
+    (["backflip", "backflip", "--phases", "A:10,5000"], "has only 323 frames"),
+    (["backflip", "backflip", "--rule", "forward,reverse"], "--rule lists 2 rules for 1 joint"),
+    (["backflip", "backflip", "--max-f", "1e-6"], "too different to be blended"),
+])
+def test_concat_bad_input_one_line(tmp_path, capsys, argv, msg):
+    assert _code(["concat", *argv, "-o", str(tmp_path / "o.bvh")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("mocomp concat: error:") and msg in err[0]
+
+
+def test_concat_bad_phases_syntax(tmp_path, capsys):
+    assert _code(["concat", "backflip", "backflip", "--phases", "A:9", "-o", str(tmp_path / "o.bvh")]) == 2
+    assert "is not MOTION:START,STOP" in capsys.readouterr().err
+
+
+def _code(argv) -> int:
+    """The exit status: argument errors exit through SystemExit, checks after parsing return 2."""
+    try:
+        return main(argv)
+    except SystemExit as e:
+        return int(e.code)
