@@ -33,7 +33,8 @@ NEIGHBOURHOOD_S = 0.5
 class TouchupResult:
     """The touched-up ``motion``, its ``stages``, the ``schedule``, per iteration a record
     (``history``: step, iteration, mean/max ZMP distance outside, clamped frames, flight COM
-    residuals, map magnitudes), the ``clamped`` frames per step, and the wall time."""
+    residuals, map magnitudes), the ``clamped`` frames per step, the wall time, and the ZMP's signed
+    distance to the support polygon per ground frame before and after (``(T,)`` m, NaN elsewhere)."""
 
     motion: object
     input: object
@@ -44,6 +45,8 @@ class TouchupResult:
     before: dict
     after: dict
     seconds: float
+    distance_before: np.ndarray = None
+    distance_after: np.ndarray = None
 
     def to_dict(self) -> dict:
         return {"stages": self.stages.to_dict(), "schedule": [s.to_dict() for s in self.schedule],
@@ -57,6 +60,7 @@ def _measure(body, motion, st: Stages, ground_y: float, smooth_sigma, g: float) 
     pts = foot_points(P, G, st.plants)
     z = zmp_state(body, motion, pts, st.contact_mask, ground_y, smooth_sigma=smooth_sigma, g=g)
     out = z.summary(st.ground)
+    out["_distance"] = np.where(st.ground, z.distance, np.nan)
     com = center_of_mass(body, motion)
     r = segment_positions(body, motion)
     L = np.linalg.norm(angular_momentum(body.masses, r, np.gradient(r, 1.0 / motion.fps, axis=0), com), axis=1)
@@ -96,6 +100,8 @@ def touchup(motion, body=None, schedule=None, *, contacts=None, iterations: int 
     clamped: dict[int, list[int]] = {}
     history = []
     before = _measure(body, motion, st, ground_y, smooth_sigma, g)
+    dist_before = before.pop("_distance")
+    dist_after = dist_before
 
     def adjust(cur, hstep):
         k = int(hstep.label)
@@ -128,6 +134,7 @@ def touchup(motion, body=None, schedule=None, *, contacts=None, iterations: int 
             res = apply_hierarchy(cur, adjust, [HierarchyStep(hs.sigma, hs.rho, hs.kernel, 1, hs.label)], post)
             cur = res.motion
             rec = _measure(body, cur, st, ground_y, smooth_sigma, g)
+            dist_after = rec.pop("_distance")
             rec.update(step=k, iteration=it, label=steps[k].label(), map_root_m=res.magnitudes[0][0],
                        map_angle_rad=res.magnitudes[0][1])
             history.append(rec)
@@ -135,4 +142,4 @@ def touchup(motion, body=None, schedule=None, *, contacts=None, iterations: int 
     return TouchupResult(cur, motion, st, steps, tuple(history),
                          {steps[k].label(): sorted(set(v)) for k, v in clamped.items()},
                          before, {k: v for k, v in after.items() if k not in ("step", "iteration", "label")},
-                         time.perf_counter() - t0)
+                         time.perf_counter() - t0, dist_before, dist_after)

@@ -1,0 +1,82 @@
+"""``mocomp touchup``: the command line contract, its report (planned values + the audit of the
+written file) and its errors."""
+import json
+
+import numpy as np
+import pytest
+
+from mocomp.cli import main
+from mocomp.io import read_bvh, write_bvh
+from mocomp.ops.synthetic import synthetic_walk
+
+
+def _rc(argv) -> int:
+    try:
+        return main(argv)
+    except SystemExit as e:
+        return e.code
+
+
+@pytest.fixture(scope="module")
+def walk_file(tmp_path_factory):
+    d = tmp_path_factory.mktemp("tu")
+    p = d / "walk.bvh"
+    write_bvh(synthetic_walk(duration=1.5, fps=60).motion, p)
+    return p
+
+
+def test_cli_writes_motion_report_plot(walk_file, tmp_path, capsys):
+    out, rep, png = tmp_path / "o.bvh", tmp_path / "r.json", tmp_path / "z.png"
+    rc = main(["touchup", str(walk_file), "-o", str(out), "--schedule", "ground-default", "--iterations", "2",
+               "--report", str(rep), "--plot", str(png)])
+    assert rc == 0
+    text = capsys.readouterr().out
+    assert "stages:" in text and "step 3.2 [ground: S1=rest, S2=arms" in text
+    assert text.strip().splitlines()[-1].startswith("audit: ")
+    d = json.loads(rep.read_text())
+    assert set(d) >= {"touchup", "audit", "provenance", "masses"}
+    pl = d["touchup"]["planned"]
+    assert len(pl["iterations"]) == 6 and pl["after"]["mean_outside_m"] < pl["before"]["mean_outside_m"]
+    assert png.stat().st_size > 10_000
+    m = read_bvh(out, scale=1.0)
+    assert m.n_frames == 91
+    assert d["audit"] is not None and d["provenance"]["measured"] == "audit"
+
+
+def test_cli_masses_file(walk_file, tmp_path, capsys):
+    from mocomp.audit import default_body
+
+    body = default_body(read_bvh(walk_file, scale=1.0))
+    mf = tmp_path / "m.json"
+    mf.write_text(json.dumps({n: float(v) * 1.1 for n, v in zip(body.segment_names, body.masses)}))
+    rep = tmp_path / "r.json"
+    assert main(["touchup", str(walk_file), "-o", str(tmp_path / "o.bvh"), "--masses", str(mf), "--no-audit",
+                 "--schedule", "ground-default", "--report", str(rep)]) == 0
+    assert np.isclose(sum(json.loads(rep.read_text())["masses"].values()), 1.1 * body.total_mass)
+    bad = dict(json.loads(mf.read_text()))
+    bad.pop("head")
+    mf.write_text(json.dumps(bad))
+    assert _rc(["touchup", str(walk_file), "-o", str(tmp_path / "o.bvh"), "--masses", str(mf)]) == 2
+    assert "missing segment(s) head" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("args, msg", [
+    (["--schedule", "sideways"], "unknown schedule 'sideways'"),
+    (["--iterations", "0"], "--iterations"),
+    (["--contacts", "nope.csv"], "contact file nope.csv does not exist"),
+])
+def test_cli_errors(walk_file, tmp_path, capsys, args, msg):
+    assert _rc(["touchup", str(walk_file), "-o", str(tmp_path / "o.bvh")] + args) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("mocomp touchup: error:") and msg in err
+
+
+def test_cli_bad_schedule_field_and_contradicting_contacts(walk_file, tmp_path, capsys):
+    s = tmp_path / "s.toml"
+    s.write_text('[[step]]\nstage = "ground"\ns2 = "upper"\nsigma = -4\n')
+    assert _rc(["touchup", str(walk_file), "-o", str(tmp_path / "o.bvh"), "--schedule", str(s)]) == 2
+    assert "step 1: sigma must be 0 or more frames" in capsys.readouterr().err
+    c = tmp_path / "c.csv"
+    c.write_text("joint,start,stop\nfoot_l,0,91\n")
+    assert _rc(["touchup", str(walk_file), "-o", str(tmp_path / "o.bvh"), "--contacts", str(c)]) == 2
+    assert "foot_l is labelled planted on frames 0-90 but moves" in capsys.readouterr().err
