@@ -1,0 +1,63 @@
+"""mocomp.concat on real capture (issue 17): DeepMimic side flips (forward rule), the Bandai left and
+right punches (reverse rule, the one-two punch) and a rejection on the Bandai spinning kicks.
+Measured with mocomp.audit on the output against the plain ops blend at the same frames."""
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+from mocomp import datasets
+from mocomp.audit import audit
+from mocomp.concat import ConcatError, concatenate, momentum_track
+from mocomp.ops import blend
+
+
+def _load(d, rel):
+    return datasets.load(str(d / rel))
+
+
+def _plain(a, b, r):
+    return blend(a, b, (r.f_T, r.f_T - r.T), window=r.window[1] - r.window[0] + 1)
+
+
+def test_deepmimic_double_side_flip_forward(real_data_dir):
+    m = _load(real_data_dir, "flips/deepmimic_sideflip.txt")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        r = concatenate(m, m)
+        plain = _plain(m, m, r)
+    assert r.rule.rule == "forward" and abs(r.yaw) < 1e-6
+    assert r.facing_difference < np.radians(45)
+    # shorter than the two flips back to back
+    assert r.motion.n_frames < 2 * m.n_frames
+    # measured: |L| between the two flips' peaks never drops to zero (a stop); 0.25 of the main level
+    L = momentum_track(r.motion).magnitude
+    shift = r.T + r.window_frames_out - (r.window[1] - r.window[0] + 1)
+    lo = L[r.phases[0].t_m:r.phases[1].t_m + shift + 1].min()
+    assert lo > 0.2 * r.L_reference
+    rep, base, ref = audit(r.motion), audit(m), audit(plain.motion)
+    assert rep.measure("max_com_jump_mps") <= 1.05 * base.measure("max_com_jump_mps")
+    assert rep.measure("max_root_speed") <= 1.05 * base.measure("max_root_speed")
+    assert rep.measure("max_foot_slide_m") <= 0.01
+    assert len(rep.violations) <= len(ref.violations)
+
+
+def test_bandai_one_two_punch_reverse(real_data_dir):
+    left = _load(real_data_dir, "kicks_punches/bandai1_punch_normal_001.bvh")
+    right = _load(real_data_dir, "kicks_punches/bandai1_punch_normal_002.bvh")
+    r = concatenate(left, right)
+    assert r.rule.rule == "reverse" and "opposite directions" in r.rule.reason
+    assert r.eq2_value < 0
+    plain = _plain(left, right, r)
+    rep, ref = audit(r.motion), audit(plain.motion)
+    # the plain blend at the same frames jumps the COM velocity (2.5 m/s); eq. 9 slows the window
+    assert rep.measure("max_com_jump_mps") < 0.5 * ref.measure("max_com_jump_mps")
+    assert rep.measure("max_penetration_m") <= ref.measure("max_penetration_m") + 1e-3
+
+
+def test_spinning_kicks_rejected_with_the_measured_facing(real_data_dir):
+    k = _load(real_data_dir, "kicks_punches/bandai1_kick_normal_001.bvh")
+    with pytest.raises(ConcatError, match=r"facings differ by 1[0-9]{2}\.[0-9] deg, more than 45 deg"):
+        concatenate(k[20:120], k[150:260])
