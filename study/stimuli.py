@@ -17,13 +17,23 @@ Pipeline per base motion (``[[base]]`` of a specification, :mod:`study.spec`):
    front flips face -x, both travel towards -x); move the take-off COM to x = z = 0;
    shift vertically so the lowest joint of the standing phase sits one toe-capsule
    radius above the ground (feet on the floor in the rendering).
-4. **Perturb** (:func:`study.perturb.rebuild_flight`): retimed flights, COM parabola
-   re-fitted, landing translated; the unperturbed control is the capture itself
-   (``[flight] com = "capture"``, default) or its exact-ballistic version (``"ballistic"``).
+   Then **made ballistic** (``[flight] base_correction = "ballistic"``, default;
+   :func:`make_ballistic`): the flight COM put on a g = 9.81 parabola by the edit pipeline's
+   COM repositioning, the correction's size recorded, a base needing more than
+   ``max_correction_m`` refused.
+4. **Perturb**: angular-momentum errors rotation-only (``[flight] am_mode = "rotation"``,
+   default; :func:`study.perturb.rotate_flight`: COM, flight time, take-off and landing kept,
+   the orientation about L retimed) or paper-literal (``"retime"``;
+   :func:`study.perturb.rebuild_flight`: retimed flights, COM parabola re-fitted, landing
+   translated); take-off errors by :func:`study.perturb.rebuild_flight`, their levels in
+   percent of horizontal speed or degrees of take-off angle (``takeoff_levels``); the
+   unperturbed control is the (corrected) capture itself (``[flight] com = "capture"``,
+   default) or its exact-ballistic version (``"ballistic"``).
 5. **Measure** each stimulus with the project's dynamics (:func:`measure_stimulus`):
    the achieved relative angular-momentum error, the change of the take-off
    velocity along the jump direction and of the take-off angle, the velocity
-   jumps at take-off and landing, the flight time and apex height.
+   jumps at take-off and landing, the flight time and apex height; and every cue the audit
+   measures on the stimulus' frames (``cue_*``, :func:`_motion_cues`).
 6. **Audit** each stimulus (:func:`audit_stimulus`): :func:`mocomp.audit.audit` of the
    motion it renders against its unperturbed source (the normalised base motion),
    with the base's body model; the verdict and counts go into the manifest
