@@ -168,6 +168,10 @@ def _blend_labels(la: np.ndarray, lb: np.ndarray, T: int, f_T: int, n: int) -> n
     return lab
 
 
+#: frames around the blended period on which eq. 9's L is computed (> 3 sigma of the pre-smoothing)
+_MARGIN = 12
+
+
 def _time_scale(out: Motion, lab: np.ndarray, f0: int, f1: int, body, kind: str, max_scale: float,
                 L_ends: tuple):
     """Eq. 9: ``s = (||L(f_i0) + L(f_if)|| / 2) / (sum_{f_i0}^{f_if} ||L(f)|| / (f_if - f_i0))`` of the
@@ -176,9 +180,10 @@ def _time_scale(out: Motion, lab: np.ndarray, f0: int, f1: int, body, kind: str,
     ``L2(f_if - T)`` (``L_ends``), what eq. 8 gives there (alpha = 1 and 0): the blended motion's own
     finite differences at the window's edges already carry part of the blend's speed-up. ``s`` is
     clamped to ``[1 / max_scale, max_scale]`` (noted)."""
-    L = momentum_track(out, body, kind=kind).L
+    lo = max(f0 - _MARGIN, 0)                    # the blended period with a margin for the smoothing
+    L = momentum_track(out[lo:min(f1 + 1 + _MARGIN, out.n_frames)], body, kind=kind).L
     num = 0.5 * float(np.linalg.norm(L_ends[0] + L_ends[1]))
-    den = float(np.linalg.norm(L[f0:f1 + 1], axis=1).sum()) / (f1 - f0)
+    den = float(np.linalg.norm(L[f0 - lo:f1 + 1 - lo], axis=1).sum()) / (f1 - f0)
     s = num / den if den > 0 else 1.0
     note = ""
     if not 1.0 / max_scale <= s <= max_scale:
@@ -210,6 +215,8 @@ def concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bor
     borders_a, borders_b: ``(start, stop)`` main-phase frames by hand (else detected from ``t_m``).
     t_m_a, t_m_b: the reference frame of each main phase (default: the peak of ``|L|``).
     kind: ``"paper"`` (eq. 1) or ``"full"`` (the project's complete L about the COM).
+    body_a, body_b: body models (default :func:`mocomp.audit.default_body` of ``a``, used for both:
+        the skeletons are the same).
     max_F: reject the timing above this F (default ``(F_FRACTION L_peak)^2``, ``L_peak`` the larger main-phase peak |L|).
     window_threshold: ``||L1 - L2||^2`` limit of the window trace (default ``(WINDOW_FRACTION L_ref)^2``).
     max_facing: rad, the facing check at ``f_T``.
@@ -224,6 +231,10 @@ def concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bor
     if abs(a.fps - b.fps) > 1e-6 * a.fps:
         b = b.resample(a.fps)
         notes.append(f"B resampled to A's {a.fps:g} fps")
+    from ..audit import default_body
+
+    body_a = default_body(a) if body_a is None else body_a
+    body_b = body_a if body_b is None else body_b          # same skeleton: one body model
     t1 = momentum_track(a, body_a, kind=kind)
     t2 = momentum_track(b, body_b, kind=kind)
     p1 = find_phases(t1, t_m_a, borders_a, min_level=min_level, name="A")
