@@ -31,8 +31,11 @@ def register(sub) -> None:
                    help="planted intervals instead of the detector's (joint,start,stop; foot_l, toe_l, foot_r, "
                         "toe_r or the joint such a point rides on; frames 0-based, stop exclusive): they decide "
                         "the ground and flight frames")
-    p.add_argument("--masses", default="table", metavar="table|FILE.json",
-                   help="segment masses: the body model's table (default) or a JSON file {segment: kg}")
+    p.add_argument("--masses", default="table", metavar="fit|table|FILE.json",
+                   help="segment masses: the body model's table (default); fit: fitted to this clip's ground "
+                        "frames (sec. 3.2, eq. 5: for a clip known to be physically correct; the report's "
+                        "'masses' then serve as --masses FILE for its edits); or a JSON file {segment: kg} (a "
+                        "report with a 'masses' object is accepted)")
     p.add_argument("--iterations", type=int_in(1, 1000), metavar="N", help="iterations of every step")
     p.add_argument("--plot", metavar="zmp.png", help="draw the ZMP distance per frame before/after and per iteration")
     p.set_defaults(func=run)
@@ -90,7 +93,19 @@ def run(args) -> int:
     if args.schedule and args.schedule.endswith(".toml") and not Path(args.schedule).is_file():
         raise FileNotFoundError(f"schedule file {args.schedule} does not exist")
     m = load_from_args(args)
-    body = read_masses(args.masses, default_body(m))
+    fit = None
+    if args.masses == "fit":
+        from ..touchup.masses import fit_masses
+
+        fit = fit_masses(default_body(m), m, contacts=args.contacts)
+        body = fit.body
+        fd = fit.to_dict()
+        print(f"masses fitted on {fit.frames} ground frames (eq. 5, CG, {fit.iterations} iterations): mean ZMP "
+              f"outside {_cm(fd['mean_outside_m']['before'])} (table) -> {_cm(fd['mean_outside_m']['after'])}; "
+              + ", ".join(f"{k} {fd['masses_kg']['table'][k]:.2f}->{v:.2f}" for k, v in fd["masses_kg"]["fitted"].items())
+              + " kg")
+    else:
+        body = read_masses(args.masses, default_body(m))
     r = touchup(m, body, args.schedule, contacts=args.contacts, iterations=args.iterations)
     st = r.stages
     sd = st.to_dict()
@@ -124,7 +139,7 @@ def run(args) -> int:
     print(f"planned foot slide within the plants: {slide0.max() * 100:.2f} -> {slide1.max() * 100:.2f} cm; "
           f"joint-angle change mean {ang.mean():.2f} deg, max {ang.max():.2f} deg; {r.seconds:.3f} s")
     report = {"touchup": r.to_dict(), "masses": dict(zip(body.segment_names, map(float, body.masses))),
-              "masses_source": args.masses,
+              "masses_source": args.masses, "mass_fit": None if fit is None else fit.to_dict(),
               "planned_footplant_slide_m": {"before": dict(zip(st.plants.effectors, slide0.tolist())),
                                             "after": dict(zip(st.plants.effectors, slide1.tolist()))},
               "planned_joint_angle_change_deg": {"mean": float(ang.mean()), "max": float(ang.max())}}
