@@ -236,7 +236,8 @@ def make_ballistic(motion: Motion, body, flight: tuple[int, int], *, max_correct
     landing phase's shift are also given). A base that needs more than ``max_correction`` m is
     refused (:class:`~mocomp.errors.StudyDataError` naming the base and ``flight.max_correction_m``).
     Measured (60 Hz CMU clips): 88_01 0.164 m, 88_05 back flip 0.135 m, 90_08 side flip 0.036 m;
-    the synthetic flips < 1e-6 m.
+    the synthetic flips < 1e-6 m. The default bound (0.2 m, ``study.spec``) refuses the same clips read
+    at their headers' wrong 120 Hz (g fits 44-49 m/s^2; corrections 0.27-0.48 m).
     """
     from mocomp.dynamics.constants import G_STANDARD
     from mocomp.edit.linear import correct_linear

@@ -531,3 +531,8 @@ def test_base_needing_a_large_correction_is_refused(real_data_dir):
                        "flight": {"max_correction_m": 0.05}})
     with pytest.raises(StudyDataError, match=r"moves its COM by 0\.1\d\d m"):
         build_stimuli(spec)
+    # the default bound (0.2 m) refuses a clip read at its header's wrong 120 Hz (g fits 43-49 m/s^2;
+    # the correction would be 0.27-0.48 m) and accepts it at the real 60 Hz (0.036-0.164 m)
+    wrong = parse_spec({"base": [{"id": "side", "source": "clip:cmu_90_08_sideflip", "fps": 120}]})
+    with pytest.raises(StudyDataError, match=r"base 'side'.*0\.2\d\d m.*max_correction_m"):
+        build_stimuli(wrong)
