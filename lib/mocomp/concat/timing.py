@@ -30,7 +30,8 @@ __all__ = ["TimingTable", "timing_table", "optimal_timing"]
 class TimingTable:
     """Eq. 3-7 for every offset. ``T``: ``(K,)`` frames; ``f_T``: ``(K,)`` frames of motion 1;
     ``F_dm``, ``F_inertia``, ``F_time``, ``F``: ``(K,)``; ``period1``, ``period2``: the half-open
-    blendable periods scanned; ``order``: indices of ``T`` by increasing ``F``."""
+    blendable periods scanned; ``allowed``: ``(K,)`` bool, the offsets a further condition admits
+    (:meth:`where`; all by default): :attr:`best` and :meth:`runner_up` choose among them."""
 
     T: np.ndarray
     f_T: np.ndarray
@@ -40,10 +41,20 @@ class TimingTable:
     F: np.ndarray
     period1: tuple[int, int]
     period2: tuple[int, int]
+    allowed: np.ndarray | None = None
+
+    def _F(self) -> np.ndarray:
+        return self.F if self.allowed is None else np.where(self.allowed, self.F, np.inf)
+
+    def where(self, allowed) -> "TimingTable":
+        """The table with only ``allowed`` offsets eligible (the others stay listed)."""
+        import dataclasses
+
+        return dataclasses.replace(self, allowed=np.asarray(allowed, dtype=bool))
 
     @property
     def best(self) -> int:
-        return int(np.argmin(self.F))
+        return int(np.argmin(self._F()))
 
     def row(self, k: int) -> dict:
         return {"T": int(self.T[k]), "f_T": int(self.f_T[k]), "F": float(self.F[k]), "F_dm": float(self.F_dm[k]),
@@ -52,11 +63,12 @@ class TimingTable:
     def runner_up(self) -> int | None:
         """The best offset that is not the optimum nor adjacent to it (a distinct timing), if any."""
         k0 = self.best
-        far = np.abs(self.T - self.T[k0]) > 1
+        F = self._F()
+        far = (np.abs(self.T - self.T[k0]) > 1) & np.isfinite(F)
         if not far.any():
             return None
         idx = np.flatnonzero(far)
-        return int(idx[np.argmin(self.F[idx])])
+        return int(idx[np.argmin(F[idx])])
 
 
 def timing_table(t1: MomentumTrack, t2: MomentumTrack, period1: tuple[int, int], period2: tuple[int, int],
