@@ -146,6 +146,7 @@ def run(args) -> int:
     if args.plot:
         check_output_path(Path(args.plot), "plot")
     names = list(args.motions)
+    motions = [datasets.load(n) for n in names]            # a bad input file is reported first
     if len(names) < 2:
         raise ValueError(f"give at least two motions to concatenate (got {len(names)})")
     if len(names) > 26:
@@ -160,7 +161,6 @@ def run(args) -> int:
         if k not in letters:
             raise ValueError(f"--phases {k}:{rng[0]},{rng[1]}: there are only motions {letters[0]}-{letters[-1]}")
         borders[k] = rng
-    motions = [datasets.load(n) for n in names]
     for k, (n, m) in zip(letters, zip(names, motions)):
         if k in borders and borders[k][1] > m.n_frames:
             raise ValueError(f"--phases {k}:{borders[k][0]},{borders[k][1]}: {n} has only {m.n_frames} frames")
