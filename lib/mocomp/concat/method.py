@@ -43,7 +43,7 @@ from .phases import MIN_MAIN_LEVEL, ConcatError, MomentumTrack, Phases, find_pha
 from .rules import RuleChoice, alignment_yaw, blendable_periods, choose_rule, support_truncate
 from .timing import TimingTable, optimal_timing
 
-__all__ = ["ConcatResult", "concatenate", "check_same_skeleton", "MAX_FACING", "WINDOW_FRACTION", "F_FRACTION"]
+__all__ = ["ConcatResult", "concatenate", "linear_blend", "BaselineResult", "motion_graph_concatenate", "check_same_skeleton", "MAX_FACING", "WINDOW_FRACTION", "F_FRACTION"]
 
 #: rad, the largest difference of the ground-projected facing of the two bodies at f_T
 MAX_FACING = np.pi / 4
@@ -158,6 +158,71 @@ def _trace_window(d: np.ndarray, lo: int, hi: int, c: int, thr: float) -> tuple[
         if i1 - i0 + 1 < MIN_WINDOW and i1 < hi:
             i1 += 1
     return i0, i1
+
+
+def linear_blend(a: Motion, b2: Motion, f0: int, f1: int, T: int) -> Motion:
+    """Eq. 8: A up to ``f0``, ``alpha A(f) + (1 - alpha) B(f - T)`` on ``[f0, f1]`` with ``alpha =
+    (f1 - f) / (f1 - f0)`` (joint rotations by slerp, root positions linearly; ``b2`` already moved
+    into A's frame), then B from ``f1 - T + 1``."""
+    fr = np.arange(f0, f1 + 1)
+    alpha = (f1 - fr) / max(f1 - f0, 1)
+    ra, qa = a.root_positions[fr], a.rotations[fr]
+    rb, qb = b2.root_positions[fr - T], b2.rotations[fr - T]
+    w = np.broadcast_to((1.0 - alpha)[:, None], qa.shape[:2])
+    rot = np.concatenate([a.rotations[:f0], slerp(qa, qb, w), b2.rotations[f1 - T + 1:]])
+    root = np.concatenate([a.root_positions[:f0], alpha[:, None] * ra + (1.0 - alpha)[:, None] * rb,
+                           b2.root_positions[f1 - T + 1:]])
+    return a.replace(root_positions=root, rotations=rot)
+
+
+def _hold_feet(out: Motion, lab: np.ndarray, notes: list):
+    """The supporting feet held (:func:`mocomp.ops.enforce_footplants`) on the plants ``lab``."""
+    pl = foot_plants(out, labels=lab, require=False)
+    if not pl.labels.any():
+        notes.append("no foot planted in A or B: nothing to enforce")
+        return out, None
+    try:
+        fp = enforce_footplants(out, pl, audit=False)
+        return fp.motion, fp
+    except ValueError as e:         # mocomp.ops' IK fails on some inputs (reported upstream)
+        notes.append(f"feet not held: mocomp.ops.enforce_footplants failed ({e})")
+        return out, None
+
+
+@dataclass(frozen=True, eq=False)
+class BaselineResult:
+    """The Motion-Graph baseline: the transition and the motion it makes."""
+
+    motion: Motion
+    transition: object
+    footplants: object | None
+    notes: tuple[str, ...] = field(default=())
+
+    def to_dict(self) -> dict:
+        return {**self.transition.to_dict(), "frames": self.motion.n_frames,
+                "duration_s": self.motion.n_frames / self.motion.fps, "notes": list(self.notes)}
+
+
+def motion_graph_concatenate(a: Motion, b: Motion, phases: tuple[Phases, Phases], window: int,
+                             plant: bool = True) -> BaselineResult:
+    """The baseline of issue 17: the Motion-Graph transition (:func:`.baseline.motion_graph_transition`,
+    Kovar et al.'s point-cloud criterion) blended the same way as the method (eq. 8 over the
+    ``window`` frames, feet held), without time scaling."""
+    from .baseline import motion_graph_transition
+
+    check_same_skeleton(a, b)
+    if abs(a.fps - b.fps) > 1e-6 * a.fps:
+        b = b.resample(a.fps)
+    tr = motion_graph_transition(a, b, phases[0], phases[1], window)
+    T = tr.i - tr.j
+    out = linear_blend(a, tr.transform.apply(b), tr.i, tr.i + tr.window - 1, T)
+    notes: list = []
+    fp = None
+    if plant:
+        la = foot_plants(a, require=False).labels
+        lb = foot_plants(b, require=False).labels
+        out, fp = _hold_feet(out, _blend_labels(la, lb, T, tr.i + tr.window // 2, out.n_frames), notes)
+    return BaselineResult(out, tr, fp, tuple(notes))
 
 
 def _blend_labels(la: np.ndarray, lb: np.ndarray, T: int, f_T: int, n: int) -> np.ndarray:
@@ -306,16 +371,7 @@ def concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bor
     target = reference_points(a[f0], "feet")[0]
     tf = GroundTransform(yaw, tuple(pivot.tolist()), tuple((target - pivot).tolist()))
     b2 = tf.apply(b)
-    # eq. 8
-    fr = np.arange(f0, f1 + 1)
-    alpha = (f1 - fr) / max(f1 - f0, 1)
-    ra, qa = a.root_positions[fr], a.rotations[fr]
-    rb, qb = b2.root_positions[fr - T], b2.rotations[fr - T]
-    w = np.broadcast_to((1.0 - alpha)[:, None], qa.shape[:2])
-    rot = np.concatenate([a.rotations[:f0], slerp(qa, qb, w), b2.rotations[f1 - T + 1:]])
-    root = np.concatenate([a.root_positions[:f0], alpha[:, None] * ra + (1.0 - alpha)[:, None] * rb,
-                           b2.root_positions[f1 - T + 1:]])
-    out = a.replace(root_positions=root, rotations=rot)
+    out = linear_blend(a, b2, f0, f1, T)
     lab = _blend_labels(la, lb, T, f_T, out.n_frames)
     scale, n_new = 1.0, f1 - f0 + 1
     if time_scale and f1 > f0:
@@ -325,14 +381,6 @@ def concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bor
             notes.append(note)
     fp = None
     if plant:
-        pl = foot_plants(out, labels=lab, require=False)
-        if pl.labels.any():
-            try:
-                fp = enforce_footplants(out, pl, audit=False)
-                out = fp.motion
-            except ValueError as e:         # mocomp.ops' IK fails on some inputs (reported upstream)
-                notes.append(f"feet not held: mocomp.ops.enforce_footplants failed ({e})")
-        else:
-            notes.append("no foot planted in A or B: nothing to enforce")
+        out, fp = _hold_feet(out, lab, notes)
     return ConcatResult(out, (p1, p2), choice, yaw, value, facing, (case, pa, pb), pnotes, tab, T, f_T, (f0, f1),
                         thr, max_F, min_T, tf, (t1, t2r), scale, n_new, fp, time.perf_counter() - t0, tuple(notes))
