@@ -77,3 +77,16 @@ def _code(argv) -> int:
         return main(argv)
     except SystemExit as e:
         return int(e.code)
+
+
+def test_concat_baseline_motion_graph(tmp_path, capsys):
+    out, rep = tmp_path / "o.bvh", tmp_path / "r.json"
+    assert main(["concat", "backflip", "backflip", "--baseline", "motion-graph", "-o", str(out), "--report", str(rep),
+                 "--no-audit"]) == 0
+    d = json.loads(rep.read_text())["baseline"]
+    mg = tmp_path / "o.motion-graph.bvh"
+    assert read_bvh(mg, scale=1.0).n_frames / 120.0 == pytest.approx(d["motion_graph_s"])
+    assert d["ours_s"] < d["motion_graph_s"]
+    lv = d["lowest_L_between_main_phases"]
+    assert lv["ours"][0] > 0.3 * lv["main_level"][0] > lv["motion_graph"][0]
+    assert "lowest |L| between the main phases (measured)" in capsys.readouterr().out

@@ -70,6 +70,10 @@ def register(sub) -> None:
                    help="largest difference of the two bodies' ground-projected facing at f_T (default 45)")
     p.add_argument("--no-time-scale", action="store_true", help="leave out eq. 9's time scaling of the blend")
     p.add_argument("--no-plant", action="store_true", help="do not hold the supporting feet")
+    p.add_argument("--baseline", choices=("motion-graph",),
+                   help="also make the Motion-Graph transition between the same motions (Kovar et al. 2002's "
+                        "point-cloud criterion, blended the same way), write it beside OUT as OUT.motion-graph.bvh "
+                        "and compare: durations and the lowest |L| between the main phases, both measured")
     p.add_argument("--plot", metavar="L.png", help="plot |L| of the inputs (placed at their offsets) and of the output")
     add_audit_arg(p)
     p.set_defaults(func=run)
@@ -107,7 +111,7 @@ def _print_joint(k: int, na: str, nb: str, r) -> None:
         print(f"  note: {n}")
 
 
-def _plot(path, inputs, offsets, out, tracks_fn) -> None:
+def _plot(path, inputs, offsets, out, tracks_fn, baseline=None) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -119,11 +123,14 @@ def _plot(path, inputs, offsets, out, tracks_fn) -> None:
         L = tracks_fn(m).magnitude
         ax.plot((np.arange(len(L)) + off) / m.fps, L, lw=1, alpha=0.6, label=f"{Path(name).name} (planned offset)")
     Lo = tracks_fn(out).magnitude
-    ax.plot(np.arange(len(Lo)) / out.fps, Lo, "k", lw=1.6, label="output (measured)")
+    ax.plot(np.arange(len(Lo)) / out.fps, Lo, "k", lw=1.6, label="ours (measured)")
+    if baseline is not None:
+        Lb = tracks_fn(baseline).magnitude
+        ax.plot(np.arange(len(Lb)) / baseline.fps, Lb, "g:", lw=1.6, label="Motion Graph (measured)")
     ax.set_xlabel("time (s)")
     ax.set_ylabel("|L| (kg m$^2$/s)")
     ax.legend(fontsize=7)
-    ax.set_title("angular momentum (eq. 1) of the inputs and of the concatenation")
+    ax.set_title("angular momentum (eq. 1) of the inputs and of the concatenation(s)")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -135,6 +142,7 @@ def run(args) -> int:
     from .. import datasets
     from ..concat import concatenate, momentum_track
     from ..io import write_bvh
+    from ..io.bvh import read_bvh
     from ._common import audit_output, check_output_path, finish_audit
 
     out = Path(args.out)
@@ -184,16 +192,54 @@ def run(args) -> int:
         acc_tm = min(max(m2.t_m + sh, acc_borders[0]), acc_borders[1] - 1)
         acc = r.motion
     total_in = sum(m.n_frames / m.fps for m in motions)
+    base, base_rows, peaks, base_peaks = None, [], [], []
+    for j, r in enumerate(joints):
+        peaks.append((r.phases[0].t_m, r.phases[1].t_m + offsets[j + 1]))
+    if args.baseline:
+        from ..concat import Phases, motion_graph_concatenate
+
+        acc_b, ph_a = motions[0], joints[0].phases[0]
+        for j, r in enumerate(joints):
+            res = motion_graph_concatenate(acc_b, motions[j + 1], (ph_a, r.phases[1]), r.window_frames_out,
+                                           plant=not args.no_plant)
+            sh = res.transition.i - res.transition.j
+            base_peaks.append((ph_a.t_m, r.phases[1].t_m + sh))
+            m2 = r.phases[1]
+            ph_a = Phases(res.motion.n_frames, m2.t_m + sh, (m2.main[0] + sh, m2.main[1] + sh), True)
+            base_rows.append(res.to_dict())
+            acc_b = res.motion
+        base = acc_b
     write_bvh(acc, out)
     print(f"wrote {out} ({acc.n_frames} frames at {acc.fps:g} fps, {acc.n_frames / acc.fps:.2f} s; the inputs played "
           f"one after the other last {total_in:.2f} s)")
+    track = lambda m: momentum_track(m, kind=args.kind)                      # noqa: E731
+    comparison = None
+    if base is not None:
+        bpath = out.with_name(out.stem + ".motion-graph.bvh")
+        check_output_path(bpath, "baseline")
+        write_bvh(base, bpath)
+        Lo, Lb = track(read_bvh(out, scale=1.0)).magnitude, track(read_bvh(bpath, scale=1.0)).magnitude
+        lows = [float(Lo[p:q + 1].min()) for p, q in peaks]
+        blows = [float(Lb[p:q + 1].min()) for p, q in base_peaks]
+        level = [r.L_reference for r in joints]
+        comparison = {"ours_s": acc.n_frames / acc.fps, "motion_graph_s": base.n_frames / base.fps,
+                      "lowest_L_between_main_phases": {"ours": lows, "motion_graph": blows, "main_level": level},
+                      "measured_on": "the BVH files written, read back", "motion_graph": base_rows}
+        print(f"wrote {bpath} (Motion-Graph baseline: {base.n_frames} frames, {base.n_frames / base.fps:.2f} s)")
+        for k, (lo, blo, lv) in enumerate(zip(lows, blows, level)):
+            t = base_rows[k]
+            print(f"joint {k + 1}: lowest |L| between the main phases (measured): ours {lo:.2f} ({lo / lv:.0%} of the "
+                  f"main level {lv:.2f}), Motion Graph {blo:.2f} ({blo / lv:.0%}; transition A frame {t['A_frame']} -> "
+                  f"B frame {t['B_frame']}, point-cloud distance {t['point_cloud_distance_m2']:.4g} m^2)")
     if args.plot:
-        _plot(args.plot, list(zip(names, motions)), offsets, acc, lambda m: momentum_track(m, kind=args.kind))
+        _plot(args.plot, list(zip(names, motions)), offsets, acc, track, base)
         print(f"wrote {args.plot}")
     if args.report:
         rep = {"inputs": names, "joints": [r.to_dict() for r in joints],
                "output": {"frames": acc.n_frames, "fps": acc.fps, "duration_s": acc.n_frames / acc.fps,
                           "inputs_back_to_back_s": total_in}}
+        if comparison is not None:
+            rep["baseline"] = comparison
         Path(args.report).write_text(json.dumps(rep, indent=1, default=float) + "\n")
     result = None if args.no_audit else audit_output(out, motions[0], input_name=names[0],
                                                       other_inputs=tuple(zip(names[1:], motions[1:])))
