@@ -12,14 +12,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..dynamics.com import center_of_mass, segment_positions
+from ..dynamics.com import center_of_mass
+from ..dynamics.momentum import momentum
 from ..dynamics.constants import G_STANDARD
 from ..ops import HierarchyStep, apply_hierarchy, enforce_footplants
 from ..ops.footplant import foot_points
-from .flight import angular_momentum, com_residual, flight_com_adjustment, flight_momentum_adjustment
+from .flight import com_residual, flight_com_adjustment, flight_momentum_adjustment
 from .ground import ground_adjustment
 from .linksets import link_sets
-from .schedule import Step, schedule_from_spec
+from .schedule import schedule_from_spec
 from .stages import Stages, stages
 from .zmp import DEFAULT_SMOOTH_SIGMA, floor_levels, zmp_state
 
@@ -55,6 +56,12 @@ class TouchupResult:
                 "seconds": self.seconds}
 
 
+def _variation(L: np.ndarray) -> float:
+    """(max - min) / mean of ``|L|`` over a flight's inner frames (the end frames' central
+    differences reach into the ground frames; the audit drops them too)."""
+    return float((L.max() - L.min()) / max(L.mean(), 1e-9))
+
+
 def _measure(body, motion, st: Stages, ground_y: float, smooth_sigma, g: float) -> dict:
     P, G = motion.fk()
     pts = foot_points(P, G, st.plants)
@@ -62,10 +69,9 @@ def _measure(body, motion, st: Stages, ground_y: float, smooth_sigma, g: float) 
     out = z.summary(st.ground)
     out["_distance"] = np.where(st.ground, z.distance, np.nan)
     com = center_of_mass(body, motion)
-    r = segment_positions(body, motion)
-    L = np.linalg.norm(angular_momentum(body.masses, r, np.gradient(r, 1.0 / motion.fps, axis=0), com), axis=1)
+    L = np.linalg.norm(momentum(body, motion).angular, axis=1)
     out["flights"] = [{"frames": [a, b], "com_residual_m": com_residual(com, a, b, motion.fps, g),
-                       "L_variation": float((L[a:b].max() - L[a:b].min()) / max(L[a:b].mean(), 1e-9))}
+                       "L_variation": _variation(L[a + 1:b - 1] if b - a >= 5 else L[a:b])}
                       for a, b in st.flight_runs]
     return out
 
@@ -103,9 +109,24 @@ def touchup(motion, body=None, schedule=None, *, contacts=None, iterations: int 
     dist_before = before.pop("_distance")
     dist_after = dist_before
 
+    # ground maps leave the flights, and the ground frames within the neighbourhood of a flight
+    # (adjusted with it, Fig. 4), alone: 0 there, easing to 1 over the neighbourhood
+    from ..ops import DisplacementMap, apply_displacement, ease
+
+    ground_w = np.ones(motion.n_frames)
+    for a, b in flights:
+        ground_w[a:b] = 0.0
+        for i in range(1, nb + 1):                 # the frame next to a flight stays 0 too
+            v = float(ease(np.array([(i - 1) / nb]))[0])
+            for f in (a - i, b - 1 + i):
+                if 0 <= f < motion.n_frames:
+                    ground_w[f] = min(ground_w[f], v)
+    state = {}
+
     def adjust(cur, hstep):
         k = int(hstep.label)
         step, ls = steps[k], sets[k]
+        state["prev"], state["stage"] = cur, step.stage
         if step.stage == "ground":
             P, G = cur.fk()
             z = zmp_state(body, cur, foot_points(P, G, st.plants), st.contact_mask, ground_y,
@@ -121,8 +142,22 @@ def touchup(motion, body=None, schedule=None, *, contacts=None, iterations: int 
             adj = flight_com_adjustment(body, cur, ls, flights, center_of_mass(body, cur), neighbourhood=nb, g=g)
         return cur.replace(root_positions=adj.root_positions, rotations=adj.rotations)
 
+    in_air = np.zeros(motion.n_frames)
+    for a, b in flights:                           # with the frame either side (a detector one frame off)
+        in_air[max(a - 1, 0):b + 1] = 1.0
+
+    def weighted(base, moved, w):
+        d = DisplacementMap.between(base, moved)
+        return apply_displacement(base, DisplacementMap(d.root * w[:, None], d.rotations * w[:, None, None]))
+
     def post(cur):
-        return enforce_footplants(cur, st.plants, audit=False, passes=1).motion if footplants else cur
+        if state["stage"] == "ground" and flights:
+            cur = weighted(state["prev"], cur, ground_w)
+        if not footplants:
+            return cur
+        held = enforce_footplants(cur, st.plants, audit=False, passes=1).motion
+        # the plants' fade-out must not reach into a flight (its COM is on the parabola)
+        return weighted(cur, held, 1.0 - in_air) if flights else held
 
     hsteps = [HierarchyStep(s.sigma_frames(motion.fps), s.rho, s.kernel, s.iterations, str(k))
               for k, s in enumerate(steps)]

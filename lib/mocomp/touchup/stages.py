@@ -1,7 +1,10 @@
 """Ground and flight stages of a motion (touch-up paper, Shin et al. 2003, sec. 3.1 and 5).
 
-A frame is a *ground* frame when any foot point (ankle point or toe tip, left or right) is planted,
-a *flight* frame otherwise. The plants are the project's (:func:`mocomp.ops.foot_plants`: the
+A frame is a *ground* frame when any foot point (ankle point or toe tip, left or right) touches the
+ground (the detector's ``touching``: near its support level, whatever its speed, as the audit's
+phases; a point given by the overrides touches exactly where it is planted), a *flight* frame
+otherwise: a foot rolling off at take-off still pushes. The support polygon is made of the planted
+points (as the audit's ZMP measure). The plants are the project's (:func:`mocomp.ops.foot_plants`: the
 contact detector, with ``joint,start,stop`` CSV overrides); the paper stresses that the labels must
 be accurate (sec. 5), so :class:`Stages` lists every stage and where each foot point's labels came
 from. Labels that contradict the motion (a planted point that travels more than
@@ -43,7 +46,8 @@ class Stages:
     Attributes
     ----------
     plants: the :class:`~mocomp.ops.FootPlants` (foot_l, toe_l, foot_r, toe_r).
-    ground: ``(T,)`` bool, any foot point planted.
+    ground: ``(T,)`` bool, any foot point touching.
+    touching: ``(T, 4)`` bool, foot points touching the ground (planted ones included).
     contact_points: ``(T, 4, 3)`` m, the foot points on the input motion (the support polygon's
         corners where planted).
     """
@@ -51,6 +55,7 @@ class Stages:
     plants: object
     ground: np.ndarray
     contact_points: np.ndarray
+    touching: np.ndarray = None
 
     @property
     def n_frames(self) -> int:
@@ -117,5 +122,11 @@ def stages(motion, contacts=None, *, max_plant_travel: float = MAX_PLANT_TRAVEL)
                 raise StageError(
                     f"contacts ({plants.source[e]}): {e} is labelled planted on frames {a}-{b - 1} but moves "
                     f"{travel:.2f} m there (more than {max_plant_travel:g} m): the labels contradict the motion")
-    ground = lab.any(axis=1)
-    return Stages(plants, ground, pts)
+    touch = np.array(lab)
+    c = plants.contacts
+    if c is not None and getattr(c, "touching", None) is not None:
+        for k, e in enumerate(plants.effectors):
+            if plants.source[e] == "detector" and e in c.effectors:
+                touch[:, k] |= np.asarray(c.touching)[:, c.effectors.index(e)]
+    ground = touch.any(axis=1)
+    return Stages(plants, ground, pts, touch)
