@@ -12,7 +12,7 @@ Rows (best of N wall time, garbage collector paused, a fresh Motion each run so 
 * ``footplant``: :func:`mocomp.ops.enforce_footplants` end to end with its defaults and
   ``audit=False`` -- contact detection, plant targets, the two-bone IK of both legs, the
   re-detection pass on the result (and its incremental re-solve), FK of the result and the slide
-  evidence. Peer: :func:`mocomp.edit.legs.plant_feet`, the project's earlier foot planting (ankles
+  evidence. Peer: :func:`mocomp.ops.ik.plant_feet`, the flight edits' simpler foot planting (ankles
   only, held where they touched down, compiled FK), given the same plants as weights -- it
   does no detection, no toe, no fades, no re-detection, so it is the floor of the IK work.
 * ``blend 1 s``: :func:`mocomp.ops.blend` of frames of the clip into itself 4 s later with a
@@ -68,7 +68,7 @@ def clip():
 
 
 def run(quick: bool) -> list[dict]:
-    from mocomp.edit.legs import leg_chains, plant_feet
+    from mocomp.ops.ik import leg_chains, plant_feet
     from mocomp.ops import PathCurve, blend, enforce_footplants, foot_plants, motion_path, path_edit
 
     m, origin = clip()
@@ -84,7 +84,7 @@ def run(quick: bool) -> list[dict]:
     plant_feet(fresh(), 0, w, chains)
     t_peer, _ = best_of(lambda mm: plant_feet(mm, 0, w, chains), repeat, fresh)
     rows.append(result(f"footplant {m.skeleton.n_joints}j x {m.n_frames}f (10 s at 120 Hz)", t_fp,
-                       "mocomp.edit.legs.plant_feet (ankles held, no detection/toes/fades)", t_peer,
+                       "mocomp.ops.ik.plant_feet (ankles held, no detection/toes/fades)", t_peer,
                        goal="ours_s <= 0.03",
                        note=f"{origin}; slide within plants {r.slide_before.max() * 100:.2f} -> "
                             f"{r.slide_after.max() * 100:.2f} cm; {len(r.notes)} note(s); load average {load:.1f}"))

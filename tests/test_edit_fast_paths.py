@@ -21,7 +21,7 @@ from mocomp.core.rotations import quat_apply, quat_multiply
 from mocomp.edit import apply_preset, restore_momentum, seams
 from mocomp.edit import smooth_direction as sd
 from mocomp.edit._kernels import fk_arrays, motion_fk
-from mocomp.edit.legs import _descends, leg_chains, run_starts, two_bone_ik
+from mocomp.ops.ik import descends, leg_chains, run_starts, two_bone_ik
 from mocomp.flips.reposition import ComEvaluator
 from mocomp.synth.flights import backflip, sideflip
 
@@ -73,7 +73,7 @@ def _plant_feet_reference(motion, start, weights, chains, tol=1e-3):
     parents = motion.skeleton.parents
     for c1 in chains:
         for c2 in chains:
-            if c1 is not c2 and _descends(parents, c2[0], c1[0]):
+            if c1 is not c2 and descends(parents, c2[0], c1[0]):
                 raise ValueError("overlap")
     rot = np.array(motion.rotations)
     P, G = motion.fk()

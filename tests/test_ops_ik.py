@@ -11,7 +11,7 @@ from mocomp import datasets
 from mocomp.core.rotations import quat_angle, quat_inverse, quat_multiply
 from mocomp.edit import seams
 from mocomp.edit.join import join_flights
-from mocomp.edit.legs import leg_chains, plant_feet, two_bone_ik
+from mocomp.ops.ik import leg_chains, plant_feet, two_bone_ik
 from mocomp.edit.seams import stance_slide
 
 
@@ -113,7 +113,7 @@ def test_deepmimic_join_recovery_no_longer_slides_the_stance_foot(real_data_dir,
 
 
 def test_run_starts_and_stance_slide_on_known_runs():
-    from mocomp.edit.legs import run_starts
+    from mocomp.ops.ik import run_starts
 
     on = np.array([[0, 1], [1, 1], [1, 0], [0, 1], [1, 1]], dtype=bool)
     np.testing.assert_array_equal(run_starts(on), [[-1, 0], [1, 0], [1, -1], [-1, 3], [4, 3]])

@@ -65,30 +65,6 @@ def test_two_bone_ik_out_of_reach_reports_the_miss():
     assert miss == pytest.approx(2.0 - reach, abs=1e-5)
 
 
-def test_ops_ik_matches_edit_legs_on_the_same_inputs():
-    """The switch of mocomp.edit.legs to mocomp.ops.ik changes nothing: same rotations, same solves."""
-    from mocomp.edit import legs as old
-    from mocomp.ops import ik as new
-
-    m = datasets.load_example("backflip").motion[250:262]
-    P, G = m.fk()
-    chains = old.leg_chains(m.skeleton)
-    assert chains == new.leg_chains(m.skeleton)
-    tgt = P[:, chains[0][2]] + np.array([0.03, -0.02, 0.04])
-    r_old, m_old = old.two_bone_ik(P, G, m.rotations, m.skeleton.parents, chains[0], tgt)
-    r_new, m_new = new.two_bone_ik(P, G, m.rotations, m.skeleton.parents, chains[0], tgt)
-    np.testing.assert_allclose(r_new, r_old, atol=1e-14)
-    np.testing.assert_allclose(m_new, m_old, atol=1e-14)
-    rp = np.array(m.root_positions)
-    rp[:, 0] += np.linspace(0, 0.06, m.n_frames)
-    d = m.replace(root_positions=rp)
-    w = np.ones((m.n_frames, 2))
-    o_old, s_old = old.plant_feet(d, 2, w[2:], chains)
-    o_new, s_new = new.plant_feet(d, 2, w[2:], chains)
-    assert s_old == s_new
-    np.testing.assert_allclose(o_new.rotations, o_old.rotations, atol=1e-12)
-
-
 # ------------------------------------------------------------------ footplants
 def test_footplant_holds_a_drifting_walk_and_changes_only_the_legs():
     """The synthetic walk (toe joints exactly still in stance) with the whole body drifting 4 cm

@@ -37,7 +37,7 @@ The remedies, applied by the pipeline and measured on frames:
 4. :func:`rest_on_floor`: from the touchdown on, a vertical root translation that gives the
    lowest body point the reference's clearance where the reference rests on its floor (held
    where it does not, low-passed so a capture's glitch does not bounce the body), and two-bone
-   leg IK (:func:`mocomp.edit.legs.two_bone_ik`) that makes each planted foot move as the
+   leg IK (:func:`mocomp.ops.ik.two_bone_ik`) that makes each planted foot move as the
    reference's does from where its contact began (on a landing the corrections did not turn,
    the feet already do and nothing changes).
 
@@ -55,7 +55,7 @@ from ..core.kinematics import end_site_positions
 from ..core.motion import Motion, slerp
 from ..core.rotations import quat_apply, quat_inverse, quat_multiply, swing_twist
 from ._kernels import fk_arrays
-from .legs import _descends, leg_chains, run_starts, two_bone_ik
+from ..ops.ik import descends, leg_chains, run_starts, two_bone_ik
 
 __all__ = ["TOUCH_TOL", "REST_TOL", "LandingReference", "LandingCheck", "lowest_heights", "floor_level",
            "landing_reference", "landing_lift", "foot_points", "touchdown_index", "level_feet", "rest_on_floor", "check_landing"]
@@ -144,7 +144,7 @@ class LandingReference:
         (:attr:`touchdown_clearance` at the touchdown).
     points: ``(n, J + E, 3)`` m, every joint and end site (joints first, as :func:`lowest_heights`).
     ankle_orientation: ``(n, C, 4)`` world orientations of the ankles.
-    chains: ``(hip, knee, ankle)`` joint indices of the legs (:func:`mocomp.edit.legs.leg_chains`).
+    chains: ``(hip, knee, ankle)`` joint indices of the legs (:func:`mocomp.ops.ik.leg_chains`).
     foot_points: per leg, the indices (in ``points``) of its foot points: the ankle, the joints
         below it and their end sites.
     own_depth: m, the reference's own deepest point below ``floor`` from the touchdown on (>= 0).
@@ -225,7 +225,7 @@ def foot_points(skeleton, chains) -> tuple[np.ndarray, ...]:
     par = skeleton.parents
     out = []
     for chain in chains:
-        below = [j for j in range(skeleton.n_joints) if _descends(par, j, chain[2])]
+        below = [j for j in range(skeleton.n_joints) if descends(par, j, chain[2])]
         sites = [skeleton.n_joints + i for i, e in enumerate(skeleton.end_sites) if e.parent in below]
         out.append(np.array(below + sites, dtype=int))
     return tuple(out)

@@ -90,7 +90,7 @@ def _contact_weights(heights: np.ndarray, contact) -> np.ndarray:
 def stance_slide(positions: np.ndarray, weights: np.ndarray) -> float:
     """Largest horizontal travel (m) of a joint during one of its contacts (runs of ``weights >=
     0.5``) from where that contact began. ``positions (n, F, 3)``, ``weights (n, F)``."""
-    from .legs import run_starts
+    from ..ops.ik import run_starts
 
     st = run_starts(np.asarray(weights) >= 0.5)
     on = st >= 0
@@ -145,13 +145,13 @@ def recover_upright(motion: Motion, first_ground: int, up_now: np.ndarray, secon
        own lowest height after touchdown, 0 above ``contact[1]`` m, smoothstep between; when no
        foot touches, the last translation is held, nothing snaps back);
     2. each leg's ankle is held where its contact began for as long as it lasts, by two-bone IK
-       of hip and knee (:func:`mocomp.edit.legs.plant_feet`; the foot keeps its orientation).
+       of hip and knee (:func:`mocomp.ops.ik.plant_feet`; the foot keeps its orientation).
 
     Returns ``(motion, slide)``: ``slide`` (m) is the largest horizontal travel of a foot joint
     during a contact, from where that contact began (:func:`stance_slide`).
     """
     from ._kernels import fk_arrays, motion_fk
-    from .legs import _plant_rotations, leg_chains
+    from ..ops.ik import leg_chains, plant_rotations
 
     fix = _shortest_arc(np.asarray(up_now, dtype=float), np.array([0.0, 1.0, 0.0]))
     n = motion.n_frames - first_ground
@@ -187,7 +187,7 @@ def recover_upright(motion: Motion, first_ground: int, up_now: np.ndarray, secon
             # heights are those after the rotation (the translation is horizontal)
             wa = w[:, [feet.index(ch[2]) for ch in chains]]
             P, G = fk_arrays(sk, rp[first_ground:], rot[first_ground:])
-            rot, solves = _plant_rotations(sk.parents, rot, P, G, first_ground, wa, chains)
+            rot, solves = plant_rotations(sk.parents, rot, P, G, first_ground, wa, chains)
             if solves:
                 after = fk_arrays(sk, rp[first_ground:], rot[first_ground:])[0][:, feet]
                 return motion.replace(root_positions=rp, rotations=rot), stance_slide(after, w)

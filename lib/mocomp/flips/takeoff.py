@@ -34,7 +34,7 @@ deeper crouch first: even a bang-bang push (free fall, then the largest force) s
 ``k = 0.7 k*``; the smooth map needs more.
 
 The feet stay planted: every window frame's ankles are put back where the unrepaired frame had
-them by the analytic two-bone leg IK of :mod:`mocomp.edit.legs` (:func:`~mocomp.edit.legs.two_bone_ik`;
+them by the analytic two-bone leg IK of :mod:`mocomp.ops.ik` (:func:`~mocomp.ops.ik.two_bone_ik`;
 the ankle keeps its world orientation, so the toes stay too). Folding the legs moves their mass
 less than the root, so the root displacement is corrected until the whole-body COM (not the
 root) follows ``d`` (a fixed-point iteration, :data:`COM_ITERATIONS`). Where a leg cannot reach,
@@ -425,7 +425,7 @@ def _leg_room(motion: Motion, frames: np.ndarray) -> tuple[np.ndarray, np.ndarra
     """``(down, up)`` m per frame: how far the hips may sink (before a knee folds tighter than the
     performer's tightest fold anywhere in the clip) or rise (before a leg is straight) with the
     ankles where they are, the smaller over the legs (``inf`` without leg chains)."""
-    from ..edit.legs import leg_chains
+    from ..ops.ik import leg_chains
 
     chains = leg_chains(motion.skeleton)
     n = frames.size
@@ -459,7 +459,7 @@ def _apply_with_planted_feet(motion: Motion, com_fn, frames: np.ndarray, disp: n
     whole-body COM follows ``disp``). Returns ``(root, rotations, largest ankle miss, gain)``:
     ``gain`` is ``None`` when the legs did it, else the ratio of the root's sinking to the COM's (the
     leg-room bounds are divided by it for another try); with ``raise_errors`` a failure raises."""
-    from ..edit.legs import leg_chains, two_bone_ik
+    from ..ops.ik import leg_chains, two_bone_ik
 
     root = np.asarray(motion.root_positions, dtype=float)
     rot = np.asarray(motion.rotations, dtype=float)

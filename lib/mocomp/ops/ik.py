@@ -12,11 +12,10 @@ in metres is returned per frame, so callers can report unreachable frames.
 The hip does not move, and bone lengths are those of the skeleton (forward kinematics of the
 returned local rotations): only the rotations of the hip, knee and ankle change.
 
-This module generalises :mod:`mocomp.edit.legs` (issue 15): ``two_bone_ik``, ``leg_chains``,
-``run_starts``, ``plant_feet`` and ``plant_rotations`` (alias ``_plant_rotations``) have the
-signatures and results of their ``edit.legs`` namesakes (``tests/test_ops_ik.py`` compares
-them on the same inputs), so ``mocomp.edit.legs`` can become the one line
-``from ..ops.ik import two_bone_ik, leg_chains, plant_feet, run_starts, _plant_rotations  # noqa: F401``.
+This module is the project's one leg IK (issue 15): it generalises the former ``mocomp.edit.legs``
+(same signatures and results, checked to 1e-14 before that module was removed), and the flight
+edits (:mod:`mocomp.edit.seams`, :mod:`mocomp.edit.landing`), the take-off repair
+(:mod:`mocomp.flips.takeoff`) and the footplants of this package all call it.
 """
 from __future__ import annotations
 
@@ -26,8 +25,8 @@ from ..core.kinematics import forward_kinematics
 from ..core.motion import Motion
 from ..core.rotations import quat_apply, quat_inverse, quat_multiply
 
-__all__ = ["two_bone_ik", "hinge_axis", "leg_chains", "plant_feet", "plant_rotations", "run_starts", "arc_quaternions",
-           "axis_angle_quaternions", "REACH_MARGIN"]
+__all__ = ["two_bone_ik", "hinge_axis", "leg_chains", "plant_feet", "plant_rotations", "run_starts", "descends",
+           "arc_quaternions", "axis_angle_quaternions", "REACH_MARGIN"]
 
 #: m: a target is reached with the limb at most this much shorter than fully straight (or this much
 #: longer than fully folded); a straight knee has no bending plane, so it is never quite reached.
@@ -36,7 +35,7 @@ REACH_MARGIN = 1e-6
 
 def leg_chains(skeleton) -> list[tuple[int, int, int]]:
     """``(hip, knee, ankle)`` joint indices of each leg: an ankle (name with ``ankle`` or
-    ``foot`` but not ``toe``) whose parent and grandparent exist (as :func:`mocomp.edit.legs.leg_chains`).
+    ``foot`` but not ``toe``) whose parent and grandparent exist.
     :func:`mocomp.ops.plants.leg_layout` finds the legs from the body-segment mapping instead."""
     out = []
     for j, nm in enumerate(skeleton.names):
@@ -185,7 +184,8 @@ def run_starts(on: np.ndarray) -> np.ndarray:
     return np.where(on, np.maximum.accumulate(idx, axis=0), -1)
 
 
-def _descends(parents, j: int, ancestor: int) -> bool:
+def descends(parents, j: int, ancestor: int) -> bool:
+    """Whether joint ``j`` is ``ancestor`` or lies below it in the tree given by ``parents``."""
     while j >= 0:
         if j == ancestor:
             return True
@@ -195,7 +195,7 @@ def _descends(parents, j: int, ancestor: int) -> bool:
 
 def plant_feet(motion: Motion, start: int, weights: np.ndarray, chains, tol: float = 1e-3) -> tuple[Motion, int]:
     """Hold each leg's ankle still while its contact weight is high, from frame ``start`` on
-    (the behaviour of :func:`mocomp.edit.legs.plant_feet`, kept for the flight edits).
+    (the flight edits' planting, :mod:`mocomp.edit.seams`).
 
     ``weights (n, C)`` in [0, 1] per frame (``n = T - start``) and chain. A contact starts when
     the weight rises to 0.5; from then until it falls below 0.5 the ankle's target is its
@@ -215,7 +215,7 @@ def plant_rotations(parents, rotations, P, G, start, weights, chains, tol=1e-3) 
     ``start..`` only; returns the new rotations (a copy) and the number of IK solves."""
     for c1 in chains:
         for c2 in chains:
-            if c1 is not c2 and _descends(parents, c2[0], c1[0]):
+            if c1 is not c2 and descends(parents, c2[0], c1[0]):
                 raise ValueError(f"leg chains {c1} and {c2} overlap; plant_feet needs disjoint legs")
     rot = np.array(rotations)
     solves = 0
@@ -235,6 +235,3 @@ def plant_rotations(parents, rotations, P, G, start, weights, chains, tol=1e-3) 
             solves += idx.size
     return rot, solves
 
-
-#: the name ``mocomp.edit.seams`` imports from ``edit.legs``
-_plant_rotations = plant_rotations
