@@ -64,3 +64,25 @@ def test_spinning_kicks_rejected_with_the_measured_facing(real_data_dir):
     import re
 
     assert float(re.search(r"differ by ([0-9.]+) deg", str(e.value)).group(1)) > 45
+
+
+@pytest.mark.parametrize("rel", ["flips/deepmimic_sideflip.txt", "flips/deepmimic_backflip.txt",
+                                 "kicks_punches/deepmimic_punch.txt"])
+def test_ours_keeps_momentum_the_motion_graph_stops(real_data_dir, rel):
+    """The paper's Fig. 1/7/8 argument, measured: between the two main phases |L| stays higher in ours
+    than in the Motion-Graph transition (which waits for a similar, quiet pose), and ours is shorter.
+    Measured: side flip 0.25 vs 0.02 of the main level, back flip 0.47 vs 0.12, punch 0.49 vs 0.12."""
+    from mocomp.concat import motion_graph_concatenate
+
+    m = _load(real_data_dir, rel)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        r = concatenate(m, m)
+        mg = motion_graph_concatenate(m, m, r.phases, r.window_frames_out)
+    sh = r.T + r.window_frames_out - (r.window[1] - r.window[0] + 1)
+    ours = momentum_track(r.motion).magnitude[r.phases[0].t_m:r.phases[1].t_m + sh + 1].min()
+    tr = mg.transition
+    theirs = momentum_track(mg.motion).magnitude[r.phases[0].t_m:r.phases[1].t_m + tr.i - tr.j + 1].min()
+    assert ours > 0.2 * r.L_reference
+    assert ours > 2 * theirs
+    assert r.motion.n_frames < mg.motion.n_frames

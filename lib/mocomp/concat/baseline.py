@@ -16,7 +16,9 @@ moves B's turned centroid onto A's. The whole ``(i, j)`` table comes from per-fr
 
 The transition between the two motions is taken where a Motion Graph of the two clips would take
 it to chain the two actions: the pair ``(i, j)`` of least ``D`` with A's main phase played out
-(``i`` at or after its end) and B's not begun (``j + k`` at or before its start). fairmotion's
+(``i`` at or after its end) and B's not begun (``j + k`` at or before its start); when a main phase
+reaches the clip's edge (DeepMimic clips: no posterior phase), A past its peak and B's window
+before its peak. fairmotion's
 motion graph uses a different, windowed pose distance (joint angles and velocities); this follows
 Kovar et al.'s point clouds. The blend over the window is the same as the method's (eq. 8).
 """
@@ -102,9 +104,11 @@ class MotionGraphTransition:
     distance: float
     transform: GroundTransform
     window: int
+    constraint: str = ""
 
     def to_dict(self) -> dict:
         return {"A_frame": self.i, "B_frame": self.j, "window": self.window, "point_cloud_distance_m2": self.distance,
+                "constraint": self.constraint,
                 "transform": self.transform.to_dict(), "criterion": "Kovar et al. 2002 point-cloud distance"}
 
 
@@ -112,12 +116,17 @@ def motion_graph_transition(a: Motion, b: Motion, pa: Phases, pb: Phases, window
     """The least-distance transition with A's main phase played out and B's not begun."""
     tab = point_cloud_table(a, b, window)
     k = tab.window
+    n1, n2 = tab.D.shape
     i0, j1 = pa.main[1], pb.main[0] - k + 1
-    if i0 > tab.D.shape[0] - 1 or j1 < 1:
-        raise ConcatError(f"no Motion-Graph transition: A's main phase ends at frame {pa.main[1]} of {a.n_frames} and "
-                          f"B's starts at frame {pb.main[0]}: a {k}-frame window does not fit after the one and before "
-                          f"the other")
+    rule = "A's main phase played out, B's not begun"
+    if i0 > n1 - 1 or j1 < 1:
+        # a main phase reaching the clip's end (no posterior phase) or start: keep the peaks instead
+        i0, j1 = pa.t_m, pb.t_m - k + 1
+        rule = "A past its peak |L| (t_m), B's window before its peak (a main phase reaches the clip's edge)"
+        if i0 > n1 - 1 or j1 < 1:
+            raise ConcatError(f"no Motion-Graph transition: a {k}-frame window does not fit after A's peak (frame "
+                              f"{pa.t_m} of {a.n_frames}) and before B's (frame {pb.t_m})")
     sub = tab.D[i0:, :j1]
     ii, jj = np.unravel_index(int(np.argmin(sub)), sub.shape)
     i, j = i0 + int(ii), int(jj)
-    return MotionGraphTransition(i, j, float(tab.D[i, j]), tab.transform(i, j), k)
+    return MotionGraphTransition(i, j, float(tab.D[i, j]), tab.transform(i, j), k, rule)
