@@ -144,13 +144,9 @@ def run(args) -> int:
     from ..io import write_bvh
     from ..io.bvh import read_bvh
     from ._common import audit_output, check_output_path, finish_audit
+    from .footplant import check_outputs
 
-    out = Path(args.out)
-    if out.suffix.lower() != ".bvh":
-        raise ValueError(f"output {out} must be a .bvh file")
-    check_output_path(out)
-    if args.report:
-        check_output_path(Path(args.report), "report")
+    out = check_outputs(args)
     if args.plot:
         check_output_path(Path(args.plot), "plot")
     names = list(args.motions)
