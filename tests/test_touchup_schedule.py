@@ -80,3 +80,29 @@ def test_touchup_uphill_walk_leans_forward(real_data_dir):
     travel[1] = 0
     travel /= np.linalg.norm(travel)
     assert np.mean((body_c1 - body_c0) @ travel) > 0.01
+
+
+def test_touchup_keeps_the_inputs_feet_and_spares_flights(real_data_dir):
+    """The plants are held against what touch-up moved, not cleaned up: the planted foot points
+    slide as much as in the input (1 mm); a flight the input already has ballistic (the SFU jump's
+    COM is within 1.2 mm of its parabola) is not disturbed by the ground steps."""
+    from mocomp import datasets
+    from mocomp.audit import default_body
+    from mocomp.dynamics.com import center_of_mass
+    from mocomp.ops import slope
+    from mocomp.ops.footplant import foot_points, plant_slides
+    from mocomp.touchup.flight import com_residual
+
+    m = slope(datasets.load(real_data_dir / "walks" / "bandai2_walk_normal_001.bvh"), 10.0).motion
+    r = touchup(m, schedule="uphill")
+    pl = r.stages.plants
+    s0 = plant_slides(foot_points(*m.fk(), pl), pl)
+    s1 = plant_slides(foot_points(*r.motion.fk(), pl), pl)
+    assert np.all(np.abs(s1 - s0) < 1e-3)
+    j = datasets.load(real_data_dir / "jumps" / "sfu_0005_2FeetJump001.bvh").slice(70, 161)
+    body = default_body(j)
+    rj = touchup(j, body, "ground-default")
+    (a, b), = rj.stages.flight_runs
+    c0, c1 = center_of_mass(body, j), center_of_mass(body, rj.motion)
+    assert np.abs(c1[a - 1:b + 1] - c0[a - 1:b + 1]).max() < 1e-9
+    assert com_residual(c1, a, b, j.fps) < 0.0015

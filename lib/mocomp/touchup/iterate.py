@@ -2,7 +2,8 @@
 and each of its iterations, compute the per-frame adjustments (ground: eq. 6-7; flight: the
 ballistic COM, eq. 10), smooth them into a displacement map of the step's width, damp by ``rho``
 and add (:func:`mocomp.ops.apply_hierarchy`), then hold the planted feet again
-(:func:`mocomp.ops.enforce_footplants`, the input's plants). The ZMP distance outside the support
+(:func:`mocomp.ops.enforce_footplants`, the input's plants: the leg correction of the step's result
+less that of the motion before the step, so that the feet stay where the input had them). The ZMP distance outside the support
 polygon and the flights' COM residuals are measured after every iteration.
 """
 from __future__ import annotations
@@ -132,7 +133,10 @@ def touchup(motion, body=None, schedule=None, *, contacts=None, iterations: int 
             z = zmp_state(body, cur, foot_points(P, G, st.plants), st.contact_mask, ground_y,
                           smooth_sigma=smooth_sigma, g=g)
             feet_in_s1 = any(ls.s1[j] for j in foot_joints)
-            adj = ground_adjustment(body, cur, ls, z, ground_mask & z.outside(), feet_in_s1=feet_in_s1, g=g)
+            # frames near a flight are the flight steps' (Fig. 4): their take-off pushes and landing
+            # impacts do not enter the ground maps
+            adj = ground_adjustment(body, cur, ls, z, ground_mask & z.outside() & (ground_w >= 1.0),
+                                    feet_in_s1=feet_in_s1, g=g)
             clamped.setdefault(k, []).extend(np.flatnonzero(adj.clamped).tolist())
         else:
             if not flights:
@@ -153,9 +157,16 @@ def touchup(motion, body=None, schedule=None, *, contacts=None, iterations: int 
     def post(cur):
         if state["stage"] == "ground" and flights:
             cur = weighted(state["prev"], cur, ground_w)
-        if not footplants:
+        moved = DisplacementMap.between(state["prev"], cur).magnitude()
+        if not footplants or max(moved) < 1e-9:      # a step that changed nothing needs no plants held
             return cur
-        held = enforce_footplants(cur, st.plants, audit=False, passes=1).motion
+        # hold the feet against what this step moved, not against the plants' ideal: the IK
+        # correction of the previous motion (the input's own slides) is taken off, so touch-up
+        # keeps the input's feet and an unedited clip is not cleaned up behind the user's back
+        hold = lambda mm: DisplacementMap.between(mm, enforce_footplants(mm, st.plants, audit=False,  # noqa: E731
+                                                                          passes=1).motion)
+        d_cur, d_prev = hold(cur), hold(state["prev"])
+        held = apply_displacement(cur, DisplacementMap(d_cur.root - d_prev.root, d_cur.rotations - d_prev.rotations))
         # the plants' fade-out must not reach into a flight (its COM is on the parabola)
         return weighted(cur, held, 1.0 - in_air) if flights else held
 
