@@ -35,12 +35,20 @@ def test_phases_from_sign_changes_of_L_dot_L_tm():
     t = np.arange(100)
     # L_x: negative (wind-up) 0-29, positive 30-69 (peak at 50), negative 70-99
     lx = np.where((t >= 30) & (t < 70), 20.0 * np.sin(np.pi * (t - 30.0) / 40.0) + 0.1, -3.0)
-    ph = find_phases(_track(np.stack([lx, 0.5 * np.ones(100), np.zeros(100)], 1)))
+    tr = _track(np.stack([lx, 0.5 * np.ones(100), np.zeros(100)], 1))
+    ph = find_phases(tr, level_fraction=0.0)     # the paper's rule: the sign of L(t) . L(t_m)
     assert ph.t_m == 50
     assert ph.main == (30, 70)
     assert ph.preparatory == (0, 30) and ph.posterior == (70, 100)
     # a given t_m inside the main phase gives the same borders
-    assert find_phases(_track(np.stack([lx, 0.5 * np.ones(100), np.zeros(100)], 1)), t_m=35).main == (30, 70)
+    assert find_phases(tr, t_m=35, level_fraction=0.0).main == (30, 70)
+    # the default also stops where L . L(t_m) < 0.1 |L(t_m)|^2 (L(t_m) = (20.1, 0.5, 0)):
+    # 20.1 lx + 0.25 >= 40.43 <=> sin(pi u) >= 0.0950, u = (t - 30) / 40 in [0.0303, 0.9697] -> t = 32 .. 68
+    assert find_phases(tr).main == (32, 69)
+    lx2 = lx.copy()
+    lx2[70:] = 0.5                               # a quiet tail keeping the sign (capture noise)
+    assert find_phases(_track(np.stack([lx2, 0.5 * np.ones(100), np.zeros(100)], 1)), level_fraction=0.0).main == (30, 100)
+    assert find_phases(_track(np.stack([lx2, 0.5 * np.ones(100), np.zeros(100)], 1))).main == (32, 69)
 
 
 def test_phases_borders_given_and_no_main_phase():

