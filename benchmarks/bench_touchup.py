@@ -15,11 +15,14 @@ repeats the synthetic walk at 120 Hz (full run only).
 Peer: the paper's own numbers (Shin, Kovar & Gleicher 2003, sec. 4: 0.108, 0.172, 0.211, 0.14 s
 on a 2.0 GHz Xeon), quoted, not rerun.
 
-Measured (2026-12-02, 2 cores shared with three other jobs, real clips): see the table printed by
-``python benchmarks/run.py --only touchup``; at the time of writing 98 frames took ~0.12 s and
-91 jump frames ~0.2 s: both goals are missed by 10-20x (see the report of issue 16: the time goes
-to the footplant enforcement after every step, about 30-40 % of it, forward kinematics of every
-adjusted motion, and the ZMP's smoothing and polygon distances per iteration).
+Measured (2026-12-02, 2 cores shared with three other jobs, real clips, ``--quick`` best of 2):
+98 frames 243 ms, 111 frames 240 ms, 166 frames 300 ms, 91 jump frames 244 ms (the paper: 108,
+172, 211, 140 ms in 2003); the synthetic 10,001-frame walk with ``ground-default`` took 12.6 s.
+Both goals are missed, the 100-frame one by ~25x. Where the time goes: the footplant enforcement
+runs twice per step (on the step's result and on the motion before it, so that the plants are held
+against what the step moved), each with contact-free IK and FK; every iteration also re-runs FK,
+the ZMP's smoothing and polygon distances, and the measurements recorded per iteration
+(:func:`mocomp.touchup.iterate.touchup`'s history: ZMP, COM, momentum).
 """
 from __future__ import annotations
 
