@@ -115,18 +115,18 @@ def test_audit_of_the_output_against_the_input_and_a_plain_blend(flip):
 
 def test_rejections_state_the_measured_value(flip):
     twist = datasets.load("twist360")            # turning about the vertical: the facings differ at f_T
-    ok = concatenate(twist, twist, plant=False)
+    ok = concatenate(twist, twist, plant=False, facing_at="f_T")
     assert 0.0 < ok.facing_difference < np.pi / 4
     # the facing check is a condition on the offsets: a tighter limit picks another T that meets it ...
     lim = 0.5 * ok.facing_difference
     try:
-        tight = concatenate(twist, twist, max_facing=lim, plant=False)
+        tight = concatenate(twist, twist, max_facing=lim, plant=False, facing_at="f_T")
         assert tight.facing_difference <= lim and tight.T != ok.T
     except ConcatError as e:                     # ... or none passes, and the message says by how much
         assert "at best" in str(e)
     with pytest.raises(ConcatError, match=r"facings differ by [0-9.]+ deg at best \(T=-?[0-9]+, A frame [0-9]+\), "
                                           r"more than 0 deg"):
-        concatenate(twist, twist, max_facing=1e-9, plant=False)
+        concatenate(twist, twist, max_facing=1e-9, plant=False, facing_at="f_T")
     with pytest.raises(ConcatError, match=r"too different to be blended .* has F = [0-9.e+-]+ .* above the threshold 1e-06"):
         concatenate(flip, flip, max_F=1e-6, plant=False)
 
@@ -138,3 +138,15 @@ def test_different_skeletons_name_the_joints(flip):
     other = flip.replace(skeleton=dataclasses.replace(sk, names=tuple(names)))
     with pytest.raises(ConcatError, match=r"different skeletons .* joints only in A: " + names[-1][:-2]):
         concatenate(flip, other)
+
+
+def test_facing_check_at_the_main_phases(flip):
+    """A back flip (L about the body's left-right axis) then a side flip (L about its front-back axis):
+    eq. 2 turns B by ~74 deg to line the momenta up, which leaves the bodies facing ~70 deg apart at
+    their main phases: rejected with the measured angle (default facing_at="t_m")."""
+    side = datasets.load("sideflip")
+    with pytest.raises(ConcatError, match=r"B turned by \+7[0-9]\.[0-9] deg\) the bodies face different ways at their "
+                                          r"main phases .* differ by (6[5-9]|7[0-5])\.[0-9] deg, more than 45 deg"):
+        concatenate(flip, side, plant=False)
+    r = concatenate(flip, side, plant=False, max_facing=np.radians(80))
+    assert r.to_dict()["facing_check"]["at"] == "t_m" and np.degrees(r.facing_difference) > 45

@@ -82,7 +82,11 @@ def register(sub) -> None:
                    help="trace the blend window while ||L1 - L2||^2 stays below this (default (0.5 x the main "
                         "phases' mean |L|)^2)")
     p.add_argument("--max-facing", type=float_in(0.0, 180.0), default=45.0, metavar="DEG",
-                   help="largest difference of the two bodies' ground-projected facing at f_T (default 45)")
+                   help="largest difference of the two bodies' ground-projected facing (default 45; see --facing-at)")
+    p.add_argument("--facing-at", choices=("t_m", "f_T"), default="t_m",
+                   help="where the facing check compares the bodies: at their main phases' reference frames after "
+                        "the eq. 2 turn (t_m, default) or at the blending centre (f_T: offsets failing it are left out "
+                        "of the timing search)")
     p.add_argument("--no-time-scale", action="store_true", help="leave out eq. 9's time scaling of the blend")
     p.add_argument("--no-plant", action="store_true", help="do not hold the supporting feet")
     p.add_argument("--baseline", choices=("motion-graph",),
@@ -104,7 +108,7 @@ def _print_joint(k: int, na: str, nb: str, r) -> None:
               f"{x['main'][0]}-{x['main'][1]} (t_m {x['t_m']}), posterior {x['posterior'][0]}-{x['posterior'][1]}")
     print(f"  rule: {r.rule.rule} ({r.rule.reason})")
     print(f"  planned alignment (eq. 2): B turned by {d['alignment']['yaw_deg']:+.1f} deg, moved by "
-          f"({r.transform.shift[0]:+.3f}, {r.transform.shift[2]:+.3f}) m; facing at f_T differs by "
+          f"({r.transform.shift[0]:+.3f}, {r.transform.shift[2]:+.3f}) m; facing at {d['facing_check']['at']} differs by "
           f"{d['facing_check']['difference_deg']:.1f} deg (limit {d['facing_check']['limit_deg']:.0f})")
     bp = d["blendable_periods"]
     print(f"  blendable periods ({bp['case']}): A {bp['A'][0]}-{bp['A'][1]}, B {bp['B'][0]}-{bp['B'][1]}; "
@@ -193,7 +197,7 @@ def run(args) -> int:
         b = motions[j + 1]
         r = concatenate(acc, b, rule=rules[j], borders_a=acc_borders, t_m_a=acc_tm, borders_b=borders.get(letters[j + 1]),
                         kind=args.kind, max_F=args.max_f, window_threshold=args.window_threshold,
-                        max_facing=np.radians(args.max_facing), plant=not args.no_plant,
+                        max_facing=np.radians(args.max_facing), facing_at=args.facing_at, plant=not args.no_plant,
                         time_scale=not args.no_time_scale)
         _print_joint(j, "the chain so far" if j else names[0], names[j + 1], r)
         joints.append(r)

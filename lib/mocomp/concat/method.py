@@ -9,10 +9,10 @@
 4. the blendable periods of the rule, truncated to double support where the motion is on the
    ground (:func:`~.rules.support_truncate`, the project's foot-plant detector);
 5. eq. 3-7: the offset ``T`` and blending centre ``f_T`` (:mod:`.timing`), rejected above ``max_F``;
-   the ground-projected facing of the two bodies at ``f_T`` (root headings,
-   :func:`mocomp.ops.headings`) must differ by at most ``max_facing`` (pi/4): the offsets that fail
-   it are left out of the search, and when none passes the concatenation is rejected with the
-   smallest difference found;
+   the ground-projected facing of the two bodies (root headings, :func:`mocomp.ops.headings`)
+   must differ by at most ``max_facing`` (pi/4): at their main phases' reference frames after eq. 2
+   (default), or at the blending centre, where the offsets that fail it are left out of the search
+   and the concatenation is rejected with the smallest difference found when none passes;
 6. the blend window ``[f_i0, f_if]`` traced from ``f_T`` backward and forward while
    ``||L1(f) - L2(f - T)||^2`` stays at most ``window_threshold`` and both blendable periods last;
    B moved (:class:`mocomp.ops.GroundTransform`) so that the centre of its feet at the first frame
@@ -89,6 +89,8 @@ class ConcatResult:
     yaw: float
     eq2_value: float
     facing_difference: float
+    facing_at: str
+    max_facing: float
     periods: tuple[str, tuple[int, int], tuple[int, int]]
     period_notes: tuple[str, str]
     table: TimingTable
@@ -119,8 +121,8 @@ class ConcatResult:
             "rule": self.rule.to_dict(),
             "alignment": {"yaw_deg": float(np.degrees(self.yaw)), "eq2_value": self.eq2_value,
                           "transform": self.transform.to_dict()},
-            "facing_check": {"difference_deg": float(np.degrees(self.facing_difference)),
-                             "limit_deg": float(np.degrees(MAX_FACING)), "passed": True},
+            "facing_check": {"at": self.facing_at, "difference_deg": float(np.degrees(self.facing_difference)),
+                             "limit_deg": float(np.degrees(self.max_facing)), "passed": True},
             "blendable_periods": {"case": self.periods[0], "A": list(self.periods[1]), "B": list(self.periods[2]),
                                   "notes": list(self.period_notes)},
             "timing": {"T": self.T, "f_T": self.f_T, "optimum": tab.row(tab.best),
@@ -280,6 +282,7 @@ def concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bor
                 body_a=None, body_b=None, max_F: float | None = None, window_threshold: float | None = None,
                 max_facing: float = MAX_FACING, min_level: float = MIN_MAIN_LEVEL, plant: bool = True,
                 weights=(1.0, 1.0, 1.0), min_peak_gap: float = MIN_PEAK_GAP, time_scale: bool = True,
+                facing_at: str = "t_m",
                 max_scale: float = 4.0) -> ConcatResult:
     """Concatenate ``b`` after ``a`` (see the module docstring).
 
@@ -293,7 +296,10 @@ def concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bor
         the skeletons are the same).
     max_F: reject the timing above this F (default ``(F_FRACTION L_peak)^2``, ``L_peak`` the larger main-phase peak |L|).
     window_threshold: ``||L1 - L2||^2`` limit of the window trace (default ``(WINDOW_FRACTION L_ref)^2``).
-    max_facing: rad, the facing check at ``f_T``.
+    max_facing: rad, the facing check's limit.
+    facing_at: ``"t_m"`` (default): the root headings of the two bodies at their main phases' reference
+        frames, after eq. 2 (the check belongs to the alignment); ``"f_T"``: at the blending centre,
+        a condition on each offset of the timing search.
     time_scale: apply eq. 9 (the scale factor is reported; ``max_scale`` bounds it both ways).
     min_peak_gap: offsets with ``T + t_m(B) - t_m(A)`` below this fraction of the mean main-phase
         length are not considered (:data:`MIN_PEAK_GAP`).
@@ -327,10 +333,20 @@ def concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bor
     lb = foot_plants(b, require=False).labels
     gap = int(np.ceil(min_peak_gap * 0.5 * ((p1.main[1] - p1.main[0]) + (p2.main[1] - p2.main[0]))))
     min_T = p1.t_m - p2.t_m + gap
-    # the facing check (pi/4) is a condition on each offset: the eq. 2 yaw fixes B's turn, and the
-    # facings at the blending centre depend on T; the search keeps the offsets that pass it
+    # the facing check (pi/4): with facing_at="t_m" part of the alignment (the two bodies at their
+    # main phases' reference frames, after eq. 2); with "f_T" a condition on each offset of the
+    # search (the facings at the blending centre depend on T): offsets failing it are left out
     ha = headings(a)
     hb = headings(b) + yaw
+    if facing_at == "t_m":
+        facing = float(abs((ha[p1.t_m] - hb[p2.t_m] + np.pi) % (2 * np.pi) - np.pi))
+        if facing > max_facing:
+            raise ConcatError(f"after the eq. 2 alignment (B turned by {np.degrees(yaw):+.1f} deg) the bodies face "
+                              f"different ways at their main phases (A frame {p1.t_m}, B frame {p2.t_m}): their "
+                              f"ground-projected facings differ by {np.degrees(facing):.1f} deg, more than "
+                              f"{np.degrees(max_facing):.0f} deg")
+    elif facing_at != "f_T":
+        raise ValueError(f"facing_at must be t_m or f_T, got {facing_at!r}")
     best, failed = None, []
     for case, pa, pb in blendable_periods(choice.rule, p1, p2):
         pa2, na = support_truncate(la, pa)
@@ -341,6 +357,8 @@ def concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bor
             failed.append(f"{case}: {e}")
             continue
         fac = np.abs((ha[tab.f_T] - hb[tab.f_T - tab.T] + np.pi) % (2 * np.pi) - np.pi)
+        if facing_at == "t_m":
+            fac = np.zeros_like(fac)
         if not (fac <= max_facing).any():
             k = int(np.argmin(fac))
             failed.append(f"{case}: the bodies face different ways at every blending centre after the eq. 2 alignment "
@@ -362,7 +380,8 @@ def concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bor
                           f"timing T={r['T']} (f_T={r['f_T']}) has F = {r['F']:.4g} (F_dm {r['F_dm']:.4g}, F_inertia "
                           f"{r['F_inertia']:.4g}, F_time {r['F_time']:.4g}) above the threshold {max_F:.4g}")
     T, f_T = int(tab.T[k]), int(tab.f_T[k])
-    facing = float(fac[k])
+    if facing_at == "f_T":
+        facing = float(fac[k])
     n_off = int((fac > max_facing).sum())
     if n_off:
         notes.append(f"{n_off} of {len(fac)} offsets left out by the facing check (> {np.degrees(max_facing):.0f} deg)")
@@ -395,5 +414,5 @@ def concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bor
     fp = None
     if plant:
         out, fp = _hold_feet(out, lab, notes)
-    return ConcatResult(out, (p1, p2), choice, yaw, value, facing, (case, pa, pb), pnotes, tab, T, f_T, (f0, f1),
+    return ConcatResult(out, (p1, p2), choice, yaw, value, facing, facing_at, float(max_facing), (case, pa, pb), pnotes, tab, T, f_T, (f0, f1),
                         thr, max_F, min_T, tf, (t1, t2r), scale, n_new, fp, time.perf_counter() - t0, tuple(notes))
