@@ -14,9 +14,9 @@ Rows (best of N wall time, garbage collector paused):
   end: two eq. 1 tracks, phases, rule, eq. 2, foot-plant detection of both, timing, eq. 8, eq. 9
   (one more eq. 1 track), without and with the feet held (ops.enforce_footplants).
 
-Measured (2026-12-02, 2 cores shared with three other jobs; best of 10-30): timing search 3.0-3.1 ms
-(goal met; brute force 30-41 ms); concatenate without the feet held 56 ms (goal missed by ~1.1x),
-with them 98 ms. Where the 56 ms go: two eq. 1 tracks (~11 ms each: FK of the pre-smoothed motion,
+Measured (2026-12-02, 2 cores shared with three other jobs; best of 10-30): timing search 3.0-4.4 ms
+(goal met; brute force 30-47 ms); concatenate without the feet held 44-56 ms, with them 49-98 ms (the
+goal is met or missed by up to ~2x with the load). Where the time goes without the feet held: two eq. 1 tracks (~11 ms each: FK of the pre-smoothed motion,
 angular velocities), the foot-plant detection of both inputs (~11 ms each, for the double-support
 truncation and the plants), eq. 9's track of the window (~3 ms), the rest (alignment, timing, blend)
 a few ms.

@@ -131,6 +131,8 @@ def _print_joint(k: int, na: str, nb: str, r) -> None:
 
 
 def _plot(path, inputs, offsets, out, tracks_fn, baseline=None) -> None:
+    """|L| of each input placed at its offset (``offsets``: output frames, at the output's rate; after
+    the eq. 9 retiming the blended stretch itself is slower, so the inputs line up before and after it)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -140,7 +142,8 @@ def _plot(path, inputs, offsets, out, tracks_fn, baseline=None) -> None:
     fig, ax = plt.subplots(figsize=(9, 3.5))
     for (name, m), off in zip(inputs, offsets):
         L = tracks_fn(m).magnitude
-        ax.plot((np.arange(len(L)) + off) / m.fps, L, lw=1, alpha=0.6, label=f"{Path(name).name} (planned offset)")
+        ax.plot(np.arange(len(L)) / m.fps + off / out.fps, L, lw=1, alpha=0.6,
+                label=f"{Path(name).name} (planned offset)")
     Lo = tracks_fn(out).magnitude
     ax.plot(np.arange(len(Lo)) / out.fps, Lo, "k", lw=1.6, label="ours (measured)")
     if baseline is not None:
