@@ -59,6 +59,8 @@ def test_concat_chain_of_three(tmp_path, capsys):
     (["backflip", "backflip", "--phases", "A:10,5000"], "has only 323 frames"),
     (["backflip", "backflip", "--rule", "forward,reverse"], "--rule lists 2 rules for 1 joint"),
     (["backflip", "backflip", "--max-f", "1e-6"], "too different to be blended"),
+    (["backflip", "backflip", "sideflip"], "joint 2 (the chain so far -> sideflip): after the eq. 2 alignment"),
+    (["backflip", "backflip", "--fps", "C:60"], "--fps C:60: there are only motions A-B"),
 ])
 def test_concat_bad_input_one_line(tmp_path, capsys, argv, msg):
     assert _code(["concat", *argv, "-o", str(tmp_path / "o.bvh")]) == 2

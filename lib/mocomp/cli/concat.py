@@ -162,7 +162,7 @@ def run(args) -> int:
     import numpy as np
 
     from .. import datasets
-    from ..concat import concatenate, momentum_track
+    from ..concat import ConcatError, concatenate, momentum_track
     from ..io import write_bvh
     from ..io.bvh import read_bvh
     from ._common import audit_output, check_output_path, finish_audit
@@ -198,10 +198,15 @@ def run(args) -> int:
     joints, offsets = [], [0]               # offsets: the output frame of each input's frame 0
     for j in range(n_j):
         b = motions[j + 1]
-        r = concatenate(acc, b, rule=rules[j], borders_a=acc_borders, t_m_a=acc_tm, borders_b=borders.get(letters[j + 1]),
-                        kind=args.kind, max_F=args.max_f, window_threshold=args.window_threshold,
-                        max_facing=np.radians(args.max_facing), facing_at=args.facing_at, plant=not args.no_plant,
-                        time_scale=not args.no_time_scale)
+        try:
+            r = concatenate(acc, b, rule=rules[j], borders_a=acc_borders, t_m_a=acc_tm,
+                            borders_b=borders.get(letters[j + 1]), kind=args.kind, max_F=args.max_f,
+                            window_threshold=args.window_threshold, max_facing=np.radians(args.max_facing),
+                            facing_at=args.facing_at, plant=not args.no_plant, time_scale=not args.no_time_scale)
+        except ConcatError as e:
+            if n_j == 1:
+                raise
+            raise ConcatError(f"joint {j + 1} ({'the chain so far' if j else names[0]} -> {names[j + 1]}): {e}") from None
         _print_joint(j, "the chain so far" if j else names[0], names[j + 1], r)
         joints.append(r)
         # B's frame g is the output frame g + T + delta after the window
