@@ -218,6 +218,31 @@ def consistent_toe_targets(targets: np.ndarray, pts: np.ndarray, plants: FootPla
     return out
 
 
+def _quat_to_rotvec(q: np.ndarray) -> np.ndarray:
+    """Rotation vectors of unit quaternions ``(n, 4)`` (scalar-last): what
+    ``_quat_to_rotvec(q)`` gives (the w >= 0 cover, series near 0), without building
+    a ``Rotation`` (its per-call cost dominates on a few hundred frames)."""
+    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
+    q = np.where(q[:, 3:] < 0, -q, q)
+    v = q[:, :3]
+    angle = 2.0 * np.arctan2(np.linalg.norm(v, axis=1), q[:, 3])
+    small = angle <= 1e-3
+    a2 = angle * angle
+    scale = np.where(small, 2.0 + a2 / 12.0 + 7.0 * a2 * a2 / 2880.0,
+                     angle / np.sin(0.5 * np.where(small, 1.0, angle)))
+    return scale[:, None] * v
+
+
+def _rotvec_to_quat(rv: np.ndarray) -> np.ndarray:
+    """Unit quaternions (scalar-last) of rotation vectors ``(n, 3)``, as ``_rotvec_to_quat(rv)``."""
+    angle = np.linalg.norm(rv, axis=1)
+    small = angle <= 1e-3
+    a2 = angle * angle
+    scale = np.where(small, 0.5 - a2 / 48.0 + a2 * a2 / 3840.0,
+                     np.sin(0.5 * angle) / np.where(small, 1.0, angle))
+    return np.concatenate([scale[:, None] * rv, np.cos(0.5 * angle)[:, None]], axis=1)
+
+
 def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: str, tol: float,
            reach_margin: float, ease_kind: str, prev=None, hinges=None):
     """One enforcement pass. Returns ``(rot, targets, state)`` with ``state`` per leg side:
@@ -233,79 +258,106 @@ def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: st
     targets = consistent_toe_targets(plant_targets(pts, plants, height), pts, plants)
     rot = np.array(motion.rotations) if prev is None else np.array(prev[0])
     state = {}
+    jobs = []
+    # both legs at once: their frames stacked, leg 0 then ``pad`` unplanted frames then leg 1; a fade
+    # reaches at most ``blend`` frames, so nothing leaks from one leg into the other
+    nl = len(plants.legs)
+    pad = blend + 1
+    stride = T + pad
+    rows = [slice(li * stride, li * stride + T) for li in range(nl)]
+
+    def stack(x, fill=0.0):
+        out = np.full((nl * stride - pad,) + x.shape[2:], fill, dtype=x.dtype)
+        for li in range(nl):
+            out[rows[li]] = x[:, li]
+        return out
+
+    lab2 = plants.labels.reshape(T, nl, 2)
+    la, lt = stack(lab2[:, :, 0], False), stack(lab2[:, :, 1], False)
+    pts2 = pts.reshape(T, nl, 2, 3)
+    tg2 = targets.reshape(T, nl, 2, 3)
+    A, Tp = stack(pts2[:, :, 0]), stack(pts2[:, :, 1])
+    tA, tT = stack(tg2[:, :, 0], np.nan), stack(tg2[:, :, 1], np.nan)
+    n = A.shape[0]
+    both = la & lt
+    rv = np.zeros((n, 3))
+    if both.any():
+        q = arc_quaternions(Tp[both] - A[both], tT[both] - tA[both])
+        rv[both] = _quat_to_rotvec(q)
+    rv = RampPlan(both, blend, ease_kind).fill(rv)
+    plan_a, plan_t, plan_any = (RampPlan(x, blend, ease_kind) for x in (la, lt, la | lt))
+    Rq = _rotvec_to_quat(rv)
+    tip = A + quat_apply(Rq, Tp - A)                      # the toe tip after the foot turned about the ankle point
+    # translation: the ankle point on its target while it is planted (with both points planted,
+    # the aimed tip misses its target along the foot by the change of the ankle-tip distance
+    # during the plant, and the foot shares that: half at the ankle point, half at the tip)
+    d_a = np.zeros((n, 3))
+    d_a[la] = tA[la] - A[la]
+    if both.any():
+        d_a[both] += 0.5 * (tT[both] - (tA[both] + tip[both] - A[both]))
+    # toe tip planted alone (heel off): the tip exactly on its target, and the foot turned about
+    # the tip so that the ankle point follows its fading correction from the heel's plant (the
+    # heel rolls up about the toe; where the two targets disagree nothing jumps at heel-off)
+    toe_only = lt & ~la
+    delta = np.where(la[:, None], d_a, 0.0)
+    if toe_only.any():
+        w_a = plan_a.fill(la.astype(float))
+        da_fill = plan_a.fill(d_a)
+        i = toe_only
+        Tt = tT[i]
+        a_cur = A[i] + Tt - tip[i]                               # ankle point with the tip on its target
+        want = a_cur + da_fill[i] - w_a[i, None] * (Tt - tip[i])
+        q_e = arc_quaternions(a_cur - Tt, want - Tt)
+        R2 = quat_multiply(q_e, Rq[i])
+        delta[i] = Tt - A[i] - quat_apply(R2, Tp[i] - A[i])
+        rv[i] = _quat_to_rotvec(R2)
+    # ankle point planted alone (before the toe lands, after it lifts): the ankle point exactly on
+    # its target, the foot turned about it so that the toe tip follows its fading correction from
+    # the toe's plant (symmetric to the above: a toe-only frame next to an ankle-only one is no jump)
+    ankle_only = la & ~lt
+    if ankle_only.any() and lt.any():
+        w_t = plan_t.fill(lt.astype(float))                  # 0 on a leg whose toe is never planted
+        ct_fill = plan_t.fill(np.where(lt[:, None], tT - Tp, 0.0))
+        i = ankle_only & (w_t > 0)
+        if i.any():
+            a_new = tA[i]
+            tip0 = a_new + quat_apply(Rq[i], Tp[i] - A[i])
+            want = tip0 + ct_fill[i] + w_t[i, None] * (Tp[i] - tip0)
+            R2 = quat_multiply(arc_quaternions(tip0 - a_new, want - a_new), Rq[i])
+            rv[i] = _quat_to_rotvec(R2)
+    one_point = [bool(toe_only[r].any() or ankle_only[r].any()) for r in rows]
+    if any(one_point):
+        rv_f = plan_any.fill(rv)
+        for r, yes in zip(rows, one_point):
+            if yes:
+                rv[r] = rv_f[r]
+    delta = plan_any.fill(delta)
     for li, leg in enumerate(plants.legs):
         ka, kt = 2 * li, 2 * li + 1
-        la, lt = plants.labels[:, ka], plants.labels[:, kt]
         if prev is not None and np.array_equal(prev[1][leg.side][5], plants.labels[:, [ka, kt]]):
             state[leg.side] = prev[1][leg.side]          # this leg's plants did not change: nor does its solve
             continue
-        A, Tp = pts[:, ka], pts[:, kt]
-        both = la & lt
+        r = rows[li]
         ja = leg.chain[2]
-        rv = np.zeros((T, 3))
-        if both.any():
-            q = arc_quaternions(Tp[both] - A[both], targets[both, kt] - targets[both, ka])
-            rv[both] = Rotation.from_quat(q).as_rotvec()
-        rv = RampPlan(both, blend, ease_kind).fill(rv)
-        plan_a, plan_t, plan_any = (RampPlan(x, blend, ease_kind) for x in (la, lt, la | lt))
-        Rq = Rotation.from_rotvec(rv).as_quat()
-        tip = A + quat_apply(Rq, Tp - A)                  # the toe tip after the foot turned about the ankle point
-        # translation: the ankle point on its target while it is planted (with both points planted,
-        # the aimed tip misses its target along the foot by the change of the ankle-tip distance
-        # during the plant, and the foot shares that: half at the ankle point, half at the tip)
-        d_a = np.zeros((T, 3))
-        d_a[la] = targets[la, ka] - A[la]
-        if both.any():
-            d_a[both] += 0.5 * (targets[both, kt] - (targets[both, ka] + tip[both] - A[both]))
-        # toe tip planted alone (heel off): the tip exactly on its target, and the foot turned about
-        # the tip so that the ankle point follows its fading correction from the heel's plant (the
-        # heel rolls up about the toe; where the two targets disagree nothing jumps at heel-off)
-        toe_only = lt & ~la
-        delta = np.where(la[:, None], d_a, 0.0)
-        if toe_only.any():
-            w_a = plan_a.fill(la.astype(float))
-            da_fill = plan_a.fill(d_a)
-            i = toe_only
-            Tt = targets[i, kt]
-            a_cur = A[i] + Tt - tip[i]                           # ankle point with the tip on its target
-            want = a_cur + da_fill[i] - w_a[i, None] * (Tt - tip[i])
-            q_e = arc_quaternions(a_cur - Tt, want - Tt)
-            R2 = quat_multiply(q_e, Rq[i])
-            delta[i] = Tt - A[i] - quat_apply(R2, Tp[i] - A[i])
-            rv[i] = Rotation.from_quat(R2).as_rotvec()
-        # ankle point planted alone (before the toe lands, after it lifts): the ankle point exactly on
-        # its target, the foot turned about it so that the toe tip follows its fading correction from
-        # the toe's plant (symmetric to the above: a toe-only frame next to an ankle-only one is no jump)
-        ankle_only = la & ~lt
-        if ankle_only.any() and lt.any():
-            w_t = plan_t.fill(lt.astype(float))
-            ct_fill = plan_t.fill(np.where(lt[:, None], targets[:, kt] - Tp, 0.0))
-            i = ankle_only & (w_t > 0)
-            if i.any():
-                a_new = targets[i, ka]
-                tip0 = a_new + quat_apply(Rq[i], Tp[i] - A[i])
-                want = tip0 + ct_fill[i] + w_t[i, None] * (Tp[i] - tip0)
-                R2 = quat_multiply(arc_quaternions(tip0 - a_new, want - a_new), Rq[i])
-                rv[i] = Rotation.from_quat(R2).as_rotvec()
-        if toe_only.any() or ankle_only.any():
-            rv = plan_any.fill(rv)
-        delta = plan_any.fill(delta)
+        delta_l, rv_l, A_l = delta[r], rv[r], A[r]
         # a toe-only frame next to an ankle-only one (the foot rocks from toe to heel, as in a
         # cartwheel) holds two targets no rigid foot joins: cross-fade there over the blend frames
-        sw = np.flatnonzero((toe_only[:-1] & ankle_only[1:]) | (ankle_only[:-1] & toe_only[1:])) + 1
+        to, ao = toe_only[r], ankle_only[r]
+        sw = np.flatnonzero((to[:-1] & ao[1:]) | (ao[:-1] & to[1:])) + 1
         if sw.size and blend > 0:
             t = np.arange(T)
             m = np.max(ease(1.0 - np.abs(t[:, None] - sw[None] + 0.5) / (blend + 1.0), ease_kind), axis=1)[:, None]
             sig = max(blend / 2.0, 1.0)
-            delta = (1 - m) * delta + m * gaussian_filter1d(delta, sig, axis=0, mode="nearest")
-            rv = (1 - m) * rv + m * gaussian_filter1d(rv, sig, axis=0, mode="nearest")
-        Rq = Rotation.from_rotvec(rv).as_quat()
-        solve = (np.linalg.norm(delta, axis=1) > tol) | (np.linalg.norm(rv, axis=1) > tol)
+            delta_l = (1 - m) * delta_l + m * gaussian_filter1d(delta_l, sig, axis=0, mode="nearest")
+            rv_l = (1 - m) * rv_l + m * gaussian_filter1d(rv_l, sig, axis=0, mode="nearest")
+        delta_l, rv_l = np.array(delta_l), np.array(rv_l)
+        Rq = _rotvec_to_quat(rv_l)
+        solve = (np.linalg.norm(delta_l, axis=1) > tol) | (np.linalg.norm(rv_l, axis=1) > tol)
         miss_all, lift_all = np.zeros(T), np.zeros(T)
         if prev is not None:
             d0, r0, miss_all, lift_all, solved0, _ = prev[1][leg.side]
             miss_all, lift_all = miss_all.copy(), lift_all.copy()
-            redo = (np.abs(delta - d0).max(axis=1) > 1e-15) | (np.abs(rv - r0).max(axis=1) > 1e-15) | (solve != solved0)
+            redo = (np.abs(delta_l - d0).max(axis=1) > 1e-15) | (np.abs(rv_l - r0).max(axis=1) > 1e-15) | (solve != solved0)
             reset = redo & ~solve                        # corrected before, not now: back to the input's pose
             if reset.any():
                 rot[np.ix_(reset, leg.chain)] = motion.rotations[np.ix_(reset, leg.chain)]
@@ -313,10 +365,10 @@ def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: st
             idx = np.flatnonzero(redo & solve)
         else:
             idx = np.flatnonzero(solve)
-        state[leg.side] = (delta, rv, miss_all, lift_all, solve, plants.labels[:, [ka, kt]])
+        state[leg.side] = (delta_l, rv_l, miss_all, lift_all, solve, plants.labels[:, [ka, kt]])
         if idx.size == 0:
             continue
-        tgt = A[idx] + delta[idx] + quat_apply(Rq[idx], P[idx, ja] - A[idx])   # the ankle joint, moved with the foot
+        tgt = A_l[idx] + delta_l[idx] + quat_apply(Rq[idx], P[idx, ja] - A_l[idx])   # the ankle joint, moved with the foot
         # soft reach: a target within ``soft`` of the leg's full length is brought in smoothly,
         # d' = d_s + soft (1 - exp(-(d - d_s) / soft)), by lifting the foot (the horizontal hold is
         # kept, the height yields), so the knee never snaps straight (its angle changes as
@@ -338,11 +390,82 @@ def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: st
             y = H[far, 1] - np.sqrt(want[far] ** 2 - hor[far] ** 2)
             lift_all[idx[far]] = y - tgt[far, 1]
             tgt[far, 1] = y
-        end = quat_multiply(Rq[idx], G[idx, ja])
-        rot[idx], miss_all[idx] = two_bone_ik(P[idx], G[idx], rot[idx], motion.skeleton.parents, leg.chain, tgt,
-                                              end_rotation=end, reach_margin=reach_margin,
-                                              bend_axis=hinges[li], bend_prior=BEND_PRIOR)
+        jobs.append((leg.chain, idx, tgt, quat_multiply(Rq[idx], G[idx, ja]), hinges[li], miss_all))
+    # both legs' IK in one vectorised call (the legs are independent: each frame's solve depends on its
+    # own hip, knee and ankle only)
+    if jobs:
+        rot_legs, miss = _ik_legs(P, G, rot, motion.skeleton.parents, jobs, reach_margin)
+        n0 = 0
+        for (chain, idx, _, _, _, miss_all), r in zip(jobs, rot_legs):
+            rot[np.ix_(idx, chain)] = r
+            miss_all[idx] = miss[n0:n0 + idx.size]
+            n0 += idx.size
     return rot, targets, state
+
+
+def _ik_legs(P, G, rot, parents, jobs, reach_margin):
+    """:func:`~mocomp.ops.ik.two_bone_ik` of several legs in one call: each job ``(chain, frames,
+    target, end rotation, hinge axis, _)`` is cut to a four-joint chain (the hip's parent, hip, knee,
+    ankle) and the rows of all jobs are stacked. Returns the new local rotations ``(n, 3, 4)`` of each
+    job's chain and the misses of all rows (job order)."""
+    Pm, Gm, Rm, tg, end, ax = [], [], [], [], [], []
+    for chain, idx, tgt, e, hinge, _ in jobs:
+        h = chain[0]
+        hp = int(parents[h])
+        cols = [hp if hp >= 0 else h, *chain]
+        ix = (idx[:, None], np.asarray(cols)[None])
+        p, g, r = P[ix], G[ix], rot[ix]
+        if hp < 0:                                           # the hip is the root: no parent turn
+            g[:, 0] = (0.0, 0.0, 0.0, 1.0)
+        Pm.append(p); Gm.append(g); Rm.append(r); tg.append(tgt); end.append(e)
+        ax.append(np.broadcast_to(hinge, (idx.size, 3)))
+    out, miss = two_bone_ik(np.concatenate(Pm), np.concatenate(Gm), np.concatenate(Rm), _MINI_PARENTS, (1, 2, 3),
+                            np.concatenate(tg), end_rotation=np.concatenate(end), reach_margin=reach_margin,
+                            bend_axis=np.concatenate(ax), bend_prior=BEND_PRIOR)
+    bounds = np.cumsum([0] + [j[1].size for j in jobs])
+    return [out[a:b, 1:] for a, b in zip(bounds[:-1], bounds[1:])], miss
+
+
+#: parents of the four-joint chain :func:`_ik_legs` solves on
+_MINI_PARENTS = np.array([-1, 0, 1, 2])
+
+
+def _with_leg_rotations(motion: Motion, P, G, rot, legs) -> Motion:
+    """``motion`` with the local rotations ``rot``, which differ from its own on the legs' chains only,
+    and its forward kinematics filled in: ``P``, ``G`` (the input's) except the joints below each hip
+    on the frames where that leg changed, computed by :func:`~mocomp.core.kinematics.forward_kinematics`
+    from the hip's parent down (the same operations in the same order as a full FK: bit for bit equal)."""
+    from ..core.kinematics import forward_kinematics
+    from .ik import descends
+
+    sk = motion.skeleton
+    parents = sk.parents
+    P2, G2 = np.array(P), np.array(G)
+    for leg in legs:
+        h = leg.chain[0]
+        chg = np.flatnonzero(np.any(rot[:, leg.chain] != motion.rotations[:, leg.chain], axis=(1, 2)))
+        if chg.size == 0:
+            continue
+        sub = [j for j in range(sk.n_joints) if descends(parents, j, h)]
+        hp = int(parents[h])
+        pos = {j: i for i, j in enumerate(([hp] if hp >= 0 else []) + sub)}
+        par = np.array([pos.get(int(parents[j]), -1) for j in pos])
+        off = sk.offsets[list(pos)]
+        r = rot[chg[:, None], np.array(list(pos))[None]]
+        if hp >= 0:                                     # the hip's parent as the chain's root
+            r[:, 0] = G[chg, hp]
+            root = P[chg, hp]
+        else:
+            root = motion.root_positions[chg]
+        Pm, Gm = forward_kinematics(par, off, root, r)
+        n0 = 1 if hp >= 0 else 0
+        P2[np.ix_(chg, sub)] = Pm[:, n0:]
+        G2[np.ix_(chg, sub)] = Gm[:, n0:]
+    out = motion._replace_trusted(motion.root_positions, rot, motion.source)
+    P2.setflags(write=False)
+    G2.setflags(write=False)
+    out._cache["fk"] = (P2, G2)
+    return out
 
 
 def _close_gaps(plants: FootPlants, max_gap: int) -> tuple[FootPlants, int]:
@@ -423,7 +546,7 @@ def enforce_footplants(motion: Motion, plants: FootPlants | None = None, *, cont
     for k in range(passes):
         rot, targets, state = _solve(motion, P, G, pts, plants, blend, height, tol, reach_margin, ease_kind, prev,
                                      hinges)
-        out = motion.replace(rotations=rot)
+        out = _with_leg_rotations(motion, P, G, rot, plants.legs)
         if k == passes - 1:
             break
         c = plants.contacts
