@@ -190,12 +190,8 @@ def _hold_feet(out: Motion, lab: np.ndarray, notes: list):
     if not pl.labels.any():
         notes.append("no foot planted in A or B: nothing to enforce")
         return out, None
-    try:
-        fp = enforce_footplants(out, pl, audit=False)
-        return fp.motion, fp
-    except ValueError as e:         # mocomp.ops' IK fails on some inputs (reported upstream)
-        notes.append(f"feet not held: mocomp.ops.enforce_footplants failed ({e})")
-        return out, None
+    fp = enforce_footplants(out, pl, audit=False)
+    return fp.motion, fp
 
 
 @dataclass(frozen=True, eq=False)
