@@ -202,21 +202,33 @@ def consistent_toe_targets(targets: np.ndarray, pts: np.ndarray, plants: FootPla
     for li in range(len(plants.legs)):
         ka, kt = 2 * li, 2 * li + 1
         la, lt = plants.labels[:, ka], plants.labels[:, kt]
-        for a, b in label_intervals(lt):
-            both = np.flatnonzero(la[a:b]) + a
-            if both.size == 0:
-                continue
-            d = (pts[both, kt] - pts[both, ka])[:, [0, 2]]
-            L = np.linalg.norm(d, axis=1).mean()
-            u = d.mean(axis=0)
-            n = np.linalg.norm(u)
-            if n < 1e-9:
-                continue
-            first = both[0]
-            out[a:b, kt, 0] = targets[first, ka, 0] + L * u[0] / n
-            out[a:b, kt, 2] = targets[first, ka, 2] + L * u[1] / n
+        run = np.cumsum(np.r_[lt[0], lt[1:] & ~lt[:-1]]) * lt         # toe run id per frame (0: not planted)
+        sel = np.flatnonzero(lt & la)                                   # the shared frames, in order
+        if sel.size == 0:
+            continue
+        rid = run[sel]
+        nr = int(run.max()) + 1
+        d = (pts[sel, kt] - pts[sel, ka])[:, [0, 2]]
+        cnt = np.bincount(rid, minlength=nr)
+        L = np.bincount(rid, np.linalg.norm(d, axis=1), minlength=nr)
+        u = np.stack([np.bincount(rid, d[:, c], minlength=nr) for c in range(2)], axis=1)
+        has = cnt > 0
+        L[has] /= cnt[has]
+        u[has] /= cnt[has, None]
+        n = np.linalg.norm(u, axis=1)
+        ok = has & (n >= 1e-9)
+        ok[0] = False
+        if not ok.any():
+            continue
+        first = np.zeros(nr, dtype=int)
+        r_u, i_u = np.unique(rid, return_index=True)
+        first[r_u] = sel[i_u]
+        f = np.flatnonzero(ok[run])
+        r = run[f]
+        scale = L[r] / n[r]
+        out[f, kt, 0] = targets[first[r], ka, 0] + scale * u[r, 0]
+        out[f, kt, 2] = targets[first[r], ka, 2] + scale * u[r, 1]
     return out
-
 
 def _quat_to_rotvec(q: np.ndarray) -> np.ndarray:
     """Rotation vectors of unit quaternions ``(n, 4)`` (scalar-last): what
@@ -432,41 +444,37 @@ _MINI_PARENTS = np.array([-1, 0, 1, 2])
 
 def _with_leg_rotations(motion: Motion, P, G, rot, legs) -> Motion:
     """``motion`` with the local rotations ``rot``, which differ from its own on the legs' chains only,
-    and its forward kinematics filled in: ``P``, ``G`` (the input's) except the joints below each hip
-    on the frames where that leg changed, computed by :func:`~mocomp.core.kinematics.forward_kinematics`
-    from the hip's parent down (the same operations in the same order as a full FK: bit for bit equal)."""
+    and its forward kinematics filled in (the re-detection pass reads the feet from it): ``P``, ``G``
+    (the input's) except the joints below the hips on the frames where a leg changed, computed by
+    :func:`~mocomp.core.kinematics.forward_kinematics` from the hips' common parent down (the same
+    operations in the same order as a full FK: bit for bit equal)."""
     from ..core.kinematics import forward_kinematics
     from .ik import descends
 
     sk = motion.skeleton
     parents = sk.parents
-    P2, G2 = np.array(P), np.array(G)
-    for leg in legs:
-        h = leg.chain[0]
-        chg = np.flatnonzero(np.any(rot[:, leg.chain] != motion.rotations[:, leg.chain], axis=(1, 2)))
-        if chg.size == 0:
-            continue
-        sub = [j for j in range(sk.n_joints) if descends(parents, j, h)]
-        hp = int(parents[h])
-        pos = {j: i for i, j in enumerate(([hp] if hp >= 0 else []) + sub)}
-        par = np.array([pos.get(int(parents[j]), -1) for j in pos])
-        off = sk.offsets[list(pos)]
-        r = rot[chg[:, None], np.array(list(pos))[None]]
-        if hp >= 0:                                     # the hip's parent as the chain's root
-            r[:, 0] = G[chg, hp]
-            root = P[chg, hp]
-        else:
-            root = motion.root_positions[chg]
-        Pm, Gm = forward_kinematics(par, off, root, r)
-        n0 = 1 if hp >= 0 else 0
-        P2[np.ix_(chg, sub)] = Pm[:, n0:]
-        G2[np.ix_(chg, sub)] = Gm[:, n0:]
+    chains = np.array([leg.chain for leg in legs])
+    chg = np.flatnonzero(np.any(rot[:, chains] != motion.rotations[:, chains], axis=(1, 2, 3)))
     out = motion._replace_trusted(motion.root_positions, rot, motion.source)
+    hps = {int(parents[leg.chain[0]]) for leg in legs}
+    if len(hps) != 1 or min(hps) < 0:
+        return out                                      # hips on different parents: FK on first use
+    hp = hps.pop()
+    sub = [j for j in range(sk.n_joints) if any(descends(parents, j, leg.chain[0]) for leg in legs)]
+    cols = np.array([hp] + sub)
+    pos = {int(j): i for i, j in enumerate(cols)}
+    par = np.array([pos.get(int(parents[j]), -1) for j in cols])
+    P2, G2 = np.array(P), np.array(G)
+    if chg.size:
+        r = rot[chg[:, None], cols[None]]
+        r[:, 0] = G[chg, hp]                            # the hips' parent as the chain's root
+        Pm, Gm = forward_kinematics(par, sk.offsets[cols], P[chg, hp], r)
+        P2[np.ix_(chg, sub)] = Pm[:, 1:]
+        G2[np.ix_(chg, sub)] = Gm[:, 1:]
     P2.setflags(write=False)
     G2.setflags(write=False)
     out._cache["fk"] = (P2, G2)
     return out
-
 
 def _close_gaps(plants: FootPlants, max_gap: int) -> tuple[FootPlants, int]:
     """Plants of one foot point separated by fewer than ``max_gap`` unplanted frames joined into one
@@ -546,9 +554,11 @@ def enforce_footplants(motion: Motion, plants: FootPlants | None = None, *, cont
     for k in range(passes):
         rot, targets, state = _solve(motion, P, G, pts, plants, blend, height, tol, reach_margin, ease_kind, prev,
                                      hinges)
-        out = _with_leg_rotations(motion, P, G, rot, plants.legs)
         if k == passes - 1:
+            # the result: its FK is computed on first use (the evidence and the audits are lazy too)
+            out = motion._replace_trusted(motion.root_positions, rot, motion.source)
             break
+        out = _with_leg_rotations(motion, P, G, rot, plants.legs)
         c = plants.contacts
         if c is None:
             again = detect_contacts(out)

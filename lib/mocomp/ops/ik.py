@@ -48,10 +48,28 @@ def leg_chains(skeleton) -> list[tuple[int, int, int]]:
     return out
 
 
+def _dot(a, b) -> np.ndarray:
+    """Row-wise dot products over the last axis (einsum: ~3x faster than ``np.sum(a * b, -1)`` on
+    ``(n, 3)``)."""
+    return np.einsum("...i,...i->...", a, b)
+
+
+def _norm(a) -> np.ndarray:
+    """Row-wise Euclidean norms over the last axis."""
+    return np.sqrt(np.einsum("...i,...i->...", a, a))
+
+
+def _cross(u, v) -> np.ndarray:
+    """``np.cross`` of ``(..., 3)`` rows, written out (the same operations; less per-call overhead)."""
+    u0, u1, u2 = u[..., 0], u[..., 1], u[..., 2]
+    v0, v1, v2 = v[..., 0], v[..., 1], v[..., 2]
+    return np.stack([u1 * v2 - u2 * v1, u2 * v0 - u0 * v2, u0 * v1 - u1 * v0], axis=-1)
+
+
 def axis_angle_quaternions(axis, angle) -> np.ndarray:
     """Quaternions (scalar-last) of rotations by ``angle (...)`` rad about ``axis (..., 3)``
     (any length; a zero axis gives the identity)."""
-    n = np.linalg.norm(axis, axis=-1, keepdims=True)
+    n = _norm(axis)[..., None]
     a = np.asarray(axis, dtype=float) / np.where(n > 1e-12, n, 1.0)
     a = np.where(n > 1e-12, a, 0.0)
     half = 0.5 * np.asarray(angle, dtype=float)[..., None]
@@ -64,19 +82,19 @@ def arc_quaternions(u, v) -> np.ndarray:
     Antiparallel rows (no unique arc) turn by 180 deg about an axis perpendicular to ``u``."""
     u = np.asarray(u, dtype=float)
     v = np.asarray(v, dtype=float)
-    u = u / np.linalg.norm(u, axis=-1, keepdims=True)
-    v = v / np.linalg.norm(v, axis=-1, keepdims=True)
-    c = np.cross(u, v)
-    w = 1.0 + np.sum(u * v, axis=-1, keepdims=True)
+    u = u / _norm(u)[..., None]
+    v = v / _norm(v)[..., None]
+    c = _cross(u, v)
+    w = 1.0 + _dot(u, v)[..., None]
     anti = w[..., 0] < 1e-12
     if np.any(anti):
-        perp = np.cross(u, np.array([1.0, 0.0, 0.0]))
-        perp = np.where(np.linalg.norm(perp, axis=-1, keepdims=True) < 1e-6, np.cross(u, np.array([0.0, 1.0, 0.0])),
+        perp = _cross(u, np.array([1.0, 0.0, 0.0]))
+        perp = np.where(_norm(perp)[..., None] < 1e-6, _cross(u, np.array([0.0, 1.0, 0.0])),
                         perp)
         c = np.where(anti[..., None], perp, c)
         w = np.where(anti[..., None], 0.0, w)
     q = np.concatenate([c, w], axis=-1)
-    return q / np.linalg.norm(q, axis=-1, keepdims=True)
+    return q / _norm(q)[..., None]
 
 
 def _parent_rotation(G, parents, j):
@@ -118,29 +136,29 @@ def two_bone_ik(P: np.ndarray, G: np.ndarray, rot: np.ndarray, parents, chain, t
     h, k, a = (int(c) for c in chain)
     H, K, A = P[..., h, :], P[..., k, :], P[..., a, :]
     T = np.asarray(target, dtype=float)
-    l1 = np.linalg.norm(K - H, axis=-1)
-    l2 = np.linalg.norm(A - K, axis=-1)
-    d_want = np.linalg.norm(T - H, axis=-1)
+    l1 = _norm(K - H)
+    l2 = _norm(A - K)
+    d_want = _norm(T - H)
     d = np.clip(d_want, np.abs(l1 - l2) + reach_margin, l1 + l2 - reach_margin)
     # knee: bend in the leg's plane (normal n = w x u) so that |ankle - hip| = d
     u, w = H - K, A - K
-    n = np.cross(w, u)
+    n = _cross(w, u)
     if bend_prior > 0:
         n = n + (bend_prior * l1 * l2)[..., None] * quat_apply(G[..., h, :], np.asarray(bend_axis, dtype=float))
-    straight = np.linalg.norm(n, axis=-1) < 1e-9
+    straight = _norm(n) < 1e-9
     if np.any(straight):
         n = np.where(straight[..., None], quat_apply(G[..., h, :], np.asarray(bend_axis, dtype=float)), n)
     # the bend is about n: only its component normal to the leg's plane changes the hip-ankle distance
-    th0 = np.arctan2(np.linalg.norm(np.cross(u, w), axis=-1), np.sum(u * w, axis=-1))
+    th0 = np.arctan2(_norm(_cross(u, w)), _dot(u, w))
     th1 = np.arccos(np.clip((l1 * l1 + l2 * l2 - d * d) / (2 * l1 * l2), -1.0, 1.0))
     if bend_prior > 0:
         # about an axis off the plane normal, turning w by phi gives the angle th1 to u: solve for phi
         # (w's angle to u as w turns about the unit axis a: cos = (u.a)(w.a) + |u_p||w_p| cos(phi + phi0))
-        ax = n / np.linalg.norm(n, axis=-1, keepdims=True)
-        ua, wa = np.sum(u * ax, axis=-1), np.sum(w * ax, axis=-1)
+        ax = n / _norm(n)[..., None]
+        ua, wa = _dot(u, ax), _dot(w, ax)
         up, wp = u - ua[..., None] * ax, w - wa[..., None] * ax
-        nup, nwp = np.linalg.norm(up, axis=-1), np.linalg.norm(wp, axis=-1)
-        phi0 = np.arctan2(np.sum(np.cross(wp, up) * ax, axis=-1), np.sum(wp * up, axis=-1))   # from w_p to u_p
+        nup, nwp = _norm(up), _norm(wp)
+        phi0 = np.arctan2(_dot(_cross(wp, up), ax), _dot(wp, up))   # from w_p to u_p
         c = np.clip((l1 * l2 * np.cos(th1) - ua * wa) / np.maximum(nup * nwp, 1e-300), -1.0, 1.0)
         # w_p at angle phi from its start has angle (phi0 - phi) to u_p; the smallest |phi| with the right cosine
         cand = np.stack([phi0 - np.arccos(c), phi0 + np.arccos(c)], axis=-1)

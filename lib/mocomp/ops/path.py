@@ -403,14 +403,6 @@ def path_edit(motion: Motion, curve: PathCurve, *, path_sigma: float = 0.5, plan
     rot = np.array(motion.rotations)
     rot[:, 0] = quat_multiply(q, rot[:, 0])
     moved = motion._replace_trusted(rp, rot, motion.source)           # unit quaternions, finite: checked input
-    # the moved body is the input's turned about the vertical and shifted, frame by frame: its FK is
-    # the input's (needed for the plants anyway) moved the same way (equal to a full FK to ~1e-15)
-    P, G = motion.fk()
-    Pm = rp[:, None] + quat_apply(q[:, None], P - motion.root_positions[:, None])
-    Gm = quat_multiply(q[:, None], G)
-    Pm.setflags(write=False)
-    Gm.setflags(write=False)
-    moved._cache["fk"] = (Pm, Gm)
     notes = []
     extended = float(max(0.0, s[-1] - curve.length))
     if extended > 1e-3:
