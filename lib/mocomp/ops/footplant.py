@@ -49,7 +49,7 @@ from ..core.motion import Motion
 from ..core.rotations import quat_apply
 from ..dynamics.contacts import label_intervals
 from .easing import RampPlan, ease
-from .ik import REACH_MARGIN, hinge_axis, two_bone_ik
+from .ik import REACH_MARGIN, _norm, hinge_axis, two_bone_ik
 from .plants import FootPlants, foot_plants, plant_targets
 
 __all__ = ["FootplantResult", "enforce_footplants", "plant_slides", "default_blend_frames", "foot_points",
@@ -210,12 +210,12 @@ def consistent_toe_targets(targets: np.ndarray, pts: np.ndarray, plants: FootPla
         nr = int(run.max()) + 1
         d = (pts[sel, kt] - pts[sel, ka])[:, [0, 2]]
         cnt = np.bincount(rid, minlength=nr)
-        L = np.bincount(rid, np.linalg.norm(d, axis=1), minlength=nr)
+        L = np.bincount(rid, _norm(d), minlength=nr)
         u = np.stack([np.bincount(rid, d[:, c], minlength=nr) for c in range(2)], axis=1)
         has = cnt > 0
         L[has] /= cnt[has]
         u[has] /= cnt[has, None]
-        n = np.linalg.norm(u, axis=1)
+        n = _norm(u)
         ok = has & (n >= 1e-9)
         ok[0] = False
         if not ok.any():
@@ -234,10 +234,10 @@ def _quat_to_rotvec(q: np.ndarray) -> np.ndarray:
     """Rotation vectors of unit quaternions ``(n, 4)`` (scalar-last): what
     ``_quat_to_rotvec(q)`` gives (the w >= 0 cover, series near 0), without building
     a ``Rotation`` (its per-call cost dominates on a few hundred frames)."""
-    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
+    q = q / _norm(q)[:, None]
     q = np.where(q[:, 3:] < 0, -q, q)
     v = q[:, :3]
-    angle = 2.0 * np.arctan2(np.linalg.norm(v, axis=1), q[:, 3])
+    angle = 2.0 * np.arctan2(_norm(v), q[:, 3])
     small = angle <= 1e-3
     a2 = angle * angle
     scale = np.where(small, 2.0 + a2 / 12.0 + 7.0 * a2 * a2 / 2880.0,
@@ -247,7 +247,7 @@ def _quat_to_rotvec(q: np.ndarray) -> np.ndarray:
 
 def _rotvec_to_quat(rv: np.ndarray) -> np.ndarray:
     """Unit quaternions (scalar-last) of rotation vectors ``(n, 3)``, as ``_rotvec_to_quat(rv)``."""
-    angle = np.linalg.norm(rv, axis=1)
+    angle = _norm(rv)
     small = angle <= 1e-3
     a2 = angle * angle
     scale = np.where(small, 0.5 - a2 / 48.0 + a2 * a2 / 3840.0,
@@ -364,7 +364,7 @@ def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: st
             rv_l = (1 - m) * rv_l + m * gaussian_filter1d(rv_l, sig, axis=0, mode="nearest")
         delta_l, rv_l = np.array(delta_l), np.array(rv_l)
         Rq = _rotvec_to_quat(rv_l)
-        solve = (np.linalg.norm(delta_l, axis=1) > tol) | (np.linalg.norm(rv_l, axis=1) > tol)
+        solve = (_norm(delta_l) > tol) | (_norm(rv_l) > tol)
         miss_all, lift_all = np.zeros(T), np.zeros(T)
         if prev is not None:
             d0, r0, miss_all, lift_all, solved0, _ = prev[1][leg.side]
@@ -387,13 +387,13 @@ def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: st
         # 1 / sin(knee) near full extension)
         h, k = leg.chain[0], leg.chain[1]
         H = P[idx, h]
-        full = (np.linalg.norm(P[idx, k] - H, axis=1) + np.linalg.norm(P[idx, ja] - P[idx, k], axis=1)
+        full = (_norm(P[idx, k] - H) + _norm(P[idx, ja] - P[idx, k])
                 - 2.0 * reach_margin)
         soft = SOFT_REACH * full
         d_s = full - soft
-        d = np.linalg.norm(tgt - H, axis=1)
-        hor = np.linalg.norm((tgt - H)[:, [0, 2]], axis=1)
-        d0 = np.linalg.norm(P[idx, ja] - H, axis=1)         # the input's own reach: never softened below it,
+        d = _norm(tgt - H)
+        hor = _norm((tgt - H)[:, [0, 2]])
+        d0 = _norm(P[idx, ja] - H)         # the input's own reach: never softened below it,
         want = np.where(d > d_s, np.maximum(d_s + soft * (1.0 - np.exp(-(d - d_s) / soft)),  # so a vanishing
                                             np.minimum(d, d0)), d)                         # correction is no jump
         far = (d > want) & (hor < want) & (tgt[:, 1] < H[:, 1])
