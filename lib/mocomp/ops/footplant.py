@@ -271,26 +271,47 @@ def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: st
     rot = np.array(motion.rotations) if prev is None else np.array(prev[0])
     state = {}
     jobs = []
-    # both legs at once: their frames stacked, leg 0 then ``pad`` unplanted frames then leg 1; a fade
-    # reaches at most ``blend`` frames, so nothing leaks from one leg into the other
+    # the corrections of both legs at once, on segments of frames stacked one after the other with
+    # ``reach`` unplanted frames between them: a fade reaches ``blend + 1`` frames and the toe-to-heel
+    # cross-fade ``3 blend + 1`` from a planted frame, so nothing leaks from one segment into the next.
+    # The first pass takes each leg whole; a later one only the stretches of a leg around the frames
+    # whose plants changed (a stretch ends where the leg is unplanted for more than ``2 reach``
+    # frames: beyond that its corrections are those of the earlier pass)
     nl = len(plants.legs)
-    pad = blend + 1
-    stride = T + pad
-    rows = [slice(li * stride, li * stride + T) for li in range(nl)]
+    reach = 3 * blend + 2
+    labs = [plants.labels[:, [2 * li, 2 * li + 1]] for li in range(nl)]
+    one_leg = [bool(np.any(x[:, 1] & ~x[:, 0]) or np.any(x[:, 0] & ~x[:, 1])) for x in labs]
+    segs = []
+    for li, leg in enumerate(plants.legs):
+        if prev is None:
+            segs.append((li, 0, T))
+            continue
+        old = prev[1][leg.side][5]
+        if np.array_equal(old, labs[li]):
+            continue
+        if one_leg[li] != bool(np.any(old[:, 1] & ~old[:, 0]) or np.any(old[:, 0] & ~old[:, 1])):
+            segs.append((li, 0, T))                      # the fill of the rotation changes on the whole leg
+            continue
+        planted = np.flatnonzero(labs[li].any(axis=1))
+        cut = np.flatnonzero(np.diff(planted) > 2 * reach)
+        changed = np.r_[0, np.cumsum(np.any(labs[li] != old, axis=1))]
+        for f0, f1 in zip(planted[np.r_[0, cut + 1]], planted[np.r_[cut, planted.size - 1]]):
+            a, b = max(0, int(f0) - reach), min(T, int(f1) + 1 + reach)
+            if changed[b] > changed[a]:
+                segs.append((li, a, b))
+    offs = np.cumsum([0] + [b - a + reach for _, a, b in segs])
+    rows = [slice(int(o), int(o) + b - a) for o, (_, a, b) in zip(offs, segs)]
+    n = int(offs[-1] - reach) if segs else 0
 
-    def stack(x, fill=0.0):
-        out = np.full((nl * stride - pad,) + x.shape[2:], fill, dtype=x.dtype)
-        for li in range(nl):
-            out[rows[li]] = x[:, li]
+    def stack(k, x, fill=0.0):
+        out = np.full((n,) + x.shape[2:], fill, dtype=x.dtype)
+        for r, (li, a, b) in zip(rows, segs):
+            out[r] = x[a:b, 2 * li + k]
         return out
 
-    lab2 = plants.labels.reshape(T, nl, 2)
-    la, lt = stack(lab2[:, :, 0], False), stack(lab2[:, :, 1], False)
-    pts2 = pts.reshape(T, nl, 2, 3)
-    tg2 = targets.reshape(T, nl, 2, 3)
-    A, Tp = stack(pts2[:, :, 0]), stack(pts2[:, :, 1])
-    tA, tT = stack(tg2[:, :, 0], np.nan), stack(tg2[:, :, 1], np.nan)
-    n = A.shape[0]
+    la, lt = stack(0, plants.labels, False), stack(1, plants.labels, False)
+    A, Tp = stack(0, pts), stack(1, pts)
+    tA, tT = stack(0, targets, np.nan), stack(1, targets, np.nan)
     both = la & lt
     rv = np.zeros((n, 3))
     if both.any():
@@ -337,32 +358,36 @@ def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: st
             want = tip0 + ct_fill[i] + w_t[i, None] * (Tp[i] - tip0)
             R2 = quat_multiply(arc_quaternions(tip0 - a_new, want - a_new), Rq[i])
             rv[i] = _quat_to_rotvec(R2)
-    one_point = [bool(toe_only[r].any() or ankle_only[r].any()) for r in rows]
-    if any(one_point):
+    if any(one_leg[li] for li, _, _ in segs):
         rv_f = plan_any.fill(rv)
-        for r, yes in zip(rows, one_point):
-            if yes:
+        for r, (li, _, _) in zip(rows, segs):
+            if one_leg[li]:
                 rv[r] = rv_f[r]
     delta = plan_any.fill(delta)
-    for li, leg in enumerate(plants.legs):
-        ka, kt = 2 * li, 2 * li + 1
-        if prev is not None and np.array_equal(prev[1][leg.side][5], plants.labels[:, [ka, kt]]):
-            state[leg.side] = prev[1][leg.side]          # this leg's plants did not change: nor does its solve
-            continue
-        r = rows[li]
-        ja = leg.chain[2]
-        delta_l, rv_l, A_l = delta[r], rv[r], A[r]
-        # a toe-only frame next to an ankle-only one (the foot rocks from toe to heel, as in a
-        # cartwheel) holds two targets no rigid foot joins: cross-fade there over the blend frames
+    # a toe-only frame next to an ankle-only one (the foot rocks from toe to heel, as in a
+    # cartwheel) holds two targets no rigid foot joins: cross-fade there over the blend frames
+    for r, (li, a, b) in zip(rows, segs):
         to, ao = toe_only[r], ankle_only[r]
         sw = np.flatnonzero((to[:-1] & ao[1:]) | (ao[:-1] & to[1:])) + 1
         if sw.size and blend > 0:
-            t = np.arange(T)
+            t = np.arange(b - a)
             m = np.max(ease(1.0 - np.abs(t[:, None] - sw[None] + 0.5) / (blend + 1.0), ease_kind), axis=1)[:, None]
             sig = max(blend / 2.0, 1.0)
-            delta_l = (1 - m) * delta_l + m * gaussian_filter1d(delta_l, sig, axis=0, mode="nearest")
-            rv_l = (1 - m) * rv_l + m * gaussian_filter1d(rv_l, sig, axis=0, mode="nearest")
-        delta_l, rv_l = np.array(delta_l), np.array(rv_l)
+            delta[r] = (1 - m) * delta[r] + m * gaussian_filter1d(delta[r], sig, axis=0, mode="nearest")
+            rv[r] = (1 - m) * rv[r] + m * gaussian_filter1d(rv[r], sig, axis=0, mode="nearest")
+    for li, leg in enumerate(plants.legs):
+        ka, kt = 2 * li, 2 * li + 1
+        mine = [(r, a, b) for r, (lj, a, b) in zip(rows, segs) if lj == li]
+        if not mine:
+            state[leg.side] = prev[1][leg.side]          # this leg's plants did not change: nor does its solve
+            continue
+        delta_l = np.zeros((T, 3)) if prev is None else np.array(prev[1][leg.side][0])
+        rv_l = np.zeros((T, 3)) if prev is None else np.array(prev[1][leg.side][1])
+        for r, a, b in mine:
+            delta_l[a:b] = delta[r]
+            rv_l[a:b] = rv[r]
+        A_l = pts[:, ka]
+        ja = leg.chain[2]
         Rq = _rotvec_to_quat(rv_l)
         solve = (_norm(delta_l) > tol) | (_norm(rv_l) > tol)
         miss_all, lift_all = np.zeros(T), np.zeros(T)
