@@ -501,6 +501,18 @@ def _with_leg_rotations(motion: Motion, P, G, rot, legs) -> Motion:
     out._cache["fk"] = (P2, G2)
     return out
 
+def _column_nanmedian(x: np.ndarray) -> np.ndarray:
+    """``np.nanmedian(x, axis=0)`` of a ``(T, C)`` array, column by column (the median of each
+    column's finite values; NaN for a column without any), without ``apply_along_axis``."""
+    out = np.full(x.shape[1], np.nan)
+    for c in range(x.shape[1]):
+        v = x[:, c]
+        v = v[~np.isnan(v)]
+        if v.size:
+            out[c] = np.median(v)
+    return out
+
+
 def _close_gaps(plants: FootPlants, max_gap: int) -> tuple[FootPlants, int]:
     """Plants of one foot point separated by fewer than ``max_gap`` unplanted frames joined into one
     (a point lifted for a few frames and put back is held throughout: two targets that close in time
@@ -523,7 +535,7 @@ def _close_gaps(plants: FootPlants, max_gap: int) -> tuple[FootPlants, int]:
     lev = np.array(plants.levels)
     fill = lab & np.isnan(lev)
     if fill.any():
-        lev = np.where(fill, np.nanmedian(np.where(plants.labels, lev, np.nan), axis=0)[None], lev)
+        lev = np.where(fill, _column_nanmedian(np.where(plants.labels, lev, np.nan))[None], lev)
     return dataclasses.replace(plants, labels=lab, levels=lev), added
 
 
@@ -597,7 +609,7 @@ def enforce_footplants(motion: Motion, plants: FootPlants | None = None, *, cont
             break
         notes.append(f"pass {k + 2}: {int(new.sum())} frame(s) the detector finds planted on the result added")
         lab = plants.labels | new
-        lev = np.where(lab, np.where(np.isnan(plants.levels), np.nanmedian(plants.levels, axis=0)[None],
+        lev = np.where(lab, np.where(np.isnan(plants.levels), _column_nanmedian(plants.levels)[None],
                                      plants.levels), np.nan)
         plants = dataclasses.replace(plants, labels=lab, levels=lev)
         plants, _ = _close_gaps(plants, max(1, blend // 2))
