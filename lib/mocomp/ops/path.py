@@ -376,6 +376,30 @@ def path_distance(motion: Motion, reference_xz: np.ndarray) -> np.ndarray:
     return np.linalg.norm(p[:, None] - q, axis=2).min(axis=1)
 
 
+def _moved_fk(motion: Motion, moved: Motion, dpsi: np.ndarray) -> None:
+    """Fill in the FK of ``moved``: the input's body turned by ``dpsi (T,)`` rad about the vertical
+    through its root and put on ``moved``'s root, frame by frame (``G' = q_y G``, ``P' = root' +
+    R_y (P - root)``), the input's FK being computed anyway for its plants. Equal to a full FK of
+    ``moved`` to rounding (~1e-15 m) at a third of its cost."""
+    P, G = motion.fk()
+    c, s = np.cos(dpsi)[:, None], np.sin(dpsi)[:, None]
+    d = P - motion.root_positions[:, None]
+    rp = moved.root_positions[:, None]
+    Pm = np.empty_like(P)
+    Pm[..., 0] = rp[..., 0] + c * d[..., 0] + s * d[..., 2]
+    Pm[..., 1] = rp[..., 1] + d[..., 1]
+    Pm[..., 2] = rp[..., 2] - s * d[..., 0] + c * d[..., 2]
+    ch, sh = np.cos(0.5 * dpsi)[:, None], np.sin(0.5 * dpsi)[:, None]     # q_y = (0, sh, 0, ch)
+    Gm = np.empty_like(G)
+    Gm[..., 0] = ch * G[..., 0] + sh * G[..., 2]
+    Gm[..., 1] = ch * G[..., 1] + sh * G[..., 3]
+    Gm[..., 2] = ch * G[..., 2] - sh * G[..., 0]
+    Gm[..., 3] = ch * G[..., 3] - sh * G[..., 1]
+    Pm.setflags(write=False)
+    Gm.setflags(write=False)
+    moved._cache["fk"] = (Pm, Gm)
+
+
 def path_edit(motion: Motion, curve: PathCurve, *, path_sigma: float = 0.5, plant: bool = True,
               contacts=None, audit: bool = False) -> PathEditResult:
     """Move ``motion`` onto ``curve`` (see the module docstring).
@@ -403,6 +427,7 @@ def path_edit(motion: Motion, curve: PathCurve, *, path_sigma: float = 0.5, plan
     rot = np.array(motion.rotations)
     rot[:, 0] = quat_multiply(q, rot[:, 0])
     moved = motion._replace_trusted(rp, rot, motion.source)           # unit quaternions, finite: checked input
+    _moved_fk(motion, moved, dpsi)
     notes = []
     extended = float(max(0.0, s[-1] - curve.length))
     if extended > 1e-3:
