@@ -387,7 +387,9 @@ def test_foot_slide_of_the_upright_recovery_is_reported_beside_the_captures_own(
     """The CLI's 11.9 cm foot slide on CMU 88_01 + arms-twist is mostly the capture's own: its feet
     already travel 10.5 cm during the landing contacts. The report gives both, on this crude
     contact measure (feet within 5-12 cm of their lowest, which counts feet that are not planted;
-    the recovery adds < 5 cm: measured +0.9 and +4.7 cm); the audit's planted contacts of the
+    the recovery adds < 6 cm: measured +0.9 and +5.4 cm, the latter +4.7 before the landing's leg IK
+    released a held foot no faster than over 0.2 s, which moves it while it is still low (it removed
+    a 0.55 m/s COM velocity jump on the DeepMimic side flip); the audit's planted contacts of the
     output slide no more than the input's."""
     from mocomp.audit import audit
     from mocomp.edit.seams import _contact_weights, stance_slide
@@ -402,7 +404,7 @@ def test_foot_slide_of_the_upright_recovery_is_reported_beside_the_captures_own(
     own = stance_slide(pos, _contact_weights(pos[..., 1], (0.05, 0.12)))
     assert res.foot_slide_own == pytest.approx(own, abs=1e-12)
     assert own > 0.05
-    assert res.foot_slide < own + 0.05
+    assert res.foot_slide < own + 0.06
 
     def slide(m):
         return next(x.value for x in audit(m).measures() if x.key == "max_foot_slide_m")

@@ -112,6 +112,12 @@ def register(subparsers) -> None:
                         "0.25 s or whose centre-of-mass parabola gives a gravity outside 7.0-13.7 m/s^2 is refused "
                         "(a walk's double-support gaps look like flights); a flight given here is measured the "
                         "same way but only warned about")
+    p.add_argument("--landing", choices=("auto", "repair", "as-is"), default="auto",
+                   help="how the landing stance meets the new flight's arrival velocity: auto (default: on an input "
+                        "flight that is not ballistic with the chosen gravity, the stance is decelerated smoothly "
+                        "from the arrival velocity, feet held by leg IK, when they differ by more than 0.3 m/s "
+                        "beyond the input's own landing), repair (whenever they differ) or as-is (the paper's "
+                        "section 5.5.3: the stance retimed and moved rigidly, which leaves the COM velocity jump)")
     p.add_argument("--estimate-masses", action="store_true",
                    help="estimate the mass distribution from the flight (eq. 5.1-5.2) instead of the table prior")
     add_audit_arg(p)
@@ -132,7 +138,7 @@ def run(args: argparse.Namespace) -> int:
     edited, plan = apply_preset(P.motion, P.flight, args.preset, up_side=args.up_side)
     res = restore_momentum(body, P.motion, edited, P.flight, k_ratio=args.k_ratio, k=args.k,
                            reference=args.reference, method=args.method, takeoff_height=args.takeoff_height,
-                           gravity=args.gravity)
+                           gravity=args.gravity, landing_velocity=args.landing)
     widened = write_motion(res.motion, out)
     print(f"{P.name}: flight frames {P.flight[0]}-{P.flight[1] - 1} at {P.fps:g} Hz; preset {args.preset} on frames "
           f"{plan.start}-{plan.stop - 1}")

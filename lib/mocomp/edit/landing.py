@@ -57,7 +57,8 @@ from ..core.rotations import quat_apply, quat_inverse, quat_multiply, swing_twis
 from ._kernels import fk_arrays
 from ..ops.ik import descends, leg_chains, run_starts, two_bone_ik
 
-__all__ = ["TOUCH_TOL", "REST_TOL", "LandingReference", "LandingCheck", "lowest_heights", "floor_level",
+__all__ = ["TOUCH_TOL", "REST_TOL", "LANDING_VELOCITY_CHOICES", "ARRIVAL_TOL", "LANDING_MAX_FORCE", "stance_velocity", "stance_stop",
+           "match_landing_velocity", "arrival_velocity", "own_landing_jump", "LandingReference", "LandingCheck", "lowest_heights", "floor_level",
            "landing_reference", "landing_lift", "foot_points", "touchdown_index", "level_feet", "rest_on_floor", "check_landing"]
 
 #: m: the lowest body point within this of the floor touches it (the touchdown frame) ...
@@ -83,6 +84,8 @@ LEVEL_MIN_S = 0.1
 LEVEL_RATE = float(np.radians(300.0))
 #: s: Gaussian width of the low-pass on the vertical root shift of :func:`rest_on_floor`
 SHIFT_SMOOTH_S = 0.03
+#: s: a plant's leg IK weight falls from 1 to 0 no faster than over this long (:func:`_plant_targets`)
+PLANT_RAMP_S = 0.2
 #: a planted leg is stretched to at most this fraction of its length (hip-knee plus knee-ankle)
 REACH = 0.995
 #: m: over this much need the root's drop eases in (:func:`_reach_drop`)
@@ -328,11 +331,13 @@ def level_feet(motion: Motion, reference: Motion, touchdown: int, chains=None, e
     return motion.replace(rotations=rot), start
 
 
-def _plant_targets(sk, rp, rot, first, floor, ref_floor, ref_pts, ank_ori, chains, feet):
+def _plant_targets(sk, rp, rot, first, floor, ref_floor, ref_pts, ank_ori, chains, feet, ramp: float = 1.0):
     """The planted feet's IK targets of frames ``first..`` (see :func:`_plant`): per leg
     ``(chain, weight (n,), ankle target (n, 3), ankle world orientation (n, 4))``, and the FK
     ``(P, G)`` they were computed on. ``ref_pts (n, J + E, 3)``: the reference's points at the
-    frames' source times, ``ref_floor`` its floor; ``ank_ori (n, C, 4)`` its ankles."""
+    frames' source times, ``ref_floor`` its floor; ``ank_ori (n, C, 4)`` its ankles; ``ramp``: frames
+    a plant's IK weight takes at least to fall from 1 to 0 (:data:`PLANT_RAMP_S`).
+    Per leg the tuple ends with the IK's blend weight ``w_ik``, continuous where runs begin and end."""
     pts, P, G = _points(sk, rp[first:], rot[first:])
     rows = np.arange(pts.shape[0])
     out = []
@@ -345,6 +350,15 @@ def _plant_targets(sk, rp, rot, first, floor, ref_floor, ref_pts, ank_ori, chain
         st = run_starts((w >= 0.5)[:, None])[:, 0]
         w = np.where(st >= 0, w, 0.0)
         s0 = np.maximum(st, 0)
+        # the IK's blend weight: 0 where a contact run begins or ends. It rises with the run's weight
+        # above 0.5 (a plant switched on at w = 0.5 stepped the leg within one frame) and falls no
+        # faster than 1 / ramp per frame, starting earlier where the run's weight falls faster: released
+        # as the weight fell (0.93 -> 0.52 within 5 frames), a foot held 6 cm from the unplanted pose
+        # moved at 1.4 m/s, and with it the COM (a 0.55 m/s COM velocity jump on the DeepMimic side flip
+        # with arms-twist, above any of the input's). Not limited where it rises: a foot held later
+        # slides first (1.0 cm on the synthetic back flip with arms-twist against 0.7)
+        y = np.clip(2.0 * w - 1.0, 0.0, 1.0)
+        w_ik = _release_limited(np.where(st >= 0, y * y * (3 - 2 * y), 0.0), 1.0 / max(float(ramp), 1.0))
         pc = fp[np.argmin(pts[s0[:, None], fp[None, :], 1], axis=1)]            # contact point of each run
         # the reference's own foot motion since the contact began, turned by the heading difference
         # between the output's foot and the reference's there (yaw only), from where it began
@@ -353,10 +367,19 @@ def _plant_targets(sk, rp, rot, first, floor, ref_floor, ref_pts, ank_ori, chain
         held[:, 1] = floor + ref_pts[rows, pc, 1] - ref_floor
         G_t = quat_multiply(Y, ank_ori[:, c])                                     # as level as the reference's
         local = quat_apply(quat_inverse(G[:, a]), pts[rows, pc] - P[:, a])     # contact point in the foot's frame
-        Ga = slerp(G[:, a], G_t, w)
+        Ga = slerp(G[:, a], G_t, w_ik)
         cur = P[:, a]
-        out.append((chain, w, cur + w[:, None] * (held - quat_apply(Ga, local) - cur), Ga))
+        out.append((chain, w, cur + w_ik[:, None] * (held - quat_apply(Ga, local) - cur), Ga, w_ik))
     return out, P, G
+
+
+def _release_limited(w: np.ndarray, rate: float) -> np.ndarray:
+    """``w`` lowered where needed so that it falls by at most ``rate`` per frame (rises unchanged):
+    ``out_i = min_{j >= i} (w_j + (j - i) rate)``."""
+    out = np.array(w, dtype=float)
+    for i in range(out.size - 2, -1, -1):
+        out[i] = min(out[i], out[i + 1] + rate)
+    return out
 
 
 def _reach_drop(sk, P, targets, ref_pts, reach: float = REACH) -> np.ndarray:
@@ -367,7 +390,7 @@ def _reach_drop(sk, P, targets, ref_pts, reach: float = REACH) -> np.ndarray:
     bent the COM path by 0.15 m/s): 0 where no leg needs it, quadratic over the first
     :data:`REACH_SOFT`, then the need less half of that."""
     need = np.full(P.shape[0], -np.inf)
-    for (h, k, a), w, tgt, _ in targets:
+    for (h, k, a), w, tgt, _, _ in targets:
         r = np.maximum(reach * (np.linalg.norm(sk.offsets[k]) + np.linalg.norm(sk.offsets[a])),
                        np.linalg.norm(ref_pts[:, a] - ref_pts[:, h], axis=1))
         H = P[:, h]
@@ -381,7 +404,7 @@ def _reach_drop(sk, P, targets, ref_pts, reach: float = REACH) -> np.ndarray:
 
 
 def _plant(sk, rp, rot, first, floor, ref_floor, ref_pts, ank_ori, chains, feet,
-           tol: float = 1e-4) -> tuple[int, float, float]:
+           tol: float = 1e-4, ramp: float = 1.0) -> tuple[int, float, float]:
     """Leg IK of frames ``first..`` (in place on ``rot``, and ``rp`` lowered where a leg cannot
     reach) for the planted feet. A foot is planted where the reference's is (its lowest point
     within :data:`FOOT_BAND` of its own lowest after touchdown) *and* the output's is near the
@@ -398,13 +421,13 @@ def _plant(sk, rp, rot, first, floor, ref_floor, ref_pts, ank_ori, chains, feet,
     largest drop m)``."""
     if not chains:
         return 0, 0.0, 0.0
-    targets, P, G = _plant_targets(sk, rp, rot, first, floor, ref_floor, ref_pts, ank_ori, chains, feet)
+    targets, P, G = _plant_targets(sk, rp, rot, first, floor, ref_floor, ref_pts, ank_ori, chains, feet, ramp)
     drop = _reach_drop(sk, P, targets, ref_pts)
     if np.max(drop, initial=0.0) > 1e-6:
         rp[first:, 1] -= drop
-        targets, P, G = _plant_targets(sk, rp, rot, first, floor, ref_floor, ref_pts, ank_ori, chains, feet)
+        targets, P, G = _plant_targets(sk, rp, rot, first, floor, ref_floor, ref_pts, ank_ori, chains, feet, ramp)
     solves, miss = 0, 0.0
-    for chain, w, tgt, Ga in targets:
+    for chain, _, tgt, Ga, w in targets:
         a = chain[2]
         cur = P[:, a]
         ang = 2 * np.arccos(np.clip(np.abs(np.sum(Ga * G[:, a], axis=-1)), 0.0, 1.0))
@@ -434,7 +457,8 @@ def rest_on_floor(motion: Motion, first: int, floor: float, ref: LandingReferenc
     rp = np.array(motion.root_positions)
     rot = np.array(motion.rotations)
     s1 = _shift_to_clearance(sk, rp, rot, first, floor, clear, w_rest, motion.fps)
-    solves, miss, drop = _plant(sk, rp, rot, first, floor, ref.floor, ref_pts, ori, list(ref.chains), ref.foot_points)
+    solves, miss, drop = _plant(sk, rp, rot, first, floor, ref.floor, ref_pts, ori, list(ref.chains), ref.foot_points,
+                                ramp=PLANT_RAMP_S * motion.fps)
     s2 = _shift_to_clearance(sk, rp, rot, first, floor, clear, w_rest, motion.fps)
     return motion.replace(root_positions=rp, rotations=rot), {
         "shift_max_m": max(s1, s2, drop), "ik_solves": int(solves), "ik_miss_m": miss}
@@ -495,3 +519,141 @@ def check_landing(motion: Motion, first: int, floor: float, ref: LandingReferenc
                         reference_depth=ref.own_depth, touchdown=int(first), lift=float(lift),
                         shift_max=float(s.get("shift_max_m", 0.0)), ik_solves=int(s.get("ik_solves", 0)),
                         ik_miss=float(s.get("ik_miss_m", 0.0)), ok=bool(ok))
+
+
+#: the values of ``landing_velocity`` (:func:`match_landing_velocity`, ``mocomp edit --landing``)
+LANDING_VELOCITY_CHOICES = ("auto", "repair", "as-is")
+#: m/s: ``landing_velocity="auto"`` repairs the landing stance when the flight's arrival velocity
+#: differs from the stance's by more than this (any component; the take-off's
+#: :data:`mocomp.edit.linear.TAKEOFF_TOL`)
+ARRIVAL_TOL = 0.3
+#: body weights: the largest vertical ground reaction the repaired landing stance may need (or the
+#: stance's own peak where that is higher). Landings take more than take-offs: drop landings of
+#: gymnasts peak at roughly 4-11 body weights (McNitt-Gray 1993) and somersault landings above
+#: 10; :data:`mocomp.flips.takeoff.MAX_FORCE` (8, a running take-off) would refuse the DeepMimic
+#: back flip with straight legs, which needs 8.5
+LANDING_MAX_FORCE = 12.0
+#: shares of the velocity difference tried in turn where the stance cannot take all of it (the
+#: legs' room: the DeepMimic back flip with straight legs would fold a knee 1 deg tighter than the
+#: performer does anywhere in the clip): part of a jump removed is better than none
+PARTIAL_SHARES = (1.0, 0.5)
+#: s: the stance frames after the event whose COM gives the stance's velocity there (a quadratic
+#: least-squares fit, as :mod:`mocomp.audit.com` measures velocity jumps)
+ARRIVAL_WINDOW_S = 0.03
+
+
+def stance_velocity(com: np.ndarray, event_frame: float, fps: float, window_s: float = ARRIVAL_WINDOW_S) -> np.ndarray:
+    """``(3,)`` m/s: the velocity, at the fractional frame ``event_frame``, of a least-squares
+    quadratic through the COM ``com (T, 3)`` of the ``max(3, round(window_s fps) + 1)`` frames after it
+    (the landing stance's own velocity where the flight meets it)."""
+    first = int(np.floor(event_frame)) + 1
+    n = max(3, int(round(window_s * fps)) + 1)
+    c = np.asarray(com, dtype=float)[first:first + n]
+    if c.shape[0] < 3:
+        return np.full(3, np.nan)
+    t = (np.arange(first, first + c.shape[0]) - event_frame) / fps
+    return np.polyfit(t, c, 2)[1]
+
+
+def stance_stop(motion: Motion, first: int, floor: float, near: float = TOUCH_NEAR) -> int:
+    """The frame after the landing stance that begins at ``first``: the first frame after the body
+    reached the floor where its lowest point rises more than ``near`` above ``floor`` again (the next
+    hop of a clip with several flights), or the end of the motion."""
+    low = lowest_heights(motion, int(first))
+    on = np.flatnonzero(low <= floor + near)
+    if not on.size:
+        return motion.n_frames
+    up = np.flatnonzero(low[on[0]:] > floor + near)
+    return int(first + on[0] + up[0]) if up.size else motion.n_frames
+
+
+def arrival_velocity(com: np.ndarray, event_frame: int, fps: float, window_s: float = ARRIVAL_WINDOW_S) -> np.ndarray:
+    """``(3,)`` m/s: the velocity at frame ``event_frame`` of a least-squares quadratic through the
+    COM ``com (T, 3)`` of the ``max(3, round(window_s fps) + 1)`` frames up to it (a flight's arrival)."""
+    e = int(event_frame)
+    n = max(3, int(round(window_s * fps)) + 1)
+    c = np.asarray(com, dtype=float)[max(0, e - n + 1):e + 1]
+    if c.shape[0] < 3:
+        return np.full(3, np.nan)
+    t = (np.arange(e - c.shape[0] + 1, e + 1) - e) / fps
+    return np.polyfit(t, c, 2)[1]
+
+
+def own_landing_jump(com: np.ndarray, last_flight_frame: int, fps: float) -> np.ndarray:
+    """``(3,)`` m/s: the input's own velocity change where its flight (last frame
+    ``last_flight_frame``) meets its landing stance, :func:`arrival_velocity` minus
+    :func:`stance_velocity` (the impact a capture or the synthetic generator has; the repair keeps it)."""
+    e = int(last_flight_frame)
+    return arrival_velocity(com, e, fps) - stance_velocity(com, float(e), fps)
+
+
+def match_landing_velocity(motion: Motion, com_fn, event_frame: float, arrival, floor: float, *, g: float,
+                           mode: str = "auto", tol: float = ARRIVAL_TOL, max_force: float = LANDING_MAX_FORCE,
+                           jerk_weight: float | None = None, own_jump=None, body=None):
+    """The landing stance of ``motion`` (frames after the fractional output frame ``event_frame``,
+    where the flight's parabola ends with the velocity ``arrival (3,)`` m/s) decelerated smoothly from
+    the flight's arrival velocity to its own, beyond the paper.
+
+    Step 3 (dissertation / flips paper section 5.5.3) retimes the whole motion by ``k`` and moves
+    the frames after the flight rigidly (eq. 5.16), so the stance keeps ``k`` times its captured
+    velocity while the parabola arrives with its own: continuous only when the input flight is
+    ballistic with the chosen gravity and take-off velocity. On the DeepMimic back and side flips
+    (fitted g 7.6 and 13.0, a push-off the fit misses by 1.4 m/s) the audit measured COM velocity
+    jumps of 0.9-1.25 m/s at the landing, against 0.3-0.4 for the input. As ``multiflip(...,
+    takeoff="repair")`` does for a ``k < k*`` landing (section 5.3's jump), the difference is added
+    to the stance by :func:`mocomp.flips.takeoff.repair_stance`: a jerk-regularised root displacement
+    map with ``d(event) = 0`` and ``d'(event) = arrival - stance velocity``, vertical ground force
+    within bounds (at most ``max_force`` body weights, :data:`LANDING_MAX_FORCE`), feet held by leg IK.
+
+    ``own_jump (3,)`` m/s: the velocity change the input's own landing has there (its impact, already
+    scaled by ``k``; :func:`own_landing_jump`): the stance is brought to ``arrival - own_jump``, so the
+    output's landing is no more abrupt than the input's, and a flight that arrives as the input's did
+    (an exact synthetic flight, an unedited clip) is left alone.
+
+    ``mode``: ``"as-is"`` (the paper's: nothing changes), ``"repair"`` (whenever the difference
+    exceeds 1 mm/s), ``"auto"`` (default: when any component exceeds ``tol``). Returns ``(motion,
+    info)``, ``info`` a dict: ``mode``, ``arrival_m_s``, ``stance_m_s`` (before), ``own_jump_m_s``,
+    ``difference_m_s`` (``arrival - own_jump - stance``),
+    ``repaired`` (bool), ``repair`` (:meth:`~mocomp.flips.takeoff.StanceRepair.to_dict` or None),
+    ``share`` (the part of the difference added: the first of :data:`PARTIAL_SHARES` the stance takes),
+    ``note`` (why not repaired, when it should have been; ``None`` otherwise)."""
+    if mode not in LANDING_VELOCITY_CHOICES:
+        raise ValueError(f"landing_velocity must be one of {', '.join(LANDING_VELOCITY_CHOICES)}, got {mode!r}")
+    from ..flips.takeoff import StanceRepairError, repair_stance
+
+    arrival = np.asarray(arrival, dtype=float).reshape(3)
+    first = int(np.floor(event_frame)) + 1
+    info = {"mode": mode, "arrival_m_s": arrival.tolist(), "stance_m_s": None, "difference_m_s": None,
+            "repaired": False, "repair": None, "note": None}
+    if mode == "as-is" or first >= motion.n_frames:
+        return motion, info
+    stop = stance_stop(motion, first, floor)
+    com = com_fn(np.asarray(motion.root_positions[:stop], dtype=float), np.asarray(motion.rotations[:stop], dtype=float))
+    v = stance_velocity(com, event_frame, motion.fps)
+    if not np.all(np.isfinite(v)):
+        return motion, info
+    own = np.zeros(3) if own_jump is None else np.nan_to_num(np.asarray(own_jump, dtype=float).reshape(3))
+    dv = arrival - own - v
+    info.update(stance_m_s=v.tolist(), difference_m_s=dv.tolist(), own_jump_m_s=own.tolist())
+    need = float(np.max(np.abs(dv))) > (tol if mode == "auto" else 1e-3)
+    if not need:
+        return motion, info
+    opts = {} if jerk_weight is None else {"jerk_weight": jerk_weight}
+    first_error = None
+    for share in PARTIAL_SHARES:
+        try:
+            new, rep = repair_stance(motion, com_fn, "landing", float(event_frame), share * dv, (first, stop), g=g,
+                                     body=body, max_force=max_force, measure_zmp=False, **opts)
+        except StanceRepairError as e:
+            first_error = first_error or str(e)
+            continue
+        info.update(repaired=True, repair=rep.to_dict(), share=share)
+        if share < 1.0:
+            info["note"] = (f"the landing stance took {100 * share:.0f}% of the velocity difference "
+                            f"({', '.join(f'{x:+.2f}' for x in dv)}) m/s between the flight's arrival and the stance; "
+                            f"the whole would not fit ({first_error}); the COM velocity jumps by the rest at the landing")
+        return new, info
+    info["note"] = (f"the flight arrives at ({', '.join(f'{x:+.2f}' for x in arrival)}) m/s, the landing stance "
+                    f"moves at ({', '.join(f'{x:+.2f}' for x in v)}): not repaired ({first_error}); the COM velocity "
+                    "jumps at the landing")
+    return motion, info

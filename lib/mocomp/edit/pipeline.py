@@ -43,6 +43,11 @@ RECOVER_RATE = 90.0
 #: deg: a landing turned further than this off the vertical cannot end standing (noted)
 MAX_STANDING_TILT = 45.0
 
+#: m/s^2: ``landing_velocity="auto"`` treats an input flight whose fitted gravity is further than this
+#: from the output's (or whose push-off the fit misses, :func:`mocomp.edit.linear.takeoff_velocity_of`)
+#: as not ballistic, and matches its landing stance to the new flight's arrival
+NONBALLISTIC_G_TOL = 1.0
+
 #: evidence stages in order
 STAGES = ("original", "edited", "direction", "magnitude", "final")
 
@@ -129,6 +134,9 @@ class RestoreResult:
         output's take-off and landing (``takeoff_m_s``, ``landing_m_s``) and the original's
         (``..._own_m_s``); the retime plan's ``vy_*_jump`` are the model's (fitted parabola vs
         ``k`` times its own take-off/landing velocity), these are what the frames show.
+    arrival: what ``landing_velocity`` did (:func:`mocomp.edit.landing.match_landing_velocity`'s
+        info: the flight's arrival velocity, the stance's before, whether and how it was repaired;
+        ``None`` with ``"as-is"`` or no frame after the flight).
     """
 
     motion: Motion
@@ -153,6 +161,7 @@ class RestoreResult:
     foot_slide_own: float | None = None
     velocity_jumps: dict | None = None
     landing: "LandingCheck | None" = None
+    arrival: dict | None = None
 
     @property
     def k(self) -> float:
@@ -258,6 +267,7 @@ class RestoreResult:
             "landing_tilt_deg": self.landing_tilt_deg, "foot_slide_m": self.foot_slide,
             "foot_slide_own_m": self.foot_slide_own, "velocity_jumps_measured": self.velocity_jumps,
             "landing": None if self.landing is None else self.landing.as_dict(),
+            "landing_velocity": self.arrival,
             "com_parabola_residual_m": self.linear.com_residual,
             "takeoff_height_m": self.linear.takeoff_height,
             "platform": None if self.linear.platform is None else {
@@ -353,7 +363,7 @@ def restore_momentum(body, original: Motion, edited: Motion, flight, *, k_ratio:
                      clearance: float = 0.0, gravity="standard", takeoff_velocity: str = "auto", oversample: int = 8,
                      tol: float = 1e-7, fit: FlightFit | None = None, polish: bool = True,
                      upright: bool = True, recover_s: float = 0.3,
-                     auto_tol: float = AUTO_REFERENCE_TOL) -> RestoreResult:
+                     auto_tol: float = AUTO_REFERENCE_TOL, landing_velocity: str = "auto") -> RestoreResult:
     """Restore momentum conservation of an in-flight edit (section 5.5, all three steps).
 
     Parameters
@@ -413,6 +423,21 @@ def restore_momentum(body, original: Motion, edited: Motion, flight, *, k_ratio:
         to the original's vertical over ``recover_s`` seconds after touchdown (about the ground
         point under the COM; a torque from the ground, not part of the ballistic correction; the
         feet's slide is reported). The turn about the vertical is kept.
+    landing_velocity: how the landing stance meets the flight's arrival velocity (beyond the paper;
+        :func:`mocomp.edit.landing.match_landing_velocity`). ``"as-is"``: the paper's section 5.5.3
+        (dissertation 5.5.3, flips paper 5.5): the frames after the flight are retimed by ``k`` and
+        moved rigidly (eq. 5.16), which is continuous only where the input flight is ballistic with
+        the chosen gravity and take-off velocity. ``"auto"`` (default): on an input flight that is
+        not ballistic (fitted gravity more than :data:`NONBALLISTIC_G_TOL` from the output's, or a
+        push-off the fit misses), where the parabola's
+        arrival velocity differs from the retimed stance's by more than 0.3 m/s (any component;
+        the DeepMimic back and side flips: 0.9-1.25 m/s measured jumps at landing against the
+        input's 0.3-0.4), the stance is reshaped by :func:`mocomp.flips.takeoff.repair_stance`
+        (as ``multiflip(..., takeoff="repair")`` does at a ``k < k*`` landing): the COM decelerated
+        smoothly from the arrival velocity to the stance's own, less the input landing's own impact
+        (``k`` times its velocity change there), feet held by leg IK, ground force
+        bounded; a stance that cannot take it is left as is with a note. ``"repair"``: whenever
+        they differ.
     """
     t_all = time.perf_counter()
     if k is None and k_ratio is None:
@@ -461,7 +486,7 @@ def restore_momentum(body, original: Motion, edited: Motion, flight, *, k_ratio:
                        gravity=gravity, takeoff_velocity=takeoff_velocity, polish=polish, notes=notes,
                        edit_frames=edit_frames, com_eval=ce,
                        t_start=t_all, upright_ref=edited if upright else None,
-                       recover_s=recover_s)
+                       recover_s=recover_s, landing_velocity=landing_velocity)
 
 
 def three_steps(body, edited: Motion, flight, L_const, fit: FlightFit, *, original: Motion,
@@ -471,7 +496,8 @@ def three_steps(body, edited: Motion, flight, L_const, fit: FlightFit, *, origin
                 polish: bool = True, notes=(),
                 edit_frames=None, com_eval=None, t_start=None, direction: bool = True,
                 upright_ref: Motion | None = None, upright_pre=None, recover_s: float = 0.3,
-                landing_floor: float | None = None, settle: bool = True) -> RestoreResult:
+                landing_floor: float | None = None, settle: bool = True,
+                landing_velocity: str = "auto") -> RestoreResult:
     """Steps 1-3 (and the final direction sweep) on ``edited``'s flight with the constant target
     ``L_const`` (or, with ``reference="original"``, ``original``'s per-frame ``L_orig`` on the same
     frames); ``fit`` gives the take-off velocity for step 3 (and its gravity with ``gravity="clip"``). The ``original`` stage of
@@ -490,7 +516,8 @@ def three_steps(body, edited: Motion, flight, L_const, fit: FlightFit, *, origin
     there and turns the body over the point it touches, and with ``settle`` the frames from the
     touchdown on get the intended landing's clearance above the floor (root height, leg IK,
     levelled planted feet). :attr:`RestoreResult.landing` measures the result; a landing that
-    does not rest within 1 cm of the floor gets a note. Used by :func:`restore_momentum`,
+    does not rest within 1 cm of the floor gets a note. ``landing_velocity`` (see
+    :func:`restore_momentum`) then matches the landing stance to the flight's arrival velocity. Used by :func:`restore_momentum`,
     :func:`mocomp.edit.join.join_flights` and :func:`mocomp.edit.twist.twist_jump`."""
     t_all = time.perf_counter() if t_start is None else t_start
     if k is None and k_ratio is None:
@@ -661,17 +688,52 @@ def three_steps(body, edited: Motion, flight, L_const, fit: FlightFit, *, origin
                              f"{MAX_STANDING_TILT:g} deg): no standing landing follows from that; easing it upright "
                              "needs a torque from the ground no landing gives (see the audit's COM velocity jumps and "
                              "ZMP) -- a smaller edit, or a landing that rolls out, would be physical")
-    landing = None
+    landing, info, arrival_info = None, None, None
     if land_ref is not None and td_out < final.n_frames:
-        from .landing import check_landing, rest_on_floor
+        from .landing import rest_on_floor
 
         tr = time.perf_counter()
         fr = np.arange(td_out, final.n_frames)
-        info = None
         if settle:
             final, info = rest_on_floor(final, td_out, floor_target, land_ref, src3(fr))
-        landing = check_landing(final, td_out, floor_target, land_ref, lift, info)
         timings["landing"] = time.perf_counter() - tr
+    # "auto" repairs the landings of flights that are not ballistic with the chosen gravity (the fit's g
+    # off it, or a push-off the fit misses): an exact flight's arrival already meets its stance as the
+    # input's did, and the repair's cost (20-40 ms) stays off it
+    ballistic = lin.takeoff_velocity_source == "fit" and abs(fit.gravity - lin.gravity) <= NONBALLISTIC_G_TOL
+    if (landing_velocity == "repair" or (landing_velocity == "auto" and not ballistic)) \
+            and floor_target is not None and td_out < final.n_frames:
+        from .landing import match_landing_velocity, own_landing_jump
+
+        tr = time.perf_counter()
+        tj = lin.trajectory
+        arrival = np.array(tj.velocity, dtype=float)
+        arrival[1] += 2.0 * tj.a_y * tj.T_new
+        # the parabola ends at the input's last flight frame, shown at output frame (b - 1) / k
+        ev = (lin.takeoff_time + tj.T_new) * final.fps
+        # the intended landing's own velocity change there (its impact), k times in the retimed output
+        c_own = ce(land_motion.root_positions, land_motion.rotations)
+        own = lin.plan.k * own_landing_jump(c_own, b - 1, land_motion.fps)
+        final, arrival_info = match_landing_velocity(
+            final, ce, ev, arrival, floor_target, g=lin.gravity, mode=landing_velocity, own_jump=own, body=body)
+        if arrival_info["repaired"]:
+            r = arrival_info["repair"]
+            notes.append(f"landing stance repaired (landing_velocity={landing_velocity!r}; beyond the paper, whose "
+                         f"step 3 moves it rigidly): the flight arrives at "
+                         f"({', '.join(f'{x:+.2f}' for x in arrival)}) m/s, the stance moved at "
+                         f"({', '.join(f'{x:+.2f}' for x in arrival_info['stance_m_s'])}); over output frames "
+                         f"{r['frames'][0]}-{r['frames'][1] - 1} the crouch deepens by up to {100 * -r['dip']:.1f} cm, "
+                         f"vertical ground force {r['min_force']:.2f}-{r['peak_force']:.2f} body weights, feet held "
+                         f"within {1000 * r['ik_miss']:.1f} mm")
+        elif arrival_info["note"]:
+            notes.append(arrival_info["note"])
+        timings["arrival"] = time.perf_counter() - tr
+    if land_ref is not None and td_out < final.n_frames:
+        from .landing import check_landing
+
+        tr = time.perf_counter()
+        landing = check_landing(final, td_out, floor_target, land_ref, lift, info)
+        timings["landing"] = timings.get("landing", 0.0) + time.perf_counter() - tr
     if slide is not None:
         # the feet's slide on the frames written (after the floor contact was restored), the measure
         # of the input's own landing contacts (foot_slide_own)
@@ -704,4 +766,5 @@ def three_steps(body, edited: Motion, flight, L_const, fit: FlightFit, *, origin
                          flight_out=lin.flight, reference=reference, L_star=L_const, fit=fit,
                          edit_frames=edit_frames, direction=d, magnitude=mg, linear=lin, stages=stages,
                          timings=timings, notes=tuple(notes), polish=polish_res, landing_tilt_deg=tilt,
-                         foot_slide=slide, foot_slide_own=slide_own, velocity_jumps=vjumps, landing=landing)
+                         foot_slide=slide, foot_slide_own=slide_own, velocity_jumps=vjumps, landing=landing,
+                         arrival=arrival_info)
