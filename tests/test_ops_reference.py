@@ -266,3 +266,18 @@ def test_pathedit_as_recorded():
     path, s, psi = motion_path(m)
     arc = PathCurve.arc(float(s[-1]), np.radians(90), start=path[0], heading=float(psi[0]))
     _check("pathedit_sfu_0008", path_edit(m, arc).footplants)
+
+
+def test_ramp_plans_of_several_masks_equal_one_plan_per_mask():
+    from mocomp.ops.easing import RampPlan
+
+    rng = np.random.default_rng(3)
+    d = rng.random((400, 4)) < 0.3
+    d[:, 2] = False                                   # never defined: zeros
+    d[:, 3] = True                                    # always defined: the values
+    d[100:180, 0] = True
+    v = rng.normal(size=(400, 3))
+    for width in (0, 3, 12):
+        for kind in ("smoothstep", "linear", "cosine"):
+            for c, plan in enumerate(RampPlan.many(d, width, kind)):
+                np.testing.assert_array_equal(plan.fill(v), RampPlan(d[:, c], width, kind).fill(v))

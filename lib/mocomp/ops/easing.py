@@ -46,6 +46,35 @@ class RampPlan:
         self.wp, self.wn = (wp / s)[und], (wn / s)[und]
         self.prev, self.nxt = np.clip(prev, 0, T - 1)[und], np.clip(nxt, 0, T - 1)[und]
 
+    @classmethod
+    def many(cls, defined: np.ndarray, width: int, kind: str = "smoothstep") -> list["RampPlan"]:
+        """One plan per column of ``defined (T, C)``, their weights computed together (the same
+        numbers as ``RampPlan(defined[:, c], width, kind)``)."""
+        d = np.asarray(defined, dtype=bool)
+        T = d.shape[0]
+        plans = [cls.__new__(cls) for _ in range(d.shape[1])]
+        for c, p in enumerate(plans):
+            p.defined = d[:, c]
+            p.trivial = width <= 0 or not p.defined.any() or p.defined.all()
+        if all(p.trivial for p in plans):
+            return plans
+        idx = np.arange(T)[:, None]
+        prev = np.maximum.accumulate(np.where(d, idx, -1), axis=0)
+        nxt = np.minimum.accumulate(np.where(d, idx, T)[::-1], axis=0)[::-1]
+        wp = np.where(prev >= 0, ease(1.0 - (idx - prev) / (width + 1.0), kind), 0.0)
+        wn = np.where(nxt < T, ease(1.0 - (nxt - idx) / (width + 1.0), kind), 0.0)
+        s = np.maximum(1.0, wp + wn)
+        wp, wn = wp / s, wn / s
+        prev, nxt = np.clip(prev, 0, T - 1), np.clip(nxt, 0, T - 1)
+        for c, p in enumerate(plans):
+            if p.trivial:
+                continue
+            und = ~d[:, c]
+            p.und = und
+            p.wp, p.wn = wp[und, c], wn[und, c]
+            p.prev, p.nxt = prev[und, c], nxt[und, c]
+        return plans
+
     def fill(self, values: np.ndarray) -> np.ndarray:
         values = np.asarray(values, dtype=float)
         T = self.defined.shape[0]

@@ -317,8 +317,8 @@ def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: st
     if both.any():
         q = arc_quaternions(Tp[both] - A[both], tT[both] - tA[both])
         rv[both] = _quat_to_rotvec(q)
-    rv = RampPlan(both, blend, ease_kind).fill(rv)
-    plan_a, plan_t, plan_any = (RampPlan(x, blend, ease_kind) for x in (la, lt, la | lt))
+    plan_both, plan_a, plan_t, plan_any = RampPlan.many(np.column_stack([both, la, lt, la | lt]), blend, ease_kind)
+    rv = plan_both.fill(rv)
     Rq = _rotvec_to_quat(rv)
     tip = A + quat_apply(Rq, Tp - A)                      # the toe tip after the foot turned about the ankle point
     # translation: the ankle point on its target while it is planted (with both points planted,
