@@ -275,22 +275,21 @@ def plant_targets(points: np.ndarray, plants: FootPlants, height: str = "level")
     out = np.full((T, 4, 3), np.nan)
     for k in range(4):
         lab = plants.labels[:, k]
-        if not lab.any():
+        sel = np.flatnonzero(lab)
+        if sel.size == 0:
             continue
-        run = np.cumsum(np.r_[lab[0], lab[1:] & ~lab[:-1]]) * lab        # run id per frame (0: not planted)
-        n_runs = int(run.max())
-        sel = run > 0
-        cnt = np.bincount(run[sel], minlength=n_runs + 1)
-        mean = np.stack([np.bincount(run[sel], points[sel, k, c], minlength=n_runs + 1) for c in range(3)], axis=1)
-        mean[1:] /= cnt[1:, None]
-        out[sel, k] = mean[run[sel]]
-        y = points[:, k, 1]
+        first = np.flatnonzero(np.r_[True, np.diff(sel) > 1])          # run starts, as positions in ``sel``
+        cnt = np.diff(np.r_[first, sel.size])
+        p = points[sel, k]
+        mean = np.add.reduceat(p, first, axis=0) / cnt[:, None]        # runs are contiguous: one sum per run
+        rid = np.repeat(np.arange(first.size), cnt)
+        out[sel, k] = mean[rid]
+        y = p[:, 1]
         if height == "hold":
             out[sel, k, 1] = plants.levels[sel, k]
         elif height == "keep":
-            out[sel, k, 1] = y[sel]
+            out[sel, k, 1] = y
         else:
-            low = np.full(n_runs + 1, np.inf)
-            np.minimum.at(low, run[sel], y[sel])
-            out[sel, k, 1] = y[sel] - low[run[sel]] + plants.levels[sel, k]
+            low = np.minimum.reduceat(y, first)
+            out[sel, k, 1] = y - low[rid] + plants.levels[sel, k]
     return out
