@@ -10,40 +10,49 @@ Input: the real SFU walk ``walks/sfu_0008_Walking002.bvh`` (25 joints, 120 Hz), 
 Rows (best of N wall time, garbage collector paused, a fresh Motion each run so no FK cache):
 
 * ``footplant``: :func:`mocomp.ops.enforce_footplants` end to end with its defaults and
-  ``audit=False`` -- contact detection, plant targets, the two-bone IK of both legs, the
-  re-detection pass on the result (and its incremental re-solve), FK of the result and the slide
-  evidence. Peer: :func:`mocomp.ops.ik.plant_feet`, the flight edits' simpler foot planting (ankles
-  only, held where they touched down, compiled FK), given the same plants as weights -- it
-  does no detection, no toe, no fades, no re-detection, so it is the floor of the IK work.
+  ``audit=False`` -- contact detection and FK of the input, plant targets, the fades and the
+  two-bone IK of both legs, the re-detection on the result (the FK it reads, filled in from the
+  input's with only the legs recomputed) and the second pass (fades recomputed only on the stretches
+  of a leg whose plants changed, IK only on frames whose correction changed). Not timed, because the
+  caller did not ask for them: the evidence (slides, joint rates: computed on first use), the audits,
+  the FK of the final result (computed on first use). Peer: :func:`mocomp.ops.ik.plant_feet`, the
+  flight edits' simpler foot planting (ankles only, held where they touched down, compiled FK),
+  given the same plants as weights -- it does no detection, no toe, no fades, no re-detection, so it
+  is the floor of the IK work.
 * ``blend 1 s``: :func:`mocomp.ops.blend` of frames of the clip into itself 4 s later with a
   120-frame (1 s) window, ``plant=False`` (alignment, slerp, velocity-integrated root, assembly);
   a second row with the feet planted (two detections and a footplant pass on the 1200-frame result)
   has no goal and says what the planting costs. Peer: ``Motion.sample`` of the window (the slerp of
   every joint and the root interpolation alone).
 * ``pathedit``: :func:`mocomp.ops.path_edit` of the 10 s clip onto a 90 deg arc, feet re-planted
-  (``audit=False``). No peer; the goal ratio is the goal over ours.
+  (``audit=False``): the input's path, FK and contact detection, the moved motion (its FK the
+  input's turned and shifted per frame) and a footplant enforcement as above on the input's plants.
+  No peer; the goal ratio is the goal over ours.
 
-Measured (2026-12-02, 2 cores shared with three other jobs; best of 15-25):
+Measured (2026-12-02, 2 cores shared with other jobs; ``benchmarks/run.py --only ops`` run
+alternately on the code before the speed work (7a64b6e) and after, three runs each, best of 25 per
+row; at 11:27 with load average 1.0-1.5, and at 11:24 with load 2.5-2.7):
 
-=================================================  =========================  ==================
-row                                                real SFU clip              synthetic walk
-=================================================  =========================  ==================
-footplant, 10 s at 120 Hz (goal 30 ms)             33-48 ms (load 1-2),       28-34 ms
-                                                   55 ms at load 6
-blend, 1 s window (goal 5 ms)                      2.6-3.5 ms                 2.3-3.7 ms
-blend, 1 s window, feet planted (no goal)          50-52 ms (load 1-2)        57-64 ms
-pathedit, 10 s onto a 90 deg arc (goal 30 ms)      53-56 ms (load 1-2)        31-41 ms
-=================================================  =========================  ==================
+=================================================  =============================  =============================
+row (real SFU clip)                                before (7a64b6e)               after
+=================================================  =============================  =============================
+footplant, 10 s at 120 Hz (goal 30 ms)             29.3, 29.5, 50.6 (load 1-1.5)  35.0, 23.0, 23.0 (load 1-1.5)
+                                                   47, 31 (load 2.5)              37, 23.5, 27 (load 2.5)
+blend, 1 s window (goal 5 ms)                      1.9-2.9 ms                     1.8-2.8 ms
+blend, 1 s window, feet planted (no goal)          32-44 ms (load 1-1.5)          27-33 ms (load 1-1.5)
+pathedit, 10 s onto a 90 deg arc (goal 30 ms)      34.5, 36.1, 53.4 (load 1-1.5)  26.8, 27.1, 28.0 (load 1-1.5)
+                                                   53, 35 (load 2.5)              43, 28, 32 (load 2.5)
+=================================================  =============================  =============================
 
-The blend goal is met; the footplant goal is met at best on the synthetic walk and missed by up
-to 1.6x on the real clip; pathedit misses by ~1.8x. Where the footplant time goes (real clip,
-~34 ms): the contact detection of the input (~6 ms), the re-detection on the result that the audit
-will see (~5 ms), forward kinematics (~2 ms) and two passes of targets, fades and IK (~10 ms each;
-the second skips a leg whose plants did not change and re-solves only frames whose correction
-changed, but recomputes targets and fades). A path edit adds the input's detection and its own
-plants; the SFU loop walk turns 300 deg in these 10 s and is bent by another 90 deg, so its feet
-need corrections on almost every frame. The peer is no match in scope (``plant_feet`` holds ankles
-at their touch-down: no detection, no toes, no fades) and says what the bare IK costs.
+In one process, alternating the two versions call by call (best of 50, load 1.7-2.2): footplant
+32-36 -> 26-28 ms, pathedit 40-44 -> 33-34 ms. At load 1-1.5 the footplant goal was met in 2 of 3
+runs and the pathedit goal in 3 of 3; at load 2.5 only in some runs. Where the pathedit time goes
+(~33 ms at load 2): the input's detection and FK (~5.5 ms), the moved FK (~2 ms), the first pass (~8 ms, IK ~3 ms of
+it), the second (~7 ms: on this path-edited loop walk the re-detection adds a frame to nearly every
+stance of the left foot, so most of that leg is solved again), the re-detection (~2.5 ms) and the
+FK it reads (~2 ms). Results are the same as before the speed work to 1.3e-13 (rotations, slides,
+plants; ``tests/test_ops_reference.py``). The peer is no match in scope (``plant_feet`` holds
+ankles at their touch-down: no detection, no toes, no fades) and says what the bare IK costs.
 """
 from __future__ import annotations
 
