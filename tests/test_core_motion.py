@@ -355,3 +355,23 @@ def test_mirrored_real_skeletons(name, real_data_dir):
     mm = m.mirrored()
     np.testing.assert_allclose(mm.positions, m.positions[:, mp] * [-1, 1, 1], atol=1e-12)
     np.testing.assert_allclose(mm.mirrored().positions, m.positions, atol=1e-12)
+
+
+def test_replace_trusted_keeps_skeleton_and_takes_a_derived_fk():
+    """``Motion.replace_trusted``: the arrays as given (frozen), the source kept by default, and an
+    ``fk`` given by the caller is what ``fk()`` returns; a wrong FK shape is refused."""
+    from mocomp import datasets
+
+    m = datasets.load_example("jump").motion
+    rp = np.array(m.root_positions) + np.array([0.5, 0.0, 0.0])
+    rot = np.array(m.rotations)
+    P, G = m.fk()
+    P2, G2 = P + np.array([0.5, 0.0, 0.0]), np.array(G)
+    out = m.replace_trusted(rp, rot, fk=(P2, G2))
+    assert out.source == m.source and out.skeleton is m.skeleton
+    assert not out.root_positions.flags.writeable and not P2.flags.writeable
+    assert out.fk()[0] is P2
+    fresh = out.replace()
+    np.testing.assert_allclose(fresh.fk()[0], P2, atol=1e-12)       # the derived FK is the true one
+    with pytest.raises(ValueError, match="fk shapes"):
+        m.replace_trusted(rp, rot, fk=(P2[:, :-1], G2))

@@ -188,20 +188,34 @@ class Motion:
         changes.setdefault("_cache", {})
         return dataclasses.replace(self, **changes)
 
-    def _replace_trusted(self, root_positions: np.ndarray, rotations: np.ndarray,
-                         source: SourceInfo) -> "Motion":
+    def replace_trusted(self, root_positions: np.ndarray, rotations: np.ndarray,
+                        source: SourceInfo | None = None, *, fk: tuple | None = None) -> "Motion":
         """:meth:`replace` for arrays a library hot path has just made and checked, skipping the
         defensive copy and validation of :meth:`__post_init__` (on a 400-frame flip its norm check
-        costs more than the slerp that made the rotations).
+        costs more than the slerp that made the rotations). ``source`` defaults to this motion's.
+
+        ``fk``: optionally the new motion's forward kinematics ``(positions (T, J, 3),
+        global_rotations (T, J, 4))`` when the caller derived it exactly from this motion's (e.g. a
+        rigid turn per frame: :func:`mocomp.ops.path_edit`); it becomes the cached result of
+        :meth:`fk` (frozen here). Shapes are checked; values are the caller's guarantee.
 
         The caller guarantees what ``__post_init__`` would check: shapes ``(T, 3)`` and
         ``(T, J, 4)`` with ``T > 0``, finite values, and rotations that are unit quaternions to
         rounding (``__post_init__`` would keep those bit for bit). The arrays are frozen here, as
         ``__post_init__`` freezes its own. Keep this next to ``__post_init__``: a new field or
-        check there must be mirrored here. Private: used by the multi-flip run-time stage."""
+        check there must be mirrored here. Used by the multi-flip run-time stage and the editing
+        primitives of :mod:`mocomp.ops`."""
+        source = self.source if source is None else source
         T, J = rotations.shape[0], self.skeleton.n_joints
+        if fk is not None:
+            P, G = fk
+            if P.shape != (T, J, 3) or G.shape != (T, J, 4):
+                raise ValueError(f"fk shapes {P.shape}, {G.shape} do not match {T} frames x {J} joints")
         if root_positions.shape != (T, 3) or rotations.shape != (T, J, 4) or T == 0:
-            return self.replace(root_positions=root_positions, rotations=rotations, source=source)
+            new = self.replace(root_positions=root_positions, rotations=rotations, source=source)
+            if fk is not None:
+                new._set_fk(fk)
+            return new
         new = copy.copy(self)                                   # same skeleton and fps
         root_positions.setflags(write=False)
         rotations.setflags(write=False)
@@ -209,7 +223,15 @@ class Motion:
         object.__setattr__(new, "rotations", rotations)
         object.__setattr__(new, "source", source)
         object.__setattr__(new, "_cache", {})
+        if fk is not None:
+            new._set_fk(fk)
         return new
+
+    def _set_fk(self, fk) -> None:
+        P, G = fk
+        P.setflags(write=False)
+        G.setflags(write=False)
+        self._cache["fk"] = (P, G)
 
     def __getitem__(self, index) -> "Motion":
         """Frame slicing: ``motion[10:50]`` or ``motion[::2]`` (step changes fps)."""

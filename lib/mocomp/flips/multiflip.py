@@ -677,11 +677,11 @@ def _generated_source(P: PreparedFlip, note: str):
 
 def _fresh_motion(template: Motion, root_positions: np.ndarray, rotations: np.ndarray, source) -> Motion:
     """``template.replace(root_positions=..., rotations=..., source=...)`` without :class:`Motion`'s
-    defensive copy and validation (:meth:`Motion._replace_trusted`): the run-time stage made the
+    defensive copy and validation (:meth:`Motion.replace_trusted`): the run-time stage made the
     arrays with the right shapes, checked the root positions finite, and the compiled slerp
     normalised every rotation and reported it finite and non-zero. The result equals the checked
     construction (tested)."""
-    return template._replace_trusted(root_positions, rotations, source)
+    return template.replace_trusted(root_positions, rotations, source)
 
 
 def _landing_seam_numpy(P: PreparedFlip, rot: np.ndarray, src: np.ndarray, a: int, g: int, la: int, rb: int,

@@ -480,10 +480,9 @@ def _with_leg_rotations(motion: Motion, P, G, rot, legs) -> Motion:
     parents = sk.parents
     chains = np.array([leg.chain for leg in legs])
     chg = np.flatnonzero(np.any(rot[:, chains] != motion.rotations[:, chains], axis=(1, 2, 3)))
-    out = motion._replace_trusted(motion.root_positions, rot, motion.source)
     hps = {int(parents[leg.chain[0]]) for leg in legs}
     if len(hps) != 1 or min(hps) < 0:
-        return out                                      # hips on different parents: FK on first use
+        return motion.replace_trusted(motion.root_positions, rot)   # hips on different parents: FK on first use
     hp = hps.pop()
     sub = [j for j in range(sk.n_joints) if any(descends(parents, j, leg.chain[0]) for leg in legs)]
     cols = np.array([hp] + sub)
@@ -496,10 +495,7 @@ def _with_leg_rotations(motion: Motion, P, G, rot, legs) -> Motion:
         Pm, Gm = forward_kinematics(par, sk.offsets[cols], P[chg, hp], r)
         P2[np.ix_(chg, sub)] = Pm[:, 1:]
         G2[np.ix_(chg, sub)] = Gm[:, 1:]
-    P2.setflags(write=False)
-    G2.setflags(write=False)
-    out._cache["fk"] = (P2, G2)
-    return out
+    return motion.replace_trusted(motion.root_positions, rot, fk=(P2, G2))
 
 def _column_nanmedian(x: np.ndarray) -> np.ndarray:
     """``np.nanmedian(x, axis=0)`` of a ``(T, C)`` array, column by column (the median of each
@@ -593,7 +589,7 @@ def enforce_footplants(motion: Motion, plants: FootPlants | None = None, *, cont
                                      hinges)
         if k == passes - 1:
             # the result: its FK is computed on first use (the evidence and the audits are lazy too)
-            out = motion._replace_trusted(motion.root_positions, rot, motion.source)
+            out = motion.replace_trusted(motion.root_positions, rot)
             break
         out = _with_leg_rotations(motion, P, G, rot, plants.legs)
         c = plants.contacts
