@@ -150,3 +150,30 @@ def test_support_polygon_distance_equals_per_frame_convex_hull():
     assert (ref[f] < 0).sum() > 200 and (ref[f] > 0).sum() > 1000   # both inside and outside occur
     np.testing.assert_allclose(got[f], ref[f], rtol=0, atol=1e-12)
     assert np.array_equal(np.sign(got[f]), np.sign(ref[f]))
+
+
+def test_nearest_on_polygon_matches_a_per_frame_hull():
+    """``nearest_on_polygon``: for points outside a random quadrilateral, the nearest hull point is at
+    the support-polygon distance and on the hull boundary (scipy ConvexHull per frame)."""
+    from scipy.spatial import ConvexHull
+
+    from mocomp.dynamics.zmp import nearest_on_polygon, support_polygon_distance
+
+    rng = np.random.default_rng(3)
+    T = 40
+    pts = rng.uniform(-0.2, 0.2, (T, 4, 2))
+    p = rng.uniform(-1.0, 1.0, (T, 2))
+    mask = np.ones((T, 4), dtype=bool)
+    mask[5, 1:] = False                                     # a single contact point
+    near = nearest_on_polygon(p, pts, mask)
+    d = support_polygon_distance(p, pts, mask)
+    out = d > 0
+    np.testing.assert_allclose(np.linalg.norm(p - near, axis=1)[out], d[out], atol=1e-12)
+    np.testing.assert_allclose(near[5], pts[5, 0], atol=1e-15)
+    for t in np.flatnonzero(out):
+        if mask[t].all():
+            h = ConvexHull(pts[t])
+            eq = h.equations @ np.append(near[t], 1.0)      # on the boundary: max plane offset 0
+            assert abs(eq.max()) < 1e-9
+    none = nearest_on_polygon(p[:1], pts[:1], np.zeros((1, 4), dtype=bool))
+    assert np.isnan(none).all()

@@ -23,7 +23,7 @@ from .com import segment_positions
 from .constants import G_STANDARD
 from .derivatives import second_difference, smooth_motion
 
-__all__ = ["ZMPResult", "zmp", "zmp_of_point_masses", "support_polygon_distance"]
+__all__ = ["ZMPResult", "zmp", "zmp_of_point_masses", "support_polygon_distance", "nearest_on_polygon"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -130,6 +130,41 @@ def support_polygon_distance(zmp_points, contact_points, contact_mask=None) -> n
     return _signed_distance_frames(z2, c2, mask)
 
 
+def _pair_segments(p, pts, mask):
+    """Every pair ``i <= j`` of the points ``pts`` ``(N, K, 2)`` as a segment (``i == j``: the point
+    itself) and the parameter ``tt`` ``(N, P)`` of the nearest point ``a + tt (b - a)`` of each to
+    ``p`` ``(N, 2)``; returns ``(iu, ju, a, ab, valid, denom, ap, tt)`` (``valid``: both ends
+    masked in, ``ap = p - a``)."""
+    K = mask.shape[1]
+    iu, ju = np.triu_indices(K)                               # pairs i <= j, self pairs included
+    a, b = pts[:, iu], pts[:, ju]                             # (N, P, 2)
+    valid = mask[:, iu] & mask[:, ju]
+    ab = b - a
+    denom = np.einsum("npk,npk->np", ab, ab)
+    ap = p[:, None] - a
+    tt = np.clip(np.einsum("npk,npk->np", ap, ab) / np.where(denom > 0, denom, 1.0), 0.0, 1.0)
+    tt = np.where(denom > 0, tt, 0.0)
+    return iu, ju, a, ab, valid, denom, ap, tt
+
+
+def nearest_on_polygon(p, pts, mask) -> np.ndarray:
+    """``(T, 2)``: the nearest point to ``p`` ``(T, 2)`` on the segments between every pair of the
+    masked points ``pts`` ``(T, K, 2)``. For a ``p`` outside their convex hull (the support
+    polygon) this is the nearest point of the hull: it lies on a hull edge, and every segment lies
+    in the hull (touch-up eq. 7's target, :mod:`mocomp.touchup.zmp`). NaN where a frame has no
+    masked point or ``p`` is not finite."""
+    p, pts, mask = np.asarray(p, dtype=float), np.asarray(pts, dtype=float), np.asarray(mask, dtype=bool)
+    T = mask.shape[0]
+    _, _, a, ab, valid, _, _, tt = _pair_segments(p, pts, mask)
+    near = a + tt[..., None] * ab
+    dist = np.linalg.norm(p[:, None] - near, axis=-1)
+    dist = np.where(valid & np.isfinite(dist), dist, np.inf)
+    k = np.argmin(dist, axis=1)
+    out = near[np.arange(T), k]
+    out[~np.isfinite(dist[np.arange(T), k])] = np.nan
+    return out
+
+
 def _signed_distance_frames(p, pts, mask, rel_eps: float = 1e-10) -> np.ndarray:
     """Vectorised over frames: signed distance ``(T,)`` of ``p`` ``(T, 2)`` to the convex hull of
     the masked points ``pts`` ``(T, K, 2)``.
@@ -150,14 +185,7 @@ def _signed_distance_frames(p, pts, mask, rel_eps: float = 1e-10) -> np.ndarray:
     if not ok.any() or K == 0:
         return out
     p, pts, mask = p[ok], pts[ok], mask[ok]
-    iu, ju = np.triu_indices(K)                               # pairs i <= j, self pairs included
-    a, b = pts[:, iu], pts[:, ju]                             # (N, P, 2)
-    valid = mask[:, iu] & mask[:, ju]
-    ab = b - a
-    denom = np.einsum("npk,npk->np", ab, ab)
-    ap = p[:, None] - a
-    tt = np.clip(np.einsum("npk,npk->np", ap, ab) / np.where(denom > 0, denom, 1.0), 0.0, 1.0)
-    tt = np.where(denom > 0, tt, 0.0)
+    iu, ju, a, ab, valid, denom, ap, tt = _pair_segments(p, pts, mask)
     dist = np.linalg.norm(ap - tt[..., None] * ab, axis=-1)    # (N, P)
     # side of every point k relative to the line of each pair
     rel = pts[:, None, :, :] - a[:, :, None, :]               # (N, P, K, 2)

@@ -19,7 +19,7 @@ from ..audit.thresholds import AuditThresholds
 from ..audit.zmp import smoothed_segment_positions
 from ..dynamics.constants import G_STANDARD
 from ..dynamics.derivatives import second_difference
-from ..dynamics.zmp import support_polygon_distance, zmp_of_point_masses
+from ..dynamics.zmp import nearest_on_polygon, support_polygon_distance, zmp_of_point_masses
 
 __all__ = ["ZmpState", "zmp_state", "project_to_polygon", "DEFAULT_SMOOTH_SIGMA", "floor_levels", "MIN_SUPPORT"]
 
@@ -67,26 +67,10 @@ class ZmpState:
 
 
 def project_to_polygon(p: np.ndarray, pts: np.ndarray, mask: np.ndarray) -> np.ndarray:
-    """``(T, 2)``: the nearest point to ``p`` ``(T, 2)`` on the segments between every pair of the
-    masked points ``pts`` ``(T, K, 2)``. For a ``p`` outside their convex hull this is the nearest
-    point of the hull (it lies on a hull edge, and every segment lies in the hull); callers use it
-    only there. NaN where a frame has no masked point or ``p`` is not finite."""
-    T, K = mask.shape
-    iu, ju = np.triu_indices(K)
-    a, b = pts[:, iu], pts[:, ju]
-    valid = mask[:, iu] & mask[:, ju]
-    ab = b - a
-    den = np.einsum("tpk,tpk->tp", ab, ab)
-    ap = p[:, None] - a
-    tt = np.clip(np.einsum("tpk,tpk->tp", ap, ab) / np.where(den > 0, den, 1.0), 0.0, 1.0)
-    tt = np.where(den > 0, tt, 0.0)
-    near = a + tt[..., None] * ab
-    dist = np.linalg.norm(p[:, None] - near, axis=-1)
-    dist = np.where(valid & np.isfinite(dist), dist, np.inf)
-    k = np.argmin(dist, axis=1)
-    out = near[np.arange(T), k]
-    out[~np.isfinite(dist[np.arange(T), k])] = np.nan
-    return out
+    """``(T, 2)``: the nearest point to ``p`` ``(T, 2)`` of the support polygon of the masked points
+    ``pts`` ``(T, K, 2)`` (:func:`mocomp.dynamics.zmp.nearest_on_polygon`); callers use it only for
+    a ``p`` outside the polygon (eq. 7's target). NaN where a frame has no masked point."""
+    return nearest_on_polygon(p, pts, mask)
 
 
 def floor_levels(levels: np.ndarray, default: float) -> np.ndarray:
