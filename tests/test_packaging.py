@@ -77,3 +77,21 @@ def test_ci_runs_the_readme_test_command():
         f".ci/run does not install {install.group(1)} as the README does"
     assert pytest_cmd.group(1).removeprefix(".venv/bin/") in ci_lines, \
         f".ci/run does not run the README's '{pytest_cmd.group(1)}'"
+
+
+def test_notebooks_are_committed_without_outputs():
+    """DESIGN.md: notebooks are committed without outputs (CI executes them; figures the README shows
+    are written by scripts/write_readme_figures.py). A notebook saved after running fails here."""
+    import json
+
+    notebooks = sorted((ROOT / "notebooks").glob("*.ipynb"))
+    assert notebooks
+    for nb_path in notebooks:
+        nb = json.loads(nb_path.read_text())
+        for i, cell in enumerate(nb["cells"]):
+            if cell["cell_type"] != "code":
+                continue
+            assert not cell.get("outputs") and cell.get("execution_count") is None, (
+                f"{nb_path.name}: code cell {i} has outputs or an execution count; clear them before committing")
+        code = [c for c in nb["cells"] if c["cell_type"] == "code"]
+        assert "parameters" in code[0]["metadata"].get("tags", []), f"{nb_path.name}: first code cell not tagged"
