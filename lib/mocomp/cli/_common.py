@@ -162,6 +162,29 @@ def check_output_path(out: Path, what: str = "output") -> Path:
     return out
 
 
+def gravity_arg(text: str):
+    """``--gravity``: ``standard``, ``clip`` or a number of m/s^2 in [0.5, 100]
+    (:func:`mocomp.dynamics.constants.resolve_gravity`, which the methods apply)."""
+    from ..dynamics.constants import GRAVITY_CHOICES, resolve_gravity
+
+    key = text.strip().lower()
+    if key in GRAVITY_CHOICES:
+        return key
+    try:
+        return resolve_gravity(finite_float(text))[0]
+    except (ValueError, argparse.ArgumentTypeError) as exc:
+        raise argparse.ArgumentTypeError(f"expected standard, clip or a number of m/s^2 in [0.5, 100], got {text!r}"
+                                         ) from exc
+
+
+def add_gravity_arg(p: argparse.ArgumentParser, what: str = "the input flight") -> None:
+    """``--gravity standard|clip|G`` of the commands that generate a flight (issue #13 section 3)."""
+    p.add_argument("--gravity", type=gravity_arg, default="standard", metavar="standard|clip|G",
+                   help="gravity the generated flight falls with: standard (9.81 m/s^2, default), clip (the "
+                        f"gravity fitted to {what}, the paper's choice, which carries a frame-rate or unit error "
+                        "of the clip into the output) or G in m/s^2; the fitted value is reported either way")
+
+
 def add_load_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("motion", metavar="FILE_OR_NAME",
                    help="a motion file (BVH, ASF/AMC, DeepMimic), an embedded example name or a real clip name "

@@ -6,30 +6,8 @@ import argparse
 import math
 from pathlib import Path
 
-from ._common import add_audit_arg, finite_float, fps_arg
+from ._common import add_audit_arg, add_gravity_arg, finite_float, fps_arg
 from ._common import positive_float as _positive
-
-
-def gravity_arg(text: str):
-    """``--gravity`` value: ``standard`` (9.81 m/s^2), ``clip`` (the input flight's fitted gravity)
-    or a positive number of m/s^2."""
-    if text in ("standard", "clip"):
-        return text
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is neither 'standard', 'clip' nor a number of m/s^2") from None
-    if not (math.isfinite(v) and 0.0 < v <= 1000.0):
-        raise argparse.ArgumentTypeError(f"must be 'standard', 'clip' or a positive number of m/s^2 up to 1000, "
-                                         f"got {text}")
-    return v
-
-
-def add_gravity_arg(p: argparse.ArgumentParser, what: str = "the input flight") -> None:
-    p.add_argument("--gravity", type=gravity_arg, default="standard", metavar="standard|clip|G",
-                   help="gravity the generated flight falls with: standard (9.81 m/s^2, default), clip (the "
-                        f"gravity fitted to {what}, the paper's choice, which carries a frame-rate or unit error "
-                        "of the clip into the output) or G in m/s^2; the fitted value is reported either way")
 
 
 def add_restore_args(p: argparse.ArgumentParser, k_default: str = "1 (k = k*)") -> None:

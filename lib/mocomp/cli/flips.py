@@ -4,7 +4,7 @@ from __future__ import annotations
 import argparse
 import math
 
-from ._common import add_audit_arg, finite_float, fps_arg, positive_float
+from ._common import add_audit_arg, add_gravity_arg, finite_float, fps_arg, positive_float
 
 
 def register(subparsers) -> None:
@@ -36,10 +36,7 @@ def register(subparsers) -> None:
                         "leg IK, vertical ground force within 0.1-8 body weights, knees no tighter than the clip's "
                         "tuck) so the centre of mass reaches the new flight's velocity without a jump; refused with "
                         "the frames and the force needed when the stance cannot do it")
-    p.add_argument("--gravity", type=gravity_arg, default="standard", metavar="standard|clip|G",
-                   help="gravity the new flight falls with: standard (default, 9.81 m/s^2), clip (the gravity fitted "
-                        "to the input's flight, a diagnostic of its frame rate: the behaviour before issue #13) or a "
-                        "number in m/s^2")
+    add_gravity_arg(p)
     p.add_argument("-o", "--output", required=True, metavar="OUT.bvh", help="where to write the new motion (BVH)")
     p.add_argument("--report", metavar="report.json", help="also write the physics report as JSON")
     p.add_argument("--fps", type=fps_arg, default=None, help="frame rate to use instead of the file's")
@@ -62,20 +59,6 @@ def register(subparsers) -> None:
     p.add_argument("--filmstrip", metavar="PNG", help="also draw the original and the result side by side")
     add_audit_arg(p)
     p.set_defaults(func=run)
-
-
-def gravity_arg(text: str):
-    """``--gravity``: ``standard``, ``clip`` or a number of m/s^2 (0.5-100)."""
-    from ..flips.retime import GRAVITY_CHOICES, resolve_gravity
-
-    key = text.strip().lower()
-    if key in GRAVITY_CHOICES:
-        return key
-    try:
-        return resolve_gravity(finite_float(text), float("nan"))[0]
-    except (ValueError, argparse.ArgumentTypeError) as exc:
-        raise argparse.ArgumentTypeError(f"expected standard, clip or a number of m/s^2 in [0.5, 100], got {text!r}"
-                                         ) from exc
 
 
 #: Python-API hints in library error messages and the CLI option (or command) that does the same

@@ -10,7 +10,7 @@ from ._common import add_audit_arg, finite_float, float_in
 
 
 def register(subparsers) -> None:
-    from .edit import add_gravity_arg
+    from ._common import add_gravity_arg
 
     p = subparsers.add_parser(
         "twist", help="turn a twist jump into one with more (or less) rotation",

@@ -38,6 +38,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.motion import Motion
+from ..dynamics.constants import GRAVITY_CHOICES  # noqa: F401  (re-exported)
+from ..dynamics.constants import resolve_gravity as _resolve_gravity
 from ..errors import PhysicsError
 from ..flips.mass import FlightFit
 from ..flips.reposition import ComEvaluator, FlightTrajectory, flight_trajectory
@@ -46,43 +48,14 @@ from ..flips.retime import RetimePlan, plan_retime
 __all__ = ["LinearResult", "PlatformCheck", "correct_linear", "resolve_gravity", "GRAVITY_CHOICES",
            "takeoff_velocity_of"]
 
-#: the named choices of ``gravity`` (``"standard"``: 9.81 m/s^2, ``"clip"``: the input flight's fitted g)
-GRAVITY_CHOICES = ("standard", "clip")
 
 
 def resolve_gravity(gravity, fit: FlightFit | None = None) -> tuple[float, str]:
-    """``(g m/s^2, source)`` for the ``gravity`` option of the generated flights (issue #13 section 3).
-
-    ``"standard"`` (default; also ``None``): :data:`mocomp.dynamics.constants.G_STANDARD` = 9.81, the
-    gravity a physically valid output falls with; ``"clip"``: the input flight's fitted gravity
-    (``fit.gravity``; the paper's choice, which carries a clip's frame-rate or unit error into the
-    output: CMU 88_01's flight fits 11.82, the DeepMimic back flip 7.60); a number: that value in
-    m/s^2 (``source`` ``"given"``). The fitted value stays in the reports as a diagnostic."""
-    from ..dynamics.constants import G_STANDARD
-
-    if gravity is None or (isinstance(gravity, str) and gravity == "standard"):
-        return float(G_STANDARD), "standard"
-    if isinstance(gravity, str):
-        if gravity != "clip":
-            try:
-                gravity = float(gravity)
-            except ValueError:
-                raise ValueError(f"gravity must be 'standard', 'clip' or a number of m/s^2, got {gravity!r}") from None
-        else:
-            if fit is None:
-                raise ValueError("gravity='clip' needs the input flight's ballistic fit")
-            g = float(fit.gravity)
-            if not (np.isfinite(g) and g > 0):
-                raise PhysicsError(f"the input flight's fitted gravity is {g:.3f} m/s^2 (not downward): the flight "
-                                   "fit is not ballistic; use gravity='standard' (--gravity standard)")
-            return g, "clip"
-    try:
-        g = float(gravity)
-    except (TypeError, ValueError):
-        raise ValueError(f"gravity must be 'standard', 'clip' or a number of m/s^2, got {gravity!r}") from None
-    if not (np.isfinite(g) and 0.0 < g <= 1000.0):
-        raise ValueError(f"gravity must be a positive, finite number of m/s^2 (at most 1000), got {gravity!r}")
-    return g, "given"
+    """``(g m/s^2, source)`` for the ``gravity`` option of the generated flights (issue #13 section 3):
+    :func:`mocomp.dynamics.constants.resolve_gravity` with the input flight's fitted gravity
+    (``fit.gravity``) as ``"clip"``; ``None`` is ``"standard"``. The fitted value stays in the
+    reports as a diagnostic."""
+    return _resolve_gravity("standard" if gravity is None else gravity, float("nan") if fit is None else float(fit.gravity))
 
 
 @dataclass(frozen=True)

@@ -63,43 +63,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..dynamics.constants import GRAVITY_CHOICES, resolve_gravity  # noqa: F401  (re-exported)
 from ..errors import PhysicsError
 
 __all__ = ["k_star", "RetimePlan", "plan_retime", "sample_positions", "resolve_gravity", "GRAVITY_CHOICES"]
-
-#: the named values of the ``gravity`` parameter (besides a number in m/s^2)
-GRAVITY_CHOICES = ("standard", "clip")
-
-
-def resolve_gravity(gravity, fitted: float) -> tuple[float, str]:
-    """The gravity a generated flight falls with, and its source in words.
-
-    ``gravity``: ``"standard"`` (9.81 m/s^2, :data:`~mocomp.dynamics.constants.G_STANDARD`),
-    ``"clip"`` (``fitted``, the gravity fitted to the input's flight: the behaviour before issue
-    #13) or a positive number of m/s^2 (as a float, or a string such as ``"9.6"``). Raises
-    ``ValueError`` naming the value otherwise."""
-    from ..dynamics.constants import G_STANDARD
-
-    if isinstance(gravity, str):
-        key = gravity.strip().lower()
-        if key == "standard":
-            return float(G_STANDARD), "standard"
-        if key == "clip":
-            if not (np.isfinite(fitted) and fitted > 0):
-                raise PhysicsError(f"gravity='clip' needs a downward flight fit, but the clip's fitted gravity is "
-                                   f"{fitted!r}")
-            return float(fitted), "clip"
-        try:
-            value = float(key)
-        except ValueError:
-            raise ValueError(f"gravity must be 'standard', 'clip' or a number of m/s^2, got {gravity!r}") from None
-    elif isinstance(gravity, bool) or not isinstance(gravity, (int, float, np.integer, np.floating)):
-        raise ValueError(f"gravity must be 'standard', 'clip' or a number of m/s^2, got {gravity!r}")
-    else:
-        value = float(gravity)
-    if not (np.isfinite(value) and 0.5 <= value <= 100.0):
-        raise ValueError(f"gravity must be a finite number of m/s^2 in [0.5, 100], got {gravity!r}")
-    return value, "given"
 
 
 def k_star(g: float, T: float, v0: float, dy: float = 0.0) -> float:
