@@ -18,7 +18,6 @@ from typing import Callable, Sequence
 
 import numpy as np
 from scipy.ndimage import gaussian_filter1d
-from scipy.spatial.transform import Rotation
 
 from ..core.motion import Motion
 from ..core.rotations import quat_inverse, quat_multiply
@@ -30,11 +29,34 @@ KERNELS = ("gaussian", "bspline")
 
 
 def _log(q: np.ndarray) -> np.ndarray:
-    return Rotation.from_quat(np.array(q, dtype=float).reshape(-1, 4)).as_rotvec().reshape(q.shape[:-1] + (3,))
+    """Rotation vectors ``(..., 3)`` of unit quaternions ``(..., 4)`` (scalar last), angle in
+    ``[0, pi]``: ``Rotation.from_quat(q).as_rotvec()`` written out elementwise (no per-call object
+    set-up; equal to it to rounding, ``tests/test_ops_displacement_weights.py``)."""
+    q = np.asarray(q, dtype=float)
+    w = q[..., 3]
+    xyz = np.where((w < 0)[..., None], -q[..., :3], q[..., :3])
+    w = np.abs(w)
+    n = np.sqrt(np.einsum("...k,...k->...", xyz, xyz))
+    small = n < 1e-6
+    # angle / n = 2 atan2(n, w) / n; its series 2 / w - 2 n^2 / (3 w^3) where n is tiny
+    scale = np.where(small, 2.0 / np.where(w > 0, w, 1.0) * (1.0 - n * n / (3.0 * np.maximum(w, 1e-300) ** 2)),
+                     2.0 * np.arctan2(n, w) / np.where(small, 1.0, n))
+    return xyz * scale[..., None]
 
 
 def _exp(v: np.ndarray) -> np.ndarray:
-    return Rotation.from_rotvec(np.array(v, dtype=float).reshape(-1, 3)).as_quat().reshape(v.shape[:-1] + (4,))
+    """Unit quaternions ``(..., 4)`` (scalar last) of rotation vectors ``(..., 3)``:
+    ``Rotation.from_rotvec(v).as_quat()`` elementwise (equal to it to rounding, up to the sign of
+    the quaternion, which the log map and rotations do not see)."""
+    v = np.asarray(v, dtype=float)
+    th = np.sqrt(np.einsum("...k,...k->...", v, v))
+    small = th < 1e-6
+    # sin(th / 2) / th, and its series 1/2 - th^2 / 48 where th is tiny
+    s = np.where(small, 0.5 - th * th / 48.0, np.sin(0.5 * th) / np.where(small, 1.0, th))
+    out = np.empty(v.shape[:-1] + (4,))
+    out[..., :3] = v * s[..., None]
+    out[..., 3] = np.cos(0.5 * th)
+    return out
 
 
 def smooth_offsets(x: np.ndarray, width: float, kernel: str = "gaussian") -> np.ndarray:
@@ -134,6 +156,14 @@ class DisplacementMap:
             raise ValueError(f"damping factor must be finite, got {rho!r}")
         return DisplacementMap(self.root * rho, self.rotations * rho)
 
+    def weighted(self, weight) -> "DisplacementMap":
+        """Each frame's offsets times ``weight`` ``(T,)`` (a per-frame fade: 0 leaves a frame
+        alone, 1 applies the map fully)."""
+        w = np.asarray(weight, dtype=float)
+        if w.shape != (self.n_frames,) or not np.all(np.isfinite(w)):
+            raise ValueError(f"a per-frame weight must be {self.n_frames} finite numbers, got shape {w.shape}")
+        return DisplacementMap(self.root * w[:, None], self.rotations * w[:, None, None])
+
     def masked(self, joints: Sequence[int], root: bool = True) -> "DisplacementMap":
         """Only the given joints' rotations (and the root offset when ``root``) kept."""
         keep = np.zeros(self.rotations.shape[1], bool)
@@ -197,23 +227,53 @@ class HierarchyResult:
     post: tuple = field(default=())
 
 
+def _step_weights(weights, schedule, n_frames: int) -> list:
+    """One ``(T,)`` weight (or ``None``) per step from ``apply_hierarchy``'s ``weights``."""
+    if weights is None:
+        return [None] * len(schedule)
+    if isinstance(weights, np.ndarray) and weights.ndim == 1:
+        per = [weights] * len(schedule)
+    else:
+        per = list(weights)
+        if len(per) != len(schedule):
+            raise ValueError(f"weights: give one (T,) array for every step or one entry per step ({len(schedule)}), "
+                             f"got {len(per)}")
+    out = []
+    for k, w in enumerate(per):
+        if w is None:
+            out.append(None)
+            continue
+        w = np.asarray(w, dtype=float)
+        if w.shape != (n_frames,) or not np.all(np.isfinite(w)):
+            raise ValueError(f"weights of step {k + 1}: expected {n_frames} finite numbers (one per frame), got "
+                             f"shape {w.shape}")
+        out.append(w)
+    return out
+
+
 def apply_hierarchy(motion: Motion, adjust: Callable[[Motion, HierarchyStep], Motion],
                     schedule: Sequence[HierarchyStep],
-                    post: Callable[[Motion], Motion] | None = None) -> HierarchyResult:
+                    post: Callable[[Motion], Motion] | None = None, *, weights=None) -> HierarchyResult:
     """Apply a schedule of displacement-map levels (touch-up paper sec. 3.1, 4.1).
 
     For each step and iteration: ``target = adjust(current, step)`` gives the per-frame adjusted
     motion; the map ``current -> target`` (:meth:`DisplacementMap.between`) is smoothed with the
-    step's ``sigma`` and kernel, damped by ``rho`` and added; then ``post`` (e.g. footplant
-    re-enforcement, :func:`mocomp.ops.enforce_footplants`) is applied. Returns every map.
+    step's ``sigma`` and kernel, damped by ``rho``, weighted per frame (``weights``: one ``(T,)``
+    array for every step, or a sequence with one array or ``None`` per step; the weight multiplies
+    the smoothed map, so a frame of weight 0 is left exactly as it is -- touch-up keeps its ground
+    maps off the flights, Fig. 4) and added; then ``post`` (e.g. footplant re-enforcement,
+    :func:`mocomp.ops.enforce_footplants`) is applied. Returns every map (as added, weights included).
     """
     t0 = time.perf_counter()
     cur = motion
+    per_step = _step_weights(weights, schedule, motion.n_frames)
     maps, steps, mags, posts = [], [], [], []
     for s, step in enumerate(schedule):
         for it in range(int(step.iterations)):
             target = adjust(cur, step)
             d = DisplacementMap.between(cur, target).smoothed(step.sigma, step.kernel).scaled(step.rho)
+            if per_step[s] is not None:
+                d = d.weighted(per_step[s])
             cur = apply_displacement(cur, d)
             if post is not None:
                 cur = post(cur)
