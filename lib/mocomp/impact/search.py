@@ -1,0 +1,371 @@
+"""The motion search of the impact response (dissertation sec. 4.1, eq. 4.1-4.2, Appendix A).
+
+Given a query window (frames ``start .. stop-1`` of the simulated reaction) find the library clip,
+frame and root transform whose window continues it best. The window distance is eq. 4.1:
+
+    D(W1, W2) = sum_{i=s}^{e} w_i sum_b ( w_p,b |p_b(f1_i) - p_b(f2_i)| + w_theta,b |theta_b(f1_i) - theta_b(f2_i)| )
+
+with the 16 body parts of :mod:`mocomp.impact.features` (segment COMs and orientations; the angular
+term is the geodesic angle in radians), both windows aligned at their first frame in the ground
+plane (root heading and ground point), Table A.1's per-body weights, the supporting foot (the foot
+on the ground nearest the centre of mass at the query's first frame) weighted 1.0 / 0.10 instead of
+0.1 / 0.01, and the quadratic window weights of eq. A.1
+
+    w_i = -((i - s) / (e - s))^2 + 1
+
+(1 at the first frame, 0 at the last).
+
+Search (sec. 4.1): windows starting at the clips' **unique frames** (eq. 4.2, :mod:`.index`) are
+compared first; then "all possible windows in the surrounding intervals between the neighbouring
+unique frames" of the best ones. Two additions, both exact with respect to the unique-frame pass:
+
+* the unique-frame windows are evaluated best-first with early abandoning: every term of eq. 4.1 is
+  non-negative, so a window whose partial sum over its first frames already exceeds the distance
+  of the ``refine``-th best complete window cannot be among the ``refine`` best; it is dropped
+  without computing its remaining frames (the first frames carry the highest window weights);
+* the intervals around the ``refine`` best unique frames (default 3, the paper refines the best
+  one) are refined, which makes the result agree with the exhaustive search more often when two
+  clips match almost equally well.
+
+``exhaustive=True`` compares every window of every clip in full: the reference.
+
+Query and index rates: the query window is resampled to the index rate when they differ by more
+than 2 %. Result frames are the clip's own (native) frame numbers
+(:meth:`~mocomp.impact.index.LibraryIndex.motion` gives that clip on the victim's skeleton).
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..core.motion import Motion
+from ..core.rotations import quat_multiply
+from ..errors import MotionFormatError
+from ..ops.align import GroundTransform, yaw_quaternion
+from .features import BODY_PARTS, FOOT_PARTS, body_features, body_model_for, ground_frame_features, part_weights
+from .index import RATE_TOLERANCE, LibraryIndex, frame_distances
+
+__all__ = ["RootTransform", "SearchResult", "search", "window_weights", "window_distance", "support_foot_of"]
+
+_CHUNK = 192            # candidate windows per vectorised block (keeps the gathered arrays ~10 MB)
+_SUPPORT_HEIGHT = 0.05  # m: a foot within this height of the lowest foot counts as on the ground
+
+
+@dataclass(frozen=True)
+class RootTransform:
+    """``p -> R_y(yaw) p + translation``: maps the clip (at the found frame) onto the query (at
+    ``start``): the clip's root ground point goes to the query's and its heading to the query's.
+
+    yaw: rad about +y (counter-clockwise seen from above). translation: ``(3,)`` m, ``y = 0``.
+    Unpacks as ``yaw, translation = result.root_transform``.
+    """
+
+    yaw: float
+    translation: np.ndarray
+
+    def __iter__(self):
+        return iter((self.yaw, self.translation))
+
+    def ground_transform(self) -> GroundTransform:
+        """The same map as a :class:`mocomp.ops.align.GroundTransform` (pivot at the origin)."""
+        return GroundTransform(float(self.yaw), (0.0, 0.0, 0.0), tuple(float(x) for x in self.translation))
+
+    def apply_points(self, p) -> np.ndarray:
+        return self.ground_transform().apply_points(p)
+
+    def apply(self, motion: Motion) -> Motion:
+        """``motion`` (the found clip) moved rigidly onto the query."""
+        return self.ground_transform().apply(motion)
+
+
+@dataclass(frozen=True)
+class SearchResult:
+    """The best library window for a query window.
+
+    Attributes
+    ----------
+    clip: path of the clip file.
+    frame: first frame of the matched window, in the clip's own frame numbers.
+    root_transform: :class:`RootTransform` mapping the clip's root at ``frame`` onto the query's
+        root at ``start`` (heading and ground point).
+    distance: eq. 4.1 window distance (at the index rate).
+    runner_up: the best match in another clip or at least one window length away from ``frame``
+        (``None`` when there is none); its own ``runner_up`` is ``None``.
+    stats: ``frames_compared`` (frame pairs whose eq. 4.1 term was computed), ``frames_exhaustive``
+        (frame pairs of the exhaustive search), ``windows_compared``, ``windows_exhaustive``,
+        ``unique_windows`` (candidate windows at unique frames), ``window_frames``,
+        ``support_foot``, ``index_frame`` (frame in the index's numbering), ``clip_name``,
+        ``exhaustive``, ``seconds`` (wall time of the search, query features included).
+    """
+
+    clip: str
+    frame: int
+    root_transform: RootTransform
+    distance: float
+    runner_up: "SearchResult | None" = None
+    stats: dict = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        """JSON-ready summary (for reports)."""
+        out = {"clip": self.clip, "frame": int(self.frame), "distance": float(self.distance),
+               "yaw_deg": float(np.degrees(self.root_transform.yaw)),
+               "translation_m": [float(x) for x in self.root_transform.translation]}
+        if self.runner_up is not None:
+            out["runner_up"] = self.runner_up.to_dict()
+        out["stats"] = {k: (v.item() if isinstance(v, np.generic) else v) for k, v in self.stats.items()}
+        return out
+
+
+def window_weights(n: int) -> np.ndarray:
+    """Eq. A.1 over a window of ``n`` frames: ``w_i = 1 - (i / (n - 1))^2`` (``n >= 2``)."""
+    if n < 2:
+        raise ValueError(f"a search window needs at least 2 frames, got {n}")
+    i = np.arange(n)
+    return 1.0 - (i / (n - 1)) ** 2
+
+
+def support_foot_of(com: np.ndarray, positions: np.ndarray) -> str:
+    """``"left"``/``"right"``: the ground-support foot nearest (in the ground plane) to the centre of
+    mass ``com (3,)``, among the feet within 5 cm of the lowest foot (body parts ``positions (16, 3)``)."""
+    feet = {s: positions[BODY_PARTS.index(b)] for s, b in FOOT_PARTS.items()}
+    low = min(p[1] for p in feet.values())
+    on = {s: p for s, p in feet.items() if p[1] <= low + _SUPPORT_HEIGHT}
+    return min(on, key=lambda s: float(np.hypot(on[s][0] - com[0], on[s][2] - com[2])))
+
+
+def window_distance(pos_a, ori_a, pos_b, ori_b, support: str | None = None) -> float:
+    """Eq. 4.1, written out (the reference for the vectorised search): two windows of body parts
+    ``(L, 16, 3)``/``(L, 16, 4)`` already aligned at their first frames."""
+    wp, wr = part_weights(support)
+    w = window_weights(pos_a.shape[0])
+    return float(np.sum(w * frame_distances(pos_a, ori_a, pos_b, ori_b, wp, wr)))
+
+
+class _Query:
+    """The query window aligned at its first frame, and the per-frame kernel against the library."""
+
+    def __init__(self, index: LibraryIndex, window: Motion, support: str | None):
+        F = body_features(window, _body(index), velocities=False)
+        self.L = F.n_frames
+        self.support = support_foot_of(F.com[0], F.positions[0]) if support is None else support
+        self.ground0, self.heading0 = F.ground[0], float(F.heading[0])
+        qp, qo = ground_frame_features(F.positions, F.orientations, F.ground[0], F.heading[0])
+        w = window_weights(self.L)
+        keep = w > 0                                     # the last frame has weight 0
+        self.frames = np.flatnonzero(keep)
+        self.w = w[keep]
+        self.qp = qp[keep]
+        self.qo = qo[keep]
+        self.yqo = quat_multiply(np.array([0.0, 1.0, 0.0, 0.0]), self.qo)   # Y (x) Q, for the yaw of each candidate
+        self.wp, self.wr = part_weights(self.support)
+        cat = index.concatenated()
+        self.P, self.O, self.G, self.H = cat["positions"], cat["orientations"], cat["ground"], cat["heading"]
+
+    def terms(self, starts: np.ndarray, sel: slice | np.ndarray = slice(None)) -> np.ndarray:
+        """``(K, F)`` weighted eq. 4.1 terms of the windows starting at library rows ``starts`` for the
+        query frames ``self.frames[sel]``. Compares ``R_y(-psi_c)(p - g_c)`` with the aligned query
+        as ``(p - g_c) - R_y(psi_c) q`` and the orientations as ``<o, q_y(psi_c) Q>``."""
+        fr = self.frames[sel]
+        qp, qo, yqo, w = self.qp[sel], self.qo[sel], self.yqo[sel], self.w[sel]
+        out = np.empty((starts.size, fr.size))
+        for a in range(0, starts.size, _CHUNK):
+            s = starts[a:a + _CHUNK]
+            idx = s[:, None] + fr[None, :]
+            psi = self.H[s][:, None, None]
+            c, sn = np.cos(psi), np.sin(psi)
+            d = self.P[idx] - self.G[s][:, None, None, :]
+            d[..., 0] -= c * qp[..., 0] + sn * qp[..., 2]
+            d[..., 1] -= qp[..., 1]
+            d[..., 2] -= c * qp[..., 2] - sn * qp[..., 0]
+            lin = np.sqrt(np.einsum("kfbi,kfbi->kfb", d, d)) @ self.wp
+            o = self.O[idx]
+            dot = np.abs(np.cos(0.5 * psi) * np.einsum("kfbi,fbi->kfb", o, qo)
+                         + np.sin(0.5 * psi) * np.einsum("kfbi,fbi->kfb", o, yqo))
+            ang = (2.0 * np.arccos(np.minimum(dot, 1.0))) @ self.wr
+            out[a:a + _CHUNK] = w * (lin + ang)
+        return out
+
+
+def _body(index: LibraryIndex):
+    if "body" not in index._cat:
+        index._cat["body"] = body_model_for(index.skeleton)
+    return index._cat["body"]
+
+
+def _valid_starts(index: LibraryIndex, L: int):
+    """Per clip: first row, number of valid window starts (``n - L + 1``, may be <= 0)."""
+    cat = index.concatenated()
+    return cat["start"], cat["length"] - L + 1
+
+
+def _pruned_best(q: _Query, cands: np.ndarray, k: int, done: dict) -> int:
+    """Compute full eq. 4.1 distances (into ``done``) for at least the ``k`` best of ``cands``
+    (library rows), abandoning a window as soon as its partial sum exceeds the ``k``-th best
+    complete distance. Returns the number of frame pairs compared."""
+    todo = np.array([c for c in cands if c not in done], dtype=np.int64)
+    if todo.size == 0:
+        return 0
+    nF = q.frames.size
+    first = q.terms(todo, slice(0, 1))[:, 0]
+    compared = todo.size
+    order = np.argsort(first, kind="stable")
+    seed = order[:max(2 * k, 8)]
+    if seed.size:
+        full = first[seed] + (q.terms(todo[seed], slice(1, nF)).sum(axis=1) if nF > 1 else 0.0)
+        compared += seed.size * (nF - 1)
+        for c, dd in zip(todo[seed], full):
+            done[int(c)] = float(dd)
+    rest = order[max(2 * k, 8):]
+    act, part = todo[rest], first[rest]
+    lo, block = 1, 2
+    while act.size and lo < nF:
+        thr = np.sort(np.fromiter(done.values(), float))[min(k, len(done)) - 1]
+        keep = part <= thr
+        act, part = act[keep], part[keep]
+        if not act.size:
+            break
+        hi = min(nF, lo + block)
+        part = part + q.terms(act, slice(lo, hi)).sum(axis=1)
+        compared += act.size * (hi - lo)
+        lo, block = hi, block * 2
+    if lo >= nF:                                      # the survivors are complete
+        done.update(zip(act.tolist(), part.tolist()))
+    return compared
+
+
+def _interval_rows(index: LibraryIndex, row: int, L: int) -> np.ndarray:
+    """Library rows of every valid window start strictly between the unique frames neighbouring ``row``."""
+    cat = index.concatenated()
+    ci = int(np.searchsorted(cat["start"], row, side="right") - 1)
+    s0, n_valid = int(cat["start"][ci]), int(cat["length"][ci] - L + 1)
+    u = index.clips[ci].unique
+    f = row - s0
+    k = int(np.searchsorted(u, f))
+    lo = int(u[k - 1]) + 1 if k > 0 else 0
+    hi = int(u[k + 1]) - 1 if k + 1 < u.size else n_valid - 1
+    hi = min(hi, n_valid - 1)
+    return s0 + np.arange(lo, hi + 1, dtype=np.int64)
+
+
+def _clip_of(index: LibraryIndex, row: int) -> int:
+    return int(np.searchsorted(index.concatenated()["start"], row, side="right") - 1)
+
+
+def _result(index: LibraryIndex, q: _Query, row: int, dist: float, stats: dict) -> SearchResult:
+    ci = _clip_of(index, row)
+    clip = index.clips[ci]
+    k = row - int(index.concatenated()["start"][ci])
+    f = clip.native_frame(k)
+    yaw = q.heading0 - float(clip.native_heading[f])
+    yaw = float((yaw + np.pi) % (2 * np.pi) - np.pi)
+    g = np.asarray(clip.native_ground[f], dtype=float)
+    t = q.ground0 - _rot_y(yaw, g)
+    t[1] = 0.0
+    st = dict(stats, index_frame=int(k), clip_name=clip.name)
+    return SearchResult(clip.path, int(f), RootTransform(yaw, t), float(dist), None, st)
+
+
+def _rot_y(yaw: float, v: np.ndarray) -> np.ndarray:
+    from ..core.rotations import quat_apply
+
+    return quat_apply(yaw_quaternion(yaw), v)
+
+
+def _runner_up(index: LibraryIndex, done: dict, best: int, L: int) -> int | None:
+    bc = _clip_of(index, best)
+    far = [r for r in done if _clip_of(index, r) != bc or abs(r - best) >= L]
+    return min(far, key=lambda r: done[r]) if far else None
+
+
+def search(index: LibraryIndex, query: Motion, start: int, stop: int, *, support_foot: str | None = None,
+           exhaustive: bool = False, refine: int = 3) -> SearchResult:
+    """The library window that best continues ``query`` frames ``start .. stop-1`` (module docstring).
+
+    Parameters
+    ----------
+    index: :func:`~mocomp.impact.index.build_index` of the library for the query's skeleton.
+    query: a motion on the index's skeleton (e.g. the naive simulation), at any rate.
+    start, stop: the query window, frames ``start`` (inclusive) to ``stop`` (exclusive), >= 2 frames.
+    support_foot: ``"left"``/``"right"`` to force the supporting foot; ``None`` picks the foot on
+        the ground nearest the centre of mass at ``start``.
+    exhaustive: compare every window in full (the reference) instead of the unique-frame search.
+    refine: how many of the best unique-frame windows have their intervals refined (>= 1).
+    """
+    t0 = time.perf_counter()
+    if query.skeleton != index.skeleton:
+        raise MotionFormatError(
+            f"the query's skeleton ({query.skeleton.n_joints} joints, root {query.skeleton.names[0]!r}) is not the "
+            f"index's ({index.skeleton.n_joints} joints, root {index.skeleton.names[0]!r}); build the index for "
+            "the victim's skeleton")
+    start, stop = int(start), int(stop)
+    if not (0 <= start < stop <= query.n_frames):
+        raise ValueError(f"query window {start}..{stop} must satisfy 0 <= start < stop <= {query.n_frames} "
+                         "(the query's frame count)")
+    if support_foot is not None and support_foot not in FOOT_PARTS:
+        raise ValueError(f"support_foot must be 'left', 'right' or None, got {support_foot!r}")
+    if refine < 1:
+        raise ValueError(f"refine must be >= 1, got {refine!r}")
+    window = query.slice(start, stop)
+    resampled = abs(query.fps / index.fps - 1.0) > RATE_TOLERANCE
+    if resampled:
+        window = window.resample(index.fps)
+    if window.n_frames < 2:
+        raise ValueError(f"query window {start}..{stop} has {window.n_frames} frame at the index rate "
+                         f"{index.fps:g} Hz; a window needs at least 2")
+    q = _Query(index, window, support_foot)
+    L = q.L
+    starts, n_valid = _valid_starts(index, L)
+    if not np.any(n_valid > 0):
+        longest = max(c.n_frames for c in index.clips)
+        raise ValueError(f"the query window has {L} frames at {index.fps:g} Hz; the longest library clip has "
+                         f"{longest}: no clip can hold the window")
+    all_rows = np.concatenate([s + np.arange(max(n, 0)) for s, n in zip(starts, n_valid)]).astype(np.int64)
+    nF = q.frames.size
+    stats = {"frames_exhaustive": int(all_rows.size * nF), "windows_exhaustive": int(all_rows.size),
+             "window_frames": int(L), "support_foot": q.support, "exhaustive": bool(exhaustive),
+             "query_resampled": bool(resampled),
+             "clips_too_short": [c.name for c, n in zip(index.clips, n_valid) if n <= 0]}
+    done: dict[int, float] = {}
+    if exhaustive:
+        d = q.terms(all_rows).sum(axis=1)
+        done = dict(zip(all_rows.tolist(), d.tolist()))
+        stats.update(frames_compared=stats["frames_exhaustive"], windows_compared=int(all_rows.size),
+                     unique_windows=0)
+    else:
+        uniq = np.concatenate([s + c.unique[c.unique < n] for c, s, n in zip(index.clips, starts, n_valid)
+                               if n > 0]).astype(np.int64)
+        compared = _pruned_best(q, uniq, refine, done)
+        windows = set(uniq.tolist())
+        top = sorted(done, key=done.get)[:refine]
+        for r in top:
+            rows = _interval_rows(index, r, L)
+            new = np.array([x for x in rows.tolist() if x not in done], dtype=np.int64)
+            if new.size:
+                d = q.terms(new).sum(axis=1)
+                done.update(zip(new.tolist(), d.tolist()))
+                compared += new.size * nF
+                windows.update(new.tolist())
+        best = min(done, key=done.get)
+        if _runner_up(index, done, best, L) is None:
+            # no complete far window yet: the best unique window far from the best, then its interval
+            bc = _clip_of(index, best)
+            far = np.array([r for r in uniq.tolist() if _clip_of(index, r) != bc or abs(r - best) >= L], dtype=np.int64)
+            sub: dict[int, float] = {}
+            compared += _pruned_best(q, far, 1, sub)
+            if sub:
+                r = min(sub, key=sub.get)
+                done.update(sub)
+                rows = np.array([x for x in _interval_rows(index, r, L).tolist() if x not in done], dtype=np.int64)
+                if rows.size:
+                    done.update(zip(rows.tolist(), q.terms(rows).sum(axis=1).tolist()))
+                    compared += rows.size * nF
+                    windows.update(rows.tolist())
+        stats.update(frames_compared=int(compared), windows_compared=len(windows), unique_windows=int(uniq.size))
+    best = min(done, key=done.get)
+    ru = _runner_up(index, done, best, L)
+    stats["seconds"] = time.perf_counter() - t0
+    runner = _result(index, q, ru, done[ru], stats) if ru is not None else None
+    res = _result(index, q, best, done[best], stats)
+    return SearchResult(res.clip, res.frame, res.root_transform, res.distance, runner, res.stats)
