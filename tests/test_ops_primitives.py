@@ -315,3 +315,19 @@ def test_blend_time_warp_moves_the_cadence_from_a_to_b():
     assert da[0] == pytest.approx(1.0, abs=0.02) and da[-1] == pytest.approx(pa / pb, rel=0.03)
     assert db[0] == pytest.approx(pb / pa, rel=0.03) and db[-1] == pytest.approx(1.0, abs=0.02)
     assert np.linalg.norm(np.diff(r.motion.root_positions, axis=0), axis=1).max() < 1.4 * 1.5 / 120
+
+
+def test_second_pass_plants_a_point_the_given_labels_never_planted():
+    """Given labels that never plant the left toe point: the detector's second pass finds it planted
+    on the result; its level must come from the detector (the given plants have no level for it;
+    a column median of nothing gave NaN targets and NaN leg rotations)."""
+    m = walk().motion
+    pl = foot_plants(m)
+    lab = np.array(pl.labels)
+    k = pl.effectors.index("toe_l")
+    lab[:, k] = False
+    given = foot_plants(m, labels=lab, require=False)
+    r = enforce_footplants(m, given, audit=False, passes=2)
+    assert any(n.startswith("pass 2") for n in r.notes)
+    assert np.isfinite(r.motion.rotations).all()
+    assert r.plants.labels[:, k].any() and np.isfinite(r.plants.levels[r.plants.labels[:, k], k]).all()

@@ -605,8 +605,11 @@ def enforce_footplants(motion: Motion, plants: FootPlants | None = None, *, cont
             break
         notes.append(f"pass {k + 2}: {int(new.sum())} frame(s) the detector finds planted on the result added")
         lab = plants.labels | new
-        lev = np.where(lab, np.where(np.isnan(plants.levels), _column_nanmedian(plants.levels)[None],
-                                     plants.levels), np.nan)
+        # a point planted before: its median level; one planted only now: the level the detector found
+        fill = _column_nanmedian(plants.levels)
+        det = again.ground_y + again.levels[[again.effectors.index(e) for e in plants.effectors]]
+        fill = np.where(np.isnan(fill), det, fill)
+        lev = np.where(lab, np.where(np.isnan(plants.levels), fill[None], plants.levels), np.nan)
         plants = dataclasses.replace(plants, labels=lab, levels=lev)
         plants, _ = _close_gaps(plants, max(1, blend // 2))
         prev = (rot, state)
