@@ -107,7 +107,7 @@ def test_eq6_is_eq4_under_rotation(walk):
     z = zmp_state(body, m, st.contact_points, st.contact_mask, gy, smooth_sigma=None)
     ls = link_sets(body, s1="lower", s2="upper")
     f = z.outside()
-    adj = ground_adjustment(body, m, ls, z, f, feet_in_s1=True, g=G)
+    adj = ground_adjustment(body, m, ls, z, f, feet_in_s1=True, g=G, max_angle=np.inf)
     _, Z2 = _zmp_after(body, m, adj, z.a, gy)
     d = np.cross(adj.axis, [0.0, 1.0, 0.0])
     d /= np.linalg.norm(d, axis=1, keepdims=True).clip(1e-300)
@@ -119,6 +119,26 @@ def test_eq6_is_eq4_under_rotation(walk):
     P1, _ = m.fk()
     P2, _ = m.replace(root_positions=adj.root_positions, rotations=adj.rotations).fk()
     assert np.abs(P2[:, [4, 5, 9, 10]] - P1[:, [4, 5, 9, 10]]).max() < 1e-9
+
+
+def test_per_frame_turn_capped(walk):
+    """Departure from the paper: |theta| is cut to max_angle (eq. 7's clamped frames turn by the
+    angle of farthest reach, up to 90 deg for the arms); the capped frames are reported and keep
+    the sign of eq. 7's angle."""
+    m, body = walk
+    st = stages(m)
+    z = zmp_state(body, m, st.contact_points, st.contact_mask, st.plants.contacts.ground_y, smooth_sigma=None)
+    ls = link_sets(body, s1="rest", s2="arms")
+    free = ground_adjustment(body, m, ls, z, z.outside(), feet_in_s1=True, g=G, max_angle=np.inf)
+    lim = 0.05
+    cap = ground_adjustment(body, m, ls, z, z.outside(), feet_in_s1=True, g=G, max_angle=lim)
+    big = np.abs(free.theta) > lim
+    assert big.sum() > 10 and not free.capped.any()
+    assert np.array_equal(cap.capped, big)
+    np.testing.assert_allclose(cap.theta[big], lim * np.sign(free.theta[big]), atol=1e-15)
+    np.testing.assert_array_equal(cap.theta[~big], free.theta[~big])
+    with pytest.raises(ValueError, match="max_angle"):
+        ground_adjustment(body, m, ls, z, z.outside(), feet_in_s1=True, g=G, max_angle=0.0)
 
 
 def test_single_static_frame_lands_on_polygon_boundary(walk):

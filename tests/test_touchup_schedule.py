@@ -13,6 +13,11 @@ def test_presets_are_the_papers():
     g = preset_schedule("ground-default")
     assert [(s.s1, s.s2, s.s3, round(s.sigma_s * PAPER_FPS), s.rho) for s in g] == [
         ((), "lower", "upper", 40, 0.5), ("lower", "upper", (), 20, 0.3), ("rest", "arms", (), 10, 0.2)]
+    assert [s.iterations for s in g] == [5, 5, 2]                     # sec. 4.3: 5 + 5 + 2 iterations
+    # the paper's "filter kernel 40 frames wide": the Gaussian's +-3 sd span the width
+    assert all(s.kernel == "gaussian" for s in g) and np.isclose(g[0].kernel_parameter(30.0), 40 / 6)
+    from dataclasses import replace
+    assert np.isclose(replace(g[0], kernel="bspline").kernel_parameter(30.0), 10.0)
     f = preset_schedule("flight-default")
     assert [(s.s2, round(s.sigma_s * PAPER_FPS), s.rho) for s in f] == [("lower", 10, 0.3), ("upper", 10, 0.3),
                                                                         ("all", 5, 1.0)]

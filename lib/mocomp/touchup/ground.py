@@ -24,6 +24,13 @@ its offset from the centre that carries it (S2: the mass itself; S3: the S2/S3 j
 the root of smaller ``|theta|``; a negative radicand is clamped to 0 (the ZMP as close to ``Z'``
 as the rotation can bring it) and the frame is reported as clamped. The change of ``Z_z`` is
 neglected, as the paper argues (appendix).
+
+Departure from the paper: ``|theta|`` is capped at ``max_angle`` (default 20 deg per frame and
+iteration, before the damping ``rho``; capped frames are reported). On a clamped frame eq. 7 gives
+the angle of the farthest reach, ``-atan2(a2, a1)`` plus ``0`` or ``pi``: for a small S2 about a
+high joint (the upper body about the lower back, the arms about the shoulders) that is a turn of
+60-90 deg whatever the distance left. On the Bandai walk rotated uphill the first frames' ZMP is
+40-50 cm behind the feet, out of the upper body's reach, and the uncapped spine bent 77 deg there.
 """
 from __future__ import annotations
 
@@ -34,9 +41,11 @@ from scipy.spatial.transform import Rotation
 
 from .linksets import LinkSets, local_from_global, rotate_sets
 
-__all__ = ["GroundAdjustment", "eq6_coefficients", "eq7_angle", "ground_adjustment", "rotation_centres"]
+__all__ = ["GroundAdjustment", "eq6_coefficients", "eq7_angle", "ground_adjustment", "rotation_centres", "MAX_ANGLE"]
 
 _UP = np.array([0.0, 1.0, 0.0])
+#: rad: the largest per-frame turn of one ground adjustment (module docstring)
+MAX_ANGLE = float(np.radians(20.0))
 
 
 def eq6_coefficients(masses, a, w, moved, zmp_x, direction, g: float):
@@ -94,9 +103,9 @@ def rotation_centres(P: np.ndarray, sets: LinkSets, fallback: np.ndarray | None)
 
 @dataclass(frozen=True, eq=False)
 class GroundAdjustment:
-    """Per frame: ``theta`` rad (0 where not adjusted), ``axis`` ``(T, 3)``, ``adjusted`` and
-    ``clamped`` ``(T,)`` bool, and the adjusted global ``P``, ``G``, local ``rotations``,
-    ``root_positions``."""
+    """Per frame: ``theta`` rad (0 where not adjusted), ``axis`` ``(T, 3)``, ``adjusted``,
+    ``clamped`` (eq. 7's radicand negative) and ``capped`` (``|theta|`` cut to ``max_angle``)
+    ``(T,)`` bool, and the adjusted ``root_positions`` and local ``rotations``."""
 
     theta: np.ndarray
     axis: np.ndarray
@@ -104,6 +113,7 @@ class GroundAdjustment:
     clamped: np.ndarray
     root_positions: np.ndarray
     rotations: np.ndarray
+    capped: np.ndarray = None
 
 
 def segment_offsets(body, P, G, r, sets: LinkSets, C):
@@ -123,10 +133,13 @@ def segment_offsets(body, P, G, r, sets: LinkSets, C):
 
 
 def ground_adjustment(body, motion, sets: LinkSets, state, frames: np.ndarray, *, feet_in_s1: bool,
-                      g: float) -> GroundAdjustment:
+                      g: float, max_angle: float = MAX_ANGLE) -> GroundAdjustment:
     """Eq. 6-7 on the ``frames`` ``(T,)`` bool (ground frames with the ZMP outside), from the ZMP
     ``state`` (:class:`~mocomp.touchup.zmp.ZmpState`); ``feet_in_s1``: S1 holds a foot point, so the
-    centre is the S1/S2 joint, else the ZMP's projection."""
+    centre is the S1/S2 joint, else the ZMP's projection; ``max_angle`` rad caps ``|theta|``
+    (module docstring; ``np.inf``: the paper's angles)."""
+    if not (max_angle > 0):
+        raise ValueError(f"max_angle must be a positive angle in rad, got {max_angle!r}")
     P, G = motion.fk()
     T = motion.n_frames
     frames = np.asarray(frames, bool) & np.isfinite(state.distance) & np.all(np.isfinite(state.target), axis=1)
@@ -140,14 +153,18 @@ def ground_adjustment(body, motion, sets: LinkSets, state, frames: np.ndarray, *
     w, moved = segment_offsets(body, P, G, state.r, sets, C)
     theta = np.zeros(T)
     clamped = np.zeros(T, bool)
+    capped = np.zeros(T, bool)
     if frames.any():
         f = frames
         a1, a2, a3 = eq6_coefficients(body.masses, state.a[f], w[f], moved, np.einsum("tk,tk->t", state.zmp[f], d[f]),
                                       d[f], g)
         th, cl = eq7_angle(a1, a2, a3, np.einsum("tk,tk->t", state.target[f], d[f]))
         theta[f], clamped[f] = th, cl
+        capped = np.abs(theta) > max_angle
+        theta = np.clip(theta, -max_angle, max_angle)
     axis = np.cross(d, _UP)
     R = Rotation.from_rotvec(axis * theta[:, None]).as_matrix()
     Pn, Gn = rotate_sets(P, G, sets, R, C)
     root = int(np.flatnonzero(sets.parents < 0)[0])
-    return GroundAdjustment(theta, axis, frames, clamped & frames, Pn[:, root], local_from_global(Gn, sets.parents))
+    return GroundAdjustment(theta, axis, frames, clamped & frames, Pn[:, root], local_from_global(Gn, sets.parents),
+                            capped & frames)

@@ -16,16 +16,16 @@ import numpy as np
 from ..dynamics.com import center_of_mass
 from ..dynamics.momentum import momentum
 from ..dynamics.constants import G_STANDARD
-from ..ops import HierarchyStep, apply_hierarchy, enforce_footplants
+from ..ops import HierarchyStep, apply_hierarchy, ease, enforce_footplants
 from ..ops.footplant import foot_points
 from .flight import com_residual, flight_com_adjustment, flight_momentum_adjustment
-from .ground import ground_adjustment
+from .ground import MAX_ANGLE, ground_adjustment
 from .linksets import link_sets
 from .schedule import schedule_from_spec
 from .stages import Stages, stages
 from .zmp import DEFAULT_SMOOTH_SIGMA, floor_levels, zmp_state
 
-__all__ = ["TouchupResult", "touchup", "NEIGHBOURHOOD_S"]
+__all__ = ["TouchupResult", "touchup", "NEIGHBOURHOOD_S", "ground_weights"]
 
 #: s: ground frames this close to a flight are adjusted with it (the paper's 15 frames, 1/2 s)
 NEIGHBOURHOOD_S = 0.5
@@ -49,11 +49,13 @@ class TouchupResult:
     seconds: float
     distance_before: np.ndarray = None
     distance_after: np.ndarray = None
+    capped: dict = None
 
     def to_dict(self) -> dict:
         return {"stages": self.stages.to_dict(), "schedule": [s.to_dict() for s in self.schedule],
                 "planned": {"before": self.before, "after": self.after, "iterations": list(self.history),
-                            "clamped_frames": {k: v for k, v in self.clamped.items()}},
+                            "clamped_frames": {k: v for k, v in self.clamped.items()},
+                            "capped_frames": dict(self.capped or {})},
                 "seconds": self.seconds}
 
 
@@ -63,29 +65,53 @@ def _variation(L: np.ndarray) -> float:
     return float((L.max() - L.min()) / max(L.mean(), 1e-9))
 
 
-def _measure(body, motion, st: Stages, ground_y: float, smooth_sigma, g: float) -> dict:
-    P, G = motion.fk()
-    pts = foot_points(P, G, st.plants)
-    z = zmp_state(body, motion, pts, st.contact_mask, ground_y, smooth_sigma=smooth_sigma, g=g)
-    out = z.summary(st.ground)
-    out["_distance"] = np.where(st.ground, z.distance, np.nan)
+def ground_weights(n_frames: int, flights, neighbourhood: int) -> np.ndarray:
+    """``(T,)``: the weight of the ground maps per frame (:func:`mocomp.ops.apply_hierarchy`'s
+    ``weights``). 0 on a flight and on the frame either side; easing to 1 over the flight's
+    neighbourhood (Fig. 4: those ground frames are the flight steps', their take-off push and
+    landing impact stay out of the ground maps), but over no more frames than the flight lasts: a
+    run's 1-3 frame flights (30 fps) would otherwise take every ground frame of the run out of the
+    ground maps (0.5 s either side of flights 0.37 s apart), and the walk -> run blend's ZMP was left
+    as it was (mean outside 8.1 -> 6.8 cm; 4.2 cm with the reach cut to the flights' lengths)."""
+    w = np.ones(n_frames)
+    for a, b in flights:
+        w[a:b] = 0.0
+        n = min(int(neighbourhood), b - a)
+        for i in range(1, n + 1):                  # the frame next to a flight stays 0 too
+            v = float(ease(np.array([(i - 1) / n]))[0])
+            for f in (a - i, b - 1 + i):
+                if 0 <= f < n_frames:
+                    w[f] = min(w[f], v)
+    return w
+
+
+def _flight_records(body, motion, flights, g: float) -> list:
+    if not flights:
+        return []
     com = center_of_mass(body, motion)
     L = np.linalg.norm(momentum(body, motion).angular, axis=1)
-    out["flights"] = [{"frames": [a, b], "com_residual_m": com_residual(com, a, b, motion.fps, g),
-                       "L_variation": _variation(L[a + 1:b - 1] if b - a >= 5 else L[a:b])}
-                      for a, b in st.flight_runs]
-    return out
+    return [{"frames": [a, b], "com_residual_m": com_residual(com, a, b, motion.fps, g),
+             "L_variation": _variation(L[a + 1:b - 1] if b - a >= 5 else L[a:b])}
+            for a, b in flights]
 
 
 def touchup(motion, body=None, schedule=None, *, contacts=None, iterations: int | None = None,
             smooth_sigma: float | None = DEFAULT_SMOOTH_SIGMA, neighbourhood_s: float = NEIGHBOURHOOD_S,
-            g: float = G_STANDARD, footplants: bool = True) -> TouchupResult:
+            g: float = G_STANDARD, footplants: bool = True, polygon: str = "contact",
+            max_angle_deg: float = float(np.degrees(MAX_ANGLE))) -> TouchupResult:
     """Touch up ``motion`` (module docstring).
 
     ``schedule``: a sequence of :class:`~mocomp.touchup.schedule.Step`, a preset name or a TOML
     path (default: ``ground-default`` then ``flight-default``); ``contacts``: plant overrides
-    (:func:`mocomp.touchup.stages.stages`); ``iterations``: replaces every step's count."""
+    (:func:`mocomp.touchup.stages.stages`); ``iterations``: replaces every step's count;
+    ``polygon``: the support polygon of the touching foot points (``"contact"``, the paper's
+    contact region) or of the planted ones (``"planted"``, :meth:`Stages.polygon_mask`);
+    ``max_angle_deg``: the cap of a ground adjustment's per-frame turn
+    (:data:`mocomp.touchup.ground.MAX_ANGLE`; ``inf``: the paper's angles)."""
+    from dataclasses import replace
+
     from ..audit import default_body
+    from ..ops import DisplacementMap, apply_displacement
 
     t0 = time.perf_counter()
     if not (np.isfinite(neighbourhood_s) and neighbourhood_s >= 0):
@@ -94,98 +120,107 @@ def touchup(motion, body=None, schedule=None, *, contacts=None, iterations: int 
     steps = tuple(schedule) if isinstance(schedule, (list, tuple)) else schedule_from_spec(schedule, motion.fps,
                                                                                              iterations)
     if iterations is not None and isinstance(schedule, (list, tuple)):
-        from dataclasses import replace
-
         steps = tuple(replace(s, iterations=int(iterations)) for s in steps)
     st = stages(motion, contacts)
+    mask = st.polygon_mask(polygon)
     ground_y = floor_levels(st.plants.levels, float(np.nanmin(st.plants.levels)))
     sets = [link_sets(body, s.s1, s.s2, s.s3, where=s.where) for s in steps]
     foot_joints = {leg.ankle_point[0] for leg in st.plants.legs} | {leg.toe_point[0] for leg in st.plants.legs}
+    feet = sorted(foot_joints)
     nb = int(round(neighbourhood_s * motion.fps))
     flights = st.flight_runs
-    ground_mask = st.ground
+    T = motion.n_frames
+
+    ground_w = ground_weights(T, flights, nb)
+    in_air = np.zeros(T)
+    for a, b in flights:                           # with the frame either side (a detector one frame off)
+        in_air[max(a - 1, 0):b + 1] = 1.0
+
+    cache: dict = {}
+
+    def zstate(cur):
+        """The ZMP state of ``cur``, computed once per motion (the record of an iteration is the
+        state the next iteration adjusts from)."""
+        if cache.get("motion") is not cur:
+            P, G = cur.fk()
+            cache["motion"], cache["z"] = cur, zmp_state(body, cur, foot_points(P, G, st.plants), mask, ground_y,
+                                                         smooth_sigma=smooth_sigma, g=g)
+        return cache["z"]
+
+    def measure(cur) -> dict:
+        z = zstate(cur)
+        out = z.summary(st.ground)
+        out["_distance"] = np.where(st.ground, z.distance, np.nan)
+        out["flights"] = _flight_records(body, cur, flights, g)
+        return out
+
     clamped: dict[int, list[int]] = {}
+    capped: dict[int, list[int]] = {}
     history = []
-    before = _measure(body, motion, st, ground_y, smooth_sigma, g)
+    before = measure(motion)
     dist_before = before.pop("_distance")
     dist_after = dist_before
-
-    # ground maps leave the flights, and the ground frames within the neighbourhood of a flight
-    # (adjusted with it, Fig. 4), alone: 0 there, easing to 1 over the neighbourhood
-    from ..ops import DisplacementMap, apply_displacement, ease
-
-    ground_w = np.ones(motion.n_frames)
-    for a, b in flights:
-        ground_w[a:b] = 0.0
-        for i in range(1, nb + 1):                 # the frame next to a flight stays 0 too
-            v = float(ease(np.array([(i - 1) / nb]))[0])
-            for f in (a - i, b - 1 + i):
-                if 0 <= f < motion.n_frames:
-                    ground_w[f] = min(ground_w[f], v)
-    state = {}
+    state: dict = {}
 
     def adjust(cur, hstep):
         k = int(hstep.label)
         step, ls = steps[k], sets[k]
-        state["prev"], state["stage"] = cur, step.stage
+        state["prev"], state["k"] = cur, k
         if step.stage == "ground":
-            P, G = cur.fk()
-            z = zmp_state(body, cur, foot_points(P, G, st.plants), st.contact_mask, ground_y,
-                          smooth_sigma=smooth_sigma, g=g)
+            z = zstate(cur)
             feet_in_s1 = any(ls.s1[j] for j in foot_joints)
             # frames near a flight are the flight steps' (Fig. 4): their take-off pushes and landing
             # impacts do not enter the ground maps
-            adj = ground_adjustment(body, cur, ls, z, ground_mask & z.outside() & (ground_w >= 1.0),
-                                    feet_in_s1=feet_in_s1, g=g)
+            adj = ground_adjustment(body, cur, ls, z, st.ground & z.outside() & (ground_w >= 1.0),
+                                    feet_in_s1=feet_in_s1, g=g, max_angle=np.radians(max_angle_deg))
             clamped.setdefault(k, []).extend(np.flatnonzero(adj.clamped).tolist())
+            capped.setdefault(k, []).extend(np.flatnonzero(adj.capped).tolist())
         else:
-            if not flights:
-                return cur
             mom = flight_momentum_adjustment(body, cur, ls, flights, neighbourhood=nb)
             cur = cur.replace(root_positions=mom.root_positions, rotations=mom.rotations)
             adj = flight_com_adjustment(body, cur, ls, flights, center_of_mass(body, cur), neighbourhood=nb, g=g)
         return cur.replace(root_positions=adj.root_positions, rotations=adj.rotations)
 
-    in_air = np.zeros(motion.n_frames)
-    for a, b in flights:                           # with the frame either side (a detector one frame off)
-        in_air[max(a - 1, 0):b + 1] = 1.0
-
-    def weighted(base, moved, w):
-        d = DisplacementMap.between(base, moved)
-        return apply_displacement(base, DisplacementMap(d.root * w[:, None], d.rotations * w[:, None, None]))
+    def hold(mm):
+        return DisplacementMap.between(mm, enforce_footplants(mm, st.plants, audit=False, passes=1).motion)
 
     def post(cur):
-        if state["stage"] == "ground" and flights:
-            cur = weighted(state["prev"], cur, ground_w)
-        moved = DisplacementMap.between(state["prev"], cur).magnitude()
-        if not footplants or max(moved) < 1e-9:      # a step that changed nothing needs no plants held
-            return cur
-        # hold the feet against what this step moved, not against the plants' ideal: the IK
-        # correction of the previous motion (the input's own slides) is taken off, so touch-up
-        # keeps the input's feet and an unedited clip is not cleaned up behind the user's back
-        hold = lambda mm: DisplacementMap.between(mm, enforce_footplants(mm, st.plants, audit=False,  # noqa: E731
-                                                                          passes=1).motion)
-        d_cur, d_prev = hold(cur), hold(state["prev"])
-        held = apply_displacement(cur, DisplacementMap(d_cur.root - d_prev.root, d_cur.rotations - d_prev.rotations))
-        # the plants' fade-out must not reach into a flight (its COM is on the parabola)
-        return weighted(cur, held, 1.0 - in_air) if flights else held
+        prev = state["prev"]
+        moved = np.linalg.norm(cur.fk()[0][:, feet] - prev.fk()[0][:, feet], axis=-1).max(initial=0.0)
+        if footplants and moved > 1e-6:
+            # hold the feet against what this step moved, not against the plants' ideal: the IK
+            # correction of the input (its own slides; computed once) is taken off, so touch-up
+            # keeps the input's feet and an unedited clip is not cleaned up behind the user's back.
+            # Steps that leave the legs alone (S1 holding the lower body) move no foot: no IK.
+            if "d_ref" not in cache:
+                cache["d_ref"] = hold(motion)
+            d_cur, d_ref = hold(cur), cache["d_ref"]
+            held = apply_displacement(cur, DisplacementMap(d_cur.root - d_ref.root,
+                                                           d_cur.rotations - d_ref.rotations))
+            # the plants' fade-out must not reach into a flight (its COM is on the parabola)
+            cur = apply_displacement(cur, DisplacementMap.between(cur, held).weighted(1.0 - in_air)) if flights \
+                else held
+        k = state["k"]
+        rec = measure(cur)
+        rec.update(step=k, iteration=sum(1 for h in history if h["step"] == k), label=steps[k].label())
+        history.append(rec)
+        return cur
 
-    hsteps = [HierarchyStep(s.sigma_frames(motion.fps), s.rho, s.kernel, s.iterations, str(k))
-              for k, s in enumerate(steps)]
+    run = [k for k, s in enumerate(steps) if s.stage == "ground" or flights]
+    hsteps = [HierarchyStep(steps[k].kernel_parameter(motion.fps), steps[k].rho, steps[k].kernel,
+                            steps[k].iterations, str(k)) for k in run]
+    weights = [ground_w if (steps[k].stage == "ground" and flights) else None for k in run]
     cur = motion
-    for k, hs in enumerate(hsteps):
-        if steps[k].stage == "flight" and not flights:
-            continue
-        for it in range(hs.iterations):
-            res = apply_hierarchy(cur, adjust, [HierarchyStep(hs.sigma, hs.rho, hs.kernel, 1, hs.label)], post)
-            cur = res.motion
-            rec = _measure(body, cur, st, ground_y, smooth_sigma, g)
-            dist_after = rec.pop("_distance")
-            rec.update(step=k, iteration=it, label=steps[k].label(), map_root_m=res.magnitudes[0][0],
-                       map_angle_rad=res.magnitudes[0][1])
-            history.append(rec)
+    if hsteps:
+        res = apply_hierarchy(motion, adjust, hsteps, post, weights=weights)
+        cur = res.motion
+        for rec, (root_m, ang) in zip(history, res.magnitudes):
+            rec.update(map_root_m=root_m, map_angle_rad=ang)
+    for rec in history:
+        dist_after = rec.pop("_distance")
     after = history[-1] if history else before
     return TouchupResult(cur, motion, st, steps, tuple(history),
                          {steps[k].label(): sorted(set(v)) for k, v in clamped.items()},
                          before, {k: v for k, v in after.items() if k not in ("step", "iteration", "label")},
-                         time.perf_counter() - t0, dist_before, dist_after)
+                         time.perf_counter() - t0, dist_before, dist_after,
+                         {steps[k].label(): sorted(set(v)) for k, v in capped.items()})

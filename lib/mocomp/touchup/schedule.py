@@ -3,18 +3,27 @@
 
 A :class:`Step` adjusts ``stage`` (``"ground"``: the ZMP, sec. 3.3; ``"flight"``: angular momentum
 and the ballistic COM, sec. 3.4) with link sets ``s1``/``s2``/``s3`` (presets or joint names,
-:func:`mocomp.touchup.linksets.link_sets`), a smoothing width ``sigma`` and a damping ``rho``, for
-``iterations`` iterations. Widths are kept in seconds so that a schedule means the same on a 30 and
-a 120 fps clip; the paper's widths are frames of its 30 fps motions (its 15-frame flight
-neighbourhood is "1/2 second"), so its 40, 20 and 10 frames are 4/3, 2/3 and 1/3 s. The smoothing
-is the least-squares cubic B-spline with knots every ``sigma`` (Lee & Shin's hierarchical
-displacement maps, which the paper uses), or a Gaussian of standard deviation ``sigma``.
+:func:`mocomp.touchup.linksets.link_sets`), a smoothing kernel of width ``sigma`` and a damping
+``rho``, for ``iterations`` iterations. Widths are kept in seconds so that a schedule means the same
+on a 30 and a 120 fps clip; the paper's widths are frames of its 30 fps motions (its 15-frame flight
+neighbourhood is "1/2 second"), so its 40, 20 and 10 frames are 4/3, 2/3 and 1/3 s.
 
-Presets (sec. 4.1): ``ground-default`` (lower S2 / upper S3, 40 frames, 0.5; lower S1 / upper S2,
-20, 0.3; arms S2 / rest S1, 10, 0.2), ``flight-default`` (lower S2 / upper S1, 10, 0.3; upper S2 /
-lower S1, 10, 0.3; all S2, 5, 1) and ``uphill`` (``ground-default`` with its first two steps
-swapped, sec. 4.4). A TOML file lists ``[[step]]`` tables with the keys of :class:`Step`
-(``sigma`` in frames of the clip, or ``sigma_s`` in seconds).
+The width is the paper's "filter kernel 40 frames wide" (sec. 4.1): the kernel's whole extent, not
+a standard deviation. The Gaussian kernel (the default) spans it with +-3 standard deviations
+(standard deviation ``width / 6``); the least-squares cubic B-spline (Lee & Shin's hierarchical
+displacement maps) has its basis functions that wide (knots every ``width / 4``: a cubic B-spline
+spans 4 knot intervals). Read as a standard deviation or a knot spacing, 40 frames smooths the
+per-frame adjustments over a whole walk cycle and more, and the lean cannot follow the steps:
+on the Bandai walk path-edited onto a curve, ``ground-default`` left 72 % of the mean ZMP distance
+outside the support polygon that way, 5 % with the kernel 40 frames wide.
+
+Presets (sec. 4.1, iterations from sec. 4.3: "five iterations [lower body], ... the upper body
+five times followed by two iterations for the arms"): ``ground-default`` (lower S2 / upper S3, 40
+frames, 0.5, x5; lower S1 / upper S2, 20, 0.3, x5; arms S2 / rest S1, 10, 0.2, x2),
+``flight-default`` (lower S2 / upper S1, 10, 0.3; upper S2 / lower S1, 10, 0.3; all S2, 5, 1; once
+each) and ``uphill`` (``ground-default`` with its first two steps swapped, sec. 4.4). A TOML file
+lists ``[[step]]`` tables with the keys of :class:`Step` (``sigma`` in frames of the clip, or
+``sigma_s`` in seconds).
 """
 from __future__ import annotations
 
@@ -27,11 +36,14 @@ import numpy as np
 from ..errors import MocompError
 
 __all__ = ["Step", "ScheduleError", "PRESET_SCHEDULES", "preset_schedule", "read_schedule", "schedule_from_spec",
-           "PAPER_FPS"]
+           "PAPER_FPS", "WIDTH_OVER_PARAMETER"]
 
 #: the frame rate of the paper's motions (15 frames = 1/2 s, sec. 3.4)
 PAPER_FPS = 30.0
-KERNELS = ("bspline", "gaussian")
+KERNELS = ("gaussian", "bspline")
+#: the kernel's whole width over its smoothing parameter: +-3 standard deviations of a Gaussian,
+#: 4 knot intervals of a cubic B-spline (module docstring)
+WIDTH_OVER_PARAMETER = {"gaussian": 6.0, "bspline": 4.0}
 
 
 class ScheduleError(MocompError, ValueError):
@@ -40,7 +52,8 @@ class ScheduleError(MocompError, ValueError):
 
 @dataclass(frozen=True)
 class Step:
-    """One adjustment: ``stage`` ground/flight, link sets, ``sigma_s`` s, ``rho``, ``iterations``."""
+    """One adjustment: ``stage`` ground/flight, link sets, ``sigma_s`` s (the smoothing kernel's
+    whole width), ``rho``, ``iterations``, ``kernel``."""
 
     stage: str
     s2: object
@@ -49,7 +62,7 @@ class Step:
     sigma_s: float = 0.0
     rho: float = 1.0
     iterations: int = 1
-    kernel: str = "bspline"
+    kernel: str = "gaussian"
     where: str = "step"
 
     def __post_init__(self):
@@ -68,7 +81,13 @@ class Step:
             raise ScheduleError(f"{w}: s3 must be empty on a flight step (the paper's closed forms, sec. 3.4)")
 
     def sigma_frames(self, fps: float) -> float:
+        """The kernel's whole width in frames."""
         return float(self.sigma_s * fps)
+
+    def kernel_parameter(self, fps: float) -> float:
+        """Frames: the Gaussian's standard deviation or the B-spline's knot spacing of a kernel
+        ``sigma_frames`` wide (:data:`WIDTH_OVER_PARAMETER`), what :func:`mocomp.ops.smooth_offsets` takes."""
+        return self.sigma_frames(fps) / WIDTH_OVER_PARAMETER[self.kernel]
 
     def label(self) -> str:
         sets = ", ".join(f"{k}={_txt(v)}" for k, v in (("S1", self.s1), ("S2", self.s2), ("S3", self.s3)) if v)
@@ -83,13 +102,13 @@ def _txt(v) -> str:
     return v if isinstance(v, str) else "+".join(v)
 
 
-def _paper(stage, frames, rho, **sets) -> Step:
-    return Step(stage, sigma_s=frames / PAPER_FPS, rho=rho, where=f"preset {stage}", **sets)
+def _paper(stage, frames, rho, iterations=1, **sets) -> Step:
+    return Step(stage, sigma_s=frames / PAPER_FPS, rho=rho, iterations=iterations, where=f"preset {stage}", **sets)
 
 
-_GROUND = (_paper("ground", 40, 0.5, s2="lower", s3="upper"),
-           _paper("ground", 20, 0.3, s1="lower", s2="upper"),
-           _paper("ground", 10, 0.2, s1="rest", s2="arms"))
+_GROUND = (_paper("ground", 40, 0.5, 5, s2="lower", s3="upper"),
+           _paper("ground", 20, 0.3, 5, s1="lower", s2="upper"),
+           _paper("ground", 10, 0.2, 2, s1="rest", s2="arms"))
 _FLIGHT = (_paper("flight", 10, 0.3, s1="upper", s2="lower"),
            _paper("flight", 10, 0.3, s1="lower", s2="upper"),
            _paper("flight", 5, 1.0, s2="all"))
@@ -145,7 +164,7 @@ def read_schedule(path, fps: float) -> tuple[Step, ...]:
             if not (isinstance(v, str) or (isinstance(v, list) and all(isinstance(x, str) for x in v))):
                 raise ScheduleError(f"{where}: {k} must be a preset or joint name or a list of them, got {v!r}")
         out.append(Step(row["stage"], row["s2"], row.get("s1", []), row.get("s3", []), sig, row.get("rho", 1.0),
-                        row.get("iterations", 1), row.get("kernel", "bspline"), where))
+                        row.get("iterations", 1), row.get("kernel", "gaussian"), where))
     return tuple(out)
 
 

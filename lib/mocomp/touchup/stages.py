@@ -21,7 +21,10 @@ from ..errors import MocompError
 from ..ops import foot_plants
 from ..ops.footplant import foot_points
 
-__all__ = ["Stages", "StageError", "stages", "runs", "MAX_PLANT_TRAVEL"]
+__all__ = ["Stages", "StageError", "stages", "runs", "MAX_PLANT_TRAVEL", "POLYGONS"]
+
+#: support polygons: of the touching foot points (the contact region) or of the planted ones
+POLYGONS = ("contact", "planted")
 
 #: m: a planted foot point that moves farther than this (horizontally) within one plant is a label
 #: that contradicts the motion
@@ -76,6 +79,20 @@ class Stages:
     def contact_mask(self) -> np.ndarray:
         """``(T, 4)`` bool, planted foot points."""
         return np.asarray(self.plants.labels, bool)
+
+    def polygon_mask(self, polygon: str = "contact") -> np.ndarray:
+        """``(T, 4)`` bool: the foot points that make the support polygon. ``"contact"`` (default):
+        every point touching the ground -- the paper's "convex hull of the contact region" (sec. 3.1);
+        ``"planted"``: the planted points only, as the audit's ZMP measure. The two differ in double
+        support: the landing heel touches (and takes the weight) frames before it stops, and the
+        rolling-off foot still touches while its heel rises; with planted points only the polygon
+        is the trailing toe alone there, and an unedited Bandai walk shows the ZMP 10-26 cm
+        outside it on every step (mean 4.8 cm over the clip, 1.8 cm with the contact region)."""
+        if polygon == "contact":
+            return np.asarray(self.touching, bool)
+        if polygon == "planted":
+            return self.contact_mask
+        raise ValueError(f"polygon must be one of {', '.join(POLYGONS)}, got {polygon!r}")
 
     def to_dict(self) -> dict:
         p = self.plants
