@@ -209,9 +209,8 @@ def run(args) -> int:
             raise ConcatError(f"joint {j + 1} ({'the chain so far' if j else names[0]} -> {names[j + 1]}): {e}") from None
         _print_joint(j, "the chain so far" if j else names[0], names[j + 1], r)
         joints.append(r)
-        # B's frame g is the output frame g + T + delta after the window
-        delta = r.window_frames_out - (r.window[1] - r.window[0] + 1)
-        sh = r.T + delta
+        # B's frame g is the output frame g + T + the frames eq. 9 added after the window
+        sh = r.frame_shift
         offsets.append(sh)
         m2 = r.phases[1]
         lo = max(m2.main[0] + sh, r.window[0] + r.window_frames_out)

@@ -23,7 +23,9 @@
    then the supporting feet held with :func:`mocomp.ops.enforce_footplants` (A's plants before
    ``f_T``, B's from it on);
 8. eq. 9: the blended period re-timed by the factor ``s`` so its mean |L| matches its ends' (on by
-   default; ``time_scale=False`` leaves it out).
+   default; ``time_scale=False`` leaves it out); the horizontal COM velocity steps this leaves at
+   the window's edges removed by a smooth root displacement (:func:`com_continuity`, beyond the
+   paper; the angular momentum is unchanged).
 
 Without time scaling the output plays A up to ``f_i0``, the blend, then B from ``f_if - T + 1``:
 ``T + len(B)`` frames, frame ``f`` of the output being frame ``f`` of A and frame ``f - T`` of B;
@@ -43,7 +45,7 @@ from .phases import MIN_MAIN_LEVEL, ConcatError, MomentumTrack, Phases, find_pha
 from .rules import RuleChoice, alignment_yaw, blendable_periods, choose_rule, support_truncate
 from .timing import TimingTable, optimal_timing
 
-__all__ = ["ConcatResult", "concatenate", "linear_blend", "BaselineResult", "motion_graph_concatenate", "check_same_skeleton", "MAX_FACING", "WINDOW_FRACTION", "F_FRACTION"]
+__all__ = ["ConcatResult", "concatenate", "linear_blend", "warp_positions", "RAMP_SECONDS", "com_continuity", "BaselineResult", "motion_graph_concatenate", "check_same_skeleton", "MAX_FACING", "WINDOW_FRACTION", "F_FRACTION"]
 
 #: rad, the largest difference of the ground-projected facing of the two bodies at f_T
 MAX_FACING = np.pi / 4
@@ -107,6 +109,14 @@ class ConcatResult:
     footplants: object | None
     seconds: float
     notes: tuple[str, ...] = field(default=())
+    output_window: tuple[int, int] | None = None
+    frames_added: int = 0
+    com_steps: tuple[float, float] = (0.0, 0.0)
+
+    @property
+    def frame_shift(self) -> int:
+        """Output frame of B's frame ``g`` after the window, minus ``g``: ``T`` plus the frames eq. 9 added."""
+        return self.T + self.frames_added
 
     @property
     def L_reference(self) -> float:
@@ -134,7 +144,9 @@ class ConcatResult:
                              "B_frames": [self.window[0] - self.T, self.window[1] - self.T]},
             "time_scaling": {"s": self.scale, "window_frames_before": self.window[1] - self.window[0] + 1,
                              "window_frames_after": self.window_frames_out,
-                             "output_window": [self.window[0], self.window[0] + self.window_frames_out - 1]},
+                             "output_window": list(self.output_window or (self.window[0], self.window[0] + self.window_frames_out - 1)),
+                             "frames_added": self.frames_added,
+                             "com_velocity_steps_removed_mps": list(self.com_steps)},
             "L_kind": self.tracks[0].kind, "L_reference": self.L_reference,
             "frames": self.motion.n_frames, "duration_s": self.motion.n_frames / self.motion.fps,
             "seconds": self.seconds, "notes": list(self.notes),
@@ -169,12 +181,17 @@ def _widen(i0: int, i1: int, lo: int, hi: int, n: int) -> tuple[int, int]:
     return i0, i1
 
 
-def linear_blend(a: Motion, b2: Motion, f0: int, f1: int, T: int) -> Motion:
+def linear_blend(a: Motion, b2: Motion, f0: int, f1: int, T: int, ease_kind: str = "linear") -> Motion:
     """Eq. 8: A up to ``f0``, ``alpha A(f) + (1 - alpha) B(f - T)`` on ``[f0, f1]`` with ``alpha =
     (f1 - f) / (f1 - f0)`` (joint rotations by slerp, root positions linearly; ``b2`` already moved
-    into A's frame), then B from ``f1 - T + 1``."""
+    into A's frame), then B from ``f1 - T + 1``. ``ease_kind`` (:func:`mocomp.ops.ease`) bends
+    ``alpha``: ``"linear"`` is eq. 8; with ``"smoothstep"`` its slope is zero at both edges, so the
+    term ``alpha' (M1 - M2)`` of the blend's velocity does not switch on and off there (a velocity
+    jump of ``(p1 - p2) / (f_if - f_i0)`` per frame in the COM where A and B stand apart)."""
+    from ..ops.easing import ease
+
     fr = np.arange(f0, f1 + 1)
-    alpha = (f1 - fr) / max(f1 - f0, 1)
+    alpha = 1.0 - ease((fr - f0) / max(f1 - f0, 1), ease_kind)
     ra, qa = a.root_positions[fr], a.rotations[fr]
     rb, qb = b2.root_positions[fr - T], b2.rotations[fr - T]
     w = np.broadcast_to((1.0 - alpha)[:, None], qa.shape[:2])
@@ -242,16 +259,47 @@ def _blend_labels(la: np.ndarray, lb: np.ndarray, T: int, f_T: int, n: int) -> n
 
 #: frames around the blended period on which eq. 9's L is computed (> 3 sigma of the pre-smoothing)
 _MARGIN = 12
+#: s: eq. 9's rate is reached over this much input time on each side of the blended period
+RAMP_SECONDS = 0.1
+
+
+def warp_positions(rate: np.ndarray, f0: int, fine: int = 32) -> np.ndarray:
+    """Input frame positions (fractional) of the output frames that play input frames ``f0 ...
+    f0 + len(rate) - 1`` at the playing rate ``rate`` (input frames per output frame, given per input
+    frame, linear between; ``rate`` 1 at both ends keeps the velocities continuous there). The
+    output is a whole number of frames: the excess ``1 / rate - 1`` is scaled by the factor that
+    rounds its length. ``x[0] = f0``, ``x[-1] = f0 + len(rate) - 1``."""
+    n_in = len(rate) - 1
+    x = np.linspace(0.0, n_in, fine * n_in + 1)
+    excess = 1.0 / np.interp(x, np.arange(n_in + 1), rate) - 1.0
+    dx = x[1] - x[0]
+    E = float((0.5 * (excess[1:] + excess[:-1])).sum() * dx)
+    n = max(1, int(round(n_in + E)))
+    c = (n - n_in) / E if abs(E) > 1e-12 else 0.0
+    sig = 1.0 + c * excess
+    t = np.concatenate([[0.0], np.cumsum(0.5 * (sig[1:] + sig[:-1]) * dx)])
+    t *= n / t[-1]
+    return f0 + np.interp(np.arange(n + 1), t, x)
 
 
 def _time_scale(out: Motion, lab: np.ndarray, f0: int, f1: int, body, kind: str, max_scale: float,
-                L_ends: tuple):
+                L_ends: tuple, ramp: int):
     """Eq. 9: ``s = (||L(f_i0) + L(f_if)|| / 2) / (sum_{f_i0}^{f_if} ||L(f)|| / (f_if - f_i0))`` of the
-    blended motion, and the blended period played over ``(f_if - f_i0) / s`` frame intervals (slower
-    when the blend made it fast), so its mean |L| matches its ends'. The ends are ``L1(f_i0)`` and
-    ``L2(f_if - T)`` (``L_ends``), what eq. 8 gives there (alpha = 1 and 0): the blended motion's own
-    finite differences at the window's edges already carry part of the blend's speed-up. ``s`` is
-    clamped to ``[1 / max_scale, max_scale]`` (noted)."""
+    blended motion, and the blended period played at the rate ``s`` (slower when the blend made it
+    fast), so its mean |L| matches its ends'. The ends are ``L1(f_i0)`` and ``L2(f_if - T)``
+    (``L_ends``), what eq. 8 gives there (alpha = 1 and 0): the blended motion's own finite
+    differences at the window's edges already carry part of the blend's speed-up. ``s`` is clamped
+    to ``[1 / max_scale, max_scale]`` (noted).
+
+    The paper switches the rate from 1 to ``s`` at the window's edges, and every velocity with it (a
+    COM velocity jump of ``(1 - s) |v|``); here (beyond the paper) the rate moves from 1 to ``s``
+    over ``ramp`` input frames before the window and back over ``ramp`` after it (smoothstep in
+    the rate, :func:`warp_positions`), so the velocities stay continuous; ``ramp=0`` is the paper's.
+
+    Returns the motion, its plant labels, ``s``, the output frames the re-timing added, the output
+    frames of ``f_i0`` and ``f_if`` and a note."""
+    from ..ops.easing import ease
+
     lo = max(f0 - _MARGIN, 0)                    # the blended period with a margin for the smoothing
     L = momentum_track(out[lo:min(f1 + 1 + _MARGIN, out.n_frames)], body, kind=kind).L
     num = 0.5 * float(np.linalg.norm(L_ends[0] + L_ends[1]))
@@ -262,15 +310,57 @@ def _time_scale(out: Motion, lab: np.ndarray, f0: int, f1: int, body, kind: str,
         c = float(np.clip(s, 1.0 / max_scale, max_scale))
         note = f"eq. 9 scale factor {s:.3g} clamped to {c:.3g}"
         s = c
-    n_new = max(2, int(round((f1 - f0) / s)) + 1)
-    seg = out[f0:f1 + 1]
-    win = seg.sample(np.linspace(0.0, (f1 - f0) / out.fps, n_new))
-    res = out.replace(root_positions=np.concatenate([out.root_positions[:f0], win.root_positions,
-                                                     out.root_positions[f1 + 1:]]),
-                      rotations=np.concatenate([out.rotations[:f0], win.rotations, out.rotations[f1 + 1:]]))
-    src = np.rint(np.linspace(f0, f1, n_new)).astype(int)
-    lab2 = np.concatenate([lab[:f0], lab[src], lab[f1 + 1:]])
-    return res, lab2, s, n_new, note
+    k0, k1 = min(ramp, f0), min(ramp, out.n_frames - 1 - f1)
+    a, b = f0 - k0, f1 + k1
+    rate = np.full(b - a + 1, s)
+    if k0:
+        rate[:k0] = 1.0 + (s - 1.0) * ease(np.arange(k0) / k0, "smoothstep")
+    if k1:
+        rate[-k1:] = 1.0 + (s - 1.0) * ease(np.arange(k1, 0, -1) / k1, "smoothstep")
+    x = warp_positions(rate, a)
+    win = out[a:b + 1].sample((x - a) / out.fps)
+    res = out.replace(root_positions=np.concatenate([out.root_positions[:a], win.root_positions,
+                                                     out.root_positions[b + 1:]]),
+                      rotations=np.concatenate([out.rotations[:a], win.rotations, out.rotations[b + 1:]]))
+    lab2 = np.concatenate([lab[:a], lab[np.rint(x).astype(int)], lab[b + 1:]])
+    u0 = a + int(np.searchsorted(x, f0 - 1e-9))
+    u1 = a + int(np.searchsorted(x, f1 + 1e-9, side="right")) - 1
+    return res, lab2, s, (len(x) - 1) - (b - a), (u0, u1), note
+
+
+def com_continuity(out: Motion, body, u0: int, u1: int, w: int = 2) -> tuple[Motion, tuple[float, float]]:
+    """The root moved on output frames ``[u0, u1]`` so that the COM velocity has no step at ``u0`` and
+    ``u1`` (beyond the paper). Eq. 9 plays the blended period at another rate than its neighbours, and
+    the blend itself moves between two bodies that stand apart, so the COM velocity steps at both
+    edges (what the audit finds as ``com_velocity_jump``). The steps ``d0``, ``d1`` (m per frame,
+    the ``w``-frame mean velocity outside minus inside) are removed by the displacement
+    ``c(k) = n (h10(k / n) d0 + h11(k / n) d1)`` (cubic Hermite velocity bases, ``n = u1 - u0``): zero
+    at both edges, slope ``d0`` at ``u0`` and ``d1`` at ``u1``, horizontal only: a vertical COM
+    velocity step where a flight lands or takes off is the ground's impulse, and moving the root down
+    there drives the feet into the floor (DeepMimic side flip: 8.8 -> 17.4 cm with it). A uniform
+    translation leaves the angular momentum about the COM (eq. 1) unchanged, so eq. 9's |L| is kept.
+
+    Returns the motion and the two steps in m/s (before the correction)."""
+    from ..dynamics.com import center_of_mass
+
+    n = u1 - u0
+    lo, hi = u0 - w, u1 + w
+    if n < 2 or lo < 0 or hi >= out.n_frames:
+        return out, (0.0, 0.0)
+    c = center_of_mass(body, out[lo:hi + 1])
+    v = np.diff(c, axis=0)                         # v[i]: frame lo + i -> lo + i + 1
+    i0, i1 = u0 - lo, u1 - lo
+    d0 = v[i0 - w:i0].mean(axis=0) - v[i0:i0 + w].mean(axis=0)
+    d1 = v[i1:i1 + w].mean(axis=0) - v[i1 - w:i1].mean(axis=0)
+    u = np.arange(n + 1) / n
+    h10 = u ** 3 - 2 * u ** 2 + u
+    h11 = u ** 3 - u ** 2
+    rp = np.array(out.root_positions)
+    c = n * (h10[:, None] * d0 + h11[:, None] * d1)
+    c[:, 1] = 0.0                                  # horizontal only (see the docstring)
+    rp[u0:u1 + 1] += c
+    return out.replace(root_positions=rp), (float(np.linalg.norm(d0[[0, 2]]) * out.fps),
+                                            float(np.linalg.norm(d1[[0, 2]]) * out.fps))
 
 
 def concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, borders_b=None,
@@ -279,7 +369,8 @@ def concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bor
                 max_facing: float = MAX_FACING, min_level: float = MIN_MAIN_LEVEL, plant: bool = True,
                 weights=(1.0, 1.0, 1.0), min_peak_gap: float = MIN_PEAK_GAP, time_scale: bool = True,
                 facing_at: str = "t_m",
-                max_scale: float = 4.0) -> ConcatResult:
+                max_scale: float = 4.0, ramp_frames: int | None = 0, com_smooth: bool = True,
+                blend_ease: str = "linear") -> ConcatResult:
     """Concatenate ``b`` after ``a`` (see the module docstring).
 
     Parameters
@@ -297,6 +388,15 @@ def concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bor
         frames, after eq. 2 (the check belongs to the alignment); ``"f_T"``: at the blending centre,
         a condition on each offset of the timing search.
     time_scale: apply eq. 9 (the scale factor is reported; ``max_scale`` bounds it both ways).
+    ramp_frames: input frames over which eq. 9's rate is reached before the window and left after it
+        (default 0: switched at the window's edges as the paper does; ``None``: :data:`RAMP_SECONDS`).
+        Ramps lower |L| next to the window (they slow the main phases), so the default keeps the
+        paper's step and removes its COM velocity step with ``com_smooth``.
+    com_smooth: remove the COM velocity steps at the blended period's edges by a smooth root
+        displacement (:func:`com_continuity`; the angular momentum is unchanged).
+    blend_ease: the curve of eq. 8's ``alpha`` (:func:`linear_blend`): ``"linear"`` (default, the
+        paper's) or ``"smoothstep"`` (zero slope at the edges; its 1.5x steeper middle raises the
+        window's |L| peak: 59 vs 57 kg m^2/s on the synthetic double back flip).
     min_peak_gap: offsets with ``T + t_m(B) - t_m(A)`` below this fraction of the mean main-phase
         length are not considered (:data:`MIN_PEAK_GAP`).
     plant: hold the supporting feet on the result.
@@ -399,16 +499,21 @@ def concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bor
     target = reference_points(a[f0], "feet")[0]
     tf = GroundTransform(yaw, tuple(pivot.tolist()), tuple((target - pivot).tolist()))
     b2 = tf.apply(b)
-    out = linear_blend(a, b2, f0, f1, T)
+    out = linear_blend(a, b2, f0, f1, T, blend_ease)
     lab = _blend_labels(la, lb, T, f_T, out.n_frames)
-    scale, n_new = 1.0, f1 - f0 + 1
+    scale, added, out_win = 1.0, 0, (f0, f1)
     if time_scale and f1 > f0:
-        out, lab, scale, n_new, note = _time_scale(out, lab, f0, f1, body_a, kind, max_scale,
-                                                   (t1.L[f0], t2r.L[f1 - T]))
+        ramp = max(1, int(round(RAMP_SECONDS * a.fps))) if ramp_frames is None else int(ramp_frames)
+        out, lab, scale, added, out_win, note = _time_scale(out, lab, f0, f1, body_a, kind, max_scale,
+                                                            (t1.L[f0], t2r.L[f1 - T]), ramp)
         if note:
             notes.append(note)
+    steps = (0.0, 0.0)
+    if com_smooth:
+        out, steps = com_continuity(out, body_a, out_win[0], out_win[1])
     fp = None
     if plant:
         out, fp = _hold_feet(out, lab, notes)
     return ConcatResult(out, (p1, p2), choice, yaw, value, facing, facing_at, float(max_facing), (case, pa, pb), pnotes, tab, T, f_T, (f0, f1),
-                        thr, max_F, min_T, tf, (t1, t2r), scale, n_new, fp, time.perf_counter() - t0, tuple(notes))
+                        thr, max_F, min_T, tf, (t1, t2r), scale, out_win[1] - out_win[0] + 1, fp, time.perf_counter() - t0, tuple(notes),
+                        out_win, added, steps)
