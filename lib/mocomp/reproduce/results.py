@@ -4,7 +4,10 @@ A row compares one number of a paper (a figure's value, a table cell) with the
 number the notebook measured.  Its status is decided here, once, so the report,
 CI and the notebooks agree:
 
-* ``reproduced``: ``|ours - paper_value| <= tolerance``;
+* ``reproduced``: ``|ours - paper_value| <= tolerance`` (``comparison="within"``,
+  the default); for a paper's one-sided claim ("20 % or less", "over 50 %")
+  ``comparison="at most"``: ``ours <= paper_value + tolerance``, ``"at least"``:
+  ``ours >= paper_value - tolerance``;
 * ``differs``: outside the tolerance (the ``note`` says why, when known);
 * ``no paper value``: the paper gives no number (a qualitative figure): the
   row documents what we measured;
@@ -24,6 +27,7 @@ from ..errors import MocompError
 
 SCHEMA_VERSION = 1
 STATUSES = ("reproduced", "differs", "no paper value", "failed")
+COMPARISONS = ("within", "at most", "at least")
 
 
 class ResultsFileError(MocompError, ValueError):
@@ -43,6 +47,10 @@ class ResultRow:
     tolerance:   absolute tolerance, same unit as the values (>= 0)
     unit:        the values' unit ("m/s", "%", "" for dimensionless)
     note:        why it differs / how it was measured / what data was used
+    notebook:    the notebook that wrote the row (stamped by write_results)
+    comparison:  "within" (two-sided, the default), "at most" or "at least": the
+                 paper's value is a bound ("20 % or less" is paper_value=20,
+                 comparison="at most")
     """
 
     paper: str
@@ -54,8 +62,12 @@ class ResultRow:
     unit: str = ""
     note: str = ""
     notebook: str = field(default="")
+    comparison: str = "within"
 
     def __post_init__(self):
+        if self.comparison not in COMPARISONS:
+            raise ResultsFileError(f"ResultRow {self.item!r}/{self.quantity!r}: comparison must be one of "
+                                   f"{COMPARISONS}, got {self.comparison!r}")
         for name in ("paper", "item", "quantity"):
             if not isinstance(getattr(self, name), str) or not getattr(self, name).strip():
                 raise ResultsFileError(f"ResultRow.{name} must be a non-empty string")
@@ -86,7 +98,10 @@ class ResultRow:
             return "failed"
         if self.paper_value is None:
             return "no paper value"
-        return "reproduced" if abs(self.difference) <= self.tolerance else "differs"
+        d = self.difference
+        ok = {"within": abs(d) <= self.tolerance, "at most": d <= self.tolerance,
+              "at least": d >= -self.tolerance}[self.comparison]
+        return "reproduced" if ok else "differs"
 
     def to_dict(self) -> dict:
         d = asdict(self)
