@@ -31,6 +31,7 @@ COMMAND_MODULES: list[str] = [
     "audit", "render",
     "footplant", "blend", "pathedit", "slope", "concat",
     "touchup",
+    "impact_index",
     "reproduce",
 ]
 
