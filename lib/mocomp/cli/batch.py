@@ -1,0 +1,86 @@
+"""``mocomp batch COMMAND INPUT_DIR_OR_GLOB -o OUT_DIR [COMMAND options] [--workers N | --scheduler
+tcp://HOST:PORT] [--resume]``: a command over every clip of a folder on Dask (:mod:`mocomp.batch`)."""
+from __future__ import annotations
+
+import argparse
+import sys
+
+
+def _add_batch_options(p: argparse.ArgumentParser, default) -> None:
+    from ._common import int_in
+
+    p.add_argument("-o", "--out", metavar="OUT_DIR", default=default,
+                   help="output folder: clips/<clip>/ (each clip's outputs, report.json, printed summary, row.json), "
+                        "results.parquet and results.csv (one row per input file), batch.json")
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--workers", type=int_in(1, 512), metavar="N", default=default,
+                   help="worker processes of the local Dask cluster (default: one per core)")
+    g.add_argument("--scheduler", metavar="tcp://HOST:PORT", default=default,
+                   help="run on an existing Dask cluster (started with `dask scheduler` and `dask worker`; the "
+                        "workers must see INPUT and OUT_DIR at the same paths: a shared filesystem)")
+    p.add_argument("--resume", action="store_true", default=default,
+                   help="keep the clips a previous run of the same batch completed (their row.json); run the rest")
+    p.add_argument("--retry-failed", action="store_true", default=default,
+                   help="with --resume: also re-run the clips that failed or crashed")
+    p.add_argument("--output-type", metavar="EXT", default=default,
+                   help="type of the main output where the command offers several (render: png (default, a phase "
+                        "filmstrip), mp4, gif)")
+    p.add_argument("--no-progress", action="store_true", default=default, help="no progress bar")
+
+
+def register(sub) -> None:
+    from ..batch import COMMANDS
+
+    p = sub.add_parser(
+        "batch", help="run a command over every clip of a folder on Dask (results.parquet, --resume)",
+        description="Run a mocomp command over every clip of a folder (recursively) or glob with dask.distributed: "
+                    "a local cluster of one worker process per core, or an existing cluster (--scheduler). The "
+                    "command's own options follow the input (file options such as --plot take a file name, "
+                    "written into each clip's folder). Every input file is one row of OUT_DIR/results.parquet "
+                    "(and .csv): status ok / failed (the command's error) / crashed (its worker died) / "
+                    "skipped (not a motion: .asf skeletons, C3D markers, DeepMimic character files, other "
+                    "files, with the reason), the command's time and its report's key numbers. A failing or "
+                    "crashing clip never stops the batch. Outputs are written atomically (a folder renamed "
+                    "when complete), so --resume after a killed run redoes only the unfinished clips. "
+                    "Commands: " + "; ".join(f"{n}: {s.help}" for n, s in COMMANDS.items()) + ".",
+        epilog="example: mocomp batch audit $MOCOMP_DATA_DIR -o audits --workers 2 --threshold penetration=0.03")
+    p.add_argument("batch_command", choices=sorted(COMMANDS), metavar="COMMAND",
+                   help="the command to run: " + ", ".join(COMMANDS))
+    p.add_argument("input", metavar="INPUT_DIR_OR_GLOB",
+                   help="a folder (every file below it), a glob ('data/flips/*.bvh', 'data/**/*.amc') or a file")
+    _add_batch_options(p, None)
+    p.add_argument("command_options", nargs=argparse.REMAINDER, metavar="...",
+                   help="the command's options, and batch options given after the input")
+    p.set_defaults(func=run)
+
+
+def _split(args) -> list[str]:
+    """Batch options given after the input (argparse hands them over with the command's) are taken
+    out; what is left are the command's options."""
+    from . import Parser
+
+    q = Parser(prog="mocomp batch", add_help=False, allow_abbrev=False)
+    _add_batch_options(q, argparse.SUPPRESS)
+    ns, rest = q.parse_known_args(args.command_options)
+    for k, v in vars(ns).items():
+        setattr(args, k, v)
+    if args.workers is not None and args.scheduler is not None:
+        raise ValueError("--workers and --scheduler exclude each other (the scheduler's cluster has its workers)")
+    return rest
+
+
+def run(args) -> int:
+    from ..batch import run_batch
+
+    options = _split(args)
+    if args.out is None:
+        raise ValueError("-o OUT_DIR is required")
+    if args.retry_failed and not args.resume:
+        raise ValueError("--retry-failed goes with --resume")
+    res = run_batch(args.batch_command, args.input, args.out, options, workers=args.workers,
+                    scheduler=args.scheduler, resume=bool(args.resume), retry_failed=bool(args.retry_failed),
+                    output_type=args.output_type, progress=not args.no_progress)
+    for n in res.notes:
+        print(f"note: {n}", file=sys.stderr)
+    print("\n".join(res.summary_lines()))
+    return 0
