@@ -30,7 +30,7 @@ COMMAND_MODULES: list[str] = [
     "edit", "join", "twist",
     "audit", "render",
     "footplant", "blend", "pathedit", "slope", "concat",
-    "touchup", "batch",
+    "touchup", "batch", "impact",
     "impact_index",
     "reproduce",
 ]

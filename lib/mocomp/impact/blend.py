@@ -1,0 +1,122 @@
+"""The final blend onto the found clip (dissertation sec. 4.2, last paragraph), and the output's repairs.
+
+"We linearly interpolate the root node position, distributing the global position error across
+the simulated sequence. Joint angles are interpolated by slerping using a simple linear weighting
+in time across the transition." With the simulated segment ``s_0 .. s_n`` (``s_0`` the motion
+capture frame the simulation started from, ``s_n`` the re-entry frame) and the found clip ``c``
+aligned on the same frames, the weight is ``w_i = i / n`` and
+
+* root position: ``s_i + w_i (c_n - s_n)`` (the re-entry error spread linearly),
+* every joint's local rotation (the root's orientation included): ``slerp(s_i, c_i, w_i)``,
+
+so frame ``n`` is exactly the found clip's and frame 0 exactly the simulation's start. The
+*correction* a blend applies -- the root error ``|c_n - s_n|`` and the joint angles between ``s_i``
+and ``c_i`` weighted by ``w_i`` -- measures how far the simulation ended from the clip; the
+active simulation should make it smaller than blending straight from the naive one.
+
+:func:`floor_lift` repairs clips that go below the floor (the ASE falls' lying phases sink joint
+centres 0.10-0.19 m, a retargeting artefact the data MANIFEST names) by lifting the root, smoothly
+in time, by what the lowest point lacks; :func:`plant_feet` holds the planted feet with
+:func:`mocomp.ops.enforce_footplants` (Foundation III).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.ndimage import gaussian_filter1d, maximum_filter1d
+
+from ..core.motion import Motion, slerp
+from ..core.rotations import quat_angle, quat_inverse, quat_multiply
+
+__all__ = ["BlendOutcome", "final_blend", "correction", "floor_lift", "plant_feet", "frame_steps"]
+
+
+@dataclass(frozen=True)
+class BlendOutcome:
+    """The blended segment and the correction it applied.
+
+    motion: the blended segment (same frames as the simulated one).
+    root_error_m: ``|c_n - s_n|``, the root position error spread over the segment.
+    joint_error_deg: mean over joints of the angle between simulation and clip at re-entry.
+    mean_correction_deg: mean over frames and joints of ``w_i * angle(s_i, c_i)`` (what the slerp moved).
+    max_correction_deg: its largest value over frames and joints.
+    """
+
+    motion: Motion
+    root_error_m: float
+    joint_error_deg: float
+    mean_correction_deg: float
+    max_correction_deg: float
+
+    def to_dict(self) -> dict:
+        return {"root_error_m": self.root_error_m, "joint_error_at_reentry_deg": self.joint_error_deg,
+                "mean_correction_deg": self.mean_correction_deg, "max_correction_deg": self.max_correction_deg}
+
+
+def correction(sim: Motion, clip: Motion) -> dict:
+    """The correction :func:`final_blend` would apply to ``sim`` to land on ``clip`` (same frames)."""
+    n = sim.n_frames - 1
+    w = np.arange(sim.n_frames) / max(n, 1)
+    ang = np.degrees(quat_angle(quat_multiply(quat_inverse(sim.rotations), clip.rotations)))
+    applied = w[:, None] * ang
+    return {"root_error_m": float(np.linalg.norm(clip.root_positions[-1] - sim.root_positions[-1])),
+            "joint_error_deg": float(ang[-1].mean()), "mean_correction_deg": float(applied.mean()),
+            "max_correction_deg": float(applied.max())}
+
+
+def final_blend(sim: Motion, clip: Motion) -> BlendOutcome:
+    """Blend the simulated segment ``sim`` onto ``clip`` (the found clip aligned on the same frames),
+    see the module docstring. Ends exactly on ``clip``'s last frame."""
+    if sim.n_frames != clip.n_frames or sim.skeleton.names != clip.skeleton.names:
+        raise ValueError(f"final_blend: the segment ({sim.n_frames} frames) and the clip ({clip.n_frames} frames) "
+                         "must cover the same frames on the same skeleton")
+    n = sim.n_frames - 1
+    w = np.arange(sim.n_frames) / max(n, 1)
+    root = sim.root_positions + w[:, None] * (clip.root_positions[-1] - sim.root_positions[-1])
+    rot = slerp(sim.rotations, clip.rotations, np.broadcast_to(w[:, None], sim.rotations.shape[:2]))
+    rot[-1] = clip.rotations[-1]
+    root[-1] = clip.root_positions[-1]
+    c = correction(sim, clip)
+    out = sim.replace(root_positions=root, rotations=rot)
+    return BlendOutcome(out, c["root_error_m"], c["joint_error_deg"], c["mean_correction_deg"],
+                        c["max_correction_deg"])
+
+
+def frame_steps(motion: Motion) -> tuple[np.ndarray, np.ndarray]:
+    """``(root (T-1,) m, joint (T-1,) rad)``: per frame step the root displacement and the largest
+    joint rotation change (local rotations) -- the continuity measures."""
+    dr = np.linalg.norm(np.diff(motion.root_positions, axis=0), axis=1)
+    q = motion.rotations
+    dq = quat_angle(quat_multiply(quat_inverse(q[:-1]), q[1:]))
+    return dr, dq.max(axis=1)
+
+
+def floor_lift(motion: Motion, floor_y: float, *, smooth_frames: float = 2.0,
+               tolerance: float = 0.005) -> tuple[Motion, np.ndarray]:
+    """``(motion, lift (T,))``: the root raised per frame so that no joint or end site is more than
+    ``tolerance`` (m) below ``floor_y`` (m), the lift smoothed in time (a running maximum over ``3 * smooth_frames`` frames each
+    side, then a Gaussian of ``smooth_frames``: never less than what a frame needs, no jumps).
+    Frames that need nothing keep a zero lift unless within the smoothing of one that does."""
+    P = motion.positions
+    ends = motion.end_site_positions()
+    low = P[..., 1].min(axis=1)
+    if ends.size:
+        low = np.minimum(low, ends[..., 1].min(axis=1))
+    need = np.maximum(floor_y - tolerance - low, 0.0)
+    if not need.any():
+        return motion, np.zeros(motion.n_frames)
+    r = int(np.ceil(3 * smooth_frames))
+    lift = gaussian_filter1d(maximum_filter1d(need, 2 * r + 1, mode="nearest"), smooth_frames, mode="nearest")
+    lift = np.maximum(lift, need)
+    lift[lift < 1e-6] = 0.0
+    rp = np.array(motion.root_positions)
+    rp[:, 1] += lift
+    return motion.replace(root_positions=rp), lift
+
+
+def plant_feet(motion: Motion):
+    """:func:`mocomp.ops.enforce_footplants` of ``motion`` (the detector's plants; no audits)."""
+    from ..ops import enforce_footplants
+
+    return enforce_footplants(motion, audit=False)

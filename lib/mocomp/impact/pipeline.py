@@ -1,0 +1,332 @@
+"""The whole impact response (dissertation ch. 4): contact, naive simulation, search, active
+simulation, final blend, the attacker's response -- with evidence and per-stage timings.
+
+:func:`impact_response` runs, on the victim clip's frame rate and timeline (the attack clip sampled
+on it):
+
+1. **placement** (:func:`~mocomp.impact.scene.place_victim`) and the scene
+   (:func:`~mocomp.impact.scene.build_scene`; victim joint limits from the victim clip and the
+   library's clips);
+2. **first contact** at the capture rate and the **rewind** to the last frame before it
+   (:func:`~mocomp.impact.simulate.find_first_contact`);
+3. the **naive simulation** (friction 1.0) from the rewind frame to 1.0 s after the impact;
+4. the **search** (:func:`mocomp.impact.search.search`) of the naive frames from 0.1 s after the
+   impact (pushed later while the contact lasts, up to 0.25 s; App. A) to 1.0 s;
+5. the **active simulation** (friction 0.5) toward the found clip, aligned by the search's root
+   transform (its window's first frame on the query's ``start``), the blend of the targets eased
+   in after a reaction delay (0.1-0.2 s, drawn from ``seed`` unless given);
+6. the **final blend** of the active segment onto the found clip at the re-entry frame (the last
+   frame of the search window), the found clip playing on after it; the same blend from the naive
+   segment is measured for comparison (the correction the active simulation saves);
+7. repairs of the output: the root lifted where a joint would be below the floor
+   (:func:`~mocomp.impact.blend.floor_lift`; the ASE falls sink while lying), then the planted feet
+   held (:func:`mocomp.ops.enforce_footplants`);
+8. the **attacker**: its clip, the simulated contact for a few frames, a blend back
+   (:mod:`~mocomp.impact.attacker`).
+
+The physics of the output is judged by :mod:`mocomp.audit` on the written frames (the CLI); the
+result carries the planned numbers (labelled so) and the continuity measured on its own frames.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..core.motion import Motion, concatenate
+from .scene import FRICTION_ACTIVE, FRICTION_NAIVE, ImpactError, Scenario
+
+__all__ = ["ImpactConfig", "ImpactResult", "impact_response", "load_library"]
+
+
+@dataclass(frozen=True)
+class ImpactConfig:
+    """Parameters of the response (App. A values by default).
+
+    window: s after the impact, the search window (0.1, 1.0); max_push: s, the latest the window's
+    start is pushed while the contact lasts (0.25). delay: s, the reaction delay before the active
+    control starts (None: drawn uniformly from ``delay_range`` with ``seed``). friction_naive,
+    friction_active: the floor's (1.0, 0.5). gains: :class:`~mocomp.impact.simulate.ServoGains`.
+    plant: hold the planted feet of the output; lift: lift the output above the floor.
+    attacker_follow, attacker_blend: s (:func:`~mocomp.impact.attacker.attacker_response`).
+    compare_naive: also measure the final-blend correction from the naive simulation.
+    """
+
+    window: tuple[float, float] = (0.1, 1.0)
+    max_push: float = 0.25
+    delay: float | None = None
+    delay_range: tuple[float, float] = (0.1, 0.2)
+    seed: int = 0
+    friction_naive: float = FRICTION_NAIVE
+    friction_active: float = FRICTION_ACTIVE
+    gains: object = None
+    plant: bool = True
+    lift: bool = True
+    attacker_follow: float = 0.1
+    attacker_blend: float = 0.3
+    compare_naive: bool = True
+    exhaustive_search: bool = False
+
+    def __post_init__(self):
+        a, b = self.window
+        if not (0 <= a < b):
+            raise ValueError(f"window must satisfy 0 <= start < stop seconds, got {self.window}")
+        lo, hi = self.delay_range
+        if not (0 <= lo <= hi):
+            raise ValueError(f"delay_range must satisfy 0 <= low <= high, got {self.delay_range}")
+        if self.delay is not None and not (0 <= self.delay < b):
+            raise ValueError(f"delay must lie in [0, {b}) s, got {self.delay}")
+
+
+@dataclass(frozen=True)
+class ImpactResult:
+    """The response and its evidence.
+
+    victim, attacker: the output motions (victim clip timeline; the victim continues with the
+    found clip after re-entry). first_contact: :class:`~mocomp.impact.simulate.FirstContact`.
+    naive, active: :class:`~mocomp.impact.simulate.PassResult`. search: the search's result.
+    found: the found clip aligned on the victim timeline over the simulated frames.
+    blend_active, blend_naive: :class:`~mocomp.impact.blend.BlendOutcome` (the latter only measured).
+    frames: key frame numbers of the victim output (rewind, impact, window start/stop, re-entry).
+    delay: s. timings: s per stage. evidence: continuity, repairs, attacker numbers.
+    """
+
+    victim: Motion
+    attacker: Motion
+    scenario: Scenario
+    first_contact: object
+    naive: object
+    active: object
+    search: object
+    found: Motion
+    blend_active: object
+    blend_naive: object
+    frames: dict
+    delay: float
+    timings: dict
+    evidence: dict
+    notes: tuple[str, ...] = field(default=())
+
+    @property
+    def response_seconds(self) -> float:
+        """Wall time of the response proper (naive sim, search, active sim, blend)."""
+        t = self.timings
+        return float(t["naive_simulation"] + t["search"] + t["active_simulation"] + t["final_blend"])
+
+    def to_dict(self) -> dict:
+        fc = self.first_contact
+        bn = None if self.blend_naive is None else self.blend_naive.to_dict()
+        return {
+            "scenario": {"facing_deg": self.scenario.facing_deg, "offset_m": self.scenario.offset,
+                         "contact_body": self.scenario.contact_body},
+            "impact_time_s": self.naive.impact_time, "first_contact_frame": fc.frame, "rewind_frame": fc.rewind_frame,
+            "contact_bodies": sorted({p for pair in self.naive.pairs for p in pair}),
+            "contact_pairs": [list(p) for p in self.naive.pairs],
+            "contact_end_s": self.naive.contact_end,
+            "impulse_Ns": self.naive.impulse.tolist(), "impulse_norm_Ns": float(np.linalg.norm(self.naive.impulse)),
+            "search": self.search.to_dict(),
+            "pruning": {k: self.search.stats.get(k) for k in ("frames_compared", "frames_exhaustive",
+                                                               "windows_compared", "windows_exhaustive",
+                                                               "unique_windows")},
+            "frames": self.frames, "reaction_delay_s": self.delay,
+            "naive_simulation": self.naive.to_dict(), "active_simulation": self.active.to_dict(),
+            "active_tracking_error_deg": {"mean": float(np.degrees(self.active.tracking_error_rad.mean())),
+                                          "max": float(np.degrees(self.active.tracking_error_rad.max()))},
+            "final_blend_correction": {"from_active (planned)": self.blend_active.to_dict(),
+                                       "from_naive (planned, for comparison)": bn},
+            "mujoco_warnings": {"naive": self.naive.warnings, "active": self.active.warnings},
+            "timings_s": self.timings, "response_s": self.response_seconds,
+            "evidence": self.evidence, "notes": list(self.notes),
+        }
+
+
+def load_library(library_dir, skeleton, *, cache_dir=None, progress: bool = False):
+    """The library index for the victim's skeleton (:func:`mocomp.impact.index.build_index`), with a
+    clear error when no clip can serve that skeleton."""
+    from .index import LibraryError, build_index
+
+    try:
+        index = build_index(library_dir, skeleton, cache_dir=cache_dir, progress=progress)
+    except LibraryError as e:
+        raise ImpactError(f"library {library_dir}: no clip usable for the victim's skeleton "
+                          f"({skeleton.n_joints} joints: {', '.join(skeleton.names[:6])}, ...): {e}") from e
+    if not index.clips:
+        raise ImpactError(f"library {library_dir}: no clip usable for the victim's skeleton")
+    return index
+
+
+def _on_timeline(attacker: Motion, fps: float, n: int) -> Motion:
+    """The attack clip sampled at ``fps`` for ``n`` frames (its last pose held after its end)."""
+    t = np.arange(n) / fps
+    return attacker.sample(np.clip(t, 0.0, attacker.duration), fps=fps)
+
+
+def _reach_limit_motions(index, limit: int = 64):
+    """Library clips (on the victim's skeleton) whose captured range widens the victim's joint limits."""
+    out = []
+    for c in index.clips[:limit]:
+        try:
+            out.append(index.motion(c.path))
+        except Exception:                            # a clip that changed is skipped here, refused later
+            continue
+    return out
+
+
+def impact_response(attacker: Motion, victim: Motion, index, scenario: Scenario = Scenario(),
+                    config: ImpactConfig = ImpactConfig(), *, library_motions=None) -> ImpactResult:
+    """The whole response (module docstring). ``index``: the library index for the victim's skeleton
+    (:func:`load_library`); ``library_motions``: its clips as motions (for the joint limits; read
+    from the index when None)."""
+    from .attacker import attacker_response
+    from .blend import final_blend, floor_lift, frame_steps, plant_feet
+    from .scene import build_scene, place_victim
+    from .search import search
+    from .simulate import ServoGains, blend_targets, clip_targets, find_first_contact, naive_targets, simulate
+
+    timings = {}
+    t = time.perf_counter()
+    if index.skeleton != victim.skeleton:
+        raise ImpactError("the library index was built for another skeleton than the victim's")
+    gains = config.gains if config.gains is not None else ServoGains()
+    fps = victim.fps
+    placed = place_victim(attacker, victim, scenario)
+    need = int(np.ceil((config.window[1] + 0.5) * fps))
+    # the attack on the victim's frames, long enough to be looked up during the burst
+    att = _on_timeline(attacker, fps, max(victim.n_frames, int(np.floor(attacker.duration * fps + 1e-9)) + 1))
+    lib = _reach_limit_motions(index) if library_motions is None else list(library_motions)
+    scene = build_scene(attacker.skeleton, victim.skeleton, attacker_motions=[attacker],
+                        victim_motions=[victim] + lib, contact_body=scenario.contact_body)
+    timings["setup"] = time.perf_counter() - t
+
+    t = time.perf_counter()
+    vk = placed.slice(0, min(placed.n_frames, att.n_frames))
+    fc = find_first_contact(scene, att.slice(0, vk.n_frames), vk)
+    timings["first_contact"] = time.perf_counter() - t
+    # the victim clip held at its end beyond, so the burst has targets
+    t0 = fc.rewind_frame / fps
+    t_naive_end = fc.time + config.window[1] + 1.0 / fps
+
+    t = time.perf_counter()
+    naive = simulate(scene, att, placed, t0, t_naive_end, victim_targets=naive_targets(placed, t0, t_naive_end),
+                     friction=config.friction_naive, gains=gains)
+    timings["naive_simulation"] = time.perf_counter() - t
+    if naive.impact_time is None:
+        raise ImpactError(f"the kinematic pass found contact at frame {fc.frame} ({fc.time:.3f} s), but the "
+                          "simulated attacker never touched the victim (a grazing contact): move the victim "
+                          "closer (--offset)")
+    t_imp = naive.impact_time
+    push = 0.0 if naive.contact_end is None else min(max(naive.contact_end - t_imp, 0.0), config.max_push)
+    s_time = t_imp + max(config.window[0], push)
+    e_time = t_imp + config.window[1]
+    start = int(np.ceil((s_time - t0) * fps - 1e-9))
+    stop = min(int(np.floor((e_time - t0) * fps + 1e-9)) + 1, naive.victim.n_frames)
+    if stop - start < 2:
+        raise ImpactError(f"the search window {s_time:.3f}-{e_time:.3f} s holds fewer than 2 frames at {fps:g} fps")
+
+    t = time.perf_counter()
+    res = search(index, naive.victim, start, stop, exhaustive=config.exhaustive_search)
+    timings["search"] = time.perf_counter() - t
+
+    t = time.perf_counter()
+    clip = res.root_transform.apply(index.motion(res.clip))
+    # the found clip on the victim timeline: clip frame res.frame at query frame `start`
+    reentry = stop - 1
+    n_seg = reentry + 1
+    times_q = np.arange(n_seg) / fps                   # query time (0 = rewind frame)
+    tc = res.frame / clip.fps + (times_q - start / fps)
+    if tc[-1] > clip.duration + 1e-9:
+        raise ImpactError(f"the found clip {res.clip} ends before the re-entry frame")
+    found_seg = clip.sample(np.clip(tc, 0.0, clip.duration), fps=fps)
+    rng = np.random.default_rng(config.seed)
+    delay = float(config.delay) if config.delay is not None else float(rng.uniform(*config.delay_range))
+    t_react = t_imp + delay
+    t_re = t0 + reentry / fps
+    qa = clip_targets(placed, t0 + times_q)
+    targets = blend_targets(qa, np.array(found_seg.rotations), t0 + times_q, t_react, t_re)
+    timings["targets"] = time.perf_counter() - t
+    t = time.perf_counter()
+    active = simulate(scene, att, placed, t0, t_re, victim_targets=targets, friction=config.friction_active,
+                      gains=gains)
+    timings["active_simulation"] = time.perf_counter() - t
+
+    t = time.perf_counter()
+    seg = active.victim.slice(0, n_seg)
+    ba = final_blend(seg, found_seg)
+    bn = final_blend(naive.victim.slice(0, n_seg), found_seg) if config.compare_naive else None
+    # the output: the victim clip up to the rewind frame, the blended segment, the found clip after
+    before = placed.slice(0, fc.rewind_frame) if fc.rewind_frame > 0 else None
+    t_after = res.frame / clip.fps + (np.arange(reentry + 1, 10 ** 6) - start) / fps
+    t_after = t_after[t_after <= clip.duration + 1e-9]
+    parts = ([before] if before is not None else []) + [ba.motion.replace(source=placed.source)]
+    if t_after.size:
+        parts.append(clip.sample(t_after, fps=fps).replace(source=placed.source))
+    out = concatenate(parts)
+    timings["final_blend"] = time.perf_counter() - t
+
+    t = time.perf_counter()
+    evidence = {}
+    re_frame = fc.rewind_frame + reentry
+    clip_steps = clip.resample(fps) if abs(clip.fps - fps) > 1e-6 else clip     # steps compared at one rate
+    evidence["continuity"] = _continuity(out, clip_steps, re_frame, fc.rewind_frame, frame_steps)
+    lift = np.zeros(out.n_frames)
+    if config.lift:
+        floor_y = _floor_level(victim)
+        out, lift = floor_lift(out, floor_y)
+        evidence["floor_lift"] = {"floor_y_m": floor_y, "frames_lifted": int((lift > 0).sum()),
+                                  "max_lift_m": float(lift.max()), "lift_at_reentry_m": float(lift[re_frame])}
+    if config.plant:
+        try:
+            fp = plant_feet(out)
+            out = fp.motion
+            evidence["footplant"] = {"plants": {e: len(v) for e, v in fp.plants.intervals.items()}
+                                     if hasattr(fp.plants, "intervals") else None,
+                                     "max_miss_m": float(fp.max_miss), "changed_frames": int(fp.changed_frames)}
+        except Exception as e:                        # no plant at all (a victim airborne throughout)
+            evidence["footplant"] = {"skipped": str(e)}
+    evidence["continuity_final"] = _continuity(out, clip_steps, re_frame, fc.rewind_frame, frame_steps)
+    timings["repairs"] = time.perf_counter() - t
+
+    t = time.perf_counter()
+    ar = attacker_response(att.slice(0, int(np.floor(attacker.duration * fps + 1e-9)) + 1), active.attacker,
+                           fc.rewind_frame, active.impact_time if active.impact_time is not None else t_imp,
+                           active.contact_end, follow=config.attacker_follow, blend=config.attacker_blend)
+    evidence["attacker"] = ar.to_dict()
+    timings["attacker"] = time.perf_counter() - t
+    frames = {"rewind": fc.rewind_frame, "first_contact": fc.frame,
+              "impact": fc.rewind_frame + int(round((t_imp - t0) * fps)),
+              "window_start": fc.rewind_frame + start, "window_stop": fc.rewind_frame + stop,
+              "reentry": re_frame, "found_clip_frame_at_reentry": int(round(tc[-1] * clip.fps)),
+              "output_frames": out.n_frames}
+    notes = scene.notes + naive.notes
+    return ImpactResult(out, ar.motion, scenario, fc, naive, active, res, found_seg, ba, bn, frames, delay,
+                        timings, evidence, notes)
+
+
+def _floor_level(victim: Motion) -> float:
+    """m: the victim clip's floor, the median over frames of its lowest joint or end site."""
+    P = victim.positions[..., 1].min(axis=1)
+    E = victim.end_site_positions()
+    if E.size:
+        P = np.minimum(P, E[..., 1].min(axis=1))
+    return float(np.median(P))
+
+
+def _continuity(out: Motion, clip: Motion, re_frame: int, rewind: int, frame_steps) -> dict:
+    """Frame-to-frame root and joint steps at the rewind and re-entry seams (into and out of the
+    seam frame) against the found clip's own largest steps at the output's frame rate."""
+    dr, dq = frame_steps(out)
+    cr, cq = frame_steps(clip)
+
+    def around(k):                                   # the steps into and out of frame k
+        lo, hi = max(k - 1, 0), min(k + 1, len(dr))
+        return float(dr[lo:hi].max()), float(np.degrees(dq[lo:hi].max()))
+
+    r_re, q_re = around(re_frame)
+    r_rw, q_rw = around(rewind)
+    return {"reentry_root_step_m": r_re, "reentry_joint_step_deg": q_re,
+            "rewind_root_step_m": r_rw, "rewind_joint_step_deg": q_rw,
+            "clip_max_root_step_m": float(cr.max()), "clip_max_joint_step_deg": float(np.degrees(cq.max())),
+            "segment_max_root_step_m": float(dr[rewind:re_frame].max()) if re_frame > rewind else 0.0,
+            "segment_max_joint_step_deg": float(np.degrees(dq[rewind:re_frame].max())) if re_frame > rewind else 0.0,
+            "continuous": bool(r_re <= cr.max() + 1e-9 and q_re <= np.degrees(cq.max()) + 1e-9)}
