@@ -242,7 +242,7 @@ class LibraryIndex:
     def concatenated(self) -> dict:
         """All clips' arrays end to end (for the vectorised search): ``positions (N, 16, 3)``,
         ``orientations``, ``ground``, ``heading``, ``start (C,)`` first row of each clip,
-        ``length (C,)``."""
+        ``length (C,)``, ``row_clip (N,)`` the clip of each row. The search caches derived arrays here too."""
         if "positions" not in self._cat:
             cl = self.clips
             self._cat.update(
@@ -253,6 +253,7 @@ class LibraryIndex:
                 length=np.array([c.n_frames for c in cl], dtype=np.int64),
             )
             self._cat["start"] = np.concatenate([[0], np.cumsum(self._cat["length"])[:-1]]).astype(np.int64)
+            self._cat["row_clip"] = np.repeat(np.arange(len(cl)), self._cat["length"])
         return self._cat
 
 

@@ -177,6 +177,7 @@ class _Query:
             step = frame_distances(self.P[:-1], self.O[:-1], self.P[1:], self.O[1:], self.wp, self.wr)
             cat[key] = np.concatenate([[0.0], np.cumsum(step)])
         self.Cl = cat[key]
+        self.first = np.full(self.P.shape[0], np.nan)   # first-frame terms computed so far, per library row
         qstep = frame_distances(qp[:-1], qo[:-1], qp[1:], qo[1:], self.wp, self.wr)[: self.frames.size]
         self.Cq = np.ascontiguousarray(np.concatenate([[0.0], np.cumsum(qstep)])[: self.frames.size])
 
@@ -209,6 +210,19 @@ def _body(index: LibraryIndex):
     if "body" not in index._cat:
         index._cat["body"] = body_model_for(index.skeleton)
     return index._cat["body"]
+
+
+def _unique_rows(index: LibraryIndex, n_valid: np.ndarray, L: int) -> np.ndarray:
+    """Library rows of the unique frames that can start a window of ``L`` frames, plus each clip's
+    last valid start (cached per ``L``)."""
+    cat = index.concatenated()
+    key = ("unique_rows", L)
+    if key not in cat:
+        u = np.concatenate([s + c.unique for c, s in zip(index.clips, cat["start"])]).astype(np.int64)
+        ci = cat["row_clip"][u]
+        keep = (u - cat["start"][ci]) < n_valid[ci]
+        cat[key] = np.union1d(u[keep], (cat["start"] + n_valid - 1)[n_valid > 0]).astype(np.int64)
+    return cat[key]
 
 
 def _valid_starts(index: LibraryIndex, L: int):
@@ -247,21 +261,34 @@ def _distances(q: _Query, rows: np.ndarray, threshold: float = np.inf, margin: f
 _EMPTY = np.zeros(0)
 
 
-def _evaluate(q: _Query, rows: np.ndarray, done: dict, threshold: float = np.inf, margin: float = -1.0) -> int:
-    """Record in ``done`` the distance of every window at ``rows`` (not yet in ``done``) that is at most
-    ``threshold`` (and, with ``margin >= 0``, at most the best + ``margin``), visiting them best-first
-    by their first-frame term so that the running threshold is tight early. Exact: no window within
-    the final threshold is missed. Returns the frame pairs compared."""
-    if done:
-        rows = rows[~np.isin(rows, np.fromiter(done, np.int64, len(done)))]
+def _rest_bounds(q: _Query, rows: np.ndarray, first: np.ndarray) -> np.ndarray:
+    """``(K,)`` the kernel's triangle-inequality lower bound of frames 1.. of each window from its
+    first-frame term (:func:`mocomp.impact._kernels._rest_bound`, vectorised)."""
+    f = q.frames
+    steps = q.Cl[rows[:, None] + f[None, 1:]] - q.Cl[rows][:, None] + q.Cq[None, 1:]
+    return np.maximum(first[:, None] - steps, 0.0) @ q.w[1:]
+
+
+def _evaluate(q: _Query, rows: np.ndarray, D: np.ndarray, threshold: float = np.inf, margin: float = -1.0) -> int:
+    """Record in ``D`` (per library row, NaN = not computed) the distance of every window at ``rows``
+    not computed yet that is at most ``threshold`` (and, with ``margin >= 0``, at most the best +
+    ``margin``), visiting them best-first by their first-frame term plus the bound of the rest, so
+    that the running threshold is tight early. Exact: no window within the final threshold is missed.
+    Returns the frame pairs compared."""
+    rows = rows[np.isnan(D[rows])]
     if rows.size == 0:
         return 0
-    first, n0 = _distances(q, rows, first_only=True)
-    order = np.argsort(first, kind="stable")
+    first = q.first[rows]
+    need = np.isnan(first)
+    n0 = 0
+    if need.any():                                       # first-frame terms are kept for later passes
+        first[need], n0 = _distances(q, rows[need], first_only=True)
+        q.first[rows[need]] = first[need]
+    order = np.argsort(first + _rest_bounds(q, rows, first), kind="stable")
     rows = rows[order]
     d, n = _distances(q, rows, threshold, margin, acc0=first[order], bound=True)
     ok = np.isfinite(d)
-    done.update(zip(rows[ok].tolist(), d[ok].tolist()))
+    D[rows[ok]] = d[ok]
     return n0 + n
 
 
@@ -280,7 +307,7 @@ def _interval_rows(index: LibraryIndex, row: int, L: int) -> np.ndarray:
 
 
 def _clip_of(index: LibraryIndex, row: int) -> int:
-    return int(np.searchsorted(index.concatenated()["start"], row, side="right") - 1)
+    return int(index.concatenated()["row_clip"][row])
 
 
 def _result(index: LibraryIndex, q: _Query, row: int, dist: float, stats: dict) -> SearchResult:
@@ -305,24 +332,20 @@ def _rot_y(yaw: float, v: np.ndarray) -> np.ndarray:
 
 def _far_mask(index: LibraryIndex, rows: np.ndarray, best: int, L: int) -> np.ndarray:
     """Rows in another clip than ``best`` or at least ``L`` frames from it."""
-    cat = index.concatenated()
-    ci = np.searchsorted(cat["start"], rows, side="right") - 1
-    return (ci != _clip_of(index, best)) | (np.abs(rows - best) >= L)
+    rc = index.concatenated()["row_clip"]
+    return (rc[rows] != rc[best]) | (np.abs(rows - best) >= L)
 
 
-def _runner_up(index: LibraryIndex, done: dict, best: int, L: int) -> int | None:
-    rows = np.fromiter(done, np.int64, len(done))
-    far = rows[_far_mask(index, rows, best, L)]
-    if not far.size:
-        return None
-    d = np.array([done[r] for r in far.tolist()])
-    return int(far[np.argmin(d)])
+def _runner_up(index: LibraryIndex, D: np.ndarray, L: int) -> int | None:
+    """The row of the best computed window far from the best one (``None`` if there is none)."""
+    rows = np.flatnonzero(~np.isnan(D))
+    far = rows[_far_mask(index, rows, int(rows[np.argmin(D[rows])]), L)]
+    return int(far[np.argmin(D[far])]) if far.size else None
 
 
-def _runner_up_distance(index: LibraryIndex, done: dict, L: int) -> float:
-    best = min(done, key=done.get)
-    ru = _runner_up(index, done, best, L)
-    return np.inf if ru is None else done[ru]
+def _runner_up_distance(index: LibraryIndex, D: np.ndarray, L: int) -> float:
+    ru = _runner_up(index, D, L)
+    return np.inf if ru is None else float(D[ru])
 
 
 def search(index: LibraryIndex, query: Motion, start: int, stop: int, *, support_foot: str | None = None,
@@ -370,48 +393,46 @@ def search(index: LibraryIndex, query: Motion, start: int, stop: int, *, support
         longest = max(c.n_frames for c in index.clips)
         raise ValueError(f"the query window has {L} frames at {index.fps:g} Hz; the longest library clip has "
                          f"{longest}: no clip can hold the window")
-    all_rows = np.concatenate([s + np.arange(max(n, 0)) for s, n in zip(starts, n_valid)]).astype(np.int64)
+    n_windows = int(np.maximum(n_valid, 0).sum())
     nF = q.frames.size
-    stats = {"frames_exhaustive": int(all_rows.size * nF), "windows_exhaustive": int(all_rows.size),
+    stats = {"frames_exhaustive": int(n_windows * nF), "windows_exhaustive": n_windows,
              "window_frames": int(L), "support_foot": q.support, "exhaustive": bool(exhaustive),
              "query_resampled": bool(resampled),
              "clips_too_short": [c.name for c, n in zip(index.clips, n_valid) if n <= 0]}
-    done: dict[int, float] = {}
+    D = np.full(q.P.shape[0], np.nan)                   # complete window distances per library row
     if exhaustive:
-        d, _ = _distances(q, all_rows)
-        done = dict(zip(all_rows.tolist(), d.tolist()))
-        stats.update(frames_compared=stats["frames_exhaustive"], windows_compared=int(all_rows.size),
-                     unique_windows=0)
+        all_rows = np.concatenate([s + np.arange(max(n, 0)) for s, n in zip(starts, n_valid)]).astype(np.int64)
+        D[all_rows], _ = _distances(q, all_rows)
+        stats.update(frames_compared=stats["frames_exhaustive"], windows_compared=n_windows, unique_windows=0)
     else:
-        uniq = np.concatenate([s + np.union1d(c.unique[c.unique < n], [n - 1])
-                               for c, s, n in zip(index.clips, starts, n_valid) if n > 0]).astype(np.int64)
+        uniq = _unique_rows(index, n_valid, L)
         margin = float(margin_factor * index.tolerance * q.w.sum())
         # 1. windows at the unique frames (and at each clip's last valid start): every one within
         #    `margin` of the best, exactly
-        compared = _evaluate(q, uniq, done, np.inf, margin)
-        best_u = min(done.values())
-        regions = sorted((r for r in done if done[r] <= best_u + margin), key=done.get)[:max_regions]
+        compared = _evaluate(q, uniq, D, np.inf, margin)
+        ev = uniq[~np.isnan(D[uniq])]
+        best_u = float(D[ev].min())
+        ev = ev[D[ev] <= best_u + margin]
+        regions = ev[np.argsort(D[ev], kind="stable")][:max_regions]
         # 2. every window between the neighbouring unique frames of those: exact for the best of them
-        rows = np.unique(np.concatenate([_interval_rows(index, r, L) for r in regions]))
-        compared += _evaluate(q, rows, done, min(done.values()))
+        rows = np.unique(np.concatenate([_interval_rows(index, int(r), L) for r in regions]))
+        compared += _evaluate(q, rows, D, best_u)
         # 3. the runner-up: the best complete window far from the best (a unique-frame window or a
         #    refined one; if none, the best far unique-frame window), refined in its interval
-        best = min(done, key=done.get)
-        if _runner_up(index, done, best, L) is None:
-            compared += _evaluate(q, uniq[_far_mask(index, uniq, best, L)], done, np.inf, 0.0)
-        ru = _runner_up(index, done, best, L)
+        best = int(np.nanargmin(D))
+        if _runner_up(index, D, L) is None:
+            compared += _evaluate(q, uniq[_far_mask(index, uniq, best, L)], D, np.inf, 0.0)
+        ru = _runner_up(index, D, L)
         if ru is not None:
             more = _interval_rows(index, ru, L)
             more = more[_far_mask(index, more, best, L)]
-            compared += _evaluate(q, more, done, done[ru])
-            rows = np.concatenate([rows, more])
-        windows = int(np.unique(np.concatenate([uniq, rows])).size)
-        stats.update(frames_compared=int(compared), windows_compared=windows, unique_windows=int(uniq.size),
-                     refined_regions=len(regions))
-    best = min(done, key=done.get)
-    ru = _runner_up(index, done, best, L)
+            compared += _evaluate(q, more, D, float(D[ru]))
+        stats.update(frames_compared=int(compared), windows_compared=int(np.count_nonzero(~np.isnan(q.first))),
+                     unique_windows=int(uniq.size), refined_regions=int(regions.size))
+    best = int(np.nanargmin(D))
+    ru = _runner_up(index, D, L)
     t2 = time.perf_counter()
     stats.update(seconds=t2 - t0, seconds_query=t1 - t0, seconds_matching=t2 - t1)
-    runner = _result(index, q, ru, done[ru], stats) if ru is not None else None
-    res = _result(index, q, best, done[best], stats)
+    runner = _result(index, q, ru, float(D[ru]), stats) if ru is not None else None
+    res = _result(index, q, best, float(D[best]), stats)
     return SearchResult(res.clip, res.frame, res.root_transform, res.distance, runner, res.stats)
