@@ -87,3 +87,22 @@ def test_walk_run_blend_zmp_falls(walks, real_data_dir, tmp_path):
     assert r.after["mean_outside_m"] < 0.6 * r.before["mean_outside_m"]
     for f in r.after["flights"]:
         assert f["com_residual_m"] < 1e-3
+
+
+def test_walk_run_blend_feet_stay_above_the_floor(walks, real_data_dir):
+    """The left foot slides through the blend window, touching but never planted (no IK holds it);
+    the first step's lean about the ZMP's projection pushed its toe 10 cm through the floor over 5
+    iterations, until lift_feet raised the legs where a foot point sank below its input height."""
+    from mocomp import datasets
+    from mocomp.dynamics.contacts import detect_contacts
+    from mocomp.ops import blend
+
+    walk, _ = walks
+    run = datasets.load(real_data_dir / "walks" / "bandai2_run_normal_001.bvh")
+    edited = blend(walk, run, (120, 40), 20).motion
+    r = touchup(edited, schedule="ground-default")
+    y0 = detect_contacts(edited).positions[:, :4, 1]
+    y1 = detect_contacts(r.motion).positions[:, :4, 1]
+    assert y1.min() > y0.min() - 0.005
+    assert np.all(y1 >= np.minimum(y0, y0.min(axis=0)) - 0.005)
+    assert r.lifted and max(len(v) for v in r.lifted.values()) > 0

@@ -25,7 +25,7 @@ from .schedule import schedule_from_spec
 from .stages import Stages, stages
 from .zmp import DEFAULT_SMOOTH_SIGMA, floor_levels, zmp_state
 
-__all__ = ["TouchupResult", "touchup", "NEIGHBOURHOOD_S", "ground_weights"]
+__all__ = ["TouchupResult", "touchup", "NEIGHBOURHOOD_S", "ground_weights", "lift_feet"]
 
 #: s: ground frames this close to a flight are adjusted with it (the paper's 15 frames, 1/2 s)
 NEIGHBOURHOOD_S = 0.5
@@ -50,12 +50,14 @@ class TouchupResult:
     distance_before: np.ndarray = None
     distance_after: np.ndarray = None
     capped: dict = None
+    lifted: dict = None
 
     def to_dict(self) -> dict:
         return {"stages": self.stages.to_dict(), "schedule": [s.to_dict() for s in self.schedule],
                 "planned": {"before": self.before, "after": self.after, "iterations": list(self.history),
                             "clamped_frames": {k: v for k, v in self.clamped.items()},
-                            "capped_frames": dict(self.capped or {})},
+                            "capped_frames": dict(self.capped or {}),
+                            "feet_lifted_frames": dict(self.lifted or {})},
                 "seconds": self.seconds}
 
 
@@ -83,6 +85,42 @@ def ground_weights(n_frames: int, flights, neighbourhood: int) -> np.ndarray:
                 if 0 <= f < n_frames:
                     w[f] = min(w[f], v)
     return w
+
+
+def lift_feet(motion, plants, reference_points: np.ndarray, touching: np.ndarray, *, tol: float = 1e-3):
+    """``(motion, lifted frames per leg)``: each leg raised by two-bone IK
+    (:func:`mocomp.ops.two_bone_ik`, the foot's orientation kept) on the frames where one of its
+    foot points has been pushed down -- below its height in the input (``reference_points``
+    ``(T, 4, 3)``) where it touches the ground there (``touching`` ``(T, 4)``), below its resting
+    level elsewhere. The planted points are held by :func:`mocomp.ops.enforce_footplants`; a
+    touching point that is not planted (a heel rolling in, a foot sliding through a blend window)
+    is not, and a lean of the whole body about the ZMP's projection (the lower body in S2) swings
+    it through the floor: on the walk -> run blend, 10 cm after the first step's 5 iterations."""
+    from ..ops import two_bone_ik
+
+    P, G = motion.fk()
+    pts = foot_points(P, G, plants)
+    rest = np.nanmedian(np.where(np.isfinite(plants.levels), plants.levels, np.nan), axis=0)
+    rest = np.where(np.isfinite(rest), rest, np.nanmin(reference_points[..., 1], axis=0))
+    floor = np.where(touching, reference_points[..., 1], np.minimum(rest[None], reference_points[..., 1]))
+    deficit = np.clip(floor - pts[..., 1], 0.0, None)              # (T, 4) m
+    rot = None
+    lifted = {}
+    for leg in plants.legs:
+        ks = [plants.effectors.index(e) for e in (f"foot_{leg.side}", f"toe_{leg.side}")]
+        dy = deficit[:, ks].max(axis=1)
+        f = np.flatnonzero(dy > tol)
+        if not f.size:
+            continue
+        rot = np.array(motion.rotations) if rot is None else rot
+        a = leg.chain[2]
+        tgt = P[f, a] + np.column_stack([np.zeros(f.size), dy[f], np.zeros(f.size)])
+        r, _ = two_bone_ik(P[f], G[f], rot[f], motion.skeleton.parents, leg.chain, tgt)
+        rot[f] = r
+        lifted[leg.side] = f.tolist()
+    if rot is None:
+        return motion, lifted
+    return motion.replace(rotations=rot), lifted
 
 
 def _flight_records(body, motion, flights, g: float) -> list:
@@ -156,6 +194,7 @@ def touchup(motion, body=None, schedule=None, *, contacts=None, iterations: int 
 
     clamped: dict[int, list[int]] = {}
     capped: dict[int, list[int]] = {}
+    lifted: dict[str, set] = {}
     history = []
     before = measure(motion)
     dist_before = before.pop("_distance")
@@ -200,6 +239,9 @@ def touchup(motion, body=None, schedule=None, *, contacts=None, iterations: int 
             # the plants' fade-out must not reach into a flight (its COM is on the parabola)
             cur = apply_displacement(cur, DisplacementMap.between(cur, held).weighted(1.0 - in_air)) if flights \
                 else held
+            cur, up = lift_feet(cur, st.plants, st.contact_points, st.touching)
+            for side, fr in up.items():
+                lifted.setdefault(side, set()).update(fr)
         k = state["k"]
         rec = measure(cur)
         rec.update(step=k, iteration=sum(1 for h in history if h["step"] == k), label=steps[k].label())
@@ -223,4 +265,5 @@ def touchup(motion, body=None, schedule=None, *, contacts=None, iterations: int 
                          {steps[k].label(): sorted(set(v)) for k, v in clamped.items()},
                          before, {k: v for k, v in after.items() if k not in ("step", "iteration", "label")},
                          time.perf_counter() - t0, dist_before, dist_after,
-                         {steps[k].label(): sorted(set(v)) for k, v in capped.items()})
+                         {steps[k].label(): sorted(set(v)) for k, v in capped.items()},
+                         {k: sorted(v) for k, v in lifted.items()})
