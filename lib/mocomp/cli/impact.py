@@ -80,6 +80,8 @@ def run(args) -> int:
         raise FileNotFoundError(f"-o {out}: its parent folder {out.parent} does not exist")
     if args.report:
         check_output_path(Path(args.report), "report")
+    attacker = _load(args.attacker)
+    victim = _load(args.victim)
     lib = args.library
     if lib is None:
         d = os.environ.get("MOCOMP_DATA_DIR")
@@ -88,8 +90,6 @@ def run(args) -> int:
         lib = str(Path(d) / "reactions")
     if not Path(lib).is_dir():
         raise FileNotFoundError(f"--library {lib}: no such folder")
-    attacker = _load(args.attacker)
-    victim = _load(args.victim)
     scenario = Scenario(args.facing, args.offset, args.contact_body)
     index = load_library(lib, victim.skeleton, cache_dir=args.cache, progress=False)
     print(f"library {lib}: {len(index.clips)} clip(s), {index.n_frames} frames, {index.n_unique} unique at "
@@ -117,7 +117,7 @@ def run(args) -> int:
     if warn:
         print(f"mocomp impact: warning: MuJoCo warnings {warn}", file=sys.stderr)
     t = r.timings
-    print("timings: " + ", ".join(f"{k} {v:.3f} s" for k, v in t.items()) + f"; response {r.response_seconds:.3f} s")
+    print("timings: " + ", ".join(f"{k} {v:.3f} s" for k, v in t.items()) + f"; response {r.response_seconds:.3f} s wall, {r.response_cpu_seconds:.3f} s CPU")
     out.mkdir(exist_ok=True)
     vpath, apath = out / "victim.bvh", out / "attacker.bvh"
     write_bvh(r.victim, vpath)

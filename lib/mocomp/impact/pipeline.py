@@ -51,6 +51,9 @@ class ImpactConfig:
     plant: hold the planted feet of the output; lift: lift the output above the floor.
     attacker_follow, attacker_blend: s (:func:`~mocomp.impact.attacker.attacker_response`).
     compare_naive: also measure the final-blend correction from the naive simulation.
+    realign: align the found clip onto the active simulation for the final blend, by the search's
+    rule (root heading and ground point at the window's first frame); the search aligned it onto the
+    naive simulation. False keeps the search's alignment.
     """
 
     window: tuple[float, float] = (0.1, 1.0)
@@ -67,6 +70,7 @@ class ImpactConfig:
     attacker_blend: float = 0.3
     compare_naive: bool = True
     exhaustive_search: bool = False
+    realign: bool = True
 
     def __post_init__(self):
         a, b = self.window
@@ -89,7 +93,8 @@ class ImpactResult:
     found: the found clip aligned on the victim timeline over the simulated frames.
     blend_active, blend_naive: :class:`~mocomp.impact.blend.BlendOutcome` (the latter only measured).
     frames: key frame numbers of the victim output (rewind, impact, window start/stop, re-entry).
-    delay: s. timings: s per stage. evidence: continuity, repairs, attacker numbers.
+    delay: s. timings: wall s per stage; cpu: CPU s per stage (this process). evidence: continuity,
+    repairs, attacker numbers.
     """
 
     victim: Motion
@@ -107,12 +112,19 @@ class ImpactResult:
     timings: dict
     evidence: dict
     notes: tuple[str, ...] = field(default=())
+    cpu: dict = field(default_factory=dict)
+
+    RESPONSE_STAGES = ("naive_simulation", "search", "targets", "active_simulation", "final_blend")
 
     @property
     def response_seconds(self) -> float:
-        """Wall time of the response proper (naive sim, search, active sim, blend)."""
-        t = self.timings
-        return float(t["naive_simulation"] + t["search"] + t["active_simulation"] + t["final_blend"])
+        """Wall time of the response proper (naive sim, search, active sim with its targets, blend)."""
+        return float(sum(self.timings[k] for k in self.RESPONSE_STAGES))
+
+    @property
+    def response_cpu_seconds(self) -> float:
+        """CPU time (this process) of the same stages: the machine's load does not inflate it."""
+        return float(sum(self.cpu[k] for k in self.RESPONSE_STAGES))
 
     def to_dict(self) -> dict:
         fc = self.first_contact
@@ -136,7 +148,8 @@ class ImpactResult:
             "final_blend_correction": {"from_active (planned)": self.blend_active.to_dict(),
                                        "from_naive (planned, for comparison)": bn},
             "mujoco_warnings": {"naive": self.naive.warnings, "active": self.active.warnings},
-            "timings_s": self.timings, "response_s": self.response_seconds,
+            "timings_s": self.timings, "cpu_s": self.cpu, "response_s": self.response_seconds,
+            "response_cpu_s": self.response_cpu_seconds,
             "evidence": self.evidence, "notes": list(self.notes),
         }
 
@@ -184,8 +197,8 @@ def impact_response(attacker: Motion, victim: Motion, index, scenario: Scenario 
     from .search import search
     from .simulate import ServoGains, blend_targets, clip_targets, find_first_contact, naive_targets, simulate
 
-    timings = {}
-    t = time.perf_counter()
+    timings, cpu = {}, {}
+    t, c = time.perf_counter(), time.process_time()
     if index.skeleton != victim.skeleton:
         raise ImpactError("the library index was built for another skeleton than the victim's")
     gains = config.gains if config.gains is not None else ServoGains()
@@ -197,20 +210,20 @@ def impact_response(attacker: Motion, victim: Motion, index, scenario: Scenario 
     lib = _reach_limit_motions(index) if library_motions is None else list(library_motions)
     scene = build_scene(attacker.skeleton, victim.skeleton, attacker_motions=[attacker],
                         victim_motions=[victim] + lib, contact_body=scenario.contact_body)
-    timings["setup"] = time.perf_counter() - t
+    timings["setup"], cpu["setup"] = time.perf_counter() - t, time.process_time() - c
 
-    t = time.perf_counter()
+    t, c = time.perf_counter(), time.process_time()
     vk = placed.slice(0, min(placed.n_frames, att.n_frames))
     fc = find_first_contact(scene, att.slice(0, vk.n_frames), vk)
-    timings["first_contact"] = time.perf_counter() - t
+    timings["first_contact"], cpu["first_contact"] = time.perf_counter() - t, time.process_time() - c
     # the victim clip held at its end beyond, so the burst has targets
     t0 = fc.rewind_frame / fps
     t_naive_end = fc.time + config.window[1] + 1.0 / fps
 
-    t = time.perf_counter()
+    t, c = time.perf_counter(), time.process_time()
     naive = simulate(scene, att, placed, t0, t_naive_end, victim_targets=naive_targets(placed, t0, t_naive_end),
                      friction=config.friction_naive, gains=gains)
-    timings["naive_simulation"] = time.perf_counter() - t
+    timings["naive_simulation"], cpu["naive_simulation"] = time.perf_counter() - t, time.process_time() - c
     if naive.impact_time is None:
         raise ImpactError(f"the kinematic pass found contact at frame {fc.frame} ({fc.time:.3f} s), but the "
                           "simulated attacker never touched the victim (a grazing contact): move the victim "
@@ -224,11 +237,11 @@ def impact_response(attacker: Motion, victim: Motion, index, scenario: Scenario 
     if stop - start < 2:
         raise ImpactError(f"the search window {s_time:.3f}-{e_time:.3f} s holds fewer than 2 frames at {fps:g} fps")
 
-    t = time.perf_counter()
+    t, c = time.perf_counter(), time.process_time()
     res = search(index, naive.victim, start, stop, exhaustive=config.exhaustive_search)
-    timings["search"] = time.perf_counter() - t
+    timings["search"], cpu["search"] = time.perf_counter() - t, time.process_time() - c
 
-    t = time.perf_counter()
+    t, c = time.perf_counter(), time.process_time()
     clip = res.root_transform.apply(index.motion(res.clip))
     # the found clip on the victim timeline: clip frame res.frame at query frame `start`
     reentry = stop - 1
@@ -244,16 +257,30 @@ def impact_response(attacker: Motion, victim: Motion, index, scenario: Scenario 
     t_re = t0 + reentry / fps
     qa = clip_targets(placed, t0 + times_q)
     targets = blend_targets(qa, np.array(found_seg.rotations), t0 + times_q, t_react, t_re)
-    timings["targets"] = time.perf_counter() - t
-    t = time.perf_counter()
+    timings["targets"], cpu["targets"] = time.perf_counter() - t, time.process_time() - c
+    t, c = time.perf_counter(), time.process_time()
     active = simulate(scene, att, placed, t0, t_re, victim_targets=targets, friction=config.friction_active,
                       gains=gains)
-    timings["active_simulation"] = time.perf_counter() - t
+    timings["active_simulation"], cpu["active_simulation"] = time.perf_counter() - t, time.process_time() - c
 
-    t = time.perf_counter()
+    t, c = time.perf_counter(), time.process_time()
     seg = active.victim.slice(0, n_seg)
-    ba = final_blend(seg, found_seg)
+    if config.realign:
+        # the search aligned the clip's root at its window start onto the naive simulation's; the final
+        # blend aligns it the same way (root heading and ground point, sec. 4.1) onto the active one
+        from ..ops.align import align
+
+        native = index.motion(res.clip)
+        same = abs(native.fps - fps) <= 1e-6
+        g = align(seg, native if same else native.resample(fps), start,
+                  res.frame if same else int(round(res.frame / native.fps * fps)))
+        clip_a = g.apply(native)
+        found_a = clip_a.sample(np.clip(tc, 0.0, clip_a.duration), fps=fps)
+    else:
+        clip_a, found_a = clip, found_seg
+    ba = final_blend(seg, found_a)
     bn = final_blend(naive.victim.slice(0, n_seg), found_seg) if config.compare_naive else None
+    clip = clip_a
     # the output: the victim clip up to the rewind frame, the blended segment, the found clip after
     before = placed.slice(0, fc.rewind_frame) if fc.rewind_frame > 0 else None
     t_after = res.frame / clip.fps + (np.arange(reentry + 1, 10 ** 6) - start) / fps
@@ -262,9 +289,9 @@ def impact_response(attacker: Motion, victim: Motion, index, scenario: Scenario 
     if t_after.size:
         parts.append(clip.sample(t_after, fps=fps).replace(source=placed.source))
     out = concatenate(parts)
-    timings["final_blend"] = time.perf_counter() - t
+    timings["final_blend"], cpu["final_blend"] = time.perf_counter() - t, time.process_time() - c
 
-    t = time.perf_counter()
+    t, c = time.perf_counter(), time.process_time()
     evidence = {}
     re_frame = fc.rewind_frame + reentry
     clip_steps = clip.resample(fps) if abs(clip.fps - fps) > 1e-6 else clip     # steps compared at one rate
@@ -285,22 +312,22 @@ def impact_response(attacker: Motion, victim: Motion, index, scenario: Scenario 
         except Exception as e:                        # no plant at all (a victim airborne throughout)
             evidence["footplant"] = {"skipped": str(e)}
     evidence["continuity_final"] = _continuity(out, clip_steps, re_frame, fc.rewind_frame, frame_steps)
-    timings["repairs"] = time.perf_counter() - t
+    timings["repairs"], cpu["repairs"] = time.perf_counter() - t, time.process_time() - c
 
-    t = time.perf_counter()
+    t, c = time.perf_counter(), time.process_time()
     ar = attacker_response(att.slice(0, int(np.floor(attacker.duration * fps + 1e-9)) + 1), active.attacker,
                            fc.rewind_frame, active.impact_time if active.impact_time is not None else t_imp,
                            active.contact_end, follow=config.attacker_follow, blend=config.attacker_blend)
     evidence["attacker"] = ar.to_dict()
-    timings["attacker"] = time.perf_counter() - t
+    timings["attacker"], cpu["attacker"] = time.perf_counter() - t, time.process_time() - c
     frames = {"rewind": fc.rewind_frame, "first_contact": fc.frame,
               "impact": fc.rewind_frame + int(round((t_imp - t0) * fps)),
               "window_start": fc.rewind_frame + start, "window_stop": fc.rewind_frame + stop,
               "reentry": re_frame, "found_clip_frame_at_reentry": int(round(tc[-1] * clip.fps)),
               "output_frames": out.n_frames}
     notes = scene.notes + naive.notes
-    return ImpactResult(out, ar.motion, scenario, fc, naive, active, res, found_seg, ba, bn, frames, delay,
-                        timings, evidence, notes)
+    return ImpactResult(out, ar.motion, scenario, fc, naive, active, res, found_a, ba, bn, frames, delay,
+                        timings, evidence, notes, cpu)
 
 
 def _floor_level(victim: Motion) -> float:
