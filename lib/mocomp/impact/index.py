@@ -49,7 +49,7 @@ __all__ = ["LibraryError", "ClipIndex", "LibraryIndex", "build_index", "unique_f
            "default_cache_dir", "library_files", "INDEX_VERSION", "DEFAULT_TOLERANCE", "DEFAULT_FPS"]
 
 #: bump when the cached arrays or their meaning change (old cache files are then ignored)
-INDEX_VERSION = 1
+INDEX_VERSION = 2
 #: Appendix A: the unique-frame tolerance
 DEFAULT_TOLERANCE = 0.5
 #: the index rate, frames per second (the paper searched at the 30 fps capture rate)
@@ -135,7 +135,7 @@ class ClipIndex:
     path: the clip file. name: its path relative to the library directory.
     sha256: hash of the clip's bytes. key: the cache key (content + parameters).
     native_fps, native_frames: the file's own rate and frame count.
-    first_frame: native frames dropped at the start (a leading T-pose), 0 otherwise.
+    first_frame: native frames not searched at the start (1 for a leading cgspeed T-pose), else 0.
     resampled: whether the index frames are a resampling of the native ones.
     positions, orientations, velocities, angular_velocities, com, ground, heading: the body
         features at the index rate (:class:`~mocomp.impact.features.BodyFeatures` fields).
@@ -236,8 +236,7 @@ class LibraryIndex:
         if hashlib.sha256(data).hexdigest() != c.sha256:
             raise LibraryError(f"{c.path}: the clip changed since the index was built; rebuild the index "
                                "(mocomp impact-index)")
-        m, _ = _load_on(c.path, self.skeleton)
-        return m
+        return _load_on(c.path, self.skeleton)[0]
 
     def concatenated(self) -> dict:
         """All clips' arrays end to end (for the vectorised search): ``positions (N, 16, 3)``,
@@ -281,36 +280,28 @@ def _content_hash(path: Path) -> tuple[str, bytes]:
     return h, extra
 
 
-def _load_on(path, skeleton: Skeleton) -> tuple[Motion, tuple[str, ...]]:
+def _load_on(path, skeleton: Skeleton) -> tuple[Motion, tuple[str, ...], int]:
+    """The clip on ``skeleton`` (retargeted), notes, and 1 when its frame 0 is a cgspeed T-pose
+    (searched windows then start at frame 1; the frame stays in the motion, so frame numbers are
+    the file's)."""
     from .. import io
+    from ..datasets.clips import is_tpose_frame
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         m = io.load(path)
-    return retarget(m, skeleton, name=str(path))
-
-
-def _leading_jump(pos_local, ori_local) -> int:
-    """1 when frame 0 is a pose unlike the rest (a T-pose before the capture), else 0: its distance
-    to frame 1 exceeds 10x the clip's 99th-percentile frame-to-frame distance."""
-    if pos_local.shape[0] < 4:
-        return 0
-    wp, wr = part_weights(None)
-    step = frame_distances(pos_local[:-1], ori_local[:-1], pos_local[1:], ori_local[1:], wp, wr)
-    rest = np.percentile(step[1:], 99)
-    return int(step[0] > 10.0 * max(rest, 1e-6))
+    tpose = int(is_tpose_frame(m, 0))
+    m, notes = retarget(m, skeleton, name=str(path))
+    return m, notes + (("frame 0 (the T-pose before the capture) is not searched",) if tpose else ()), tpose
 
 
 def _build_clip(path: Path, name: str, sha: str, key: str, skeleton, body, tolerance, fps) -> ClipIndex:
     t0 = time.perf_counter()
-    m, notes = _load_on(path, skeleton)
+    m, notes, first = _load_on(path, skeleton)
     notes = list(notes)
     native_fps, native_n = float(m.fps), m.n_frames
     nat = body_features(m, body, velocities=False)
-    pl, ol = ground_frame_features(nat.positions, nat.orientations, nat.ground, nat.heading)
-    first = _leading_jump(pl, ol)
     if first:
-        notes.append("frame 0 dropped: a pose unlike the rest (T-pose before the capture)")
         m = m[first:]
     resampled = abs(native_fps / fps - 1.0) > RATE_TOLERANCE
     if resampled:

@@ -416,7 +416,7 @@ def search(index: LibraryIndex, query: Motion, start: int, stop: int, *, support
         regions = ev[np.argsort(D[ev], kind="stable")][:max_regions]
         # 2. every window between the neighbouring unique frames of those: exact for the best of them
         rows = np.unique(np.concatenate([_interval_rows(index, int(r), L) for r in regions]))
-        compared += _evaluate(q, rows, D, best_u)
+        compared += _evaluate(q, rows, D, best_u, 0.0)
         # 3. the runner-up: the best complete window far from the best (a unique-frame window or a
         #    refined one; if none, the best far unique-frame window), refined in its interval
         best = int(np.nanargmin(D))
