@@ -181,7 +181,7 @@ def _fmt(v):
 
 def render_stimulus_set(spec: StudySpec | str | Path, out_dir: str | Path, *, force: bool = False,
                         skip_missing_data: bool = False, only: list[str] | None = None,
-                        progress: bool = True) -> RenderReport:
+                        progress: bool = True, workers: int | None = 0, scheduler: str | None = None) -> RenderReport:
     """Render every stimulus of ``spec`` into ``out_dir`` and write ``manifest.csv``.
 
     Parameters
@@ -194,10 +194,14 @@ def render_stimulus_set(spec: StudySpec | str | Path, out_dir: str | Path, *, fo
     only: render only these stimulus ids (previews); the manifest keeps the other
         stimuli's rows that are still valid (same content hash, intact video).
     progress: show a tqdm bar over stimuli.
+    workers, scheduler: where the stimuli are rendered, each one an independent item of
+        :func:`mocomp.batch.map_items`: ``workers=0`` (default) in this process, one after the other;
+        ``workers=N`` on a local Dask cluster of N processes (``None``: one per core); ``scheduler`` on
+        an existing Dask cluster (its workers must see ``out_dir``). The files are the same.
     """
     from tqdm.auto import tqdm
 
-    from mocomp.plots.render3d import MotionRenderer, render_filmstrip, write_video
+    from mocomp.batch import map_items
 
     from .stimuli import build_stimuli
 
@@ -235,67 +239,75 @@ def render_stimulus_set(spec: StudySpec | str | Path, out_dir: str | Path, *, fo
     rows = []
     bases = {b.id: b for b in built.bases}
     base_audits: dict[str, object] = {}
-    renderers: dict[str, MotionRenderer] = {}
+    # pass 1: what to render (a stimulus whose content hash and files are unchanged is kept)
+    plan = []  # (stimulus, content hash, files, previous row or None, reuse)
+    jobs: list[_RenderJob] = []
+    for st in stimuli:
+        sid = st.stimulus_id
+        ch = content_hash(st.motion, fps=fps, style=style, camera=camera, encoder=enc,
+                          poster_frame=spec.render.poster_frame, filmstrip=spec.render.filmstrip,
+                          filmstrip_poses=spec.render.filmstrip_poses, versions=versions)
+        vid_rel = f"videos/{sid}.mp4"
+        pos_rel = f"posters/{sid}.png"
+        fs_rel = f"filmstrips/{sid}.png" if spec.render.filmstrip else ""
+        prev = old.get(sid)
+        reuse = (prev is not None and prev.get("content_hash") == ch and (out / vid_rel).is_file()
+                 and (out / pos_rel).is_file() and (not fs_rel or (out / fs_rel).is_file())
+                 and sha256_file(out / vid_rel) == prev.get("sha256"))
+        if only is not None and sid not in only and not reuse:
+            # a preview run keeps the valid rows of the full set; stale ones are left out
+            if prev is not None:
+                notes.append(f"{sid}: out of date, left out of the manifest (not in --only)")
+            continue
+        plan.append((st, ch, (vid_rel, pos_rel, fs_rel), prev, reuse))
+        if not reuse:
+            jobs.append(_RenderJob(sid, st.base_clip, st.motion, str(out / vid_rel), str(out / pos_rel),
+                                   str(out / fs_rel) if fs_rel else "", fps, style, camera, enc,
+                                   spec.render.poster_frame, spec.render.filmstrip_poses))
+    # pass 2: render them, each stimulus an independent item of mocomp.batch's mechanism (in this process
+    # by default, on a Dask cluster with workers=N / scheduler=ADDRESS)
+    done: dict[str, tuple] = {}
+    bar = tqdm(total=len(jobs), desc=f"render {spec.name}", unit="stim", disable=not progress)
     try:
-        bar = tqdm(stimuli, desc=f"render {spec.name}", unit="stim", disable=not progress)
-        for st in bar:
-            sid = st.stimulus_id
-            ch = content_hash(st.motion, fps=fps, style=style, camera=camera, encoder=enc,
-                              poster_frame=spec.render.poster_frame, filmstrip=spec.render.filmstrip,
-                              filmstrip_poses=spec.render.filmstrip_poses, versions=versions)
-            vid_rel = f"videos/{sid}.mp4"
-            pos_rel = f"posters/{sid}.png"
-            fs_rel = f"filmstrips/{sid}.png" if spec.render.filmstrip else ""
-            prev = old.get(sid)
-            reuse = (prev is not None and prev.get("content_hash") == ch and (out / vid_rel).is_file()
-                     and (out / pos_rel).is_file() and (not fs_rel or (out / fs_rel).is_file())
-                     and sha256_file(out / vid_rel) == prev.get("sha256"))
-            if only is not None and sid not in only and not reuse:
-                # a preview run keeps the valid rows of the full set; stale ones are left out
-                if prev is not None:
-                    notes.append(f"{sid}: out of date, left out of the manifest (not in --only)")
-                continue
-            if reuse:
-                report.skipped.append(sid)
-                sha, n_frames, dur, rsec = prev["sha256"], int(prev["n_frames"]), float(prev["duration_s"]), \
-                    float(prev.get("render_s") or "nan")
-            else:
-                key = st.base_clip
-                if key not in renderers:
-                    renderers[key] = MotionRenderer(st.motion.skeleton, style, camera)
-                res = write_video(st.motion, out / vid_rel, fps=fps, style=style, camera=camera,
-                                  poster=out / pos_rel, poster_frame=spec.render.poster_frame, encoder=enc,
-                                  renderer=renderers[key])
-                if fs_rel:
-                    from mocomp.plots.render3d import RenderStyle
-
-                    tile = RenderStyle(width=max(16, (style.width // 2) // 2 * 2),
-                                       height=max(16, (style.height // 2) // 2 * 2))
-                    render_filmstrip(st.motion, n_poses=spec.render.filmstrip_poses, layout="tiles", style=tile,
-                                     camera=camera, path=out / fs_rel)
-                sha, n_frames, dur, rsec = sha256_file(out / vid_rel), res.n_frames, res.duration_s, res.seconds
-                report.rendered.append(sid)
-                report.frames += n_frames
-                report.render_seconds += res.seconds
-            row = {
-                "stimulus_id": sid, "base_clip": st.base_clip, "perturbation": st.perturbation,
-                "direction": st.direction, "nominal_level": st.nominal_level,
-                "achieved_error": st.measures["achieved_error"], "duration_s": dur, "file": vid_rel,
-                "poster": pos_rel, "sha256": sha,
-            }
-            for c in EXTRA_COLUMNS:
-                if c in st.measures:
-                    row[c] = st.measures[c]
-            binfo = bases[st.base_clip].info
-            row["base_correction_m"] = binfo.get("ballistic_correction_m", float("nan"))
-            row["base_g_fit"] = binfo.get("g_fit_before_correction", float("nan"))
-            row.update({"fps": fps, "n_frames": n_frames, "width": style.width, "height": style.height,
-                        "filmstrip": fs_rel, "content_hash": ch, "base_source": st.base_source, "render_s": rsec})
-            row.update(_audit_columns(st, bases[st.base_clip], base_audits, report))
-            rows.append({k: _fmt(v) for k, v in row.items()})
+        for o in map_items(_render_job, jobs, workers=workers, scheduler=scheduler, name=f"study-render-{spec.name}"):
+            if o.status != "ok":
+                if o.exception is not None and o.status == "failed":
+                    raise o.exception
+                raise StudyDataError(f"stimulus {o.item.stimulus_id}: rendering {o.status}: {o.error}", src_path)
+            done[o.item.stimulus_id] = o.value
+            bar.update(1)
     finally:
-        for r in renderers.values():
-            r.close()
+        bar.close()
+        if workers == 0 and scheduler is None:
+            _close_renderers()
+    # pass 3: the manifest rows, in the stimuli's order
+    for st, ch, (vid_rel, pos_rel, fs_rel), prev, reuse in plan:
+        sid = st.stimulus_id
+        if reuse:
+            report.skipped.append(sid)
+            sha, n_frames, dur, rsec = prev["sha256"], int(prev["n_frames"]), float(prev["duration_s"]), \
+                float(prev.get("render_s") or "nan")
+        else:
+            sha, n_frames, dur, rsec = done[sid]
+            report.rendered.append(sid)
+            report.frames += n_frames
+            report.render_seconds += rsec
+        row = {
+            "stimulus_id": sid, "base_clip": st.base_clip, "perturbation": st.perturbation,
+            "direction": st.direction, "nominal_level": st.nominal_level,
+            "achieved_error": st.measures["achieved_error"], "duration_s": dur, "file": vid_rel,
+            "poster": pos_rel, "sha256": sha,
+        }
+        for c in EXTRA_COLUMNS:
+            if c in st.measures:
+                row[c] = st.measures[c]
+        binfo = bases[st.base_clip].info
+        row["base_correction_m"] = binfo.get("ballistic_correction_m", float("nan"))
+        row["base_g_fit"] = binfo.get("g_fit_before_correction", float("nan"))
+        row.update({"fps": fps, "n_frames": n_frames, "width": style.width, "height": style.height,
+                    "filmstrip": fs_rel, "content_hash": ch, "base_source": st.base_source, "render_s": rsec})
+        row.update(_audit_columns(st, bases[st.base_clip], base_audits, report))
+        rows.append({k: _fmt(v) for k, v in row.items()})
 
     df = pd.DataFrame(rows, columns=list(MANIFEST_COLUMNS) + list(EXTRA_COLUMNS) + list(AUDIT_COLUMNS))
     tmp = manifest_path.with_name(".manifest.csv.partial")
@@ -351,3 +363,59 @@ def _json_default(o):
     if isinstance(o, Path):
         return str(o)
     raise TypeError(f"not JSON-serializable: {type(o).__name__}")
+
+
+@dataclass(frozen=True)
+class _RenderJob:
+    """One stimulus to render (picklable: it travels to a Dask worker)."""
+
+    stimulus_id: str
+    base_clip: str
+    motion: object
+    video: str
+    poster: str
+    filmstrip: str
+    fps: float
+    style: object
+    camera: object
+    encoder: dict
+    poster_frame: int
+    filmstrip_poses: int
+
+
+#: open renderers of this process, one per (base clip, skeleton, style, camera): a scene is reused across
+#: the stimuli of a base (in this process, or on each Dask worker)
+_RENDERERS: dict = {}
+
+
+def _close_renderers() -> None:
+    while _RENDERERS:
+        _RENDERERS.popitem()[1].close()
+
+
+def _renderer(job: _RenderJob):
+    from mocomp.plots.render3d import MotionRenderer
+
+    key = (job.base_clip, tuple(job.motion.skeleton.names), json.dumps(job.style.as_dict(), sort_keys=True),
+           json.dumps(job.camera.as_dict(), sort_keys=True, default=_json_default))
+    if key not in _RENDERERS:
+        if len(_RENDERERS) >= 8:  # a long-lived worker: keep a few scenes only
+            _close_renderers()
+        _RENDERERS[key] = MotionRenderer(job.motion.skeleton, job.style, job.camera)
+    return _RENDERERS[key]
+
+
+def _render_job(job: _RenderJob) -> tuple[str, int, float, float]:
+    """Render one stimulus' video, poster (and filmstrip): ``(sha256 of the video, frames, duration_s,
+    render seconds)``. Files are written by :func:`~mocomp.plots.render3d.write_video` (temporary name,
+    then renamed)."""
+    from mocomp.plots.render3d import RenderStyle, render_filmstrip, write_video
+
+    res = write_video(job.motion, job.video, fps=job.fps, style=job.style, camera=job.camera, poster=job.poster,
+                      poster_frame=job.poster_frame, encoder=job.encoder, renderer=_renderer(job))
+    if job.filmstrip:
+        style = job.style
+        tile = RenderStyle(width=max(16, (style.width // 2) // 2 * 2), height=max(16, (style.height // 2) // 2 * 2))
+        render_filmstrip(job.motion, n_poses=job.filmstrip_poses, layout="tiles", style=tile, camera=job.camera,
+                         path=job.filmstrip)
+    return sha256_file(job.video), res.n_frames, res.duration_s, res.seconds

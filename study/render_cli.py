@@ -12,6 +12,8 @@ __all__ = ["register_render", "run_render"]
 
 
 def register_render(subparsers) -> argparse.ArgumentParser:
+    from mocomp.cli._common import int_in
+
     p = subparsers.add_parser(
         "render", help="render a stimulus specification (videos, posters, manifest.csv)",
         description="Render every stimulus of a specification (e.g. stimuli/paper_table2.toml) headless "
@@ -29,6 +31,12 @@ def register_render(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--backend", choices=("egl", "osmesa"), default=None,
                    help="VTK offscreen window (default: $VTK_DEFAULT_OPENGL_WINDOW or EGL)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--workers", type=int_in(0, 512), default=0, metavar="N",
+                   help="render on a local Dask cluster of N worker processes, as mocomp batch does (default 0: "
+                        "in this process)")
+    g.add_argument("--scheduler", metavar="tcp://HOST:PORT",
+                   help="render on an existing Dask cluster (its workers must see the output folder)")
     p.set_defaults(func=run_render)
     return p
 
@@ -40,7 +48,8 @@ def run_render(args) -> int:
 
     configure_offscreen(args.backend)
     rep = render_stimulus_set(args.spec, args.out, force=args.force, skip_missing_data=args.skip_missing_data,
-                              only=args.only, progress=not args.no_progress)
+                              only=args.only, progress=not args.no_progress, workers=args.workers,
+                              scheduler=args.scheduler)
     for n in rep.notes:
         print(f"note: {n}", file=sys.stderr)
     m = rep.manifest
