@@ -109,7 +109,7 @@ def test_index_on_fake_records(tmp_path):
                  "embedded data only", "4.8 s", "before 1.00 / 2.00 / 3.00"):
         assert text in page, text
     # the failed notebook: marked, with its (escaped) error and failing cell
-    assert "RuntimeError: boom &lt;here&gt; (cell 2)" in page and 'id="failed"' in page
+    assert "RuntimeError: boom &lt;here&gt; (In [2])" in page and 'id="failed"' in page
     # escaping of quantities and notes; the bound shown as such
     assert "cell &lt;x&gt;" in page and "reason &amp; why" in page and "&le; 20" in page
     # the figure named by its item sits in that item's section, the other under its notebook

@@ -196,7 +196,7 @@ def build_index(run: dict, records) -> str:
     for r in records:
         cls = "ok" if r.status == "ok" and not r.results_error else "fail"
         name = f'<a href="{_e(r.html)}">{_e(r.name)}</a>' if r.html else _e(r.name)
-        err = _e(r.error) + (f" (cell {r.failed_cell})" if r.failed_cell is not None else "")
+        err = _e(r.error) + (f" (In [{r.failed_cell}])" if r.failed_cell is not None else "")
         if r.results_error:
             err += ("<br>" if err else "") + _e(r.results_error)
         results = f'<a href="{_e(r.results_file)}">results</a>' if r.rows else "&ndash;"
