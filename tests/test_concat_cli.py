@@ -59,7 +59,12 @@ def test_concat_chain_of_three(tmp_path, capsys):
     (["backflip", "backflip", "--phases", "A:10,5000"], "has only 323 frames"),
     (["backflip", "backflip", "--rule", "forward,reverse"], "--rule lists 2 rules for 1 joint"),
     (["backflip", "backflip", "--max-f", "1e-6"], "too different to be blended"),
-    (["backflip", "backflip", "sideflip"], "joint 2 (the chain so far -> sideflip): after the eq. 2 alignment"),
+    (["backflip", "backflip", "sideflip"], "joint 2 (the chain so far -> sideflip): auto rule: after the eq. 2 "
+                                           "alignment"),
+    (["backflip@3", "backflip"], "backflip@3: the clip holds 1 strike(s)"),
+    (["backflip@0", "backflip"], "strikes are numbered from 1"),
+    (["backflip@9:5", "backflip"], "need START < STOP"),
+    (["backflip@10:5000", "backflip"], "the clip has only 323 frames"),
     (["backflip", "backflip", "--fps", "C:60"], "--fps C:60: there are only motions A-B"),
 ])
 def test_concat_bad_input_one_line(tmp_path, capsys, argv, msg):
@@ -92,3 +97,17 @@ def test_concat_baseline_motion_graph(tmp_path, capsys):
     lv = d["lowest_L_between_main_phases"]
     assert lv["ours"][0] > 0.3 * lv["main_level"][0] > lv["motion_graph"][0]
     assert "lowest |L| between the main phases (measured)" in capsys.readouterr().out
+
+
+def test_concat_single_strikes_cut_from_takes(tmp_path, capsys, real_data_dir):
+    """FILE@K: the K-th strike of a take; a chain of three (kick, slash cut from a combo, slash down)."""
+    d = real_data_dir
+    out, rep = tmp_path / "o.bvh", tmp_path / "r.json"
+    args = [f"{d}/attacks/ase_rl_Atk_Kick.derived.bvh@1", f"{d}/combos/ase_rl_Atk_2xCombo01.derived.bvh@1",
+            f"{d}/attacks/ase_rl_Atk_SlashDown.derived.bvh@5:60"]
+    assert main(["concat", *args, "-o", str(out), "--report", str(rep), "--no-audit"]) == 0
+    text = capsys.readouterr().out
+    assert "A: " in text and "strike 1 of 2: frames 10-41, toe_r" in text
+    assert "B: " in text and "strike 1 of 2: frames 5-42, hand_r" in text
+    assert "C: " in text and "frames 5-59" in text
+    assert len(json.loads(rep.read_text())["joints"]) == 2

@@ -61,7 +61,7 @@ def test_bandai_one_two_punch_reverse(real_data_dir):
 def test_spinning_kicks_rejected_with_the_measured_facing(real_data_dir):
     k = _load(real_data_dir, "kicks_punches/bandai1_kick_normal_001.bvh")
     with pytest.raises(ConcatError, match=r"facings differ by ([0-9.]+) deg at best .*more than 45 deg") as e:
-        concatenate(k[20:120], k[150:260], facing_at="f_T")
+        concatenate(k[20:120], k[150:260], facing_at="f_T", min_spread=0.0, rule="forward")
     import re
 
     assert float(re.search(r"differ by ([0-9.]+) deg", str(e.value)).group(1)) > 45
@@ -115,3 +115,34 @@ def test_no_com_velocity_step_at_the_blend_read_back(real_data_dir, tmp_path):
     L0, L1 = momentum_track(m0).magnitude, momentum_track(m1).magnitude     # a translation: L unchanged
     np.testing.assert_allclose(L1, L0, rtol=1e-6, atol=1e-6 * r1.L_reference)
     assert rep1.measure("max_foot_slide_m") <= 0.015
+
+
+def test_spinning_kicks_eq2_ill_conditioned_falls_back_to_facing(real_data_dir):
+    """Two Bandai 360 deg spinning kicks cut from one take: their mean L is mostly vertical (horizontal
+    parts 5.6 of 12-13 kg m^2/s), so eq. 2's turn can change the dot product by only 0.35 of
+    |L1||L2| and is set by the horizontal remainder (measured: 17.3 deg, leaving the bodies 13.4 deg
+    apart at the main phases). B is turned to face A's way instead (facing difference 0 at t_m), noted."""
+    from mocomp.concat import find_actions
+
+    k = _load(real_data_dir, "kicks_punches/bandai1_kick_normal_001.bvh")
+    k1, k2 = (x.cut(k) for x in find_actions(k)[:2])
+    r = concatenate(k1, k2)
+    assert r.facing_difference == pytest.approx(0.0, abs=1e-9)
+    assert any(n.startswith("eq. 2 ill-conditioned") for n in r.notes)
+    r0 = concatenate(k1, k2, min_spread=0.0)
+    assert np.degrees(r0.facing_difference) > 5 and not any("ill-conditioned" in n for n in r0.notes)
+
+
+def test_auto_rule_tries_the_other_rule_when_the_first_is_rejected(real_data_dir):
+    """ASE sword strikes: the counter attack then the stab. Their main phases' momenta point to the
+    forward rule, which is rejected (its error is kept in the reason); auto then applies the
+    reverse rule and says so. Given explicitly, the forward rule is still rejected."""
+    a = _load(real_data_dir, "attacks/ase_rl_Counter_Atk01.derived.bvh")
+    b = _load(real_data_dir, "attacks/ase_rl_Atk_Stab.derived.bvh")
+    with pytest.raises(ConcatError) as e:
+        concatenate(a, b, rule="forward", plant=False)
+    r = concatenate(a, b, plant=False)
+    assert r.rule.rule == "reverse" and r.rule.dot > 0                       # the momenta say forward
+    assert "rejected: " + str(e.value) in r.rule.reason
+    assert "auto rule: forward rejected, reverse used" in r.notes
+    assert r.facing_difference <= np.radians(45)

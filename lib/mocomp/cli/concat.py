@@ -63,7 +63,10 @@ def register(sub) -> None:
                     "motions each joint is chosen by its own rule. The printed values are the method's planned "
                     "ones; the summary ends with the verdict of mocomp.audit on the frames written, against the "
                     "inputs.")
-    p.add_argument("motions", nargs="+", metavar="MOTION", help="two or more motions (files or clip names), in order")
+    p.add_argument("motions", nargs="+", metavar="MOTION",
+                   help="two or more motions (files or clip names), in order; FILE@K takes the K-th single strike "
+                        "(punch, kick, slash; 1-based) found in a clip holding several (by the speed peaks of the hands "
+                        "and toes, mocomp.concat.find_actions), FILE@START:STOP a frame range (STOP exclusive)")
     p.add_argument("-o", "--out", required=True, metavar="OUT.bvh", help="output BVH file (the chained motion)")
     p.add_argument("--report", metavar="r.json", help="write the planned values (and the audit) as JSON")
     p.add_argument("--rule", type=_rules, default=["auto"], metavar="forward|reverse|auto",
@@ -87,6 +90,11 @@ def register(sub) -> None:
                    help="where the facing check compares the bodies: at their main phases' reference frames after "
                         "the eq. 2 turn (t_m, default) or at the blending centre (f_T: offsets failing it are left out "
                         "of the timing search)")
+    p.add_argument("--min-level", type=float_in(0.0, 1e6), default=None, metavar="L",
+                   help="kg m^2/s: a motion whose |L| never exceeds this has no main phase (default 4; the Bandai "
+                        "punches peak at 3-4)")
+    p.add_argument("--no-com-smooth", action="store_true",
+                   help="leave the COM velocity steps at the blended period's edges (the paper's eq. 9 alone)")
     p.add_argument("--no-time-scale", action="store_true", help="leave out eq. 9's time scaling of the blend")
     p.add_argument("--no-plant", action="store_true", help="do not hold the supporting feet")
     p.add_argument("--baseline", choices=("motion-graph",),
@@ -173,7 +181,15 @@ def run(args) -> int:
         check_output_path(Path(args.plot), "plot")
     names = list(args.motions)
     fps = dict(args.fps)
-    motions = [datasets.load(n, fps=fps.get(k)) for k, n in zip(string.ascii_uppercase, names)]   # bad files first
+    from ..concat.actions import parse_selection, select
+
+    motions = []
+    for k, n in zip(string.ascii_uppercase, names):                       # bad files first
+        path, which, frames = parse_selection(n)
+        m, what = select(datasets.load(path, fps=fps.get(k)), path, which, frames)
+        if which is not None or frames is not None:
+            print(f"{k}: {n}: {what}")
+        motions.append(m)
     for k in fps:
         if k not in string.ascii_uppercase[:len(names)]:
             raise ValueError(f"--fps {k}:{fps[k]:g}: there are only motions A-{string.ascii_uppercase[len(names) - 1]}")
@@ -202,7 +218,9 @@ def run(args) -> int:
             r = concatenate(acc, b, rule=rules[j], borders_a=acc_borders, t_m_a=acc_tm,
                             borders_b=borders.get(letters[j + 1]), kind=args.kind, max_F=args.max_f,
                             window_threshold=args.window_threshold, max_facing=np.radians(args.max_facing),
-                            facing_at=args.facing_at, plant=not args.no_plant, time_scale=not args.no_time_scale)
+                            facing_at=args.facing_at, plant=not args.no_plant, time_scale=not args.no_time_scale,
+                            com_smooth=not args.no_com_smooth,
+                            **({} if args.min_level is None else {"min_level": args.min_level}))
         except ConcatError as e:
             if n_j == 1:
                 raise
@@ -212,10 +230,7 @@ def run(args) -> int:
         # B's frame g is the output frame g + T + the frames eq. 9 added after the window
         sh = r.frame_shift
         offsets.append(sh)
-        m2 = r.phases[1]
-        lo = max(m2.main[0] + sh, r.window[0] + r.window_frames_out)
-        acc_borders = (min(lo, m2.main[1] + sh - 1), m2.main[1] + sh)
-        acc_tm = min(max(m2.t_m + sh, acc_borders[0]), acc_borders[1] - 1)
+        acc_borders, acc_tm = r.next_main_phase()
         acc = r.motion
     total_in = sum(m.n_frames / m.fps for m in motions)
     base, base_rows, peaks, base_peaks = None, [], [], []

@@ -33,6 +33,7 @@ with it the frames after the window move by ``window_frames_out - (f_if - f_i0 +
 """
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass, field
 
@@ -40,6 +41,7 @@ import numpy as np
 
 from ..core.motion import Motion, slerp
 from ..ops import GroundTransform, enforce_footplants, foot_plants, headings, reference_points
+from ..core.rotations import quat_apply
 from ..ops.align import yaw_quaternion
 from .phases import MIN_MAIN_LEVEL, ConcatError, MomentumTrack, Phases, find_phases, momentum_track
 from .rules import RuleChoice, alignment_yaw, blendable_periods, choose_rule, support_truncate
@@ -112,6 +114,16 @@ class ConcatResult:
     output_window: tuple[int, int] | None = None
     frames_added: int = 0
     com_steps: tuple[float, float] = (0.0, 0.0)
+
+    def next_main_phase(self) -> tuple[tuple[int, int], int]:
+        """B's main phase in the output's frames, ``((start, stop), t_m)``, for the next joint of a
+        chain (:func:`concatenate` with ``borders_a`` and ``t_m_a``): it starts after the blended
+        period at the earliest (its frames before are A's and the blend's)."""
+        sh, m2 = self.frame_shift, self.phases[1]
+        u1 = self.output_window[1] if self.output_window else self.window[0] + self.window_frames_out - 1
+        lo = max(m2.main[0] + sh, u1 + 1)
+        borders = (min(lo, m2.main[1] + sh - 1), m2.main[1] + sh)
+        return borders, min(max(m2.t_m + sh, borders[0]), borders[1] - 1)
 
     @property
     def frame_shift(self) -> int:
@@ -363,14 +375,48 @@ def com_continuity(out: Motion, body, u0: int, u1: int, w: int = 2) -> tuple[Mot
                                             float(np.linalg.norm(d1[[0, 2]]) * out.fps))
 
 
-def concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, borders_b=None,
+def concatenate(a: Motion, b: Motion, *, rule: str = "auto", **kw) -> ConcatResult:
+    """Concatenate ``b`` after ``a`` (see the module docstring and :func:`_concatenate` for the
+    parameters). With ``rule="auto"`` the rule the main phases' momenta point to is tried first; when
+    it is rejected (the facing check after eq. 2, no blendable overlap, F above its limit) the other
+    rule is tried (beyond the paper, which picks the rule by hand), and the result's reason and notes
+    say so; when both are rejected the error gives both reasons."""
+    try:
+        return _concatenate(a, b, rule=rule, **kw)
+    except ConcatError as e:
+        if rule != "auto" or getattr(e, "rule", None) is None:
+            raise                                # not a rejection of the rule (skeletons, phases)
+        first = e
+    chosen = _other(first.rule)
+    try:
+        r = _concatenate(a, b, rule=chosen, **kw)
+    except ConcatError as e2:
+        raise ConcatError(f"auto rule: {first}; the {chosen} rule tried next: {e2}") from None
+    why = (f"auto: the momenta point to the {_other(chosen)} rule ({r.rule.reason.removeprefix('given: ')}), "
+           f"rejected: {first}; the {chosen} rule applies")
+    return dataclasses.replace(r, rule=dataclasses.replace(r.rule, reason=why),
+                               notes=r.notes + (f"auto rule: {_other(chosen)} rejected, {chosen} used",))
+
+
+def _other(rule: str) -> str:
+    return "reverse" if rule == "forward" else "forward"
+
+
+def _rejected(message: str, rule: str) -> ConcatError:
+    """A :class:`ConcatError` that rejects ``rule`` (the auto rule then tries the other one)."""
+    e = ConcatError(message)
+    e.rule = rule
+    return e
+
+
+def _concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, borders_b=None,
                 t_m_a: int | None = None, t_m_b: int | None = None, kind: str = "paper",
                 body_a=None, body_b=None, max_F: float | None = None, window_threshold: float | None = None,
                 max_facing: float = MAX_FACING, min_level: float = MIN_MAIN_LEVEL, plant: bool = True,
                 weights=(1.0, 1.0, 1.0), min_peak_gap: float = MIN_PEAK_GAP, time_scale: bool = True,
                 facing_at: str = "t_m",
                 max_scale: float = 4.0, ramp_frames: int | None = 0, com_smooth: bool = True,
-                blend_ease: str = "linear") -> ConcatResult:
+                blend_ease: str = "linear", min_spread: float = 0.5) -> ConcatResult:
     """Concatenate ``b`` after ``a`` (see the module docstring).
 
     Parameters
@@ -394,6 +440,9 @@ def concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bor
         paper's step and removes its COM velocity step with ``com_smooth``.
     com_smooth: remove the COM velocity steps at the blended period's edges by a smooth root
         displacement (:func:`com_continuity`; the angular momentum is unchanged).
+    min_spread: when eq. 2's yaw can change the mean-L product by less than this fraction of
+        ``|L1_bar| |L2_bar|`` (``2 |L1h| |L2h|``, horizontal parts), B is turned to face A's way at
+        the main phases instead (noted; 0 always uses eq. 2).
     blend_ease: the curve of eq. 8's ``alpha`` (:func:`linear_blend`): ``"linear"`` (default, the
         paper's) or ``"smoothstep"`` (zero slope at the edges; its 1.5x steeper middle raises the
         window's |L| peak: 59 vs 57 kg m^2/s on the synthetic double back flip).
@@ -419,6 +468,20 @@ def concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bor
     L1_bar = t1.L[p1.main[0]:p1.main[1]].mean(axis=0)
     L2_bar = t2.L[p2.main[0]:p2.main[1]].mean(axis=0)
     yaw, value = alignment_yaw(L1_bar, L2_bar, choice.rule)
+    # eq. 2 turns B about the vertical: only the horizontal parts of the mean momenta decide it. When
+    # they are small against the momenta (punches: 1-2 of 3-4 kg m^2/s; spins: mostly vertical) the
+    # turn is set by noise; then B is turned to face A's way at the main phases (noted)
+    h1, h2 = float(np.hypot(L1_bar[0], L1_bar[2])), float(np.hypot(L2_bar[0], L2_bar[2]))
+    spread = 2.0 * h1 * h2 / max(float(np.linalg.norm(L1_bar) * np.linalg.norm(L2_bar)), 1e-12)
+    align_by = "eq. 2"
+    if spread < min_spread:
+        yaw = float(headings(a, [p1.t_m])[0] - headings(b, [p2.t_m])[0])
+        yaw = float((yaw + np.pi) % (2 * np.pi) - np.pi)
+        value = float(L1_bar @ quat_apply(yaw_quaternion(yaw), L2_bar))
+        align_by = "facing"
+        notes.append(f"eq. 2 ill-conditioned: turning B about the vertical changes the main phases' mean-L product by "
+                     f"at most {spread:.2f} of |L1||L2| (horizontal parts {h1:.2f} and {h2:.2f} kg m^2/s; limit "
+                     f"{min_spread:g}): B turned by {np.degrees(yaw):+.1f} deg to face A's way at the main phases instead")
     q = yaw_quaternion(yaw)
     t2r = t2.rotated(q)
     L_ref = _main_level((t1, t2), (p1, p2))
@@ -437,10 +500,10 @@ def concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bor
     if facing_at == "t_m":
         facing = float(abs((ha[p1.t_m] - hb[p2.t_m] + np.pi) % (2 * np.pi) - np.pi))
         if facing > max_facing:
-            raise ConcatError(f"after the eq. 2 alignment (B turned by {np.degrees(yaw):+.1f} deg) the bodies face "
-                              f"different ways at their main phases (A frame {p1.t_m}, B frame {p2.t_m}): their "
-                              f"ground-projected facings differ by {np.degrees(facing):.1f} deg, more than "
-                              f"{np.degrees(max_facing):.0f} deg")
+            raise _rejected(f"after the eq. 2 alignment (B turned by {np.degrees(yaw):+.1f} deg) the bodies face "
+                            f"different ways at their main phases (A frame {p1.t_m}, B frame {p2.t_m}): their "
+                            f"ground-projected facings differ by {np.degrees(facing):.1f} deg, more than "
+                            f"{np.degrees(max_facing):.0f} deg", choice.rule)
     elif facing_at != "f_T":
         raise ValueError(f"facing_at must be t_m or f_T, got {facing_at!r}")
     best, failed = None, []
@@ -466,15 +529,15 @@ def concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bor
         if best is None or tab.F[tab.best] < best[3].F[best[3].best]:
             best = (case, pa2, pb2, tab, (f"A {pa[0]}-{pa[1]}: {na}", f"B {pb[0]}-{pb[1]}: {nb}"), fac)
     if best is None:
-        raise ConcatError(f"the {choice.rule} rule cannot apply: " + "; ".join(failed))
+        raise _rejected(f"the {choice.rule} rule cannot apply: " + "; ".join(failed), choice.rule)
     notes.extend(f"blendable periods {f}" for f in failed)
     case, pa, pb, tab, pnotes, fac = best
     k = tab.best
     if tab.F[k] > max_F:
         r = tab.row(k)
-        raise ConcatError(f"the motions are too different to be blended ({choice.rule} rule, {case}): the best "
+        raise _rejected(f"the motions are too different to be blended ({choice.rule} rule, {case}): the best "
                           f"timing T={r['T']} (f_T={r['f_T']}) has F = {r['F']:.4g} (F_dm {r['F_dm']:.4g}, F_inertia "
-                          f"{r['F_inertia']:.4g}, F_time {r['F_time']:.4g}) above the threshold {max_F:.4g}")
+                          f"{r['F_inertia']:.4g}, F_time {r['F_time']:.4g}) above the threshold {max_F:.4g}", choice.rule)
     T, f_T = int(tab.T[k]), int(tab.f_T[k])
     if facing_at == "f_T":
         facing = float(fac[k])
