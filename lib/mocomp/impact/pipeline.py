@@ -319,6 +319,10 @@ def impact_response(attacker: Motion, victim: Motion, index, scenario: Scenario 
                            fc.rewind_frame, active.impact_time if active.impact_time is not None else t_imp,
                            active.contact_end, follow=config.attacker_follow, blend=config.attacker_blend)
     evidence["attacker"] = ar.to_dict()
+    att_out = ar.motion
+    if config.lift:                                   # the simulated feet sink into the soft floor contact
+        att_out, alift = floor_lift(att_out, _floor_level(attacker))
+        evidence["attacker"].update(frames_lifted=int((alift > 0).sum()), max_lift_m=float(alift.max()))
     timings["attacker"], cpu["attacker"] = time.perf_counter() - t, time.process_time() - c
     frames = {"rewind": fc.rewind_frame, "first_contact": fc.frame,
               "impact": fc.rewind_frame + int(round((t_imp - t0) * fps)),
@@ -326,7 +330,7 @@ def impact_response(attacker: Motion, victim: Motion, index, scenario: Scenario 
               "reentry": re_frame, "found_clip_frame_at_reentry": int(round(tc[-1] * clip.fps)),
               "output_frames": out.n_frames}
     notes = scene.notes + naive.notes
-    return ImpactResult(out, ar.motion, scenario, fc, naive, active, res, found_a, ba, bn, frames, delay,
+    return ImpactResult(out, att_out, scenario, fc, naive, active, res, found_a, ba, bn, frames, delay,
                         timings, evidence, notes, cpu)
 
 
