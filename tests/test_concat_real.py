@@ -19,7 +19,7 @@ def _load(d, rel):
 
 
 def _plain(a, b, r):
-    return blend(a, b, (r.f_T, r.f_T - r.T), window=r.window[1] - r.window[0] + 1)
+    return blend(a, b, (r.f_T, r.f_T - r.T), window=r.window[1] - r.window[0] + 1, transform=r.transform)
 
 
 def test_deepmimic_double_side_flip_forward(real_data_dir):

@@ -331,3 +331,32 @@ def test_second_pass_plants_a_point_the_given_labels_never_planted():
     assert any(n.startswith("pass 2") for n in r.notes)
     assert np.isfinite(r.motion.rotations).all()
     assert r.plants.labels[:, k].any() and np.isfinite(r.plants.levels[r.plants.labels[:, k], k]).all()
+
+
+def test_blend_with_a_given_ground_transform():
+    """A caller's transform replaces the alignment: the default one given explicitly reproduces the
+    default blend exactly; another (B turned 30 deg more about its own pivot) makes the rest of B that
+    transform of B (up to the horizontal shift of the velocity integration) and the window's first
+    frame still A's; a wrong type is refused."""
+    from mocomp.ops import GroundTransform, headings
+    from mocomp.ops.align import yaw_quaternion
+
+    m = walk().motion
+    turned = m.rotated(yaw_quaternion(np.radians(50.0)))
+    r0 = blend(m, turned, (200, 150), 20, plant=False)
+    r1 = blend(m, turned, (200, 150), 20, plant=False, transform=r0.transform)
+    np.testing.assert_array_equal(r1.motion.rotations, r0.motion.rotations)
+    np.testing.assert_array_equal(r1.motion.root_positions, r0.motion.root_positions)
+    tf = GroundTransform(r0.transform.yaw + np.radians(30.0), r0.transform.pivot, r0.transform.shift)
+    r2 = blend(m, turned, (200, 150), 20, plant=False, transform=tf)
+    assert r2.transform == tf
+    b2 = tf.apply(turned)
+    stop, off = r2.window[1], int(round(r2.b_offset))
+    rest = slice(stop, r2.motion.n_frames)
+    np.testing.assert_allclose(r2.motion.rotations[rest], b2.rotations[stop - off:], atol=1e-12)
+    np.testing.assert_allclose(r2.motion.root_positions[rest] - r2.shift, b2.root_positions[stop - off:],
+                               atol=1e-9)
+    assert headings(r2.motion, [stop])[0] == pytest.approx(headings(r0.motion, [stop])[0] + np.radians(30.0),
+                                                           abs=1e-6)
+    with pytest.raises(TypeError, match="GroundTransform"):
+        blend(m, turned, (200, 150), 20, plant=False, transform=(0.1, (0, 0, 0), (0, 0, 0)))

@@ -123,7 +123,7 @@ def _window_frames(n: int, centre: int, h: int, size: int, which: str, frames: n
 
 def blend(a: Motion, b: Motion, at: tuple[int, int], window: int = 10, *, by: str = "root",
           ease_kind: str = "smoothstep", time_warp: bool = False, plant: bool = True,
-          audit: bool = False) -> BlendResult:
+          audit: bool = False, transform: GroundTransform | None = None) -> BlendResult:
     """Blend ``b`` into ``a`` (see the module docstring).
 
     Parameters
@@ -136,6 +136,9 @@ def blend(a: Motion, b: Motion, at: tuple[int, int], window: int = 10, *, by: st
     time_warp: match the cadence through the window (needs foot plants in both).
     plant: enforce the supporting feet on the result.
     audit: with ``plant``, also audit input ``a`` and the result (footplant evidence).
+    transform: the :class:`~mocomp.ops.align.GroundTransform` that moves ``b`` into ``a``'s frame,
+        given by the caller (e.g. a concatenation's eq. 2 turn and feet-centre translation) instead
+        of :func:`~mocomp.ops.align.align` at ``at`` (``by`` is then unused).
     """
     t0 = time.perf_counter()
     window = int(window)
@@ -171,7 +174,9 @@ def blend(a: Motion, b: Motion, at: tuple[int, int], window: int = 10, *, by: st
         fa_i, fb_i = (fa - h + i).astype(float), (fb - h + i).astype(float)
     _window_frames(a.n_frames, fa, h, N, "A", fa_i)
     _window_frames(b.n_frames, fb, h, N, "B", fb_i)
-    tf = align(a, b, fa, fb, by)
+    if transform is not None and not isinstance(transform, GroundTransform):
+        raise TypeError(f"transform must be a GroundTransform, got {type(transform).__name__}")
+    tf = align(a, b, fa, fb, by) if transform is None else transform
     off = int(np.floor(fb_i[0] + 1e-9))                 # b's frames from the window on: only they are moved
     b2 = tf.apply(b[off:])
     gb = fb_i - off
