@@ -400,3 +400,28 @@ def test_real_88_01_backflip_flight_is_measured_with_its_own_g(real_data_dir):
     assert f.L_judged and 20 < f.L_abs < 60
     assert 11.0 < f.fit.g < 14.0                               # the issue's per-flight fit (11.8): flagged
     assert rep.by_check("gravity")
+
+
+def test_command_output_of_a_deepmimic_clip_is_audited_with_the_clips_own_body(real_data_dir, tmp_path):
+    """Issue 13: a command's BVH output of a DeepMimic clip no longer names the character, and was
+    audited with a generic 70 kg de Leva body while its input used the clip's own 45 kg character;
+    with the input's skeleton (joints in the BVH writer's order) the input's body is used."""
+    from mocomp.audit.run import default_body, same_skeleton
+    from mocomp.io.bvh import read_bvh, write_bvh
+
+    src = datasets.load(str(real_data_dir / "flips" / "deepmimic_backflip.txt"))
+    out = read_bvh(write_bvh(src, tmp_path / "o.bvh"), scale=1.0)
+    assert tuple(out.skeleton.names) != tuple(src.skeleton.names)       # reordered by the writer
+    assert same_skeleton(out.skeleton, src.skeleton)
+    alone = audit(out)
+    assert alone.total_mass == pytest.approx(70.0)                      # nothing names the character
+    rep = audit(out, against=src)
+    body = default_body(src)
+    assert rep.total_mass == pytest.approx(body.total_mass) and rep.against.total_mass == rep.total_mass
+    assert abs(rep.total_mass - 70.0) > 5.0
+    # the same frames with the same body: the COM measures agree with the input's
+    assert rep.measure("max_com_jump_mps") == pytest.approx(rep.against.measure("max_com_jump_mps"), abs=1e-3)
+    # a different skeleton keeps the default
+    bf = make_example("backflip").motion
+    assert not same_skeleton(bf.skeleton, src.skeleton)
+    assert audit(bf, against=src).total_mass == pytest.approx(70.0)

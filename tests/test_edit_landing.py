@@ -111,9 +111,12 @@ def test_arms_twist_L_is_constant_until_the_feet_reach_the_floor():
     low = _lowest(res.motion)
     floor = low[:20].mean()
     a, b = res.flight_out
-    # the flight ends where the feet touch: its first ground frame shows a time up to about one
-    # input frame before the touchdown (retimed frames fall between the input's: 1.9-2.2 cm of fall)
-    assert low[b] - floor <= 0.03 and low[b + 1] - floor <= 0.005 and low[b - 1] - floor > 0.01
+    # the flight ends where the feet touch: its first ground frame shows a time up to one frame's
+    # fall before the touchdown (retimed frames fall between the input's; the fall per frame at the
+    # arrival is 2.7-2.9 cm and where the touchdown lies between two frames depends on the retiming)
+    assert low[b - 1] - floor > 0.01 and low[b + 2] - floor <= 0.005 and low[b] - floor <= 0.045
+    last = res.magnitude.flight[1] - 1                     # the flight's last frame in step 3's input
+    assert 0.0 < res.linear.source_times[b] * r.motion.fps - last <= res.k + 1e-9
     L = momentum(r.body, res.motion).angular[a + 1:b - 1]
     u = L.mean(axis=0)
     assert _angles(L, u).max() < 1e-6

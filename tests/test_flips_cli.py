@@ -267,6 +267,8 @@ def test_flips_real_clip_worse_takeoff_is_warned(tmp_path, capsys, real_data_dir
     cap = capsys.readouterr()
     new = {(f["check"], f["where"]): f for f in json.loads(rep.read_text())["audit"]["new_violations"]}
     jump = new[("com_velocity_jump", "take-off of flight 1")]
-    assert jump["input_size"] == pytest.approx(0.63, abs=0.1) and jump["size"] > 1.5
+    # the planned step is 2.9 m/s; where it falls between two frames splits it over both (1.26 + 0.96
+    # with the stances eased, 1.77 + 0.75 uniformly)
+    assert jump["input_size"] == pytest.approx(0.63, abs=0.1) and jump["size"] > 1.0
     assert "com_velocity_jump at take-off of flight 1" in cap.err and "; input 0.6" in cap.err
     assert ("foot_slide", "foot_r") not in new          # the input's own slide, unchanged by the method

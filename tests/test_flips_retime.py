@@ -105,3 +105,80 @@ def test_flight_trajectory_and_offset():
     np.testing.assert_allclose(c[:, 2], -0.3 - 1.2 * 0.2 * t)
     np.testing.assert_allclose(c[:, 1], 1.0 + 4.0 * t - G / 2 * t * t)  # eq. 5.17
     np.testing.assert_allclose(landing_offset(tr, c0), tr.end - c0)       # eq. 5.16
+
+
+# ------------------------------------------------------------------ eased retiming (issue 13)
+def test_time_warp_rate_is_k_in_flight_one_on_the_ground_and_continuous():
+    from mocomp.flips.retime import TimeWarp
+
+    k, s0, s1, end = 1.4, 100.0, 180.0, 330.0
+    w = TimeWarp.build(k, s0, s1, end, 60.0, 60.0)
+    s = w.source_positions()
+    rate = np.diff(s)                                   # source frames per output frame
+    u0, u1 = w.takeoff_output, w.landing_output
+    mid = np.arange(int(np.ceil(u0)) + 1, int(np.floor(u1)) - 1)
+    np.testing.assert_allclose(rate[mid], k, atol=1e-9)                  # the flight at k (eq. 5.8)
+    np.testing.assert_allclose(rate[:int(np.floor(w.output_frame(s0 - 60.0))) - 1], 1.0, atol=1e-9)
+    np.testing.assert_allclose(rate[int(np.ceil(w.output_frame(s1 + 60.0))) + 1:-1], 1.0, atol=1e-9)
+    assert np.max(np.abs(np.diff(rate))) < 1.5 * (k - 1) / 60.0 * k + 1e-6   # no step in the rate
+    # the flight keeps T/k: landing minus take-off output time
+    assert u1 - u0 == pytest.approx((s1 - s0) / k, abs=1e-6)
+    # ease 0 is the paper's uniform retiming
+    w0 = TimeWarp.build(k, s0, s1, end, 0.0, 0.0)
+    np.testing.assert_allclose(w0.source_positions(), sample_positions(int(end) + 1, k), atol=1e-9)
+
+
+def test_multiflip_plays_the_stances_at_the_captured_rate():
+    """Issue 13: uniform k* retiming played the whole clip k times faster (ground velocities k times,
+    accelerations k^2); the eased warp keeps the flight at k and the stances as captured away from it,
+    with the COM velocity continuous at the take-off (k = k*)."""
+    from mocomp.audit import audit
+    from mocomp.flips import multiflip, prepare
+
+    P = prepare("backflip")
+    res = multiflip(P, flips=2)
+    uni = multiflip(P, flips=2, ease=0.0)
+    k = res.plan.k
+    assert k > 1.2
+    tau = res.seq_positions
+    s = P.flight[0]
+    early = tau < s - 0.5 * P.fps - 1                   # before the ease window: the captured rate
+    assert early.sum() > 20
+    np.testing.assert_allclose(np.diff(tau)[early[:-1]], 1.0, atol=1e-9)
+    assert np.diff(uni.seq_positions)[0] == pytest.approx(k)
+    # the COM of the early stance moves as the input's, not k times faster
+    c_in = center_of_mass(P.body, P.motion)
+    c_out = center_of_mass(P.body, res.motion)
+    n = int(early.sum())
+    np.testing.assert_allclose(np.diff(c_out[:n], axis=0), np.diff(c_in[:n], axis=0), atol=1e-9)
+    # same flight: the parabola and T_new, and no velocity jump at take-off beyond the uniform one's
+    assert res.plan.T_new == pytest.approx(uni.plan.T_new)
+    a, b = res.flight
+    np.testing.assert_allclose(c_out[a:b], res.trajectory(np.arange(a, b) / P.fps - res.takeoff_seconds), atol=1e-9)
+    rep, rep_u = audit(res.motion, P.body), audit(uni.motion, P.body)
+    assert rep.measure("takeoff_jump_mps") <= rep_u.measure("takeoff_jump_mps") + 0.05
+    # the output is longer than the uniform one by the stances played at rate 1 instead of k
+    assert res.motion.n_frames > uni.motion.n_frames + 0.3 * P.fps
+
+
+def test_edit_keeps_a_later_hop_at_its_captured_rate(real_data_dir):
+    """CMU 88_01 + arms-twist (issue 13): with the whole clip retimed by k = 0.86 the hop after the
+    landing fell with 7.06 m/s^2 (k^2 g); eased, it keeps the capture's own timing."""
+    import tempfile
+    from pathlib import Path
+
+    from mocomp.audit import audit
+    from mocomp.cli import main
+    from mocomp.datasets import load
+    from mocomp.io.bvh import read_bvh
+
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "o.bvh"
+        assert main(["edit", "88_01", "--preset", "arms-twist", "-o", str(out), "--no-audit"]) == 0
+        m = read_bvh(out, scale=1.0)
+    src = load("88_01")
+    rep = audit(m, against=src)
+    g_in = rep.against.measure("flight2_g")
+    g_out = rep.measure("flight2_g")
+    assert abs(g_out - g_in) < 0.6, (g_in, g_out)
+    assert not rep.comparison.worse or "flight2_g" not in rep.comparison.worse

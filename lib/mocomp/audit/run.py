@@ -18,23 +18,50 @@ from .report import AuditReport
 from .thresholds import AuditThresholds
 from .zmp import zmp_audit
 
-__all__ = ["audit", "default_body", "MIN_FRAMES"]
+__all__ = ["audit", "default_body", "same_skeleton", "MIN_FRAMES"]
 
 #: the shortest motion the audit measures (two one-sided quadratic fits of 3 frames share one frame)
 MIN_FRAMES = 5
 
 
-def default_body(motion) -> BodyModel:
-    """The body model the audit uses when none is given: a DeepMimic clip's own character
-    (its bodies' masses, from the character file the loader recorded), else de Leva's (1996)
-    male table on the skeleton at 70 kg with constant-density ellipsoids."""
-    if motion.source.format == "deepmimic":
-        from ..io.deepmimic import read_deepmimic_body
-
+def _character(motion) -> str | None:
+    if getattr(motion.source, "format", None) == "deepmimic":
         for note in motion.source.notes:
             if note.startswith("character "):
-                return read_deepmimic_body(note[len("character "):], motion.skeleton)
+                return note[len("character "):]
+    return None
+
+
+def default_body(motion, like=None) -> BodyModel:
+    """The body model the audit uses when none is given: a DeepMimic clip's own character
+    (its bodies' masses, from the character file the loader recorded), else de Leva's (1996)
+    male table on the skeleton at 70 kg with constant-density ellipsoids. ``like``: the motion
+    ``motion`` was made from; when both have the same skeleton (:func:`same_skeleton`, e.g. a
+    command's BVH output of a DeepMimic clip, which no longer names the character) ``like``'s
+    character is used, matched into ``motion``'s skeleton by joint name."""
+    char = _character(motion)
+    if char is None and like is not None and same_skeleton(motion.skeleton, like.skeleton):
+        char = _character(like)
+    if char is not None:
+        from ..io.deepmimic import read_deepmimic_body
+
+        return read_deepmimic_body(char, motion.skeleton)
     return BodyModel.from_skeleton(motion.skeleton, total_mass=70.0)
+
+
+def same_skeleton(a, b, tol: float = 1e-4) -> bool:
+    """``True`` when skeletons ``a`` and ``b`` have the same joints (names, each joint's parent by
+    name; the order may differ, as a BVH writer's depth-first order does) and the same bone offsets
+    within ``tol`` m (a written BVH file keeps them to its printed precision)."""
+    na, nb = tuple(a.names), tuple(b.names)
+    if len(na) != len(nb) or set(na) != set(nb):
+        return False
+    idx = np.array([nb.index(n) for n in na])
+    pa = [None if p < 0 else na[p] for p in np.asarray(a.parents)]
+    pb = [None if p < 0 else nb[p] for p in np.asarray(b.parents)[idx]]
+    if pa != pb:
+        return False
+    return bool(np.allclose(np.asarray(a.offsets), np.asarray(b.offsets)[idx], rtol=0.0, atol=tol))
 
 
 def _body_text(body) -> str:
@@ -53,7 +80,10 @@ def audit(motion, body=None, *, thresholds: AuditThresholds = AuditThresholds(),
     thresholds: :class:`~mocomp.audit.AuditThresholds` (documented defaults).
     against: optionally the motion this one was made from; it is audited with the same
         thresholds (and ``against_body``, default :func:`default_body` of it) and the report's
-        ``comparison`` lists each measure of both side by side.
+        ``comparison`` lists each measure of both side by side. When ``body`` is not given and
+        ``motion`` has ``against``'s skeleton (:func:`same_skeleton`: a command's output), it is
+        measured with ``against``'s body (``default_body(motion, like=against)``: a DeepMimic
+        clip's own character, which its BVH output no longer names).
     name, against_name: labels for the reports.
 
     Measures (see each module): phases and contacts, floor penetration and foot slide
@@ -69,7 +99,7 @@ def audit(motion, body=None, *, thresholds: AuditThresholds = AuditThresholds(),
     label = name or (motion.source.path if getattr(motion, "source", None) and motion.source.path else "motion")
     if motion.n_frames < MIN_FRAMES:
         raise MotionFormatError(f"{label}: the audit needs at least {MIN_FRAMES} frames, got {motion.n_frames}")
-    body = default_body(motion) if body is None else body
+    body = default_body(motion, like=against) if body is None else body
     check_compatible(body, motion)
     if not body.total_mass > 0:
         raise MotionFormatError(f"{label}: the body model has no mass")

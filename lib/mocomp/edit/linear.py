@@ -43,7 +43,7 @@ from ..dynamics.constants import resolve_gravity as _resolve_gravity
 from ..errors import PhysicsError
 from ..flips.mass import FlightFit
 from ..flips.reposition import ComEvaluator, FlightTrajectory, flight_trajectory
-from ..flips.retime import RetimePlan, plan_retime
+from ..flips.retime import EASE_S, RetimePlan, TimeWarp, ease_limits, plan_retime
 
 __all__ = ["LinearResult", "PlatformCheck", "correct_linear", "resolve_gravity", "GRAVITY_CHOICES",
            "takeoff_velocity_of"]
@@ -87,7 +87,8 @@ class LinearResult:
     ----------
     motion: uniformly retimed and repositioned motion.
     flight: ``(start, stop)`` flight frames of the output.
-    source_times: ``(T_out,)`` s, the input time each output frame shows (``k`` x its own time).
+    source_times: ``(T_out,)`` s, the input time each output frame shows (the flight at ``k`` times
+        its own rate, the stances eased back to 1: :class:`~mocomp.flips.retime.TimeWarp`).
     plan: the :class:`~mocomp.flips.retime.RetimePlan` (``k``, ``k*``, velocity jumps).
     trajectory: the flight's COM parabola (:class:`~mocomp.flips.reposition.FlightTrajectory`,
         ``t`` in seconds from the take-off instant ``takeoff_time``).
@@ -167,6 +168,25 @@ def takeoff_velocity_of(motion: Motion, start: int, fit: FlightFit, ce, mode: st
     return fitted, "fit"
 
 
+def _neighbour_flights(motion: Motion, ce, a: int, b: int) -> tuple[float, float]:
+    """``(end of the previous flight, start of the next)`` in frames of ``motion`` around its flight
+    ``[a, b)`` (:func:`mocomp.flips.phases.detect_flights` on the COM), or the clip's ends."""
+    from ..flips.phases import detect_flights
+
+    lo, hi = 0.0, float(motion.n_frames - 1)
+    try:
+        det = detect_flights(motion, com=ce(motion.root_positions, motion.rotations))
+    except Exception:  # noqa: BLE001 - a clip the detector cannot read keeps the whole-clip easing
+        return lo, hi
+    for f in det.flights:
+        s0, s1 = int(f.start), int(f.stop)
+        if s1 <= a - 1:
+            lo = max(lo, float(s1))
+        elif s0 >= b + 1:
+            hi = min(hi, float(s0))
+    return lo, hi
+
+
 def _lowest_and_forward(motion: Motion, frame: int, direction: np.ndarray) -> tuple[float, float]:
     from ..core.kinematics import end_site_positions
     from ._kernels import motion_fk
@@ -181,7 +201,7 @@ def correct_linear(body, motion: Motion, flight, fit: FlightFit, *, k: float | N
                    k_ratio: float | None = None, takeoff_height: float = 0.0, platform: bool | str = "auto",
                    clearance: float = 0.0, gravity="standard",
                    com_eval: ComEvaluator | None = None, landing_lift: float = 0.0,
-                   takeoff_velocity: str = "auto") -> LinearResult:
+                   takeoff_velocity: str = "auto", ease: float = EASE_S, stances=None) -> LinearResult:
     """Uniform retiming by ``k`` and COM repositioning over the flight (section 5.5.3).
 
     Parameters
@@ -207,6 +227,12 @@ def correct_linear(body, motion: Motion, flight, fit: FlightFit, *, k: float | N
         much above where the input puts it: the parabola is planned for ``dy + landing_lift`` (App. B)
         and the frames after the flight follow. The pipeline uses it to make a landing pose that
         the corrections turned touch the floor it lands on (:func:`mocomp.edit.landing.landing_lift`).
+    ease: s of source time over which the play rate eases from the flight's ``k`` back to 1 before the
+        take-off and after the landing (:class:`~mocomp.flips.retime.TimeWarp`, default
+        :data:`~mocomp.flips.retime.EASE_S`); ``0``: the whole motion uniformly by ``k`` (the paper's
+        section 5.5.3, which plays every ground phase ``k`` times faster).
+    stances: ``(first, last)`` source frames the easing stays within (the end of the clip's previous
+        flight and the start of its next one: they keep their captured timing); default the whole clip.
     """
     t0 = time.perf_counter()
     a, b = int(flight[0]), int(flight[1])
@@ -237,16 +263,21 @@ def correct_linear(body, motion: Motion, flight, fit: FlightFit, *, k: float | N
             raise PhysicsError(f"{e} (take-off raised by {h:.3f} m, so the landing lies {dy:.3f} m above it)") from e
         raise
     kk = plan.k
-    n_out = int(np.floor(motion.duration * fps / kk + 1e-9)) + 1
-    src = np.minimum(np.arange(n_out) * kk / fps, motion.duration)
+    # the flight at k, the stances eased back to the captured rate (flips.retime.TimeWarp), the
+    # clip's other flights (a hop after the landing) as captured; ease=0: uniform by k (the paper)
+    end = (motion.n_frames - 1)
+    lo, hi = _neighbour_flights(motion, ce, a, b) if stances is None else (float(stances[0]), float(stances[1]))
+    r0, r1 = ease_limits(fps, float(a), float(b - 1), lo, hi, float(ease))
+    warp = TimeWarp.build(kk, float(a), float(b - 1), float(end), r0, r1)
+    src = np.minimum(warp.source_positions() / fps, motion.duration)
     from .restore import fast_sample
 
     out = fast_sample(motion, src)
     ta, tl = a / fps, (b - 1) / fps
-    tau_a = ta / kk
+    tau_a = warp.takeoff_output / fps
     eps = 1e-9
-    ja = int(np.ceil(ta * fps / kk - eps))
-    jb = int(np.floor(tl * fps / kk + eps))
+    ja = int(np.ceil(warp.takeoff_output - eps))
+    jb = int(np.floor(warp.landing_output + eps))
     c0 = c_take + np.array([0.0, h, 0.0])
     traj = flight_trajectory(c0, float(v_take[0]), float(v_take[2]), -0.5 * g, kk, plan.vy_takeoff_new, plan.T_new)
     rp = np.array(out.root_positions)

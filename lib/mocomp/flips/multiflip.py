@@ -35,7 +35,7 @@ from ..dynamics.constants import G_STANDARD
 from ..errors import PhysicsError
 from .preprocess import PreparedFlip, flight_L_stats, smooth_block
 from .reposition import FlightTrajectory, event_velocity, flight_trajectory
-from .retime import RetimePlan, plan_retime, resolve_gravity, sample_positions
+from .retime import EASE_S, RetimePlan, TimeWarp, ease_limits, plan_retime, resolve_gravity, sample_positions
 from .takeoff import TAKEOFF_CHOICES
 from .seamtime import SPEED_BOUNDS, seam_speed, warp_time, warped_positions
 from .seamtime import _NUMBA as SEAM_NB
@@ -293,9 +293,11 @@ class MultiFlipResult:
     flight: ``(start, stop)`` output frames on the new flight.
     report: the :class:`PhysicsReport` (``None`` when ``evaluate=False``).
     timings: seconds per run-time stage.
-    seq_times: ``(T_new,)`` warped sequence time (in original frames) of each output frame: ``i k``
-        (the uniform retiming acts on warped time, see :mod:`mocomp.flips.seamtime`).
-    takeoff_time: warped sequence time of the take-off frame (output time ``takeoff_time / (k fps)``).
+    seq_times: ``(T_new,)`` warped sequence time (in original frames) of each output frame (the
+        retiming acts on warped time, see :mod:`mocomp.flips.seamtime`): ``i k`` when uniform, else
+        :attr:`warp`'s source positions (the flight at ``k``, the stances eased to 1).
+    takeoff_time: warped sequence time of the take-off frame (output time: :attr:`takeoff_seconds`).
+    warp: the :class:`~mocomp.flips.retime.TimeWarp` used (``ease=0``: rate ``k`` everywhere).
     speed: ``(T*,)`` eq. 5.22 playback speed per sequence frame (``None`` without seam retiming).
     repairs: the :class:`~mocomp.flips.takeoff.StanceRepair` of each repaired event
         (``takeoff="repair"``; empty otherwise).
@@ -316,10 +318,13 @@ class MultiFlipResult:
     takeoff_time: float | None = None
     speed: np.ndarray | None = field(default=None, repr=False)
     repairs: tuple = ()
+    warp: object = field(default=None, repr=False)
 
     @property
     def takeoff_seconds(self) -> float:
-        """Output time (s) of the take-off: ``takeoff_time / (k fps)``."""
+        """Output time (s) of the take-off (:attr:`warp`'s; ``takeoff_time / (k fps)`` when uniform)."""
+        if self.warp is not None:
+            return float(self.warp.takeoff_output) / self.prepared.fps
         t = self.sequence.takeoff if self.takeoff_time is None else self.takeoff_time
         return float(t) / (self.plan.k * self.prepared.fps)
 
@@ -333,7 +338,7 @@ def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None 
               window: int | None = None, evaluate: bool = True, max_delta: float | None = None,
               seam_retime: bool = True, takeoff_height_change: float = 0.0, gravity="standard",
               takeoff: str = "as-is", takeoff_velocity: str = "measured",
-              repair_options: dict | None = None) -> MultiFlipResult:
+              repair_options: dict | None = None, ease: float = EASE_S) -> MultiFlipResult:
     """Turn a prepared single flip into a ``flips``-somersault jump (section 5).
 
     Parameters
@@ -381,6 +386,11 @@ def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None 
         dissimilar adjoining frames; :mod:`mocomp.flips.seamtime`): frames whose ``|L|`` the seam
         smoothing changed are played faster or slower so ``|L|`` follows the original's. ``False``
         gives the plain uniform retiming by ``k``.
+    ease: s of source time over which the play rate eases from the flight's ``k`` back to 1 in the
+        stance before the take-off and after the landing (:class:`~mocomp.flips.retime.TimeWarp`;
+        default :data:`~mocomp.flips.retime.EASE_S`, not beyond the clip's neighbouring flights,
+        which keep their captured timing). ``0``: the paper's uniform retiming of the whole clip by
+        ``k`` (every ground phase ``k`` times faster, its velocity jumps ``k`` times larger).
     """
     P = prepared
     fps = P.fps
@@ -478,11 +488,31 @@ def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None 
             f"its take-off level, so use --height-change below {limit:.3f} m (or raise the take-off with "
             f"--takeoff-height-change, or give an explicit --k)") from None
     kk = plan.k
-    if W is None:
-        tau = sample_positions(nseq, kk)
-        tw = tau
+    W_land = float(seq.landing) if W is None else float(W[seq.landing])
+    if ease:
+        # the flight at k, the stances eased back to the captured rate (retime.TimeWarp), other
+        # flights of the clip (hops before or after) played as captured
+        Wt = np.arange(nseq, dtype=float) if W is None else W
+        s, e = P.flight
+        others = [(int(f.start), int(f.stop)) for f in P.detection.flights if (int(f.start), int(f.stop)) != (s, e)]
+        prev_end = max([b for a, b in others if b <= s], default=0)
+        next_start = min([a for a, b in others if a >= e], default=P.motion.n_frames)
+        pre = np.flatnonzero((np.arange(nseq) < seq.takeoff) & (src >= prev_end))
+        post_ = np.flatnonzero((np.arange(nseq) > seq.landing) & (src < next_start))
+        lo = float(Wt[pre[0]]) if pre.size else W_to
+        hi = float(Wt[post_[-1]]) if post_.size else W_land
+        r0, r1 = ease_limits(fps, W_to, W_land, lo, hi, float(ease))
+        warp = TimeWarp.build(kk, W_to, W_land, float(Wt[-1]), r0, r1)
+        tw = warp.source_positions()
+        tau = tw if W is None else np.interp(tw, W, np.arange(nseq, dtype=float))
     else:
-        tw, tau = warped_positions(W, kk)
+        warp = TimeWarp.build(kk, W_to, W_land, float(nseq - 1) if W is None else float(W[-1]), 0.0, 0.0)
+        if W is None:
+            tau = sample_positions(nseq, kk)
+            tw = tau
+        else:
+            tw, tau = warped_positions(W, kk)
+    u_to, u_land = warp.takeoff_output, warp.landing_output
     i0 = np.minimum(np.floor(tau).astype(int), nseq - 2)
     al = tau - i0
     if KERNELS:
@@ -531,20 +561,20 @@ def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None 
     t5 = time.perf_counter()
     timings["assemble"] = t5 - t4
     flight_out = (f0, f1)
-    W_land = float(seq.landing) if W is None else float(W[seq.landing])
     repairs: tuple = ()
     if takeoff == "repair":
-        new, repairs = _repair(P, seq, new, traj, kk, tau, W_to, W_land, v_to, v_ld, q_land, g_used, repair_options)
+        new, repairs = _repair(P, seq, new, traj, kk, tau, u_to, u_land, v_to, v_ld, q_land, g_used, repair_options)
         timings["repair"] = time.perf_counter() - t5
     report, mom = None, None
     if evaluate:
         report, mom = _evaluate(P, seq, plan, traj, new, flight_out, timings, height_change, dy, flips,
                                 extra_rotation, W_to, speed, tau, w, h0, upright_tilt,
                                 gravity_info=(g_used, g_source, fit.gravity), takeoff=takeoff, repairs=repairs,
-                                takeoff_velocity=takeoff_velocity, v_to=v_to, v_ld=v_ld, W_land=W_land, q_land=q_land)
+                                takeoff_velocity=takeoff_velocity, v_to=v_to, v_ld=v_ld, W_land=W_land, q_land=q_land,
+                                u_to=u_to)
     return MultiFlipResult(motion=new, original=P.motion, prepared=P, sequence=seq, plan=plan, trajectory=traj,
                            seq_positions=tau, flight=flight_out, report=report, timings=timings, momentum=mom,
-                           seq_times=tw, takeoff_time=W_to, speed=speed, repairs=repairs)
+                           seq_times=tw, takeoff_time=W_to, speed=speed, repairs=repairs, warp=warp)
 
 
 def event_jumps(traj: FlightTrajectory, k: float, v_to: np.ndarray, v_ld: np.ndarray, q_land=None):
@@ -560,7 +590,7 @@ def event_jumps(traj: FlightTrajectory, k: float, v_to: np.ndarray, v_ld: np.nda
     return up, v_end - ground
 
 
-def _repair(P, seq, new, traj, kk, tau, W_to, W_land, v_to, v_ld, q_land, g, options):
+def _repair(P, seq, new, traj, kk, tau, u_to, u_land, v_to, v_ld, q_land, g, options):
     """``takeoff="repair"``: :func:`~mocomp.flips.takeoff.repair_stance` at take-off and landing
     (stances bounded by the clip's other flights)."""
     from .takeoff import repair_stance
@@ -575,7 +605,7 @@ def _repair(P, seq, new, traj, kk, tau, W_to, W_land, v_to, v_ld, q_land, g, opt
     before = np.flatnonzero((tau < seq.takeoff) & (src >= prev_end))
     after = np.flatnonzero((tau > seq.landing) & (src < next_start))
     repairs = []
-    for event, jump, frames, t_ev in (("take-off", up, before, W_to / kk), ("landing", down, after, W_land / kk)):
+    for event, jump, frames, t_ev in (("take-off", up, before, u_to), ("landing", down, after, u_land)):
         if float(np.linalg.norm(jump)) < 1e-3 or frames.size == 0:
             continue
         new, rep = repair_stance(new, P.com_eval, event, t_ev, jump, (int(frames[0]), int(frames[-1]) + 1), g=g,
@@ -734,7 +764,7 @@ def _evaluate(P: PreparedFlip, seq: Sequence, plan: RetimePlan, traj: FlightTraj
               W_to: float | None = None, speeds: np.ndarray | None = None, tau: np.ndarray | None = None,
               window: int | None = None, takeoff_height_change: float = 0.0, upright_tilt: float = 0.0, *,
               gravity_info=None, takeoff: str = "as-is", repairs=(), takeoff_velocity: str = "fit", v_to=None,
-              v_ld=None, W_land=None, q_land=None):
+              v_ld=None, W_land=None, q_land=None, u_to=None):
     from ..dynamics import momentum as compute_momentum
 
     t = time.perf_counter()
@@ -755,7 +785,8 @@ def _evaluate(P: PreparedFlip, seq: Sequence, plan: RetimePlan, traj: FlightTraj
     com = mom.com[a:b]
     rms, mx = _ballistic_residual(com, fps)
     W_to = float(seq.takeoff) if W_to is None else W_to
-    tt = (np.arange(a, b) * plan.k - W_to) / (plan.k * fps)
+    u_to = W_to / plan.k if u_to is None else float(u_to)         # output frame of the take-off
+    tt = (np.arange(a, b) - u_to) / fps
     target_err = float(np.max(np.linalg.norm(com - traj(tt), axis=1)))
     theta_new, _ = split_root(new.rotations[:, 0], P.axis, ref=P.root_ref)
     achieved = float(theta_new[-1] - theta_new[0])

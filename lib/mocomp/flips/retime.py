@@ -41,6 +41,18 @@ CLI ``--takeoff repair``) goes beyond the paper and makes ``k < k*`` physical: t
 frames before take-off (and the first after landing) are reshaped so the COM reaches the new
 flight's velocity within the stance.
 
+**Stances played as captured** (issue 13, beyond the paper). The paper plays the whole clip ``k``
+times faster; the stances then carry ``k`` times their captured velocities and ``k^2`` times their
+accelerations (a hop after the landing falls with ``k^2 g``; CMU 88_01 + arms-twist: 7.06 m/s^2).
+:class:`TimeWarp` keeps the flight at ``k`` and eases the rate back to 1 over :data:`EASE_S` of each
+stance (smoothstep in the rate, so the COM velocity stays continuous and equals the ``k``-retimed
+one at take-off and landing: ``k*`` and the plan above are unchanged). ``ease=0`` in
+:func:`~mocomp.flips.multiflip.multiflip` and :func:`~mocomp.edit.linear.correct_linear` is the
+uniform retiming. What easing cannot remove: the take-off is still played at ``k``, so the push's
+acceleration step at take-off is ``k^2`` the captured one, which the audit's one-sided velocity
+fits measure as a take-off "jump" of about ``k^2`` the input's (synthetic back flip at ``k* = 1.40``:
+0.22 -> 0.47 m/s), and the landing impact grows with the arrival speed (``k`` times).
+
 **Gravity.** The new flight falls with ``g`` as :func:`resolve_gravity` chooses it:
 standard gravity (:data:`~mocomp.dynamics.constants.G_STANDARD`, 9.81 m/s^2) by default, after the
 loaders' known frame-rate corrections; the gravity fitted to the clip's flight is a diagnostic
@@ -66,7 +78,12 @@ import numpy as np
 from ..dynamics.constants import GRAVITY_CHOICES, resolve_gravity  # noqa: F401  (re-exported)
 from ..errors import PhysicsError
 
-__all__ = ["k_star", "RetimePlan", "plan_retime", "sample_positions", "resolve_gravity", "GRAVITY_CHOICES"]
+__all__ = ["k_star", "RetimePlan", "plan_retime", "sample_positions", "resolve_gravity", "GRAVITY_CHOICES",
+           "EASE_S", "TimeWarp", "ease_limits"]
+
+#: s (of source time): the stretch of each stance next to the flight over which the play rate eases
+#: between 1 (the ground phases as captured) and ``k`` (the flight; :class:`TimeWarp`)
+EASE_S = 0.5
 
 
 def k_star(g: float, T: float, v0: float, dy: float = 0.0) -> float:
@@ -193,3 +210,108 @@ def sample_positions(n_seq: int, k: float) -> np.ndarray:
     frame grid at the original frame rate, ending at or before the last frame."""
     n_out = int(math.floor((n_seq - 1) / k + 1e-9)) + 1
     return np.minimum(np.arange(n_out) * k, n_seq - 1.0)
+
+
+def _smoothstep(x: np.ndarray) -> np.ndarray:
+    x = np.clip(x, 0.0, 1.0)
+    return x * x * (3.0 - 2.0 * x)
+
+
+@dataclass(frozen=True, eq=False)
+class TimeWarp:
+    """Retiming by ``k`` over the flight eased back to the captured rate over the stances.
+
+    Section 5.3 / 5.4.3 retimes "by one factor ``k``" and the paper applies it to the whole clip,
+    so the ground phases also play ``k`` times faster: with ``k* ~ 1.3-1.5`` every captured velocity
+    jump and fingertip speed of the stances grows by ``k`` and every acceleration by ``k^2`` (a hop
+    after the landing falls with ``k^2 g``). Here output frame ``u`` shows source position ``s(u)``
+    (source frames) with the play rate ``r = ds/du``
+
+        r = k                                      over the flight [takeoff, landing],
+        r = 1 + (k - 1) S((s - takeoff + R0) / R0)  over the ``R0`` source frames before the take-off,
+        r = 1 + (k - 1) S((landing + R1 - s) / R1)  over the ``R1`` frames after the landing,
+        r = 1                                      elsewhere,
+
+    ``S(x) = 3x^2 - 2x^3`` (smoothstep): ``r`` and ``dr/du`` are continuous, so the COM velocity of
+    the stance (``r v``) is continuous everywhere and equals ``k v`` at the take-off and the landing,
+    where the flight (played at ``k``, eq. 5.8) meets it: at ``k = k*`` (eq. B.5) the linear momentum
+    stays continuous exactly as with the uniform retiming. The easing adds ``(dr/du) v`` to the
+    stance's COM acceleration (at most ``1.5 (k - 1) v / R`` per frame^2, smooth). ``R0 = R1 = 0``
+    is the paper's uniform retiming for the flight's neighbourhood (``ease=0`` in the callers:
+    all frames at ``k``).
+
+    ``u(s) = integral ds / r`` is tabulated on a grid of 1/32 source frame (trapezoid rule; exact
+    where ``r`` is constant) and inverted by interpolation.
+    """
+
+    k: float
+    takeoff: float
+    landing: float
+    ease_before: float
+    ease_after: float
+    end: float
+    grid_s: np.ndarray
+    grid_u: np.ndarray
+
+    @classmethod
+    def build(cls, k: float, takeoff: float, landing: float, end: float, ease_before: float,
+              ease_after: float) -> "TimeWarp":
+        """``takeoff``, ``landing`` (the last flight frame) and ``end`` (the last source position) in
+        source frames; ``ease_before`` / ``ease_after`` the ramp lengths in source frames (clipped to
+        the source before the take-off and after the landing; ``0``: uniform by ``k``)."""
+        k = float(k)
+        if not (np.isfinite(k) and k > 0):
+            raise ValueError(f"k must be positive, got {k!r}")
+        if not (0.0 <= takeoff <= landing <= end):
+            raise ValueError(f"need 0 <= takeoff <= landing <= end, got {takeoff}, {landing}, {end}")
+        r0 = float(np.clip(ease_before, 0.0, takeoff))
+        r1 = float(np.clip(ease_after, 0.0, end - landing))
+        n = max(2, int(np.ceil(end * 32)) + 1)
+        gs = np.linspace(0.0, float(end), n)
+        inv = 1.0 / cls._rate(gs, k, float(takeoff), float(landing), r0, r1, ease_before > 0, ease_after > 0)
+        gu = np.zeros(n)
+        np.cumsum(0.5 * (inv[1:] + inv[:-1]) * np.diff(gs), out=gu[1:])
+        return cls(k, float(takeoff), float(landing), r0, r1, float(end), gs, gu)
+
+    @staticmethod
+    def _rate(s, k, s0, s1, r0, r1, ease0: bool, ease1: bool) -> np.ndarray:
+        s = np.asarray(s, dtype=float)
+        r = np.full(s.shape, k)
+        if ease0:
+            x = (s - (s0 - r0)) / r0 if r0 > 0 else np.ones_like(s)
+            r = np.where(s < s0, 1.0 + (k - 1.0) * _smoothstep(x), r)
+        if ease1:
+            x = ((s1 + r1) - s) / r1 if r1 > 0 else np.ones_like(s)
+            r = np.where(s > s1, 1.0 + (k - 1.0) * _smoothstep(x), r)
+        return r
+
+    def rate(self, s) -> np.ndarray:
+        """Play rate ``ds/du`` at source positions ``s``."""
+        return self._rate(s, self.k, self.takeoff, self.landing, self.ease_before, self.ease_after,
+                          self.ease_before > 0, self.ease_after > 0)
+
+    def output_frame(self, s) -> np.ndarray:
+        """Output time (in output frames, fractional) at which source position ``s`` is shown."""
+        return np.interp(s, self.grid_s, self.grid_u)
+
+    @property
+    def takeoff_output(self) -> float:
+        return float(self.output_frame(self.takeoff))
+
+    @property
+    def landing_output(self) -> float:
+        return float(self.output_frame(self.landing))
+
+    def source_positions(self) -> np.ndarray:
+        """``(n_out,)`` source position of each output frame ``0, 1, ...`` (the last at or before ``end``)."""
+        n_out = int(math.floor(self.grid_u[-1] + 1e-9)) + 1
+        return np.minimum(np.interp(np.arange(n_out, dtype=float), self.grid_u, self.grid_s), self.end)
+
+
+def ease_limits(fps: float, takeoff: float, landing: float, before_limit: float, after_limit: float,
+                ease_s: float = EASE_S) -> tuple[float, float]:
+    """Ramp lengths (source frames) for :class:`TimeWarp`: ``ease_s`` seconds, but no further back than
+    ``before_limit`` (e.g. the end of the clip's previous flight) and no further on than
+    ``after_limit`` (the start of its next flight), so other flights are played as captured."""
+    n = max(0.0, float(ease_s)) * float(fps)
+    return (float(min(n, max(0.0, takeoff - before_limit))), float(min(n, max(0.0, after_limit - landing))))
