@@ -60,7 +60,20 @@ def test_cli_masses_file(walk_file, tmp_path, capsys):
     assert "missing segment(s) head" in capsys.readouterr().err
 
 
+def test_cli_polygon_and_cap(walk_file, tmp_path, capsys):
+    rep = tmp_path / "r.json"
+    assert main(["touchup", str(walk_file), "-o", str(tmp_path / "o.bvh"), "--no-audit", "--schedule", "ground-default",
+                 "--polygon", "planted", "--max-angle", "1", "--report", str(rep)]) == 0
+    text = capsys.readouterr().out
+    d = json.loads(rep.read_text())
+    assert d["polygon"] == "planted"
+    capped = d["touchup"]["planned"]["capped_frames"]
+    assert "capped frames" in text and sum(len(v) for v in capped.values()) > 0
+
+
 @pytest.mark.parametrize("args, msg", [
+    (["--max-angle", "-3"], "--max-angle must be in (0, 180]"),
+    (["--polygon", "hull"], "--polygon"),
     (["--schedule", "sideways"], "unknown schedule 'sideways'"),
     (["--iterations", "0"], "--iterations"),
     (["--contacts", "nope.csv"], "contact file nope.csv does not exist"),

@@ -36,7 +36,14 @@ def register(sub) -> None:
                         "frames (sec. 3.2, eq. 5: for a clip known to be physically correct; the report's "
                         "'masses' then serve as --masses FILE for its edits); or a JSON file {segment: kg} (a "
                         "report with a 'masses' object is accepted)")
-    p.add_argument("--iterations", type=int_in(1, 1000), metavar="N", help="iterations of every step")
+    p.add_argument("--iterations", type=int_in(1, 1000), metavar="N",
+                   help="iterations of every step (default: the schedule's; ground-default 5, 5, 2 as in sec. 4.3)")
+    p.add_argument("--polygon", choices=("contact", "planted"), default="contact",
+                   help="support polygon of the touching foot points (the paper's contact region; default) or of "
+                        "the planted ones (the audit's ZMP measure: it leaves a landing heel out while it moves)")
+    p.add_argument("--max-angle", type=float, default=None, metavar="DEG",
+                   help="cap of a ground adjustment's per-frame turn (default 20; eq. 7's clamped frames otherwise "
+                        "turn a limb by the angle of farthest reach, up to 90 deg)")
     p.add_argument("--plot", metavar="zmp.png", help="draw the ZMP distance per frame before/after and per iteration")
     p.set_defaults(func=run)
 
@@ -106,7 +113,10 @@ def run(args) -> int:
               + " kg")
     else:
         body = read_masses(args.masses, default_body(m))
-    r = touchup(m, body, args.schedule, contacts=args.contacts, iterations=args.iterations)
+    if args.max_angle is not None and not (np.isfinite(args.max_angle) and 0 < args.max_angle <= 180):
+        raise ValueError(f"--max-angle must be in (0, 180] degrees, got {args.max_angle}")
+    kw = {} if args.max_angle is None else {"max_angle_deg": args.max_angle}
+    r = touchup(m, body, args.schedule, contacts=args.contacts, iterations=args.iterations, polygon=args.polygon, **kw)
     st = r.stages
     sd = st.to_dict()
     print(f"stages: {sd['ground_frames']} ground frame(s) in {len(sd['ground'])} run(s) {sd['ground']}; "
@@ -130,6 +140,11 @@ def run(args) -> int:
     ncl = {k: len(v) for k, v in r.clamped.items() if v}
     print("clamped frames (eq. 7, ZMP as close as the rotation reaches): "
           + ("; ".join(f"{k}: {n}" for k, n in ncl.items()) if ncl else "none"))
+    ncp = {k: len(v) for k, v in (r.capped or {}).items() if v}
+    print("capped frames (per-frame turn cut to the cap): " + ("; ".join(f"{k}: {n}" for k, n in ncp.items()) if ncp else "none"))
+    if r.lifted:
+        print("legs lifted (a touching foot point pushed below its input height): "
+              + "; ".join(f"{side}: {len(v)} frame(s)" for side, v in r.lifted.items()))
     P0, G0 = m.fk()
     P1, G1 = r.motion.fk()
     slide0 = plant_slides(foot_points(P0, G0, st.plants), st.plants)
@@ -139,7 +154,7 @@ def run(args) -> int:
     print(f"planned foot slide within the plants: {slide0.max() * 100:.2f} -> {slide1.max() * 100:.2f} cm; "
           f"joint-angle change mean {ang.mean():.2f} deg, max {ang.max():.2f} deg; {r.seconds:.3f} s")
     report = {"touchup": r.to_dict(), "masses": dict(zip(body.segment_names, map(float, body.masses))),
-              "masses_source": args.masses, "mass_fit": None if fit is None else fit.to_dict(),
+              "masses_source": args.masses, "mass_fit": None if fit is None else fit.to_dict(), "polygon": args.polygon,
               "planned_footplant_slide_m": {"before": dict(zip(st.plants.effectors, slide0.tolist())),
                                             "after": dict(zip(st.plants.effectors, slide1.tolist()))},
               "planned_joint_angle_change_deg": {"mean": float(ang.mean()), "max": float(ang.max())}}

@@ -188,8 +188,9 @@ def apply_displacement(motion: Motion, dmap: DisplacementMap) -> Motion:
     if dmap.n_frames != motion.n_frames or dmap.rotations.shape[1] != motion.skeleton.n_joints:
         raise ValueError(f"displacement map of {dmap.n_frames} frames x {dmap.rotations.shape[1]} joints does not "
                          f"fit a motion of {motion.n_frames} frames x {motion.skeleton.n_joints} joints")
-    return motion.replace(root_positions=motion.root_positions + dmap.root,
-                          rotations=quat_multiply(motion.rotations, _exp(dmap.rotations)))
+    # products of unit quaternions and a finite offset: what Motion's validation would check holds
+    return motion.replace_trusted(motion.root_positions + dmap.root,
+                                  quat_multiply(motion.rotations, _exp(dmap.rotations)))
 
 
 @dataclass(frozen=True)

@@ -222,9 +222,10 @@ def touchup(motion, body=None, schedule=None, *, contacts=None, iterations: int 
             capped.setdefault(k, []).extend(np.flatnonzero(adj.capped).tolist())
         else:
             mom = flight_momentum_adjustment(body, cur, ls, flights, neighbourhood=nb)
-            cur = cur.replace(root_positions=mom.root_positions, rotations=mom.rotations)
+            cur = cur.replace_trusted(mom.root_positions, mom.rotations)
             adj = flight_com_adjustment(body, cur, ls, flights, center_of_mass(body, cur), neighbourhood=nb, g=g)
-        return cur.replace(root_positions=adj.root_positions, rotations=adj.rotations)
+        # local rotations of rigid turns of unit quaternions: unit to rounding
+        return cur.replace_trusted(adj.root_positions, adj.rotations)
 
     def hold(mm):
         return DisplacementMap.between(mm, enforce_footplants(mm, st.plants, audit=False, passes=1).motion)
