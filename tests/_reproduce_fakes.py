@@ -37,7 +37,8 @@ def write_fake_notebooks(folder: Path, slope: float = 2.0) -> Path:
         new_code_cell("import os\nimport matplotlib.pyplot as plt\n"
                       "DATA_SOURCE = os.environ.get('MOCOMP_DATA_DIR') or 'embedded'"),
         new_markdown_cell("## Figure 1: a line of slope 2"),
-        new_code_cell("fig, ax = plt.subplots(figsize=(3, 2))\nax.plot([0, 1], [0, SLOPE])\nplt.show()"),
+        new_code_cell("fig, ax = plt.subplots(figsize=(3, 2))\nax.plot([0, 1], [0, SLOPE])\nplt.show()\n"
+                      "os.write(2, b'a message on the kernel process stderr\\n')"),
         new_code_cell(GOOD_ROWS),
     ])
     bad = new_notebook(cells=[

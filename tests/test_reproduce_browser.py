@@ -11,44 +11,22 @@ from __future__ import annotations
 
 import functools
 import os
-import shutil
 import threading
 from http.server import SimpleHTTPRequestHandler, ThreadingHTTPServer
 from pathlib import Path
 
 import pytest
 
+from _browser import chromium
 from _reproduce_fakes import write_fake_notebooks
-
-IN_CI = os.environ.get("CI", "").lower() in ("1", "true", "yes")
-CHROMIUM = shutil.which("chromium") or ("/usr/bin/chromium" if os.path.exists("/usr/bin/chromium") else None)
-CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
-                 "--disable-background-networking", "--disable-component-update", "--disable-sync", "--no-first-run"]
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow, pytest.mark.timeout(600)]
 
 
-def _need(what: str, ok: bool):
-    if ok:
-        return
-    if IN_CI:
-        pytest.fail(f"CI=true but {what} is missing (the browser test must run in CI)")
-    pytest.skip(f"{what} not available")
-
-
 @pytest.fixture(scope="module")
 def browser():
-    _need("Chromium (/usr/bin/chromium; apt-get install chromium)", CHROMIUM is not None)
-    try:
-        from playwright.sync_api import sync_playwright
-    except ImportError:
-        _need("the playwright Python package", False)
-    with sync_playwright() as p:
-        br = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS, timeout=60_000)
-        try:
-            yield br
-        finally:
-            br.close()
+    with chromium() as br:
+        yield br
 
 
 @pytest.fixture(scope="module")

@@ -14,7 +14,7 @@ from mocomp.reproduce import read_results
 pytestmark = [pytest.mark.slow, pytest.mark.timeout(600)]
 
 
-def test_failure_path_figures_data_modes_and_baseline(tmp_path, capsys, monkeypatch):
+def test_failure_path_figures_data_modes_and_baseline(tmp_path, capfd, monkeypatch):
     books = write_fake_notebooks(tmp_path / "nbs")
     data = tmp_path / "some_data"
     data.mkdir()
@@ -23,10 +23,14 @@ def test_failure_path_figures_data_modes_and_baseline(tmp_path, capsys, monkeypa
     out, base = tmp_path / "report", tmp_path / "baseline.json"
     rc = main(["reproduce", "-o", str(out), "--notebooks", str(books), "--quick", "--jobs", "2", "--no-progress",
                "--write-baseline", str(base)])
-    cap = capsys.readouterr()
+    cap = capfd.readouterr()
     assert rc == 1
     assert "mocomp reproduce: notebook failed: bad.ipynb: RuntimeError: deliberate failure in the second cell" in cap.err
     assert "quiet.ipynb ran but wrote no results file" in cap.err
+    # the kernels' own output goes to a log per notebook, not to the console
+    assert "kernel process stderr" not in cap.err + cap.out and "IPKernelApp" not in cap.err
+    assert "a message on the kernel process stderr" in (out / "notebooks" / "good.kernel.log").read_text()
+    assert "Passed unknown parameter" not in cap.err
     assert "3 notebook(s), 1 failed; 4 rows: 2 reproduced, 1 differs, 1 no paper value, 0 failed" in cap.out
 
     doc = json.loads((out / "results.json").read_text())
@@ -52,7 +56,7 @@ def test_failure_path_figures_data_modes_and_baseline(tmp_path, capsys, monkeypa
     # --data reaches the kernel; the baseline has no "data" section yet, so nothing regresses
     rc = main(["reproduce", "-o", str(tmp_path / "r2"), "--notebooks", str(books), "--only", "good",
                "--data", str(data), "--no-progress", "--check-baseline", str(base)])
-    cap = capsys.readouterr()
+    cap = capfd.readouterr()
     assert rc == 0, cap.err
     assert read_results(tmp_path / "r2" / "notebooks" / "good.results.json")[1].note == str(data.resolve())
     assert "2 reproduced row(s) not in" in cap.out
@@ -61,7 +65,7 @@ def test_failure_path_figures_data_modes_and_baseline(tmp_path, capsys, monkeypa
     write_fake_notebooks(books, slope=2.5)
     rc = main(["reproduce", "-o", str(tmp_path / "r3"), "--notebooks", str(books), "--only", "good.ipynb",
                "--quick", "--no-progress", "--check-baseline", str(base)])
-    cap = capsys.readouterr()
+    cap = capfd.readouterr()
     assert rc == 1
     assert ("mocomp reproduce: regressed: acrobatics | Fig. 1 | slope of the line (good.ipynb): was reproduced, "
             "now differs: ours 2.5, paper 2, tolerance 0.01") in cap.err
@@ -69,17 +73,17 @@ def test_failure_path_figures_data_modes_and_baseline(tmp_path, capsys, monkeypa
     assert "baseline regressions" in (tmp_path / "r3" / "index.html").read_text()
 
 
-def test_cli_errors(tmp_path, capsys):
+def test_cli_errors(tmp_path, capfd):
     books = write_fake_notebooks(tmp_path / "nbs")
     assert main(["reproduce", "-o", str(tmp_path / "r"), "--notebooks", str(books), "--only", "nope"]) == 2
-    err = capsys.readouterr().err.strip()
+    err = capfd.readouterr().err.strip()
     assert err.startswith("mocomp reproduce: error: --only: no notebook named nope") and "\n" not in err
     assert main(["reproduce", "-o", str(tmp_path / "r"), "--notebooks", str(books), "--data", str(tmp_path / "x")]) == 2
-    assert "data folder does not exist" in capsys.readouterr().err
+    assert "data folder does not exist" in capfd.readouterr().err
     (tmp_path / "bl.json").write_text("{")
     assert main(["reproduce", "-o", str(tmp_path / "r"), "--notebooks", str(books), "--quick",
                  "--check-baseline", str(tmp_path / "bl.json")]) == 2
-    assert "bl.json:1: not valid JSON" in capsys.readouterr().err
+    assert "bl.json:1: not valid JSON" in capfd.readouterr().err
     assert not (tmp_path / "r" / "index.html").exists()   # a bad baseline fails before anything runs
     with pytest.raises(SystemExit) as e:
         main(["reproduce", "-o", str(tmp_path / "r"), "--quick", "--data", str(tmp_path)])

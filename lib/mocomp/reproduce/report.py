@@ -65,7 +65,7 @@ def combined(run: dict, records) -> dict:
         books.append({"notebook": r.name, "status": r.status, "seconds": round(r.seconds, 3),
                       "export_seconds": round(r.export_seconds, 3), "error": r.error, "failed_cell": r.failed_cell,
                       "results_error": r.results_error, "html": r.html, "executed": r.executed,
-                      "results_file": r.results_file, "rows": len(r.rows), "figures": [f.path for f in r.figures]})
+                      "results_file": r.results_file, "kernel_log": r.kernel_log, "rows": len(r.rows), "figures": [f.path for f in r.figures]})
     rows = [{**row.to_dict(), "key": row_key(row)} for r in records for row in r.rows]
     return {"schema": SCHEMA_VERSION, "run": run, "summary": summary(records), "notebooks": books, "rows": rows}
 
@@ -204,6 +204,7 @@ def build_index(run: dict, records) -> str:
                      f"</td><td class=n>{r.seconds:.1f} s</td><td class=n>{len(r.rows)} ({results})</td>"
                      f"<td class=n>{len(r.figures)}</td><td>"
                      + (f'<a href="{_e(r.executed)}">.ipynb</a>' if r.executed else "")
+                     + (f' <a href="{_e(r.kernel_log)}">kernel log</a>' if r.kernel_log else "")
                      + f"</td><td>{err}</td></tr>")
     parts.append("</table>")
 

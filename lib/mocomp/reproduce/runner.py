@@ -18,11 +18,13 @@ HTML, and its PNG outputs extracted for the report. Layout of REPORT_DIR::
     notebooks/NAME.ipynb       executed notebook
     notebooks/NAME.html        its HTML export
     notebooks/NAME.results.json  the rows the notebook wrote (its results_path)
+    notebooks/NAME.kernel.log    the kernel process's own stdout/stderr
     figures/NAME/cellNNN_K.png   its PNG outputs
 """
 from __future__ import annotations
 
 import contextlib
+import logging
 import os
 import platform
 import re
@@ -61,6 +63,7 @@ class NotebookRun:
     rows: list[ResultRow] = field(default_factory=list)
     figures: list[Figure] = field(default_factory=list)
     results_error: str = ""        # results file missing or malformed (notebook ran)
+    kernel_log: str = ""           # the kernel process's own stdout/stderr (C-level messages, warnings)
 
     @property
     def stem(self) -> str:
@@ -159,6 +162,23 @@ def _error_of(exc: BaseException) -> tuple[str, str, int | None]:
     return _ANSI.sub("", line)[:500], _ANSI.sub("", "".join(traceback.format_exception(exc))), None
 
 
+def _logged_kernel_manager(log_path: Path, handles: list):
+    """An AsyncKernelManager whose kernel process writes its stdout/stderr to ``log_path``
+    (kept out of the console: ipykernel's start-up warnings, library messages; the report
+    links the file)."""
+    from jupyter_client import AsyncKernelManager
+
+    class LoggedKernelManager(AsyncKernelManager):
+        async def _async_launch_kernel(self, kernel_cmd, **kw):
+            fh = open(log_path, "ab")
+            handles.append(fh)
+            kw.setdefault("stdout", fh)
+            kw.setdefault("stderr", fh)
+            return await super()._async_launch_kernel(kernel_cmd, **kw)
+
+    return LoggedKernelManager
+
+
 def run_notebook(path: Path, report_dir: Path, *, timeout: float = 900.0, progress=None,
                  kernel_name: str = "python3") -> NotebookRun:
     """Execute one notebook into ``report_dir`` (see the module docstring); never raises for the
@@ -174,6 +194,10 @@ def run_notebook(path: Path, report_dir: Path, *, timeout: float = 900.0, progre
     executed = nb_dir / path.name
     results = nb_dir / f"{path.stem}.results.json"
     results.unlink(missing_ok=True)
+    log = nb_dir / f"{path.stem}.kernel.log"
+    log.unlink(missing_ok=True)
+    rec.kernel_log = log.relative_to(report_dir).as_posix()
+    handles: list = []
     rec.executed = executed.relative_to(report_dir).as_posix()
     rec.results_file = results.relative_to(report_dir).as_posix()
     t0 = time.perf_counter()
@@ -181,12 +205,18 @@ def run_notebook(path: Path, report_dir: Path, *, timeout: float = 900.0, progre
         pm.execute_notebook(str(path), str(executed), parameters={"results_path": str(results)},
                             cwd=str(path.parent), kernel_name=kernel_name, execution_timeout=timeout,
                             progress_bar=progress if progress is not None else False, log_output=False,
-                            report_mode=False, request_save_on_cell_execute=False)
+                            report_mode=False, request_save_on_cell_execute=False,
+                            kernel_manager_class=_logged_kernel_manager(log, handles))
         rec.status = "ok"
     except Exception as exc:  # the notebook's failure is a result, not a crash of the run
         rec.status = "failed"
         rec.error, rec.error_detail, cell = _error_of(exc)
         rec.failed_cell = cell
+    finally:
+        for fh in handles:
+            fh.close()
+    if not log.exists():
+        rec.kernel_log = ""
     rec.seconds = time.perf_counter() - t0
     t1 = time.perf_counter()
     if executed.exists():
@@ -292,12 +322,16 @@ def reproduce(report_dir, *, notebooks: Path | None = None, only=(), data: Path 
         prog.finished(rec)
         return rec
 
+    pm_log = logging.getLogger("papermill")  # "Passed unknown parameter", "Unable to parse line": noise here
+    pm_level = pm_log.level
+    pm_log.setLevel(logging.ERROR)
     with kernel_environment(data):
         if jobs <= 1 or len(books) == 1:
             records = [one(p) for p in books]
         else:
             with ThreadPoolExecutor(max_workers=jobs) as pool:
                 records = list(pool.map(one, books))
+    pm_log.setLevel(pm_level)
     records.sort(key=lambda r: r.name)
     wall = time.perf_counter() - t0
     run = {
