@@ -108,22 +108,30 @@ def test_joint_limits_ignore_other_skeletons(walk, ase):
 
 
 @pytest.mark.parametrize("facing", [0.0, 90.0, 180.0, -90.0])
-def test_place_victim_faces_the_attacker_turned_by_facing(ase, facing):
+@pytest.mark.parametrize("moving", [False, True])
+def test_place_victim_faces_the_attacker_turned_by_facing(ase, real_data_dir, facing, moving):
+    from mocomp.io import load
+
     a, v = ase
+    if moving:
+        v = load(real_data_dir / "walks" / "ase_rl_WalkForward01.derived.bvh")
     sc = Scenario(facing, contact_body="right_foot")
     pv = place_victim(a, v, sc)
-    fwd, reach, _ = strike_direction(a, "right_foot")
-    d = pv.root_positions[0] - a.root_positions[0]
+    fwd, reach, ks = strike_direction(a, "right_foot")
+    k = int(min(round(ks / a.fps * v.fps), v.n_frames - 1))      # the victim arrives when the strike does
+    d = pv.root_positions[k] - a.root_positions[0]
     d[1] = 0
     assert np.linalg.norm(d) == pytest.approx(reach - sc.overlap, abs=1e-9)
     np.testing.assert_allclose(d / np.linalg.norm(d), fwd, atol=1e-9)
-    h = headings(pv, [0])[0]
+    h = headings(pv, [k])[0]
     look = np.array([np.cos(h), 0.0, -np.sin(h)])
     to_attacker = -fwd
     ang = np.degrees(np.arctan2(np.cross(to_attacker, look)[1], to_attacker @ look))
     assert ((ang - facing + 180) % 360 - 180) == pytest.approx(0.0, abs=1e-6)
     # rigid: the clip's own shape is unchanged
     np.testing.assert_allclose(np.diff(pv.root_positions[:, 1]), np.diff(v.root_positions[:, 1]), atol=1e-12)
+    step = np.linalg.norm(np.diff(pv.root_positions[:, [0, 2]], axis=0), axis=1)
+    np.testing.assert_allclose(step, np.linalg.norm(np.diff(v.root_positions[:, [0, 2]], axis=0), axis=1), atol=1e-12)
 
 
 @pytest.mark.parametrize("bad", [180.5, -200.0, float("nan")])

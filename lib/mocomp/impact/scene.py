@@ -266,13 +266,16 @@ def place_victim(attacker: Motion, victim: Motion, scenario: Scenario) -> Motion
     """The victim clip moved rigidly (about the vertical, on the ground) for the scenario.
 
     The frame of reference is the attacker's strike (:func:`strike_direction`): x along the strike,
-    z to its right (y up), origin at the attacker's root on the ground at its first frame. The
-    victim's root at its first frame goes to ``scenario.offset`` in that frame (default: straight
-    ahead at the strike's reach minus ``scenario.overlap``), heading toward the attacker turned by
-    ``facing_deg`` (0: face to face, 180: its back to the attacker)."""
+    z to its right (y up), origin at the attacker's root on the ground at its first frame. At the
+    strike's frame (the contact body's farthest reach; the victim's last frame if it is shorter) the
+    victim's root goes to ``scenario.offset`` in that frame (default: straight ahead at the strike's
+    reach minus ``scenario.overlap``), heading toward the attacker turned by ``facing_deg`` (0: face
+    to face, 180: its back to the attacker) -- so a walking or running victim arrives there when the
+    strike does."""
     from ..ops.align import headings, yaw_quaternion
 
-    fwd, reach, _ = strike_direction(attacker, scenario.contact_body)
+    fwd, reach, k_strike = strike_direction(attacker, scenario.contact_body)
+    k = int(min(round(k_strike / attacker.fps * victim.fps), victim.n_frames - 1))
     right = np.cross(fwd, np.array([0.0, 1.0, 0.0]))
     off = scenario.offset if scenario.offset is not None else (max(reach - scenario.overlap, 0.2), 0.0)
     pa = attacker.root_positions[0]
@@ -280,10 +283,10 @@ def place_victim(attacker: Motion, victim: Motion, scenario: Scenario) -> Motion
     # a yaw h turns the local x axis (the ASE/BVH forward) to (cos h, 0, -sin h)
     h_fwd = float(np.arctan2(-fwd[2], fwd[0]))
     want = h_fwd + np.pi + np.radians(scenario.facing_deg)
-    hv = float(headings(victim, [0])[0])
-    pv = victim.root_positions[0]
+    hv = float(headings(victim, [k])[0])
+    pv = victim.root_positions[k]
     turned = victim.rotated(yaw_quaternion(want - hv), center=np.array([pv[0], 0.0, pv[2]]))
-    p0 = turned.root_positions[0]
+    p0 = turned.root_positions[k]
     return turned.translated(np.array([target[0] - p0[0], 0.0, target[2] - p0[2]]))
 
 
