@@ -106,8 +106,10 @@ def lift_feet(motion, plants, reference_points: np.ndarray, touching: np.ndarray
 
     P, G = motion.fk()
     pts = foot_points(P, G, plants)
-    rest = np.nanmedian(np.where(np.isfinite(plants.levels), plants.levels, np.nan), axis=0)
-    rest = np.where(np.isfinite(rest), rest, np.nanmin(reference_points[..., 1], axis=0))
+    lv = np.asarray(plants.levels, float)
+    has = np.isfinite(lv).any(axis=0)                               # a point never planted: its lowest height
+    rest = np.nanmin(reference_points[..., 1], axis=0)
+    rest[has] = np.nanmedian(lv[:, has], axis=0)
     floor = np.where(touching, reference_points[..., 1], np.minimum(rest[None], reference_points[..., 1]))
     deficit = np.clip(floor - pts[..., 1], 0.0, None)              # (T, 4) m
     rot = None
