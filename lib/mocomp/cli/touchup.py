@@ -130,7 +130,7 @@ def run(args) -> int:
           f"max {_cm(b['max_outside_m'])}, {b['frames_outside']}/{b['frames']} frames outside (input)")
     for h in r.history:
         fl = "; ".join(f"flight {f['frames'][0]}-{f['frames'][1]}: COM {f['com_residual_m'] * 1000:.2f} mm off "
-                       f"the parabola, |L| varies {f['L_variation'] * 100:.0f}%" for f in h["flights"])
+                       f"the parabola, |L| varies {f['L_variation'] * 100:.0f}%" for f in (h["flights"] or []))
         print(f"  step {h['step'] + 1}.{h['iteration'] + 1} [{h['label']}]: mean {_cm(h['mean_outside_m'])}, "
               f"max {_cm(h['max_outside_m'])}" + (f"; {fl}" if fl and h["label"].startswith("flight") else ""))
     for f0, f1 in zip(r.before["flights"], r.after["flights"]):

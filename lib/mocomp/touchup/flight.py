@@ -26,6 +26,7 @@ from scipy.spatial.transform import Rotation
 from ..dynamics.constants import G_STANDARD
 from ..ops import ease
 from .ground import rotation_centres
+from ..core.rotations import quat_multiply
 from .linksets import LinkSets, local_from_global, rotate_sets
 
 __all__ = ["ballistic_targets", "FlightAdjustment", "flight_com_adjustment", "com_residual", "angular_momentum",
@@ -179,11 +180,13 @@ def flight_momentum_adjustment(body, motion, sets: LinkSets, flights, *, neighbo
         Iinv = np.linalg.pinv(I[a:b])
         w_star = np.einsum("tij,tj->ti", Iinv, h_star - h_s1[a:b])
         w_now = np.einsum("tij,tj->ti", Iinv, h_s2[a:b])
-        acc = Rotation.identity()
-        for i, f in enumerate(range(a, b)):
-            if f > a:
-                acc = Rotation.from_rotvec(w_star[i] * dt) * Rotation.from_rotvec(-w_now[i] * dt) * acc
-            rot[f] = acc.as_rotvec()
+        # per-frame increments exp(w* dt) exp(-w dt) at once; their running product frame by frame
+        inc = (Rotation.from_rotvec(w_star[1:] * dt) * Rotation.from_rotvec(-w_now[1:] * dt)).as_quat()
+        acc = np.zeros((b - a, 4))
+        acc[0, 3] = 1.0
+        for i in range(1, b - a):
+            acc[i] = quat_multiply(inc[i - 1], acc[i - 1])
+        rot[a:b] = Rotation.from_quat(acc).as_rotvec()
         for f in np.flatnonzero((owner == k) & (w < 1) & (np.arange(T) >= b)):
             rot[f] = rot[b - 1] * w[f]
     R = Rotation.from_rotvec(rot).as_matrix()

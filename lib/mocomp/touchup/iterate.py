@@ -128,7 +128,7 @@ def lift_feet(motion, plants, reference_points: np.ndarray, touching: np.ndarray
         lifted[leg.side] = f.tolist()
     if rot is None:
         return motion, lifted
-    return motion.replace(rotations=rot), lifted
+    return motion.replace_trusted(motion.root_positions, rot), lifted      # IK of unit quaternions
 
 
 def _flight_records(body, motion, flights, g: float) -> list:
@@ -193,11 +193,11 @@ def touchup(motion, body=None, schedule=None, *, contacts=None, iterations: int 
                                                          smooth_sigma=smooth_sigma, g=g)
         return cache["z"]
 
-    def measure(cur) -> dict:
+    def measure(cur, with_flights: bool = True) -> dict:
         z = zstate(cur)
         out = z.summary(st.ground)
         out["_distance"] = np.where(st.ground, z.distance, np.nan)
-        out["flights"] = _flight_records(body, cur, flights, g)
+        out["flights"] = _flight_records(body, cur, flights, g) if with_flights else None
         return out
 
     clamped: dict[int, list[int]] = {}
@@ -252,12 +252,16 @@ def touchup(motion, body=None, schedule=None, *, contacts=None, iterations: int 
             for side, fr in up.items():
                 lifted.setdefault(side, set()).update(fr)
         k = state["k"]
-        rec = measure(cur)
+        # the flights' COM and momentum records after flight steps (and the last iteration) only:
+        # a ground step leaves the flights alone (its maps are weighted 0 there)
+        last = len(history) + 1 == n_iterations
+        rec = measure(cur, with_flights=steps[k].stage == "flight" or last)
         rec.update(step=k, iteration=sum(1 for h in history if h["step"] == k), label=steps[k].label())
         history.append(rec)
         return cur
 
     run = [k for k, s in enumerate(steps) if s.stage == "ground" or flights]
+    n_iterations = sum(steps[k].iterations for k in run)
     hsteps = [HierarchyStep(steps[k].kernel_parameter(motion.fps), steps[k].rho, steps[k].kernel,
                             steps[k].iterations, str(k)) for k in run]
     weights = [ground_w if (steps[k].stage == "ground" and flights) else None for k in run]
