@@ -120,3 +120,19 @@ def test_curved_hop_ground_frames_near_the_flight_adjusted(real_data_dir):
     assert r.after["mean_outside_m"] < 0.9 * r.before["mean_outside_m"]
     (f0,), (f1,) = r.before["flights"], r.after["flights"]
     assert f0["com_residual_m"] > 0.02 and f1["com_residual_m"] < 0.2 * f0["com_residual_m"]
+
+
+def test_uphill_spine_turn_capped(walks):
+    """Sec. 4.4 with the uphill schedule (upper body first): the first frames' ZMP is 40-50 cm
+    behind the feet, beyond the upper body's reach; eq. 7's clamped angle (farthest reach) bent the
+    spine 77 deg there. With the per-frame turn capped at 20 deg no joint turns more than 30 deg,
+    and the walk still leans forward with the ZMP brought in."""
+    from mocomp.ops import slope
+
+    walk, _ = walks
+    s = slope(walk, 10.0).motion
+    r = touchup(s, schedule="uphill")
+    ang = np.degrees(2 * np.arccos(np.abs(np.einsum("tjk,tjk->tj", s.rotations, r.motion.rotations)).clip(0, 1)))
+    assert ang.max() < 30.0
+    assert sum(len(v) for v in r.capped.values()) > 0
+    assert r.after["mean_outside_m"] < 0.2 * r.before["mean_outside_m"]
