@@ -34,8 +34,10 @@ def report(tmp_path_factory):
     from mocomp.reproduce.runner import reproduce
 
     tmp = tmp_path_factory.mktemp("reproduce")
-    books = write_fake_notebooks(tmp / "nbs")
-    out = reproduce(tmp / "report", notebooks=books, data=None, jobs=2, progress=False)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("XDG_CACHE_HOME", str(tmp / "cache"))  # the run-time cache stays in the test
+        books = write_fake_notebooks(tmp / "nbs")
+        out = reproduce(tmp / "report", notebooks=books, data=None, jobs=2, progress=False)
     assert {r.name: r.status for r in out["records"]}["bad.ipynb"] == "failed"
     return tmp / "report"
 

@@ -198,3 +198,21 @@ def test_discover(tmp_path):
         discover(tmp_path / "empty")
     with pytest.raises(FileNotFoundError, match="does not exist"):
         discover(tmp_path / "missing")
+
+
+def test_longest_first_from_the_last_run(tmp_path, monkeypatch):
+    from mocomp.reproduce.runner import _longest_first, _remember_times
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    books = [tmp_path / f"{n}.ipynb" for n in ("a", "b", "c", "d")]
+    assert _longest_first(books, tmp_path / "none.json", "quick") == books  # never timed: name order
+    _remember_times([NotebookRun("a.ipynb", seconds=5), NotebookRun("b.ipynb", seconds=50),
+                     NotebookRun("c.ipynb", seconds=20)], "quick")
+    # the slowest first; a notebook never timed (d) goes first, it may be the longest
+    assert [p.stem for p in _longest_first(books, tmp_path / "none.json", "quick")] == ["d", "b", "c", "a"]
+    assert _longest_first(books, tmp_path / "none.json", "data") == books  # times are per data mode
+    # a previous report in the output folder wins over the cache
+    (tmp_path / "results.json").write_text(json.dumps({"notebooks": [{"notebook": "a.ipynb", "seconds": 99},
+                                                                     {"notebook": "d.ipynb", "seconds": 1}]}))
+    # (b and c untimed there: first, by name)
+    assert [p.stem for p in _longest_first(books, tmp_path / "results.json", "quick")] == ["b", "c", "a", "d"]

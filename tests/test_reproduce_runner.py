@@ -20,6 +20,7 @@ def test_failure_path_figures_data_modes_and_baseline(tmp_path, capfd, monkeypat
     data.mkdir()
     monkeypatch.setenv("MOCOMP_DATA_DIR", str(data))   # --quick must hide it from the kernels
     monkeypatch.setenv("MPLBACKEND", "Agg")            # as CI exports: the kernels must still draw inline
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))   # the run-time cache stays in the test
     out, base = tmp_path / "report", tmp_path / "baseline.json"
     rc = main(["reproduce", "-o", str(out), "--notebooks", str(books), "--quick", "--jobs", "2", "--no-progress",
                "--write-baseline", str(base)])
@@ -31,6 +32,8 @@ def test_failure_path_figures_data_modes_and_baseline(tmp_path, capfd, monkeypat
     assert "kernel process stderr" not in cap.err + cap.out and "IPKernelApp" not in cap.err
     assert "a message on the kernel process stderr" in (out / "notebooks" / "good.kernel.log").read_text()
     assert "Passed unknown parameter" not in cap.err
+    times = json.loads((tmp_path / "cache" / "mocomp" / "reproduce_times.json").read_text())
+    assert set(times["quick"]) == {"bad.ipynb", "good.ipynb", "quiet.ipynb"}
     assert "3 notebook(s), 1 failed; 4 rows: 2 reproduced, 1 differs, 1 no paper value, 0 failed" in cap.out
 
     doc = json.loads((out / "results.json").read_text())

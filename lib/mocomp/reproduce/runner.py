@@ -28,6 +28,7 @@ import logging
 import os
 import platform
 import re
+import shutil
 import subprocess
 import sys
 import threading
@@ -194,6 +195,7 @@ def run_notebook(path: Path, report_dir: Path, *, timeout: float = 900.0, progre
     executed = nb_dir / path.name
     results = nb_dir / f"{path.stem}.results.json"
     results.unlink(missing_ok=True)
+    shutil.rmtree(report_dir / "figures" / path.stem, ignore_errors=True)  # no stale figures of an earlier run
     log = nb_dir / f"{path.stem}.kernel.log"
     log.unlink(missing_ok=True)
     rec.kernel_log = log.relative_to(report_dir).as_posix()
@@ -275,16 +277,46 @@ class _Progress:
                       file=self.stream, flush=True)
 
 
-def _longest_first(books: list[Path], previous: Path) -> list[Path]:
-    """The notebooks, longest first by the times of a previous run into the same folder (so the
-    parallel jobs end together); name order when there is none. The report lists them by name."""
+def _history_file() -> Path:
+    """Where the notebooks' last run times are kept between runs (``$XDG_CACHE_HOME/mocomp``)."""
+    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "mocomp" / "reproduce_times.json"
+
+
+def _read_times(path: Path, key: str = "notebooks") -> dict:
     import json
 
     try:
-        secs = {b["notebook"]: float(b["seconds"]) for b in json.loads(previous.read_text())["notebooks"]}
-    except (OSError, ValueError, KeyError, TypeError):
-        return books
-    return sorted(books, key=lambda p: -secs.get(p.name, float("inf")))
+        doc = json.loads(Path(path).read_text())
+        if key == "notebooks":
+            return {b["notebook"]: float(b["seconds"]) for b in doc["notebooks"]}
+        return {k: float(v) for k, v in doc[key].items()}
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return {}
+
+
+def _longest_first(books: list[Path], previous: Path, mode: str) -> list[Path]:
+    """The notebooks, longest first by their last run times (the previous report in the same
+    folder, else the time cache of this data mode), so the parallel jobs end together; name order
+    for notebooks never timed (they go first: unknown may be long). The report lists them by name."""
+    secs = _read_times(previous) or _read_times(_history_file(), mode)
+    return sorted(books, key=lambda p: (-secs.get(p.name, float("inf")), p.name))
+
+
+def _remember_times(records, mode: str) -> None:
+    """Store this run's notebook times in the time cache (best effort: a read-only home is fine)."""
+    import json
+
+    path = _history_file()
+    try:
+        doc = json.loads(path.read_text()) if path.exists() else {}
+        doc = doc if isinstance(doc, dict) else {}
+        doc.setdefault(mode, {}).update({r.name: round(r.seconds, 2) for r in records})
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(path.name + f".{os.getpid()}.tmp")
+        tmp.write_text(json.dumps(doc, indent=1))
+        tmp.replace(path)
+    except (OSError, ValueError):
+        pass
 
 
 def reproduce(report_dir, *, notebooks: Path | None = None, only=(), data: Path | None = None,
@@ -311,7 +343,8 @@ def reproduce(report_dir, *, notebooks: Path | None = None, only=(), data: Path 
     if report_dir.exists() and not report_dir.is_dir():
         raise NotADirectoryError(f"-o: {report_dir} exists and is not a folder")
     report_dir.mkdir(parents=True, exist_ok=True)
-    books = _longest_first(books, report_dir / "results.json")
+    mode = "quick" if data is None else "data"
+    books = _longest_first(books, report_dir / "results.json", mode)
     env = environment_info(folder)
     started = datetime.now(timezone.utc)
     t0 = time.perf_counter()
@@ -332,12 +365,13 @@ def reproduce(report_dir, *, notebooks: Path | None = None, only=(), data: Path 
             with ThreadPoolExecutor(max_workers=jobs) as pool:
                 records = list(pool.map(one, books))
     pm_log.setLevel(pm_level)
+    _remember_times(records, mode)
     records.sort(key=lambda r: r.name)
     wall = time.perf_counter() - t0
     run = {
         "started": started.isoformat(timespec="seconds"),
         "seconds": wall,
-        "mode": "quick" if data is None else "data",
+        "mode": mode,
         "data": "embedded data only (--quick: MOCOMP_DATA_DIR unset for the notebooks)" if data is None
                 else str(Path(data).resolve()),
         "notebook_dir": str(folder.resolve()),
