@@ -42,13 +42,15 @@ def test_kernel_equals_the_written_out_eq_4_1(index):
     first frame with ground_frame_features) agree on random library windows."""
     m = index.motion("jump.bvh")
     c = index.clip("jump.bvh")
-    q = _Query(index, m[20:36], "left")
+    q = _Query(index, m, 20, 36, "left")
     L = q.L
     rows = np.array([0, 3, 17, 40, c.n_frames - L], dtype=np.int64) + int(index.concatenated()["start"][1])
     ref = q.terms(rows).sum(axis=1)
     cat = index.concatenated()
     Fq = body_features(m[20:36])
     qp, qo = ground_frame_features(Fq.positions, Fq.orientations, Fq.ground[0], Fq.heading[0])
+    np.testing.assert_allclose(q.qp, qp[:-1], atol=1e-12)    # the search's own FK path = body_features
+    np.testing.assert_allclose(q.qo, qo[:-1], atol=1e-12)
     for r, d_ref in zip(rows, ref):
         P, O = cat["positions"][r:r + L], cat["orientations"][r:r + L]
         cp, co = ground_frame_features(P, O, cat["ground"][r], cat["heading"][r])

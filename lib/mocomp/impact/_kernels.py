@@ -28,7 +28,7 @@ try:
 except Exception:  # pragma: no cover - numba is a project dependency
     AVAILABLE = False
 
-__all__ = ["AVAILABLE", "window_distances_nb"]
+__all__ = ["AVAILABLE", "window_distances_nb", "rest_bounds_nb"]
 
 
 if AVAILABLE:
@@ -112,3 +112,9 @@ if AVAILABLE:
                 break
             out += w[j] * lb
         return out
+
+    @numba.njit(cache=True, nogil=True)
+    def rest_bounds_nb(starts, first, frames, w, Cl, Cq, out):
+        """``out[k]``: the bound of :func:`_rest_bound` from each window's first-frame term."""
+        for k in range(starts.shape[0]):
+            out[k] = _rest_bound(first[k], 0, starts[k], frames, w, Cl, Cq)

@@ -69,7 +69,16 @@ FOOT_PARTS: dict[str, str] = {"left": "foot_l", "right": "foot_r"}
 
 def part_weights(support: str | None = None) -> tuple[np.ndarray, np.ndarray]:
     """``(w_p (16,), w_theta (16,))`` of Table A.1 in :data:`BODY_PARTS` order; ``support``
-    (``"left"``/``"right"``, or ``"both"``) gives that foot the supporting weights."""
+    (``"left"``/``"right"``, or ``"both"``) gives that foot the supporting weights. Read-only arrays."""
+    if support not in _WEIGHTS:
+        _WEIGHTS[support] = _part_weights(support)
+    return _WEIGHTS[support]
+
+
+_WEIGHTS: dict = {}
+
+
+def _part_weights(support):
     wp = np.array([TABLE_A1[b][1] for b in BODY_PARTS])
     wr = np.array([TABLE_A1[b][2] for b in BODY_PARTS])
     if support is not None:
@@ -79,6 +88,8 @@ def part_weights(support: str | None = None) -> tuple[np.ndarray, np.ndarray]:
                 raise ValueError(f"support foot must be 'left', 'right' or None, got {support!r}")
             k = BODY_PARTS.index(FOOT_PARTS[s])
             wp[k], wr[k] = SUPPORT_WEIGHTS
+    wp.setflags(write=False)
+    wr.setflags(write=False)
     return wp, wr
 
 

@@ -47,10 +47,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.motion import Motion
-from ..core.rotations import quat_multiply
+from ..core.rotations import quat_apply
 from ..errors import MotionFormatError
 from ..ops.align import GroundTransform, yaw_quaternion
-from .features import BODY_PARTS, FOOT_PARTS, body_features, body_model_for, ground_frame_features, part_weights
+from .features import BODY_PARTS, FOOT_PARTS, body_model_for, ground_frame_features, part_weights
 from . import _kernels
 from .index import RATE_TOLERANCE, LibraryIndex, frame_distances
 
@@ -154,20 +154,30 @@ def window_distance(pos_a, ori_a, pos_b, ori_b, support: str | None = None) -> f
 class _Query:
     """The query window aligned at its first frame, and the per-frame kernel against the library."""
 
-    def __init__(self, index: LibraryIndex, window: Motion, support: str | None):
-        F = body_features(window, _body(index), velocities=False)
-        self.L = F.n_frames
-        self.support = support_foot_of(F.com[0], F.positions[0]) if support is None else support
-        self.ground0, self.heading0 = F.ground[0], float(F.heading[0])
-        qp, qo = ground_frame_features(F.positions, F.orientations, F.ground[0], F.heading[0])
+    def __init__(self, index: LibraryIndex, motion: Motion, start: int, stop: int, support: str | None):
+        # the window's 16 body parts from the motion's (cached) core FK and the body model: the
+        # same numbers as body_features (tested)
+        joints, coms, masses = _parts(index)
+        P, G = motion.fk()
+        P, G = P[start:stop], G[start:stop]
+        pos = P[:, joints] + quat_apply(G[:, joints], coms)
+        ori = G[:, joints]
+        root_positions, q0 = motion.root_positions[start:stop], motion.rotations[start, 0]
+        self.L = pos.shape[0]
+        com0 = masses @ pos[0] / masses.sum()
+        self.support = support_foot_of(com0, pos[0]) if support is None else support
+        self.ground0 = np.array([root_positions[0, 0], 0.0, root_positions[0, 2]])
+        self.heading0 = float(2.0 * np.arctan2(q0[1], q0[3]))         # twist about +y (ops.align.headings)
+        qp, qo = ground_frame_features(pos, ori, self.ground0, self.heading0)
         w = window_weights(self.L)
         keep = w > 0                                     # the last frame has weight 0
         self.frames = np.flatnonzero(keep).astype(np.int64)
         self.w = np.ascontiguousarray(w[keep])
         self.qp = np.ascontiguousarray(qp[keep])
         self.qo = np.ascontiguousarray(qo[keep])
-        # Y (x) Q with Y = (0, 1, 0, 0): the yaw of each candidate enters as cos/sin(psi/2) weights
-        self.yqo = np.ascontiguousarray(quat_multiply(np.array([0.0, 1.0, 0.0, 0.0]), self.qo))
+        # Y (x) Q with Y = (0, 1, 0, 0) (the yaw of each candidate enters as cos/sin(psi/2) weights):
+        # the Hamilton product with Y is the signed permutation (z, w, -x, -y) of Q
+        self.yqo = np.ascontiguousarray(self.qo[..., [2, 3, 0, 1]] * np.array([1.0, 1.0, -1.0, -1.0]))
         self.wp, self.wr = part_weights(self.support)
         cat = index.concatenated()
         self.P, self.O, self.G, self.H = cat["positions"], cat["orientations"], cat["ground"], cat["heading"]
@@ -206,10 +216,15 @@ class _Query:
         return out
 
 
-def _body(index: LibraryIndex):
-    if "body" not in index._cat:
-        index._cat["body"] = body_model_for(index.skeleton)
-    return index._cat["body"]
+def _parts(index: LibraryIndex):
+    """``(carrier joints (16,), local COMs (16, 3), masses (16,))`` of the body parts on the index's
+    skeleton (:func:`~mocomp.impact.features.body_model_for`), cached in the index."""
+    cat = index.concatenated()
+    if "parts" not in cat:
+        body = body_model_for(index.skeleton)
+        order = [body.segment_names.index(b) for b in BODY_PARTS]
+        cat["parts"] = (body.segment_joint[order], body.local_coms[order], body.masses[order])
+    return cat["parts"]
 
 
 def _unique_rows(index: LibraryIndex, n_valid: np.ndarray, L: int) -> np.ndarray:
@@ -264,6 +279,11 @@ _EMPTY = np.zeros(0)
 def _rest_bounds(q: _Query, rows: np.ndarray, first: np.ndarray) -> np.ndarray:
     """``(K,)`` the kernel's triangle-inequality lower bound of frames 1.. of each window from its
     first-frame term (:func:`mocomp.impact._kernels._rest_bound`, vectorised)."""
+    if _kernels.AVAILABLE:
+        out = np.empty(rows.size)
+        _kernels.rest_bounds_nb(np.ascontiguousarray(rows, dtype=np.int64), np.ascontiguousarray(first), q.frames,
+                                q.w, q.Cl, q.Cq, out)
+        return out
     f = q.frames
     steps = q.Cl[rows[:, None] + f[None, 1:]] - q.Cl[rows][:, None] + q.Cq[None, 1:]
     return np.maximum(first[:, None] - steps, 0.0) @ q.w[1:]
@@ -325,8 +345,6 @@ def _result(index: LibraryIndex, q: _Query, row: int, dist: float, stats: dict) 
 
 
 def _rot_y(yaw: float, v: np.ndarray) -> np.ndarray:
-    from ..core.rotations import quat_apply
-
     return quat_apply(yaw_quaternion(yaw), v)
 
 
@@ -365,7 +383,7 @@ def search(index: LibraryIndex, query: Motion, start: int, stop: int, *, support
         best first) are refined (module docstring).
     """
     t0 = time.perf_counter()
-    if query.skeleton != index.skeleton:
+    if query.skeleton is not index.skeleton and query.skeleton != index.skeleton:
         raise MotionFormatError(
             f"the query's skeleton ({query.skeleton.n_joints} joints, root {query.skeleton.names[0]!r}) is not the "
             f"index's ({index.skeleton.n_joints} joints, root {index.skeleton.names[0]!r}); build the index for "
@@ -378,14 +396,14 @@ def search(index: LibraryIndex, query: Motion, start: int, stop: int, *, support
         raise ValueError(f"support_foot must be 'left', 'right' or None, got {support_foot!r}")
     if not (margin_factor >= 0 and max_regions >= 1):
         raise ValueError(f"margin_factor must be >= 0 and max_regions >= 1, got {margin_factor!r}, {max_regions!r}")
-    window = query.slice(start, stop)
     resampled = abs(query.fps / index.fps - 1.0) > RATE_TOLERANCE
-    if resampled:
-        window = window.resample(index.fps)
-    if window.n_frames < 2:
-        raise ValueError(f"query window {start}..{stop} has {window.n_frames} frame at the index rate "
+    if resampled:                                        # the window at the index rate
+        query = query.slice(start, stop).resample(index.fps)
+        start, stop = 0, query.n_frames
+    if stop - start < 2:
+        raise ValueError(f"query window {start}..{stop} has {stop - start} frame at the index rate "
                          f"{index.fps:g} Hz; a window needs at least 2")
-    q = _Query(index, window, support_foot)
+    q = _Query(index, query, start, stop, support_foot)
     t1 = time.perf_counter()
     L = q.L
     starts, n_valid = _valid_starts(index, L)
