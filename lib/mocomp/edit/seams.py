@@ -101,6 +101,10 @@ def stance_slide(positions: np.ndarray, weights: np.ndarray) -> float:
     return float(np.linalg.norm(xz - origin, axis=-1)[on].max())
 
 
+#: s: the shortest time over which :func:`recover_upright` lets go of a held ankle
+RELEASE_S = 0.2
+
+
 def _held_shift(w: np.ndarray, err: np.ndarray) -> np.ndarray:
     """``(n, 2)`` root shift of :func:`recover_upright`: per frame the contact-weighted mean
     ``e = w @ err / sum(w)`` of the feet's horizontal errors ``err (n, F, 2)``, blended by the
@@ -186,6 +190,13 @@ def recover_upright(motion: Motion, first_ground: int, up_now: np.ndarray, secon
         if chains:
             # heights are those after the rotation (the translation is horizontal)
             wa = w[:, [feet.index(ch[2]) for ch in chains]]
+            # a held ankle is let go no faster than over RELEASE_S (as edit.landing's feet): a foot
+            # lifting for a hop crosses the contact band within two frames, and the leg snapping back
+            # from its held pose moved the COM by a 0.64 m/s velocity jump (DeepMimic side flip + arms-out)
+            from .landing import _release_limited
+
+            rate = 1.0 / max(RELEASE_S * motion.fps, 1.0)
+            wa = np.stack([_release_limited(wa[:, i], rate) for i in range(wa.shape[1])], axis=1)
             P, G = fk_arrays(sk, rp[first_ground:], rot[first_ground:])
             rot, solves = plant_rotations(sk.parents, rot, P, G, first_ground, wa, chains)
             if solves:

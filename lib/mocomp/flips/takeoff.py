@@ -63,7 +63,7 @@ from ..errors import PhysicsError
 
 __all__ = ["StanceRepair", "StanceRepairError", "repair_stance", "stance_displacement", "TAKEOFF_CHOICES",
            "MAX_FORCE", "MIN_FORCE", "MIN_FORCE_FALLBACK", "MAX_WINDOW_S", "JERK_WEIGHT", "DEGREE", "KNOT_SPACING_S", "ACC_SMOOTH_S",
-           "IK_TOLERANCE"]
+           "IK_TOLERANCE", "AIRBORNE_CLEARANCE"]
 
 #: the values of ``multiflip(..., takeoff=...)`` / ``--takeoff``
 TAKEOFF_CHOICES = ("as-is", "repair")
@@ -371,7 +371,7 @@ def repair_stance(motion: Motion, com_fn, event: str, event_frame: float, dv, st
     lo_acc = g * (min_force - 1.0) - a_own
     max_force = max(float(max_force), float(np.max(1.0 + a_own / g)))
     hi_acc = g * (max_force - 1.0) - a_own
-    down, up = _leg_room(motion, frames)
+    down, up = _leg_room(motion, frames, event)
     # the force bounds hold on a grid twice as fine as the frames (between frames too)
     order = np.argsort(tau)
     fine = np.linspace(0.0, D, 2 * frames.size + 1)[1:]
@@ -421,10 +421,11 @@ def _knee_angles(P: np.ndarray, chains) -> np.ndarray:
     return np.stack(out, axis=1)
 
 
-def _leg_room(motion: Motion, frames: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _leg_room(motion: Motion, frames: np.ndarray, event: str = "take-off") -> tuple[np.ndarray, np.ndarray]:
     """``(down, up)`` m per frame: how far the hips may sink (before a knee folds tighter than the
     performer's tightest fold anywhere in the clip) or rise (before a leg is straight) with the
-    ankles where they are, the smaller over the legs (``inf`` without leg chains)."""
+    ankles where they are, the smaller over the legs (``inf`` without leg chains, and for a leg on
+    the frames it is still in the air, :func:`_foot_down`)."""
     from ..ops.ik import leg_chains
 
     chains = leg_chains(motion.skeleton)
@@ -436,6 +437,9 @@ def _leg_room(motion: Motion, frames: np.ndarray) -> tuple[np.ndarray, np.ndarra
     own = float(np.min(_knee_angles(P_all, chains)))
     P = P_all[frames]
     down, up = np.full(n, np.inf), np.full(n, np.inf)
+    air = np.ones(n, bool)
+    for h, k, a in chains:
+        air &= ~_foot_down(motion.skeleton, P, a, event)
     for h, k, a in chains:
         l1 = np.linalg.norm(P[:, k] - P[:, h], axis=1)
         l2 = np.linalg.norm(P[:, a] - P[:, k], axis=1)
@@ -447,9 +451,43 @@ def _leg_room(motion: Motion, frames: np.ndarray) -> tuple[np.ndarray, np.ndarra
         # |r - delta e_y|^2 = rho2 - 2 delta hy + delta^2 reaches lo2 (sinking) / hi2 (rising)
         dn = hy - np.sqrt(np.maximum(hy * hy - (rho2 - lo2), 0.0))
         upv = -hy + np.sqrt(np.maximum(hy * hy + (hi2 - rho2), 0.0))
+        dn, upv = np.where(air, np.inf, dn), np.where(air, np.inf, upv)
         down = np.minimum(down, np.maximum(dn, 0.0))
         up = np.minimum(up, np.maximum(upv, 0.0))
     return down, up
+
+
+#: m: a foot whose lowest point is more than this above its lowest over the landing window is still in
+#: the air (the body arrives between two frames: the first frames after the flight's planned end can
+#: show the feet above the floor)
+AIRBORNE_CLEARANCE = 0.02
+
+
+def _foot_down(sk, P: np.ndarray, ankle: int, event: str) -> np.ndarray:
+    """``(n,)`` bool: the window frames from the one on which the leg ending at ``ankle`` first comes
+    within :data:`AIRBORNE_CLEARANCE` of its lowest height over a landing window (ankle and the joints
+    below it). Frames before the first foot comes down are airborne: the legs move rigidly with the
+    root there (bending them in the air would change L, which only the ground may do; the audit saw
+    |L| drop 8 % on such a frame of the front flip at 0.7 k* repaired). Take-off windows end at the
+    take-off: every frame is held."""
+    n = P.shape[0]
+    if event != "landing" or n == 0:
+        return np.ones(n, bool)
+    below = [ankle] + [j for j in range(len(sk.parents)) if _descends(sk.parents, j, ankle)]
+    h = P[:, below, 1].min(axis=1)
+    touch = np.flatnonzero(h <= h.min() + AIRBORNE_CLEARANCE)
+    out = np.zeros(n, bool)
+    out[int(touch[0]):] = True
+    return out
+
+
+def _descends(parents, j: int, a: int) -> bool:
+    p = int(parents[j])
+    while p >= 0:
+        if p == a:
+            return True
+        p = int(parents[p])
+    return False
 
 
 def _apply_with_planted_feet(motion: Motion, com_fn, frames: np.ndarray, disp: np.ndarray, event: str,
@@ -468,6 +506,10 @@ def _apply_with_planted_feet(motion: Motion, com_fn, frames: np.ndarray, disp: n
     new_root, new_rot = root.copy(), rot.copy()
     com_old = com_fn(root[frames], rot[frames])
     P_old, _ = forward_kinematics(sk.parents, sk.offsets, root[frames], rot[frames])
+    down_any = np.zeros(frames.size, bool)
+    for ch in chains:
+        down_any |= _foot_down(sk, P_old, ch[2], event)
+    held = {tuple(ch): down_any for ch in chains}
     shift = disp.copy()
     miss = 0.0
     for _ in range(COM_ITERATIONS if chains else 1):
@@ -477,7 +519,12 @@ def _apply_with_planted_feet(motion: Motion, com_fn, frames: np.ndarray, disp: n
         if chains:
             P_new, G_new = forward_kinematics(sk.parents, sk.offsets, new_root[frames], block)
             for chain in chains:
-                block, m = two_bone_ik(P_new, G_new, block, sk.parents, chain, P_old[:, chain[2]])
+                on = held[tuple(chain)]
+                if not on.any():
+                    continue
+                sub, m = two_bone_ik(P_new[on], G_new[on], block[on], sk.parents, chain, P_old[on, chain[2]])
+                block = block.copy()
+                block[on] = sub
                 miss = max(miss, float(np.max(m)))
         new_rot[frames] = block
         shift += disp - (com_fn(new_root[frames], block) - com_old)
@@ -485,7 +532,8 @@ def _apply_with_planted_feet(motion: Motion, com_fn, frames: np.ndarray, disp: n
         P_all, _ = motion.fk()
         own = float(np.min(_knee_angles(np.asarray(P_all), chains)))
         P_chk, _ = forward_kinematics(sk.parents, sk.offsets, new_root[frames], new_rot[frames])
-        err = np.max([np.linalg.norm(P_chk[:, ch[2]] - P_old[:, ch[2]], axis=1) for ch in chains], axis=0)
+        err = np.max([np.where(held[tuple(ch)], np.linalg.norm(P_chk[:, ch[2]] - P_old[:, ch[2]], axis=1), 0.0)
+                      for ch in chains], axis=0)
         knee = np.min(_knee_angles(P_chk, chains), axis=1)
         bad = (err > IK_TOLERANCE) | (knee < own - 1e-6)
         if bad.any() and not raise_errors:
