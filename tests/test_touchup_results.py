@@ -117,9 +117,11 @@ def test_curved_hop_ground_frames_near_the_flight_adjusted(real_data_dir):
 
     e = paper_examples(real_data_dir)["curved-jump"]
     r = touchup(e.motion, schedule=e.schedule)
-    assert r.after["mean_outside_m"] < 0.9 * r.before["mean_outside_m"]
+    assert r.after["mean_outside_m"] < 0.75 * r.before["mean_outside_m"]
     (f0,), (f1,) = r.before["flights"], r.after["flights"]
-    assert f0["com_residual_m"] > 0.02 and f1["com_residual_m"] < 0.2 * f0["com_residual_m"]
+    # the COM correction continued into the push and the landing with its velocity there (held at
+    # zero outside: 11.1 -> 9.4 cm, 4.2 mm off the parabola; continued: 7.7 cm, 1.8 mm)
+    assert f0["com_residual_m"] > 0.02 and f1["com_residual_m"] < 0.1 * f0["com_residual_m"]
 
 
 def test_uphill_spine_turn_capped(walks):
