@@ -98,7 +98,8 @@ def test_index_cache_reuse_and_invalidation(lib, victim, tmp_path):
     assert all(c.cached for c in b.clips)
     for ca, cb in zip(a.clips, b.clips):
         np.testing.assert_array_equal(ca.unique, cb.unique)
-        np.testing.assert_array_equal(ca.positions, cb.positions)
+        np.testing.assert_array_equal(ca.features.positions, cb.features.positions)
+        np.testing.assert_array_equal(ca.features.masses, cb.features.masses)
     # another tolerance is another key: rebuilt, fewer unique frames for a larger T
     c = build_index(lib, victim, cache_dir=cache, progress=False, tolerance=1.0)
     assert not any(x.cached for x in c.clips)
@@ -111,7 +112,8 @@ def test_index_cache_reuse_and_invalidation(lib, victim, tmp_path):
     assert {x.name: x.cached for x in d.clips} == {"fast_walk.bvh": True, "jump.bvh": True, "sub/twist.bvh": True,
                                                   "walk.bvh": False}
     assert d.clip("walk.bvh").sha256 != a.clip("walk.bvh").sha256
-    assert not np.allclose(d.clip("walk.bvh").positions[10:], a.clip("walk.bvh").positions[10:], atol=1e-3)
+    assert not np.allclose(d.clip("walk.bvh").features.positions[10:], a.clip("walk.bvh").features.positions[10:],
+                           atol=1e-3)
     # the index's motion() refuses a file that changed after indexing
     write_bvh(synthetic_walk(duration=2.0, fps=30.0, speed=0.7).motion, changed / "walk.bvh")
     with pytest.raises(LibraryError, match="changed since the index"):

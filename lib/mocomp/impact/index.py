@@ -42,14 +42,14 @@ import numpy as np
 from ..core.motion import Motion
 from ..core.skeleton import Skeleton
 from ..errors import MocompError
-from .features import BODY_PARTS, body_features, body_model_for, ground_frame_features, part_weights
+from .features import BODY_PARTS, BodyFeatures, body_features, body_model_for, ground_frame_features, part_weights
 from .retarget import RetargetError, retarget
 
 __all__ = ["LibraryError", "ClipIndex", "LibraryIndex", "build_index", "unique_frames", "frame_distances",
            "default_cache_dir", "library_files", "INDEX_VERSION", "DEFAULT_TOLERANCE", "DEFAULT_FPS"]
 
 #: bump when the cached arrays or their meaning change (old cache files are then ignored)
-INDEX_VERSION = 2
+INDEX_VERSION = 3
 #: Appendix A: the unique-frame tolerance
 DEFAULT_TOLERANCE = 0.5
 #: the index rate, frames per second (the paper searched at the 30 fps capture rate)
@@ -57,8 +57,8 @@ DEFAULT_FPS = 30.0
 #: a clip whose rate differs from the index rate by more than this fraction is resampled
 RATE_TOLERANCE = 0.02
 _EXTENSIONS = (".bvh", ".amc", ".txt", ".json")
-_ARRAYS = ("positions", "orientations", "velocities", "angular_velocities", "com", "ground", "heading",
-           "unique", "native_ground", "native_heading")
+_FEATURES = ("positions", "orientations", "velocities", "angular_velocities", "com", "ground", "heading", "masses")
+_ARRAYS = ("unique", "native_ground", "native_heading")
 
 
 class LibraryError(MocompError, ValueError):
@@ -137,8 +137,7 @@ class ClipIndex:
     native_fps, native_frames: the file's own rate and frame count.
     first_frame: native frames not searched at the start (1 for a leading cgspeed T-pose), else 0.
     resampled: whether the index frames are a resampling of the native ones.
-    positions, orientations, velocities, angular_velocities, com, ground, heading: the body
-        features at the index rate (:class:`~mocomp.impact.features.BodyFeatures` fields).
+    features: the body features at the index rate (:class:`~mocomp.impact.features.BodyFeatures`).
     unique: ``(U,)`` unique frames (index frame numbers), eq. 4.2.
     native_ground, native_heading: the root's ground point and heading at every native frame
         (for the root transform of a match in native frame numbers).
@@ -155,13 +154,7 @@ class ClipIndex:
     first_frame: int
     resampled: bool
     fps: float
-    positions: np.ndarray
-    orientations: np.ndarray
-    velocities: np.ndarray
-    angular_velocities: np.ndarray
-    com: np.ndarray
-    ground: np.ndarray
-    heading: np.ndarray
+    features: BodyFeatures
     unique: np.ndarray
     native_ground: np.ndarray
     native_heading: np.ndarray
@@ -171,7 +164,7 @@ class ClipIndex:
 
     @property
     def n_frames(self) -> int:
-        return self.positions.shape[0]
+        return self.features.n_frames
 
     def native_frame(self, k) -> np.ndarray | int:
         """Native frame number of index frame ``k`` (nearest frame at the same time)."""
@@ -245,10 +238,10 @@ class LibraryIndex:
         if "positions" not in self._cat:
             cl = self.clips
             self._cat.update(
-                positions=np.ascontiguousarray(np.concatenate([c.positions for c in cl])),
-                orientations=np.ascontiguousarray(np.concatenate([c.orientations for c in cl])),
-                ground=np.concatenate([c.ground for c in cl]),
-                heading=np.concatenate([c.heading for c in cl]),
+                positions=np.ascontiguousarray(np.concatenate([c.features.positions for c in cl])),
+                orientations=np.ascontiguousarray(np.concatenate([c.features.orientations for c in cl])),
+                ground=np.concatenate([c.features.ground for c in cl]),
+                heading=np.concatenate([c.features.heading for c in cl]),
                 length=np.array([c.n_frames for c in cl], dtype=np.int64),
             )
             self._cat["start"] = np.concatenate([[0], np.cumsum(self._cat["length"])[:-1]]).astype(np.int64)
@@ -310,9 +303,8 @@ def _build_clip(path: Path, name: str, sha: str, key: str, skeleton, body, toler
     F = body_features(m, body)
     pl, ol = ground_frame_features(F.positions, F.orientations, F.ground, F.heading)
     uniq, _ = unique_frames(pl, ol, tolerance)
-    return ClipIndex(str(path), name, sha, key, native_fps, native_n, first, resampled, fps,
-                     F.positions, F.orientations, F.velocities, F.angular_velocities, F.com, F.ground,
-                     F.heading, uniq, nat.ground, nat.heading, tuple(notes), time.perf_counter() - t0, False)
+    return ClipIndex(str(path), name, sha, key, native_fps, native_n, first, resampled, fps, F, uniq, nat.ground,
+                     nat.heading, tuple(notes), time.perf_counter() - t0, False)
 
 
 def _save(cache: Path, clip: ClipIndex) -> None:
@@ -323,7 +315,8 @@ def _save(cache: Path, clip: ClipIndex) -> None:
     fd, tmp = tempfile.mkstemp(dir=cache, prefix=".tmp-", suffix=".npz")
     try:
         with os.fdopen(fd, "wb") as f:
-            np.savez(f, meta=np.array(json.dumps(meta)), **{k: getattr(clip, k) for k in _ARRAYS})
+            np.savez(f, meta=np.array(json.dumps(meta)), **{k: getattr(clip, k) for k in _ARRAYS},
+                     **{"f_" + k: getattr(clip.features, k) for k in _FEATURES})
         os.replace(tmp, cache / f"{clip.key}.npz")
     except BaseException:
         try:
@@ -342,15 +335,16 @@ def _read(cache: Path, key: str, path: Path, name: str) -> ClipIndex | None:
         with np.load(f, allow_pickle=False) as z:
             meta = json.loads(str(z["meta"]))
             arrays = {k: z[k] for k in _ARRAYS}
+            feats = {k: z["f_" + k] for k in _FEATURES}
     except (OSError, ValueError, KeyError):
         return None  # damaged or from another version: rebuilt
     if meta.get("key") != key:
         return None
-    for a in arrays.values():
+    for a in (*arrays.values(), *feats.values()):
         a.setflags(write=False)
     return ClipIndex(str(path), name, meta["sha256"], key, meta["native_fps"], meta["native_frames"],
-                     meta["first_frame"], meta["resampled"], meta["fps"], notes=tuple(meta["notes"]),
-                     seconds=time.perf_counter() - t0, cached=True, **arrays)
+                     meta["first_frame"], meta["resampled"], meta["fps"], BodyFeatures(meta["fps"], **feats),
+                     notes=tuple(meta["notes"]), seconds=time.perf_counter() - t0, cached=True, **arrays)
 
 
 def build_index(library_dir, skeleton: Skeleton, *, cache_dir=None, tolerance: float = DEFAULT_TOLERANCE,
