@@ -16,12 +16,12 @@ Peer: the paper's own numbers (Shin, Kovar & Gleicher 2003, sec. 4: 0.108, 0.172
 on a 2.0 GHz Xeon), quoted, not rerun. The note gives the best CPU time of the process beside the
 runner's wall time: on the shared 2-core machine (load 8-10) the wall time is 3-5 times the CPU time.
 
-Measured (2026-12-02, load 9-10, ``--quick``, after the paper's 5 + 5 + 2 iterations were restored,
-so 12 ground iterations instead of 3), CPU best (wall best) beside the paper: walk -> jog 98 frames
-0.197 s (0.93 s) vs 0.108; curved walk 111 frames 0.170 s (0.90 s) vs 0.172; uphill 166 frames
-0.177 s (0.91 s) vs 0.211; curved hop 91 frames at 120 Hz 0.339 s (1.52 s) vs 0.14. The earlier
-3-iteration schedule took 0.24-0.30 s wall at lower load. Cut to 98 frames the walk -> jog example
-ends before its blend window (frames 110-130): those 98 frames are walk only. The 10 ms goal is missed by more
+Measured (2026-12-02, load 8-10 on 2 cores, after the paper's 5 + 5 + 2 iterations were restored,
+so 12 ground iterations instead of 3), CPU best of 5 beside the paper: walk -> jog 98 frames
+0.13-0.17 s vs 0.108; curved walk 111 frames 0.128 s vs 0.172; uphill 166 frames 0.147 s vs 0.211;
+curved hop 91 frames at 120 Hz 0.196 s vs 0.14 (wall time 3-5x the CPU time at that load). Cut to
+98 frames the walk -> jog example ends before its blend window (frames 110-130): those 98 frames
+are walk only. The 10 ms goal is missed by more
 than 10x: every iteration runs forward kinematics twice (the motion and its smoothed copy for
 eq. 4), the eq. 6-7 solve and the map, and the steps that move the feet a contact-free leg IK
 (:func:`mocomp.ops.enforce_footplants`) twice more.
