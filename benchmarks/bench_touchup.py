@@ -21,10 +21,11 @@ so 12 ground iterations instead of 3), CPU best of 5 beside the paper: walk -> j
 0.13-0.17 s vs 0.108; curved walk 111 frames 0.128 s vs 0.172; uphill 166 frames 0.147 s vs 0.211;
 curved hop 91 frames at 120 Hz 0.196 s vs 0.14 (wall time 3-5x the CPU time at that load). Cut to
 98 frames the walk -> jog example ends before its blend window (frames 110-130): those 98 frames
-are walk only. The 10 ms goal is missed by more
-than 10x: every iteration runs forward kinematics twice (the motion and its smoothed copy for
-eq. 4), the eq. 6-7 solve and the map, and the steps that move the feet a contact-free leg IK
-(:func:`mocomp.ops.enforce_footplants`) twice more.
+are walk only. The 10 ms goal is missed by more than 10x: every iteration runs forward kinematics
+twice (the motion and its smoothed copy for eq. 4), the eq. 6-7 solve and the map, and the steps
+that move the feet (the lower body in S2) a contact-free leg IK (:func:`mocomp.ops.enforce_footplants`,
+against the input's own correction computed once) and the legs' lift with their forward kinematics.
+The 10,000-frame row was not rerun after the iterations went from 3 to 12 (12.6 s before).
 """
 from __future__ import annotations
 
