@@ -193,3 +193,15 @@ def test_cmu_match_reports_file_frame_numbers(shared):
     assert r.clip == c.path and r.frame == 121 and r.stats["index_frame"] == 30 and r.distance < 1e-2
     assert abs(_wrap(r.root_transform.yaw + 1.0)) < 1e-9
     np.testing.assert_allclose(r.root_transform.apply(m).root_positions[121], q.root_positions[121], atol=1e-9)
+
+
+def test_numpy_fallback_gives_the_same_search(index, monkeypatch):
+    """Without numba the search runs on the numpy reference (no abandoning): same result."""
+    q = synthetic_walk(duration=2.0, fps=30.0, speed=0.9).motion.rotated(yaw_quaternion(0.4))
+    fast = [search(index, q, s, s + 20, exhaustive=e) for s in (3, 25) for e in (False, True)]
+    monkeypatch.setattr(_kernels, "AVAILABLE", False)
+    slow = [search(index, q, s, s + 20, exhaustive=e) for s in (3, 25) for e in (False, True)]
+    for a, b in zip(fast, slow):
+        assert (a.clip, a.frame) == (b.clip, b.frame)
+        # arccos of dot products within rounding of 1 (numpy's vs numba's): ~1e-9 apart
+        np.testing.assert_allclose(a.distance, b.distance, rtol=1e-7)
