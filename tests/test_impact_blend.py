@@ -33,8 +33,15 @@ def test_final_blend_starts_on_sim_ends_on_clip_and_spreads_root_error_linearly(
     assert np.allclose(np.abs(np.einsum("jk,jk->j", m.rotations[0], sim.rotations[0])), 1.0, atol=1e-12)
     assert np.allclose(np.abs(np.einsum("jk,jk->j", m.rotations[-1], walk.rotations[-1])), 1.0, atol=1e-12)
     n = m.n_frames - 1
+    w = np.arange(n + 1)[:, None] / n
     e = walk.root_positions[-1] - sim.root_positions[-1]
-    np.testing.assert_allclose(m.root_positions - sim.root_positions, np.arange(n + 1)[:, None] / n * e, atol=1e-12)
+    np.testing.assert_allclose(m.root_positions, (1 - w) * sim.root_positions + w * walk.root_positions, atol=1e-12)
+    end = final_blend(sim, walk, root="end_error").motion
+    np.testing.assert_allclose(end.root_positions - sim.root_positions, w * e, atol=1e-12)
+    # at the seam the interpolated root moves with the clip plus the error rate, not with the simulation
+    v_clip = walk.root_positions[-1] - walk.root_positions[-2]
+    v_out = m.root_positions[-1] - m.root_positions[-2]
+    assert np.linalg.norm(v_out - v_clip) <= np.linalg.norm(walk.root_positions - sim.root_positions, axis=1)[-2] / n + 1e-12
     # joints: the slerp weight i/n -> the angle to the sim is i/n of the sim-clip angle
     a_total = quat_angle(quat_multiply(quat_inverse(sim.rotations), walk.rotations))
     a_moved = quat_angle(quat_multiply(quat_inverse(sim.rotations), m.rotations))
@@ -54,6 +61,8 @@ def test_correction_is_zero_on_the_clip_itself_and_grows_with_the_error(walk):
 def test_final_blend_refuses_mismatched_frames(walk):
     with pytest.raises(ValueError, match="same frames"):
         final_blend(walk.slice(0, 10), walk)
+    with pytest.raises(ValueError, match="interpolate"):
+        final_blend(walk, walk, root="linear")
 
 
 def test_floor_lift_raises_only_sunk_frames_and_smoothly(walk):

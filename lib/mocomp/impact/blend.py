@@ -6,10 +6,15 @@ in time across the transition." With the simulated segment ``s_0 .. s_n`` (``s_0
 capture frame the simulation started from, ``s_n`` the re-entry frame) and the found clip ``c``
 aligned on the same frames, the weight is ``w_i = i / n`` and
 
-* root position: ``s_i + w_i (c_n - s_n)`` (the re-entry error spread linearly),
+* root position: ``s_i + w_i (c_i - s_i)``, the linear interpolation of the two root positions
+  frame by frame (the position error spread over the segment with the same weights as the joints),
 * every joint's local rotation (the root's orientation included): ``slerp(s_i, c_i, w_i)``,
 
-so frame ``n`` is exactly the found clip's and frame 0 exactly the simulation's start. The
+so frame ``n`` is exactly the found clip's and frame 0 exactly the simulation's start. At the
+re-entry the blend moves with the clip's velocity plus the error rate ``(c_n - s_n) / n``: the
+simulation's own velocity, which can differ much from the clip's right after a hit, does not carry
+over the seam (it would with the re-entry error ``c_n - s_n`` alone added as ``s_i + w_i (c_n - s_n)``,
+the other reading of the paper's sentence; :func:`final_blend` ``root="end_error"``). The
 *correction* a blend applies -- the root error ``|c_n - s_n|`` and the joint angles between ``s_i``
 and ``c_i`` weighted by ``w_i`` -- measures how far the simulation ended from the clip; the
 active simulation should make it smaller than blending straight from the naive one.
@@ -37,7 +42,7 @@ class BlendOutcome:
     """The blended segment and the correction it applied.
 
     motion: the blended segment (same frames as the simulated one).
-    root_error_m: ``|c_n - s_n|``, the root position error spread over the segment.
+    root_error_m: ``|c_n - s_n|``, the root position error at the re-entry.
     joint_error_deg: mean over joints of the angle between simulation and clip at re-entry.
     mean_correction_deg: mean over frames and joints of ``w_i * angle(s_i, c_i)`` (what the slerp moved).
     max_correction_deg: its largest value over frames and joints.
@@ -65,20 +70,25 @@ def correction(sim: Motion, clip: Motion) -> dict:
             "max_correction_deg": float(applied.max())}
 
 
-def final_blend(sim: Motion, clip: Motion) -> BlendOutcome:
+def final_blend(sim: Motion, clip: Motion, root: str = "interpolate") -> BlendOutcome:
     """Blend the simulated segment ``sim`` onto ``clip`` (the found clip aligned on the same frames),
-    see the module docstring. Ends exactly on ``clip``'s last frame."""
+    see the module docstring. Ends exactly on ``clip``'s last frame. ``root``: ``"interpolate"``
+    (``s_i + w_i (c_i - s_i)``, default) or ``"end_error"`` (``s_i + w_i (c_n - s_n)``)."""
+    if root not in ("interpolate", "end_error"):
+        raise ValueError(f"root must be 'interpolate' or 'end_error', got {root!r}")
     if sim.n_frames != clip.n_frames or sim.skeleton.names != clip.skeleton.names:
         raise ValueError(f"final_blend: the segment ({sim.n_frames} frames) and the clip ({clip.n_frames} frames) "
                          "must cover the same frames on the same skeleton")
     n = sim.n_frames - 1
     w = np.arange(sim.n_frames) / max(n, 1)
-    root = sim.root_positions + w[:, None] * (clip.root_positions[-1] - sim.root_positions[-1])
+    target = clip.root_positions if root == "interpolate" else clip.root_positions[-1]
+    root_out = sim.root_positions + w[:, None] * (target - (sim.root_positions if root == "interpolate"
+                                                           else sim.root_positions[-1]))
     rot = slerp(sim.rotations, clip.rotations, np.broadcast_to(w[:, None], sim.rotations.shape[:2]))
     rot[-1] = clip.rotations[-1]
-    root[-1] = clip.root_positions[-1]
+    root_out[-1] = clip.root_positions[-1]
     c = correction(sim, clip)
-    out = sim.replace(root_positions=root, rotations=rot)
+    out = sim.replace(root_positions=root_out, rotations=rot)
     return BlendOutcome(out, c["root_error_m"], c["joint_error_deg"], c["mean_correction_deg"],
                         c["max_correction_deg"])
 

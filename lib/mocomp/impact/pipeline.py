@@ -19,8 +19,9 @@ on it):
    frame of the search window), the found clip playing on after it; the same blend from the naive
    segment is measured for comparison (the correction the active simulation saves);
 7. repairs of the output: the root lifted where a joint would be below the floor
-   (:func:`~mocomp.impact.blend.floor_lift`; the ASE falls sink while lying), then the planted feet
-   held (:func:`mocomp.ops.enforce_footplants`);
+   (:func:`~mocomp.impact.blend.floor_lift`; the ASE falls sink while lying), the planted feet held
+   (:func:`mocomp.ops.enforce_footplants`), and a second lift for what the plants' levels sank
+   (vertical only, so the plants stay put in the ground plane);
 8. the **attacker**: its clip, the simulated contact for a few frames, a blend back
    (:mod:`~mocomp.impact.attacker`).
 
@@ -54,6 +55,12 @@ class ImpactConfig:
     realign: align the found clip onto the active simulation for the final blend, by the search's
     rule (root heading and ground point at the window's first frame); the search aligned it onto the
     naive simulation. False keeps the search's alignment.
+    reentry: ``"match_start"`` (default): the match time is searched as well -- one query window of
+    ``match_window`` s per candidate start (every ``start_step`` frames) from ``window[0]`` (pushed
+    while the contact lasts, and at least ``delay + min_active`` s after the impact so the active
+    control has time to act) to ``window[1]``; the transition ends at the best window's first frame,
+    where eq. A.1 weighs the match most. ``"window_end"``: one query window over the whole search
+    window, the transition ending at its last frame (weighted 0 by eq. A.1).
     """
 
     window: tuple[float, float] = (0.1, 1.0)
@@ -71,6 +78,10 @@ class ImpactConfig:
     compare_naive: bool = True
     exhaustive_search: bool = False
     realign: bool = True
+    reentry: str = "match_start"
+    match_window: float = 0.4
+    min_active: float = 0.2
+    start_step: int = 1
 
     def __post_init__(self):
         a, b = self.window
@@ -79,6 +90,10 @@ class ImpactConfig:
         lo, hi = self.delay_range
         if not (0 <= lo <= hi):
             raise ValueError(f"delay_range must satisfy 0 <= low <= high, got {self.delay_range}")
+        if self.reentry not in ("match_start", "window_end"):
+            raise ValueError(f"reentry must be 'match_start' or 'window_end', got {self.reentry!r}")
+        if not (0 < self.match_window < b):
+            raise ValueError(f"match_window must lie in (0, {b}) s, got {self.match_window}")
         if self.delay is not None and not (0 <= self.delay < b):
             raise ValueError(f"delay must lie in [0, {b}) s, got {self.delay}")
 
@@ -138,9 +153,10 @@ class ImpactResult:
             "contact_end_s": self.naive.contact_end,
             "impulse_Ns": self.naive.impulse.tolist(), "impulse_norm_Ns": float(np.linalg.norm(self.naive.impulse)),
             "search": self.search.to_dict(),
-            "pruning": {k: self.search.stats.get(k) for k in ("frames_compared", "frames_exhaustive",
-                                                               "windows_compared", "windows_exhaustive",
-                                                               "unique_windows")},
+            "pruning": {**{k: self.search.stats.get(k) for k in ("windows_compared", "windows_exhaustive",
+                                                                  "unique_windows")},
+                        **{k: self.evidence["search"][k] for k in ("query_windows", "frames_compared",
+                                                                   "frames_exhaustive", "pruning_factor")}},
             "frames": self.frames, "reaction_delay_s": self.delay,
             "naive_simulation": self.naive.to_dict(), "active_simulation": self.active.to_dict(),
             "active_tracking_error_deg": {"mean": float(np.degrees(self.active.tracking_error_rad.mean())),
@@ -230,29 +246,57 @@ def impact_response(attacker: Motion, victim: Motion, index, scenario: Scenario 
                           "closer (--offset)")
     t_imp = naive.impact_time
     push = 0.0 if naive.contact_end is None else min(max(naive.contact_end - t_imp, 0.0), config.max_push)
-    s_time = t_imp + max(config.window[0], push)
-    e_time = t_imp + config.window[1]
-    start = int(np.ceil((s_time - t0) * fps - 1e-9))
-    stop = min(int(np.floor((e_time - t0) * fps + 1e-9)) + 1, naive.victim.n_frames)
-    if stop - start < 2:
-        raise ImpactError(f"the search window {s_time:.3f}-{e_time:.3f} s holds fewer than 2 frames at {fps:g} fps")
+    rng = np.random.default_rng(config.seed)
+    delay = float(config.delay) if config.delay is not None else float(rng.uniform(*config.delay_range))
 
     t, c = time.perf_counter(), time.process_time()
-    res = search(index, naive.victim, start, stop, exhaustive=config.exhaustive_search)
+    n_q = naive.victim.n_frames
+    if config.reentry == "window_end":
+        # one query window over the whole search window; the transition ends at its last frame
+        s_time = t_imp + max(config.window[0], push)
+        start = int(np.ceil((s_time - t0) * fps - 1e-9))
+        stop = min(int(np.floor((t_imp + config.window[1] - t0) * fps + 1e-9)) + 1, n_q)
+        if stop - start < 2:
+            raise ImpactError(f"the search window {s_time:.3f}-{t_imp + config.window[1]:.3f} s holds fewer than 2 "
+                              f"frames at {fps:g} fps")
+        res = search(index, naive.victim, start, stop, exhaustive=config.exhaustive_search)
+        reentry, starts = stop - 1, [start]
+        fcmp, fexh = res.stats.get("frames_compared", 0), res.stats.get("frames_exhaustive", 0)
+    else:
+        # the match time is searched too (App. A: "a match ... in the window 0.1-1.0 s"): one query window of
+        # match_window s per candidate start; the transition ends at the best window's first frame, where
+        # eq. A.1 weighs the match most
+        L = max(2, int(round(config.match_window * fps)))
+        s_lo = t_imp + max(config.window[0], push, delay + config.min_active)
+        first = int(np.ceil((s_lo - t0) * fps - 1e-9))
+        last = min(int(np.floor((t_imp + config.window[1] - t0) * fps + 1e-9)) + 1, n_q) - L
+        if last < first:
+            raise ImpactError(f"no room for a {config.match_window:g} s match window between {s_lo - t_imp:.3f} s "
+                              f"and {config.window[1]:g} s after the impact")
+        starts = list(range(first, last + 1, max(1, int(config.start_step))))
+        res, start, fcmp, fexh = None, first, 0, 0
+        for s0 in starts:
+            r_ = search(index, naive.victim, s0, s0 + L, exhaustive=config.exhaustive_search)
+            fcmp += r_.stats.get("frames_compared", 0)
+            fexh += r_.stats.get("frames_exhaustive", 0)
+            if res is None or r_.distance < res.distance:
+                res, start = r_, s0
+        stop = start + L
+        reentry = start
+    search_stats = {"query_windows": len(starts), "query_starts": [int(x) for x in starts],
+                    "frames_compared": int(fcmp), "frames_exhaustive": int(fexh),
+                    "pruning_factor": float(fexh / fcmp) if fcmp else None}
     timings["search"], cpu["search"] = time.perf_counter() - t, time.process_time() - c
 
     t, c = time.perf_counter(), time.process_time()
     clip = res.root_transform.apply(index.motion(res.clip))
     # the found clip on the victim timeline: clip frame res.frame at query frame `start`
-    reentry = stop - 1
     n_seg = reentry + 1
     times_q = np.arange(n_seg) / fps                   # query time (0 = rewind frame)
     tc = res.frame / clip.fps + (times_q - start / fps)
     if tc[-1] > clip.duration + 1e-9:
         raise ImpactError(f"the found clip {res.clip} ends before the re-entry frame")
     found_seg = clip.sample(np.clip(tc, 0.0, clip.duration), fps=fps)
-    rng = np.random.default_rng(config.seed)
-    delay = float(config.delay) if config.delay is not None else float(rng.uniform(*config.delay_range))
     t_react = t_imp + delay
     t_re = t0 + reentry / fps
     qa = clip_targets(placed, t0 + times_q)
@@ -292,25 +336,33 @@ def impact_response(attacker: Motion, victim: Motion, index, scenario: Scenario 
     timings["final_blend"], cpu["final_blend"] = time.perf_counter() - t, time.process_time() - c
 
     t, c = time.perf_counter(), time.process_time()
-    evidence = {}
+    evidence = {"search": search_stats}
     re_frame = fc.rewind_frame + reentry
     clip_steps = clip.resample(fps) if abs(clip.fps - fps) > 1e-6 else clip     # steps compared at one rate
     evidence["continuity"] = _continuity(out, clip_steps, re_frame, fc.rewind_frame, frame_steps)
+    floor_y = _floor_level(placed.slice(0, max(fc.rewind_frame + 1, 2)))
     lift = np.zeros(out.n_frames)
     if config.lift:
-        floor_y = _floor_level(victim)
-        out, lift = floor_lift(out, floor_y)
-        evidence["floor_lift"] = {"floor_y_m": floor_y, "frames_lifted": int((lift > 0).sum()),
-                                  "max_lift_m": float(lift.max()), "lift_at_reentry_m": float(lift[re_frame])}
+        out, lift = floor_lift(out, floor_y, tolerance=0.002)
     if config.plant:
+        from ..ops import NoContactError
+
         try:
             fp = plant_feet(out)
             out = fp.motion
             evidence["footplant"] = {"plants": {e: len(v) for e, v in fp.plants.intervals.items()}
                                      if hasattr(fp.plants, "intervals") else None,
                                      "max_miss_m": float(fp.max_miss), "changed_frames": int(fp.changed_frames)}
-        except Exception as e:                        # no plant at all (a victim airborne throughout)
+        except NoContactError as e:                   # no plant at all (a victim airborne throughout)
             evidence["footplant"] = {"skipped": str(e)}
+    if config.lift:
+        # the plants set planted heights on their support level, which can sink a few mm below the floor
+        # again: a second, vertical-only lift (the plants stay put in the ground plane)
+        out, lift2 = floor_lift(out, floor_y, tolerance=0.002)
+        lift = lift + lift2
+        evidence["floor_lift"] = {"floor_y_m": floor_y, "frames_lifted": int((lift > 0).sum()),
+                                  "max_lift_m": float(lift.max()), "lift_at_reentry_m": float(lift[re_frame]),
+                                  "after_plants_max_m": float(lift2.max())}
     evidence["continuity_final"] = _continuity(out, clip_steps, re_frame, fc.rewind_frame, frame_steps)
     timings["repairs"], cpu["repairs"] = time.perf_counter() - t, time.process_time() - c
 
@@ -321,7 +373,8 @@ def impact_response(attacker: Motion, victim: Motion, index, scenario: Scenario 
     evidence["attacker"] = ar.to_dict()
     att_out = ar.motion
     if config.lift:                                   # the simulated feet sink into the soft floor contact
-        att_out, alift = floor_lift(att_out, _floor_level(attacker))
+        att_out, alift = floor_lift(att_out, _floor_level(att.slice(0, max(fc.rewind_frame + 1, 2))),
+                                    tolerance=0.002)
         evidence["attacker"].update(frames_lifted=int((alift > 0).sum()), max_lift_m=float(alift.max()))
     timings["attacker"], cpu["attacker"] = time.perf_counter() - t, time.process_time() - c
     frames = {"rewind": fc.rewind_frame, "first_contact": fc.frame,
@@ -335,7 +388,8 @@ def impact_response(attacker: Motion, victim: Motion, index, scenario: Scenario 
 
 
 def _floor_level(victim: Motion) -> float:
-    """m: the victim clip's floor, the median over frames of its lowest joint or end site."""
+    """m: the floor the clip stands on before the impact -- the median height of its lowest joint or end
+    site over those frames (the audit measures penetration from the first ground stage the same way)."""
     P = victim.positions[..., 1].min(axis=1)
     E = victim.end_site_positions()
     if E.size:
