@@ -39,7 +39,7 @@ the ankle keeps its world orientation, so the toes stay too). Folding the legs m
 less than the root, so the root displacement is corrected until the whole-body COM (not the
 root) follows ``d`` (a fixed-point iteration, :data:`COM_ITERATIONS`). Where a leg cannot reach,
 a knee would have to fold further than the performer's own tightest fold anywhere in the clip
-(the tuck), or no push within the force bounds exists in the stance, :class:`StanceRepairError`
+(the tuck) less :data:`KNEE_MARGIN`, or no push within the force bounds exists in the stance, :class:`StanceRepairError`
 says so, naming the frames, the velocity to add and the force or depth it would take, instead of
 writing such a motion.
 
@@ -63,7 +63,7 @@ from ..errors import PhysicsError
 
 __all__ = ["StanceRepair", "StanceRepairError", "repair_stance", "stance_displacement", "TAKEOFF_CHOICES",
            "MAX_FORCE", "MIN_FORCE", "MIN_FORCE_FALLBACK", "MAX_WINDOW_S", "JERK_WEIGHT", "DEGREE", "KNOT_SPACING_S", "ACC_SMOOTH_S",
-           "IK_TOLERANCE", "AIRBORNE_CLEARANCE"]
+           "IK_TOLERANCE", "AIRBORNE_CLEARANCE", "KNEE_MARGIN", "KNEE_MIN"]
 
 #: the values of ``multiflip(..., takeoff=...)`` / ``--takeoff``
 TAKEOFF_CHOICES = ("as-is", "repair")
@@ -412,6 +412,21 @@ def repair_stance(motion: Motion, com_fn, event: str, event_frame: float, dv, st
     return new, rep
 
 
+#: rad: how much tighter than the performer's own tightest knee fold in the clip a repair may fold a
+#: knee (the tightest fold is often the landing's own deepest crouch, which a harder arrival must
+#: deepen: the DeepMimic back flip with straight legs needs 4.4 cm more there, refused at 0 deg)
+KNEE_MARGIN = np.radians(10.0)
+#: rad: the interior knee angle no repair folds past (deep squat ~ 40 deg)
+KNEE_MIN = np.radians(40.0)
+
+
+def _knee_limit(P: np.ndarray, chains) -> float:
+    """The tightest interior knee angle a repair may reach: the clip's own tightest fold less
+    :data:`KNEE_MARGIN`, never below :data:`KNEE_MIN` (nor above the clip's own)."""
+    own = float(np.min(_knee_angles(P, chains)))
+    return min(own, max(own - KNEE_MARGIN, KNEE_MIN))
+
+
 def _knee_angles(P: np.ndarray, chains) -> np.ndarray:
     """``(T, C)`` interior knee angles (rad; pi = straight) of each leg chain."""
     out = []
@@ -434,7 +449,7 @@ def _leg_room(motion: Motion, frames: np.ndarray, event: str = "take-off") -> tu
         return np.full(n, np.inf), np.full(n, np.inf)
     P_all, _ = motion.fk()
     P_all = np.asarray(P_all)
-    own = float(np.min(_knee_angles(P_all, chains)))
+    own = _knee_limit(P_all, chains)
     P = P_all[frames]
     down, up = np.full(n, np.inf), np.full(n, np.inf)
     air = np.ones(n, bool)
@@ -530,7 +545,7 @@ def _apply_with_planted_feet(motion: Motion, com_fn, frames: np.ndarray, disp: n
         shift += disp - (com_fn(new_root[frames], block) - com_old)
     if chains:
         P_all, _ = motion.fk()
-        own = float(np.min(_knee_angles(np.asarray(P_all), chains)))
+        own = _knee_limit(np.asarray(P_all), chains)
         P_chk, _ = forward_kinematics(sk.parents, sk.offsets, new_root[frames], new_rot[frames])
         err = np.max([np.where(held[tuple(ch)], np.linalg.norm(P_chk[:, ch[2]] - P_old[:, ch[2]], axis=1), 0.0)
                       for ch in chains], axis=0)
@@ -545,8 +560,8 @@ def _apply_with_planted_feet(motion: Motion, com_fn, frames: np.ndarray, disp: n
             fb = frames[bad]
             raise StanceRepairError(
                 f"the {event} cannot be repaired with the feet planted: the crouch {100 * -disp[:, 1].min():.1f} cm "
-                f"deeper folds a knee to {np.degrees(knee.min()):.0f} deg (the performer's tightest fold in the clip "
-                f"is {np.degrees(own):.0f} deg) or leaves an ankle up to {100 * err.max():.1f} cm from its planted "
+                f"deeper folds a knee to {np.degrees(knee.min()):.0f} deg (the limit: the performer's tightest fold in "
+                f"the clip less {np.degrees(KNEE_MARGIN):.0f} deg, {np.degrees(own):.0f} deg) or leaves an ankle up to {100 * err.max():.1f} cm from its planted "
                 f"position, on output frames {int(fb.min())}-{int(fb.max())}; use k nearer k* (--k-ratio closer to 1) "
                 f"or --takeoff as-is")
     return new_root, new_rot, miss, None
