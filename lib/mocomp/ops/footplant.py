@@ -57,6 +57,10 @@ __all__ = ["FootplantResult", "enforce_footplants", "plant_slides", "default_ble
 
 #: m: a leg that misses its target by more than this is reported as unreachable on that frame
 UNREACHABLE_TOL = 1e-3
+#: m: with both points of a foot planted, the horizontal ankle-tip mismatch stays within this of its
+#: run mean (:func:`bounded_foot_pitch`; shared by the two points: at most this much slide each);
+#: ``None`` leaves the input's pitch as it is
+PITCH_SLACK = 0.008
 #: fraction of the leg length over which the reach is softened (see :func:`_solve`)
 SOFT_REACH = 0.02
 #: weight of the knee's hinge axis (averaged over the clip in the thigh frame) against the leg's
@@ -230,6 +234,43 @@ def consistent_toe_targets(targets: np.ndarray, pts: np.ndarray, plants: FootPla
         out[f, kt, 2] = targets[first[r], ka, 2] + scale * u[r, 1]
     return out
 
+def bounded_foot_pitch(targets: np.ndarray, pts: np.ndarray, plants: FootPlants, slack: float) -> np.ndarray:
+    """Ankle-point target heights that keep a foot with both points planted nearly rigid on its
+    horizontal targets. With both points held horizontally, the foot's horizontal length is fixed;
+    the input's pitch (heel rising about the toe, toe rolling down after the heel strike) changes it,
+    and what the two points cannot share without moving shows as a slide of both (the ASE walk: its
+    horizontal length changes by 2.1 cm during one plant, so each point slid 1.05 cm). Per shared
+    run, the horizontal mismatch ``h_target - h(t)`` is kept within ``slack`` of its run mean; the
+    rest becomes height: the ankle point's target is lowered (or raised) to the pitch whose
+    horizontal length fits (the heel rises less while the toe is planted, and the rest of its rise
+    after its plant ends, over the fade)."""
+    out = np.array(targets)
+    for li in range(len(plants.legs)):
+        ka, kt = 2 * li, 2 * li + 1
+        both = plants.labels[:, ka] & plants.labels[:, kt]
+        if not both.any():
+            continue
+        sel = np.flatnonzero(both)
+        first = np.flatnonzero(np.r_[True, np.diff(sel) > 1])
+        cnt = np.diff(np.r_[first, sel.size])
+        rid = np.repeat(np.arange(first.size), cnt)
+        L3 = _norm(pts[sel, kt] - pts[sel, ka])                          # the foot's ankle-tip length
+        dy = out[sel, ka, 1] - out[sel, kt, 1]
+        h_t = _norm((out[sel, kt] - out[sel, ka])[:, [0, 2]])
+        h = np.sqrt(np.maximum(L3 * L3 - dy * dy, 0.0))
+        res = h_t - h
+        ref = (np.add.reduceat(res, first) / cnt)[rid]
+        res_c = np.clip(res, ref - slack, ref + slack)
+        change = res_c != res
+        if not change.any():
+            continue
+        h_new = np.clip(h_t - res_c, 0.0, L3)
+        dy_new = np.sign(dy) * np.sqrt(np.maximum(L3 * L3 - h_new * h_new, 0.0))
+        f = sel[change]
+        out[f, ka, 1] = out[f, kt, 1] + dy_new[change]
+    return out
+
+
 def _quat_to_rotvec(q: np.ndarray) -> np.ndarray:
     """Rotation vectors of unit quaternions ``(n, 4)`` (scalar-last): what
     ``_quat_to_rotvec(q)`` gives (the w >= 0 cover, series near 0), without building
@@ -268,6 +309,8 @@ def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: st
     if hinges is None:
         hinges = [hinge_axis(P, G, leg.chain) for leg in plants.legs]
     targets = consistent_toe_targets(plant_targets(pts, plants, height), pts, plants)
+    if height == "level" and PITCH_SLACK is not None:
+        targets = bounded_foot_pitch(targets, pts, plants, PITCH_SLACK)
     rot = np.array(motion.rotations) if prev is None else np.array(prev[0])
     state = {}
     jobs = []
