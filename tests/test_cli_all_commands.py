@@ -21,6 +21,7 @@ BAD_BVH = ("HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHANNELS 3 Xposition Ypos
 #: commands that take no input file: argv (after the command) with a bad value
 NO_FILE_CASES = {"demo": ["--flips", "0", "-o", "{tmp}/demo"],
                  "impact": ["--attacker", "{tmp}/bad.bvh", "--victim", "{tmp}/bad.bvh", "-o", "{tmp}/impact"],
+                 "reproduce": ["--check-baseline", "{tmp}/bad.bvh", "-o", "{tmp}/out_report"],
                  # (keyed by the whole command path where one sub-command takes no file)
                  "study withdraw": ["--participant", "P1", "--session", "S1", "--data", "{tmp}/no-such-data"]}
 
