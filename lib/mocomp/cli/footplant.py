@@ -62,6 +62,11 @@ def register(sub) -> None:
     p.add_argument("--height", choices=("level", "hold", "keep"), default="level",
                    help="planted heights: lowest point of each plant on the support level (default), on the level "
                         "throughout, or unchanged")
+    p.add_argument("--passes", type=int_in(1, 20), default=2, metavar="N",
+                   help="enforcement passes: after each, the contact detector runs on the result and the frames it "
+                        "finds planted that were not held are added (default 2; more hold contacts the input's "
+                        "detection misses, at the cost of a detection and a partial re-solve per pass: CMU 131_01 "
+                        "1.76 -> 0.85 cm with 4)")
     p.set_defaults(func=run)
 
 
@@ -73,7 +78,8 @@ def run(args) -> int:
     m = load_from_args(args)
     if args.contacts and not Path(args.contacts).is_file():
         raise FileNotFoundError(f"contact file {args.contacts} does not exist")
-    r = enforce_footplants(m, contacts=args.contacts, blend=args.blend, height=args.height, audit=False)
+    r = enforce_footplants(m, contacts=args.contacts, blend=args.blend, height=args.height, passes=args.passes,
+                           audit=False)
     for e, b, a in zip(r.plants.effectors, r.slide_before, r.slide_after):
         n = len(r.plants.intervals[e])
         print(f"{e}: {n} plant(s) ({r.plants.source[e]}), largest slide {b * 100:.2f} -> {a * 100:.2f} cm")
