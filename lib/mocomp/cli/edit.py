@@ -98,6 +98,11 @@ def register(subparsers) -> None:
                         "section 5.5.3: the stance retimed and moved rigidly, which leaves the COM velocity jump)")
     p.add_argument("--estimate-masses", action="store_true",
                    help="estimate the mass distribution from the flight (eq. 5.1-5.2) instead of the table prior")
+    p.add_argument("--force", action="store_true",
+                   help="write the result even when the corrections turn the landing more than 45 deg off the "
+                        "vertical (by default such an edit is refused, naming the audit's findings: no standing "
+                        "landing follows from it, and easing it upright moves the centre of mass faster than any "
+                        "ground force could)")
     add_audit_arg(p)
     p.set_defaults(func=run)
 
@@ -117,6 +122,27 @@ def run(args: argparse.Namespace) -> int:
     res = restore_momentum(body, P.motion, edited, P.flight, k_ratio=args.k_ratio, k=args.k,
                            reference=args.reference, method=args.method, takeoff_height=args.takeoff_height,
                            gravity=args.gravity, landing_velocity=args.landing)
+    from ..edit.pipeline import MAX_STANDING_TILT
+
+    refuse = res.landing_tilt_deg > MAX_STANDING_TILT and not args.force
+    if refuse:
+        # audited where it would have been written (read back), then refused with the findings
+        import os
+
+        tmp = out.with_name(f".{out.stem}.{os.getpid()}.refused.bvh")
+        try:
+            write_motion(res.motion, tmp)
+            found = "" if args.no_audit else (audit_output(tmp, P.motion, name=str(out),
+                                                           input_name=str(args.input)).warning or "")
+        finally:
+            if tmp.exists():
+                tmp.unlink()
+        from ..errors import PhysicsError
+
+        raise PhysicsError(
+            f"the {args.preset} edit turns the landing {res.landing_tilt_deg:.0f} deg off the vertical (more than "
+            f"{MAX_STANDING_TILT:g}): no standing landing follows from it, so {out} was not written"
+            + (f"; {found}" if found else "") + "; --force writes it anyway")
     widened = write_motion(res.motion, out)
     print(f"{P.name}: flight frames {P.flight[0]}-{P.flight[1] - 1} at {P.fps:g} Hz; preset {args.preset} on frames "
           f"{plan.start}-{plan.stop - 1}")
