@@ -122,6 +122,19 @@ def test_index_cache_reuse_and_invalidation(lib, victim, tmp_path):
     assert m.skeleton == victim and m.n_frames == d.clip("jump.bvh").native_frames
 
 
+def test_damaged_cache_files_are_rebuilt(lib, victim, tmp_path):
+    cache = tmp_path / "cache"
+    a = build_index(lib, victim, cache_dir=cache, progress=False)
+    files = sorted(cache.glob("*.npz"))
+    files[0].write_bytes(files[0].read_bytes()[:200])          # truncated
+    files[1].write_text("garbage")
+    b = build_index(lib, victim, cache_dir=cache, progress=False)
+    assert sum(not c.cached for c in b.clips) == 2
+    for ca, cb in zip(a.clips, b.clips):
+        np.testing.assert_array_equal(ca.unique, cb.unique)
+    assert all(c.cached for c in build_index(lib, victim, cache_dir=cache, progress=False).clips)
+
+
 def test_no_cache_writes_nothing(lib, victim, tmp_path):
     idx = build_index(lib, victim, cache_dir=tmp_path / "c", progress=False, use_cache=False)
     assert len(idx.clips) == 4 and not (tmp_path / "c").exists() and idx.cache_dir is None

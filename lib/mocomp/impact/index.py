@@ -34,6 +34,7 @@ import sys
 import tempfile
 import time
 import warnings
+import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -336,8 +337,8 @@ def _read(cache: Path, key: str, path: Path, name: str) -> ClipIndex | None:
             meta = json.loads(str(z["meta"]))
             arrays = {k: z[k] for k in _ARRAYS}
             feats = {k: z["f_" + k] for k in _FEATURES}
-    except (OSError, ValueError, KeyError):
-        return None  # damaged or from another version: rebuilt
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile):
+        return None  # damaged (e.g. truncated) or from another version: rebuilt
     if meta.get("key") != key:
         return None
     for a in (*arrays.values(), *feats.values()):
