@@ -72,7 +72,7 @@ def test_cli_polygon_and_cap(walk_file, tmp_path, capsys):
 
 
 @pytest.mark.parametrize("args, msg", [
-    (["--max-angle", "-3"], "--max-angle must be in (0, 180]"),
+    (["--max-angle", "-3"], "--max-angle: must be a angle in degrees above 0 and at most 180"),
     (["--polygon", "hull"], "--polygon"),
     (["--schedule", "sideways"], "unknown schedule 'sideways'"),
     (["--iterations", "0"], "--iterations"),

@@ -8,7 +8,7 @@ import numpy as np
 
 
 def register(sub) -> None:
-    from ._common import add_load_args, int_in
+    from ._common import add_load_args, float_in, int_in
     from .footplant import add_output_args
 
     p = sub.add_parser(
@@ -41,7 +41,8 @@ def register(sub) -> None:
     p.add_argument("--polygon", choices=("contact", "planted"), default="contact",
                    help="support polygon of the touching foot points (the paper's contact region; default) or of "
                         "the planted ones (the audit's ZMP measure: it leaves a landing heel out while it moves)")
-    p.add_argument("--max-angle", type=float, default=None, metavar="DEG",
+    p.add_argument("--max-angle", type=float_in(0, 180, lo_open=True, what="angle in degrees"), default=None,
+                   metavar="DEG",
                    help="cap of a ground adjustment's per-frame turn (default 20; eq. 7's clamped frames otherwise "
                         "turn a limb by the angle of farthest reach, up to 90 deg)")
     p.add_argument("--plot", metavar="zmp.png", help="draw the ZMP distance per frame before/after and per iteration")
@@ -113,8 +114,6 @@ def run(args) -> int:
               + " kg")
     else:
         body = read_masses(args.masses, default_body(m))
-    if args.max_angle is not None and not (np.isfinite(args.max_angle) and 0 < args.max_angle <= 180):
-        raise ValueError(f"--max-angle must be in (0, 180] degrees, got {args.max_angle}")
     kw = {} if args.max_angle is None else {"max_angle_deg": args.max_angle}
     r = touchup(m, body, args.schedule, contacts=args.contacts, iterations=args.iterations, polygon=args.polygon, **kw)
     st = r.stages
