@@ -125,8 +125,12 @@ def floor_lift(motion: Motion, floor_y: float, *, smooth_frames: float = 2.0,
     return motion.replace(root_positions=rp), lift
 
 
-def plant_feet(motion: Motion):
-    """:func:`mocomp.ops.enforce_footplants` of ``motion`` (the detector's plants; no audits)."""
+def plant_feet(motion: Motion, fade: float | None = None):
+    """:func:`mocomp.ops.enforce_footplants` of ``motion`` (the detector's plants; no audits), each
+    correction faded in and out over ``fade`` s (default: ops' 0.1 s). A longer fade (0.25 s) was
+    tried against the foot turns the plants add near the re-entry (up to 33 deg in a frame after a
+    side hit): it halved them but made joint-speed violations elsewhere."""
     from ..ops import enforce_footplants
 
-    return enforce_footplants(motion, audit=False)
+    blend = None if fade is None else max(1, int(round(fade * motion.fps)))
+    return enforce_footplants(motion, audit=False, blend=blend)
