@@ -304,6 +304,8 @@ def _build_clip(path: Path, name: str, sha: str, key: str, skeleton, body, toler
     F = body_features(m, body)
     pl, ol = ground_frame_features(F.positions, F.orientations, F.ground, F.heading)
     uniq, _ = unique_frames(pl, ol, tolerance)
+    for a in (*(getattr(F, k) for k in _FEATURES), uniq, nat.ground, nat.heading):
+        a.setflags(write=False)                          # as read back from the cache
     return ClipIndex(str(path), name, sha, key, native_fps, native_n, first, resampled, fps, F, uniq, nat.ground,
                      nat.heading, tuple(notes), time.perf_counter() - t0, False)
 
