@@ -63,3 +63,17 @@ def test_baseline_stops_between_the_flips_ours_does_not(flip):
     Lb = momentum_track(base.motion).magnitude
     theirs = Lb[r.phases[0].t_m:r.phases[1].t_m + tr.i - tr.j + 1].min()
     assert ours > 0.3 * level and theirs < 0.05 * level
+
+
+def test_motion_graph_window_shortened_to_fit(real_data_dir):
+    """The DeepMimic punch's main phase reaches the clip's end (peak at frame 57 of 65): a 12-frame
+    window cannot follow A's peak; the longest that fits (8 frames) is used, and said."""
+    from mocomp import datasets as ds
+    from mocomp.concat import concatenate, motion_graph_concatenate
+
+    m = ds.load(str(real_data_dir / "kicks_punches/deepmimic_punch.txt"))
+    r = concatenate(m, m, plant=False)
+    mg = motion_graph_concatenate(m, m, r.phases, 12, plant=False)
+    assert mg.transition.window == min(r.phases[1].t_m, m.n_frames - r.phases[0].t_m) == 8
+    assert "window shortened from 12 to 8 frames" in mg.transition.constraint
+    assert mg.motion.n_frames == mg.transition.i - mg.transition.j + m.n_frames

@@ -151,3 +151,26 @@ def test_facing_check_at_the_main_phases(flip):
         concatenate(flip, side, plant=False)
     r = concatenate(flip, side, plant=False, max_facing=np.radians(80))
     assert r.to_dict()["facing_check"]["at"] == "t_m" and np.degrees(r.facing_difference) > 45
+
+
+def test_on_facing_constrain_is_eq2_within_the_limit(flip):
+    """The back flip then the side flip: eq. 2's turn (~74 deg) leaves the bodies ~70 deg apart, rejected
+    by default. With on_facing="constrain" the turn is eq. 2's optimum over the turns within 45 deg of
+    facing A's way: the facing difference is 45 deg and no turn within the limit gives a larger
+    product (checked on a 0.1 deg grid)."""
+    from mocomp.core.rotations import quat_apply
+    from mocomp.ops import headings
+
+    side = datasets.load("sideflip")
+    with pytest.raises(ConcatError, match="face different ways"):
+        concatenate(flip, side, plant=False, rule="forward")
+    r = concatenate(flip, side, plant=False, rule="forward", on_facing="constrain")
+    assert np.degrees(r.facing_difference) == pytest.approx(45.0, abs=1e-6)
+    assert any(n.startswith("eq. 2's turn") and "constrained to the facing limit" in n for n in r.notes)
+    p1, p2 = r.phases
+    L1 = r.tracks[0].L[p1.main[0]:p1.main[1]].mean(0)
+    L2 = momentum_track(side).L[p2.main[0]:p2.main[1]].mean(0)
+    y_h = headings(flip, [p1.t_m])[0] - headings(side, [p2.t_m])[0]
+    grid = y_h + np.radians(np.arange(-45.0, 45.01, 0.1))
+    vals = [L1 @ quat_apply(yaw_quaternion(g), L2) for g in grid]
+    assert r.eq2_value >= max(vals) - 1e-6 * abs(max(vals))

@@ -95,6 +95,9 @@ def register(sub) -> None:
                         "punches peak at 3-4)")
     p.add_argument("--no-com-smooth", action="store_true",
                    help="leave the COM velocity steps at the blended period's edges (the paper's eq. 9 alone)")
+    p.add_argument("--on-facing", choices=("reject", "constrain"), default="reject",
+                   help="when eq. 2's turn leaves the bodies facing more than --max-facing apart at their main phases: "
+                        "reject (default, the paper's) or constrain eq. 2 to the turns within the limit (noted)")
     p.add_argument("--no-time-scale", action="store_true", help="leave out eq. 9's time scaling of the blend")
     p.add_argument("--no-plant", action="store_true", help="do not hold the supporting feet")
     p.add_argument("--baseline", choices=("motion-graph",),
@@ -219,7 +222,7 @@ def run(args) -> int:
                             borders_b=borders.get(letters[j + 1]), kind=args.kind, max_F=args.max_f,
                             window_threshold=args.window_threshold, max_facing=np.radians(args.max_facing),
                             facing_at=args.facing_at, plant=not args.no_plant, time_scale=not args.no_time_scale,
-                            com_smooth=not args.no_com_smooth,
+                            com_smooth=not args.no_com_smooth, on_facing=args.on_facing,
                             **({} if args.min_level is None else {"min_level": args.min_level}))
         except ConcatError as e:
             if n_j == 1:

@@ -24,6 +24,7 @@ Kovar et al.'s point clouds. The blend over the window is the same as the method
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -124,6 +125,11 @@ def motion_graph_transition(a: Motion, b: Motion, pa: Phases, pb: Phases, window
         i0, j1 = pa.t_m, pb.t_m - k + 1
         rule = "A past its peak |L| (t_m), B's window before its peak (a main phase reaches the clip's edge)"
         if i0 > n1 - 1 or j1 < 1:
+            k2 = min(pb.t_m, a.n_frames - pa.t_m, k - 1)
+            if k2 >= 2:                          # the longest window that fits there (short cut pieces)
+                tr = motion_graph_transition(a, b, pa, pb, k2)
+                return dataclasses.replace(tr, constraint=f"{tr.constraint}; window shortened from {k} to {tr.window} "
+                                                          "frames to fit")
             raise ConcatError(f"no Motion-Graph transition: a {k}-frame window does not fit after A's peak (frame "
                               f"{pa.t_m} of {a.n_frames}) and before B's (frame {pb.t_m})")
     sub = tab.D[i0:, :j1]

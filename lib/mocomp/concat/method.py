@@ -416,7 +416,7 @@ def _concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bo
                 weights=(1.0, 1.0, 1.0), min_peak_gap: float = MIN_PEAK_GAP, time_scale: bool = True,
                 facing_at: str = "t_m",
                 max_scale: float = 4.0, ramp_frames: int | None = 0, com_smooth: bool = True,
-                blend_ease: str = "linear", min_spread: float = 0.5) -> ConcatResult:
+                blend_ease: str = "linear", min_spread: float = 0.5, on_facing: str = "reject") -> ConcatResult:
     """Concatenate ``b`` after ``a`` (see the module docstring).
 
     Parameters
@@ -440,6 +440,10 @@ def _concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bo
         paper's step and removes its COM velocity step with ``com_smooth``.
     com_smooth: remove the COM velocity steps at the blended period's edges by a smooth root
         displacement (:func:`com_continuity`; the angular momentum is unchanged).
+    on_facing: with ``facing_at="t_m"``, what happens when eq. 2's turn leaves the bodies facing more than
+        ``max_facing`` apart: ``"reject"`` (the paper's and the issue's) or ``"constrain"``: eq. 2
+        maximised (minimised) over the turns that pass, in closed form (noted; rejected when no such
+        turn gives the rule's sign of the product).
     min_spread: when eq. 2's yaw can change the mean-L product by less than this fraction of
         ``|L1_bar| |L2_bar|`` (``2 |L1h| |L2h|``, horizontal parts), B is turned to face A's way at
         the main phases instead (noted; 0 always uses eq. 2).
@@ -482,6 +486,29 @@ def _concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bo
         notes.append(f"eq. 2 ill-conditioned: turning B about the vertical changes the main phases' mean-L product by "
                      f"at most {spread:.2f} of |L1||L2| (horizontal parts {h1:.2f} and {h2:.2f} kg m^2/s; limit "
                      f"{min_spread:g}): B turned by {np.degrees(yaw):+.1f} deg to face A's way at the main phases instead")
+    if on_facing not in ("reject", "constrain"):
+        raise ValueError(f"on_facing must be reject or constrain, got {on_facing!r}")
+    if facing_at == "t_m" and on_facing == "constrain":
+        # eq. 2 within the facing limit: its objective C + A cos(theta) + B sin(theta) is a sinusoid, so
+        # when its optimum leaves the bodies facing more than max_facing apart, the best turn that
+        # passes is one of the two ends of the allowed interval around the facing-matching turn
+        y_h = float(headings(a, [p1.t_m])[0] - headings(b, [p2.t_m])[0])
+        d = float((yaw - y_h + np.pi) % (2 * np.pi) - np.pi)
+        if abs(d) > max_facing:
+            ends = [y_h - (1 - 1e-9) * max_facing, y_h + (1 - 1e-9) * max_facing]
+            vals = [float(L1_bar @ quat_apply(yaw_quaternion(e), L2_bar)) for e in ends]
+            k = int(np.argmax(vals) if choice.rule == "forward" else np.argmin(vals))
+            if (vals[k] > 0) != (choice.rule == "forward"):
+                raise _rejected(f"within the facing limit ({np.degrees(max_facing):.0f} deg) the main phases' mean "
+                                f"momenta cannot point {'the same way' if choice.rule == 'forward' else 'opposite ways'}"
+                                f" (best eq. 2 product {vals[k]:+.3g} (kg m^2/s)^2; eq. 2's own turn "
+                                f"{np.degrees(yaw):+.1f} deg leaves the bodies {np.degrees(abs(d)):.1f} deg apart)",
+                                choice.rule)
+            notes.append(f"eq. 2's turn {np.degrees(yaw):+.1f} deg leaves the bodies {np.degrees(abs(d)):.1f} deg apart "
+                         f"at the main phases; constrained to the facing limit: {np.degrees(ends[k]):+.1f} deg (eq. 2 "
+                         f"product {value:+.3g} -> {vals[k]:+.3g})")
+            yaw = float((ends[k] + np.pi) % (2 * np.pi) - np.pi)
+            value = vals[k]
     q = yaw_quaternion(yaw)
     t2r = t2.rotated(q)
     L_ref = _main_level((t1, t2), (p1, p2))
