@@ -11,6 +11,8 @@ from mocomp.touchup.measure import zmp_outside
 
 
 def test_ground_weights_reach_no_farther_than_the_flight_lasts():
+    w3 = ground_weights(100, [(50, 52)], 15, 3)              # at least the ramp
+    assert np.all(w3[[47, 54]] < 1) and w3[46] == 1 and w3[55] == 1
     w = ground_weights(100, [(50, 52)], 15)                 # a run's 2-frame flight
     assert np.all(w[50:52] == 0) and w[49] == 0 and w[52] == 0
     assert np.all(w[:47] == 1) and np.all(w[55:] == 1)       # 15 frames before the change
@@ -75,8 +77,9 @@ def test_curved_walk_zmp_falls_80_percent(walks, tmp_path):
 
 def test_walk_run_blend_zmp_falls(walks, real_data_dir, tmp_path):
     """Sec. 4.2: walk -> run blended (Bandai walk and run, 20-frame window); the run's 1-2 frame
-    flights no longer keep the ground maps off the run's ground frames (measured 8.1 -> 4.2 cm
-    planned; 6.8 cm before the reach was cut to the flights' lengths)."""
+    flights no longer keep the ground maps off the run's ground frames (measured 8.1 -> 5.0 cm
+    planned; 6.8 cm with the whole 0.5 s neighbourhood kept off), and the written COM has no new
+    velocity jump."""
     from mocomp import datasets
     from mocomp.ops import blend
 
@@ -84,9 +87,15 @@ def test_walk_run_blend_zmp_falls(walks, real_data_dir, tmp_path):
     run = datasets.load(real_data_dir / "walks" / "bandai2_run_normal_001.bvh")
     edited = blend(walk, run, (120, 40), 20).motion
     r = touchup(edited)
-    assert r.after["mean_outside_m"] < 0.6 * r.before["mean_outside_m"]
+    assert r.after["mean_outside_m"] < 0.7 * r.before["mean_outside_m"]
     for f in r.after["flights"]:
         assert f["com_residual_m"] < 1e-3
+    # the ground maps' weight ramps over 0.1 s at least: cut to the 1-2 frame flights it stepped
+    # within two frames and the written COM velocity jumped 1.8 and 6.1 m/s at the take-offs
+    from mocomp.audit import audit
+
+    jumps = lambda m: [f for f in audit(m).findings if f.check == "com_velocity_jump"]   # noqa: E731
+    assert len(jumps(_written(r.motion, tmp_path, "blend"))) <= len(jumps(edited))
 
 
 def test_walk_run_blend_feet_stay_above_the_floor(walks, real_data_dir):
