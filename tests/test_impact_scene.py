@@ -144,3 +144,20 @@ def test_unknown_contact_body_is_named(ase):
     a, v = ase
     with pytest.raises(ImpactError, match="right_fist.*joints: pelvis"):
         build_scene(a.skeleton, v.skeleton, contact_body="right_fist")
+
+
+def test_victim_bodies_match_ases_own_mujoco_model(ase, real_data_dir):
+    """Peer check: the exported victim's body masses and centres of mass equal those MuJoCo computes
+    from ASE's own MJCF (skeletons/ase_amp_humanoid_sword_shield.xml), in the BVH frames."""
+    from mocomp.body.ase import MJCF_TO_BVH
+
+    a, v = ase
+    xml = (real_data_dir / "skeletons" / "ase_amp_humanoid_sword_shield.xml").read_text().replace('material="grid"', "")
+    peer = mujoco.MjModel.from_xml_string(xml)
+    sc = build_scene(a.skeleton, v.skeleton)
+    m = sc.model(1.0)
+    for name, b in zip(v.skeleton.names, sc.victim.body_ids):
+        pb = mujoco.mj_name2id(peer, mujoco.mjtObj.mjOBJ_BODY, name)
+        assert pb >= 0, name
+        assert m.body_mass[b] == pytest.approx(peer.body_mass[pb], rel=1e-6), name
+        np.testing.assert_allclose(m.body_ipos[b], MJCF_TO_BVH @ peer.body_ipos[pb], atol=1e-6, err_msg=name)
