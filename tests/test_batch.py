@@ -190,7 +190,7 @@ def test_whole_data_folder_on_two_workers(whole, real_data_dir):
         row = ok.set_index("clip").loc[clip]
         assert row["verdict"] == rep.verdict and row["violations"] == len(rep.violations)
         assert row["advisories"] == len(rep.advisories) and row["n_frames"] == rep.n_frames
-        assert np.isclose(row["max_com_jump_mps"], rep.measures["max_com_jump_mps"], rtol=1e-9)
+        assert np.isclose(row["max_com_jump_mps"], rep.to_dict()["measures"]["max_com_jump_mps"], rtol=1e-9)
         saved = json.loads((whole.out_dir / "clips" / clip / "report.json").read_text())
         assert saved["verdict"] == rep.verdict
         assert "verdict" in (whole.out_dir / "clips" / clip / "stdout.txt").read_text()
@@ -254,3 +254,43 @@ def test_kill_minus_9_then_resume_gives_the_uninterrupted_table(whole, real_data
     # --resume of a different batch into the same folder is refused
     with pytest.raises(ValueError, match="holds a batch of audit"):
         run_batch("info", src, out, resume=True, progress=False)
+
+
+@pytest.mark.realdata
+@pytest.mark.slow
+def test_an_existing_cluster_started_with_dask_scheduler_and_dask_worker(real_data_dir, tmp_path):
+    """--scheduler: the cluster of docs/batch.md (`dask scheduler`, `dask worker`), same rows as local."""
+    dask_cli = str(Path(MOCOMP).with_name("dask")) if Path(MOCOMP).is_absolute() else "dask"
+    sfile = tmp_path / "scheduler.json"
+    env = dict(os.environ, DASK_DISTRIBUTED__SCHEDULER__ALLOWED_FAILURES="1",
+               DASK_DISTRIBUTED__SCHEDULER__WORKER_SATURATION="1.0")
+    procs = [subprocess.Popen([dask_cli, "scheduler", "--port", "0", "--no-dashboard", "--scheduler-file", str(sfile)],
+                              env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)]
+    try:
+        t0 = time.time()
+        while not sfile.is_file() and time.time() - t0 < 120:
+            time.sleep(0.2)
+        address = json.loads(sfile.read_text())["address"]
+        procs.append(subprocess.Popen([dask_cli, "worker", address, "--nworkers", "2", "--nthreads", "1",
+                                       "--no-dashboard"], env=env, stdout=subprocess.DEVNULL,
+                                      stderr=subprocess.DEVNULL))
+        src = _subset(real_data_dir, tmp_path / "in", ("flips/*", "skeletons/*"))
+        r = subprocess.run([MOCOMP, "batch", "info", str(src), "-o", str(tmp_path / "remote"), "--scheduler", address,
+                            "--no-progress"], capture_output=True, text=True, timeout=600)
+        assert r.returncode == 0, r.stderr
+        assert "6 ok, 0 failed, 0 crashed; 5 skipped" in r.stdout
+    finally:
+        for p in reversed(procs):
+            p.terminate()
+        for p in reversed(procs):
+            try:
+                p.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                p.kill()
+    remote = read_results(tmp_path / "remote")
+    assert set(remote.loc[remote["status"] == "ok", "worker"].str.split(":").str[1]).isdisjoint({str(os.getpid())})
+    local = run_batch("info", src, tmp_path / "local", workers=1, progress=False).table
+    assert compare_tables(remote, local) == []
+    ok = remote[remote["status"] == "ok"].set_index("clip")
+    assert ok.loc["flips/cmu_88_01_backflip.bvh", "fps"] == 60.0  # the known correction of CMU subject 88
+    assert ok.loc["flips/deepmimic_backflip.txt", "n_frames"] == 29

@@ -26,6 +26,7 @@ import os
 import time
 import traceback
 import uuid
+import warnings
 from dataclasses import dataclass
 from typing import Any, Callable, Iterable, Iterator
 
@@ -89,9 +90,11 @@ def open_client(workers: int | None = None, scheduler: str | None = None, *,
     # worker-saturation 1.0: a worker holds only the task it runs, so a crash takes no queued item down with it
     with dask.config.set({"distributed.scheduler.allowed-failures": int(allowed_failures),
                           "distributed.scheduler.worker-saturation": 1.0}):
-        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
-                               memory_limit=memory_limit, silence_logs=logging.CRITICAL)
-        client = Client(cluster)
+        with warnings.catch_warnings():  # the scheduler's port probing leaves sockets to the collector
+            warnings.simplefilter("ignore", ResourceWarning)
+            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
+                                   memory_limit=memory_limit, silence_logs=logging.CRITICAL)
+            client = Client(cluster)
     try:
         yield client
     finally:
@@ -115,12 +118,22 @@ def _crash_text(exc: BaseException) -> str:
 
 
 def map_items(func: Callable, items: Iterable, *, client=None, workers: int | None = None,
-              scheduler: str | None = None, name: str = "item") -> Iterator[Outcome]:
+              scheduler: str | None = None, name: str = "item", fetch: bool = True,
+              fetch_timeout: float = 300.0, done: Callable | None = None,
+              stall_seconds: float = 120.0) -> Iterator[Outcome]:
     """Yield the :class:`Outcome` of ``func(item)`` for every item, in completion order.
 
     client: an open :class:`~dask.distributed.Client` (e.g. from :func:`open_client`); else a
         cluster is opened for this call with ``workers`` / ``scheduler``, and ``workers=0`` runs the
         items in this process, in order.
+    fetch: bring each result back (``Outcome.value``); ``False`` when the function leaves its result
+        in files (``mocomp batch``: row.json), so no result can be lost with a worker that crashes on a
+        later item before the client fetched it.
+    done: ``done(item) -> bool``, whether an item's files say it is complete: an item still pending
+        on the scheduler (its result lost with its worker and waiting to be computed again) whose
+        ``done`` is true is reported ``ok`` and its task cancelled.
+    stall_seconds: on a cluster this call started, the items left are reported ``failed`` when the
+        cluster has had no worker for that long (a worker that keeps failing to start).
     func must be importable by the workers (a module-level function) and its items picklable; on
     an existing cluster the workers need the same ``mocomp`` installed and the same paths.
     """
@@ -130,9 +143,11 @@ def map_items(func: Callable, items: Iterable, *, client=None, workers: int | No
         return
     if client is None:
         with open_client(workers, scheduler) as c:
-            yield from _map_dask(func, items, c, name)
+            yield from _map_dask(func, items, c, name, fetch, fetch_timeout, done,
+                                 stall_seconds if scheduler is None else None)
         return
-    yield from _map_dask(func, items, client, name)
+    yield from _map_dask(func, items, client, name, fetch, fetch_timeout, done,
+                         stall_seconds if getattr(client, "cluster", None) is not None else None)
 
 
 def _map_local(func, items) -> Iterator[Outcome]:
@@ -147,8 +162,8 @@ def _map_local(func, items) -> Iterator[Outcome]:
             yield Outcome(i, it, "ok", value=v, seconds=time.perf_counter() - t0)
 
 
-def _map_dask(func, items, client, name) -> Iterator[Outcome]:
-    from dask.distributed import as_completed
+def _map_dask(func, items, client, name, fetch: bool, fetch_timeout: float, done, stall) -> Iterator[Outcome]:
+    from distributed import wait
     from distributed.scheduler import KilledWorker
 
     if not items:
@@ -156,28 +171,62 @@ def _map_dask(func, items, client, name) -> Iterator[Outcome]:
     token = uuid.uuid4().hex[:10]
     keys = [f"{name}-{token}-{i}" for i in range(len(items))]
     t0 = time.perf_counter()
-    futures = client.map(func, items, key=keys, pure=False, retries=0)
-    index = {f.key: i for i, f in enumerate(futures)}
+    pending = {f.key: f for f in client.map(func, items, key=keys, pure=False, retries=0)}
+    index = {k: i for i, k in enumerate(keys)}
+    last_scan = last_worker = time.monotonic()
+
+    def outcome(fut) -> Outcome:
+        i = index[fut.key]
+        dt = time.perf_counter() - t0
+        if fut.status == "finished":
+            value = None
+            if fetch:
+                # a result lives in its worker's memory until fetched: when a later item crashes that
+                # worker first, it is lost (the item's files, if any, are not)
+                try:
+                    value = fut.result(timeout=fetch_timeout)
+                except Exception as e:  # noqa: BLE001
+                    return Outcome(i, items[i], "failed", error=f"the item ran but its result was lost: "
+                                   f"{_describe(e)}", exception=e, seconds=dt)
+            return Outcome(i, items[i], "ok", value=value, seconds=dt)
+        exc = fut.exception() if fut.status == "error" else None
+        if isinstance(exc, KilledWorker):
+            return Outcome(i, items[i], "crashed", error=_crash_text(exc), exception=exc, seconds=dt)
+        tb = fut.traceback() if fut.status == "error" else None
+        return Outcome(i, items[i], "failed", error=_describe(exc) if exc is not None else
+                       f"the task ended with status {fut.status}",
+                       traceback="".join(traceback.format_tb(tb)) if tb is not None else None,
+                       exception=exc, seconds=dt)
+
     try:
-        # results are fetched as soon as each task ends: a result left in a worker's memory would be lost
-        # with the worker when a later item crashes it
-        for fut, res in as_completed(futures, with_results=True, raise_errors=False):
-            i = index[fut.key]
-            dt = time.perf_counter() - t0
-            if fut.status == "finished":
-                yield Outcome(i, items[i], "ok", value=res, seconds=dt)
+        while pending:
+            try:
+                finished = wait(list(pending.values()), timeout=2.0, return_when="FIRST_COMPLETED").done
+            except TimeoutError:
+                finished = set()
+            for fut in finished:
+                o = outcome(fut)
+                del pending[fut.key]
                 fut.release()
+                yield o
+            now = time.monotonic()
+            if now - last_scan < 5.0:
                 continue
-            # an error comes as the future's exception (``res`` is then Dask's (type, value, traceback))
-            exc = fut.exception() if fut.status == "error" else None
-            if isinstance(exc, KilledWorker):
-                yield Outcome(i, items[i], "crashed", error=_crash_text(exc), exception=exc, seconds=dt)
-            else:
-                tb = fut.traceback() if fut.status == "error" else None
-                yield Outcome(i, items[i], "failed", error=_describe(exc) if exc is not None else
-                              f"the task ended with status {fut.status}",
-                              traceback="".join(traceback.format_tb(tb)) if tb is not None else None,
-                              exception=exc, seconds=dt)
-            fut.release()
+            last_scan = now
+            if done is not None:  # items finished on disk whose result was lost with their worker
+                for k in [k for k, f in pending.items() if f.status != "finished" and done(items[index[k]])]:
+                    fut = pending.pop(k)
+                    fut.cancel()
+                    yield Outcome(index[k], items[index[k]], "ok", seconds=time.perf_counter() - t0)
+            if stall is not None and pending:
+                if client.scheduler_info().get("workers"):
+                    last_worker = now
+                elif now - last_worker > stall:
+                    for k, fut in list(pending.items()):
+                        fut.cancel()
+                        del pending[k]
+                        yield Outcome(index[k], items[index[k]], "failed", seconds=time.perf_counter() - t0,
+                                      error=f"not run: the cluster has had no worker for {stall:.0f} s (its "
+                                            "workers died and could not be started again)")
     finally:
-        client.cancel([f for f in futures if not f.done()])
+        client.cancel(list(pending.values()))

@@ -180,6 +180,12 @@ def _write_table(df: pd.DataFrame, out: Path) -> None:
         os.replace(tmp, out / name)
 
 
+def _completed(task: ClipTask) -> bool:
+    """Whether ``task``'s clip folder is complete, written by this run."""
+    row = read_row(Path(task.out_dir))
+    return row is not None and row.get("run") == task.run
+
+
 def read_results(out_dir) -> pd.DataFrame:
     """The results table of a batch folder (``results.parquet``)."""
     return pd.read_parquet(Path(out_dir) / "results.parquet")
@@ -249,18 +255,17 @@ def run_batch(command: str, source, out_dir, options=(), *, workers: int | None 
                 from .warmup import WarmUp
 
                 c.register_plugin(WarmUp())
-                for o in map_items(run_clip, tasks, client=c, name=f"batch-{command}"):
+                for o in map_items(run_clip, tasks, client=c, name=f"batch-{command}", fetch=False,
+                                   done=_completed, stall_seconds=120.0):
                     task = o.item
                     final = Path(task.out_dir)
-                    done = read_row(final)
-                    if o.status == "ok":
-                        row = o.value
-                    elif done is not None and done.get("run") == task.run:
-                        row = done  # the clip completed; only its result did not come back
-                    else:  # the task itself did not return: the worker died, or run_clip broke
+                    done = read_row(final)  # the row the worker wrote (run_clip's result stays on the worker)
+                    if done is not None and done.get("run") == task.run:
+                        row = done
+                    else:  # the task did not complete its folder: the worker died, or run_clip broke
                         row = base_row(task)
-                        row.update({"status": o.status, "error": o.error})
-                        row["run"] = task.run
+                        row.update({"status": o.status if o.status != "ok" else "failed", "run": task.run,
+                                    "error": o.error or "the clip's task ended without writing its row.json"})
                         for p in final.parent.glob(final.name + PARTIAL + "*"):
                             shutil.rmtree(p, ignore_errors=True)
                         write_row_dir(final, row)
