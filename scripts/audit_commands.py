@@ -85,8 +85,9 @@ def run_case(argv, workdir: Path):
         code = main(list(argv) + ["-o", str(out), "--report", str(rep)])
     secs = time.perf_counter() - t
     if code != 0 or not rep.exists():
-        err = (buf_e.getvalue().strip().splitlines() or ["?"])[-1]
-        return None, f"exit {code}: {err}", secs
+        err = (buf_e.getvalue().strip().splitlines() or ["?"])[-1].replace(str(out), "OUT.bvh")
+        err = err.split(": the output OUT.bvh has")[0].split("; the output OUT.bvh has")[0]
+        return None, f"exit {code}: {err.replace('|', '/')}", secs
     d = json.loads(rep.read_text())
     a = d.get("audit")
     if not a or not a.get("comparison"):
@@ -113,14 +114,20 @@ def _short(x: str) -> str:
     return Path(x).name if os.sep in x else x
 
 
-def table(results) -> str:
-    lines = ["| command | input | measure | input value | output value | worse? |",
-             "| --- | --- | --- | --- | --- | --- |"]
+def table(results, before=None) -> str:
+    """The Markdown table; ``before``: ``{(command, argv...): rows}`` of an earlier run (``--compare``),
+    shown as the output value then."""
+    cols = ["command", "input", "measure", "input value", "output value", "worse?"]
+    if before is not None:
+        cols[4:4] = ["output before"]
+    lines = ["| " + " | ".join(cols) + " |", "|" + " --- |" * len(cols)]
     n_bad = 0
     for label, argv, asked, rows, err, secs in results:
         inp = _short(argv[1]) + (f" + {_short(argv[2])}" if argv[0] == "join" else "")
+        old_rows = None if before is None else before.get(tuple(argv))
         if rows is None:
-            lines.append(f"| `{label}` | `{inp}` | - | - | - | not written ({err}) |")
+            extra = "" if before is None else (" - |" if old_rows is None else " (written) |")
+            lines.append(f"| `{label}` | `{inp}` | - | - |{extra} - | not written ({err}) |")
             continue
         flight_keys = [k for k in rows if k.startswith("flight") and k.endswith(FLIGHT_MEASURES)]
         for key in list(MEASURES) + flight_keys:
@@ -133,7 +140,11 @@ def table(results) -> str:
                 n_bad += 1
             mark = ("**worse**" + (f" (asked: {asked})" if asked else "") if worse and acc else
                     ("worse (not an acceptance measure)" if worse else "no"))
-            lines.append(f"| `{label}` | `{inp}` | {r['label']} | {_fmt(key, r['against'])} | "
+            was = ""
+            if before is not None:
+                o = (old_rows or {}).get(key)
+                was = f" {_fmt(key, o['this']) if o else ('not written' if old_rows is None else '-')} |"
+            lines.append(f"| `{label}` | `{inp}` | {r['label']} | {_fmt(key, r['against'])} |{was} "
                          f"{_fmt(key, r['this'])} | {mark} |")
     return "\n".join(lines), n_bad
 
@@ -144,6 +155,7 @@ def main(argv=None) -> int:
     ap.add_argument("--json", help="also write the raw rows as JSON")
     ap.add_argument("--only", default=None, help="run only cases whose command line contains this")
     ap.add_argument("--section", help="replace the marked section of this Markdown file with the table")
+    ap.add_argument("--compare", help="a --json file of an earlier run: its output values in a column")
     a = ap.parse_args(argv)
     env = os.environ.get("MOCOMP_DATA_DIR")
     data = Path(env) if env else None
@@ -156,7 +168,10 @@ def main(argv=None) -> int:
             rows, err, secs = run_case(args, Path(tmp))
             print(f"{' '.join(_short(x) for x in args)}: {'ok' if rows else err} ({secs:.1f} s)", file=sys.stderr)
             results.append((label, args, asked, rows, err, secs))
-    text, n_bad = table(results)
+    before = None
+    if a.compare:
+        before = {tuple(d["argv"]): d["rows"] for d in json.loads(Path(a.compare).read_text())}
+    text, n_bad = table(results, before)
     head = (f"Commands run: {len(results)} ({time.perf_counter() - t0:.0f} s). Acceptance measures worse than the "
             f"input without the user asking for it: {n_bad}.\n\n")
     body = head + text + "\n"
