@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["impact_filmstrip", "plot_waist_height", "facing_sweep_figure"]
+__all__ = ["impact_filmstrip", "plot_waist_height", "facing_sweep_figure", "render_impact_tiles"]
 
 
 def _side_view(victim, attacker):
@@ -107,3 +107,31 @@ def plot_waist_height(result, ax=None, joint: str | None = None):
     ax.set_ylabel(f"{v.skeleton.names[j]} height (m)")
     ax.legend(fontsize=7, loc="best")
     return ax
+
+
+def render_impact_tiles(victim, attacker, times, *, width: int = 360, height: int = 300, path=None):
+    """A 3D filmstrip (:mod:`mocomp.plots.render3d`, offscreen VTK): one tile per time in ``times`` (s),
+    both characters in it (attacker red, victim blue), one camera fitted to every shown pose. Both must
+    be on the same skeleton (the renderer draws one character type). Returns the ``(H, W, 3)`` image."""
+    from .render3d import MotionRenderer, RenderStyle, fit_camera, joint_matrices, same_skeleton, save_png
+
+    if not same_skeleton(victim.skeleton, attacker.skeleton):
+        raise ValueError("render_impact_tiles draws both characters with one skeleton; these differ "
+                         "(use impact_filmstrip, the stick figures)")
+    ts = np.asarray(times, dtype=float)
+    poses = [(attacker.sample([min(max(t, 0.0), attacker.duration)]), victim.sample([min(max(t, 0.0), victim.duration)]))
+             for t in ts]
+    style = RenderStyle(width=width, height=height)
+    pts = np.concatenate([p.positions[0] for pair in poses for p in pair])
+    cam = fit_camera(pts, aspect=width / height, margin=0.08)
+    tiles = []
+    with MotionRenderer(victim.skeleton, style, cam, n_characters=2,
+                        colors=[(0.85, 0.25, 0.2), (0.25, 0.45, 0.85)]) as r:
+        for a, v in poses:
+            r.set_pose(0, joint_matrices(a)[0])
+            r.set_pose(1, joint_matrices(v)[0])
+            tiles.append(r.snapshot())
+    img = np.concatenate(tiles, axis=1)
+    if path is not None:
+        save_png(img, path)
+    return img
