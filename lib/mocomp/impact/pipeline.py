@@ -224,7 +224,10 @@ def impact_response(attacker: Motion, victim: Motion, index, scenario: Scenario 
     # the attack on the victim's frames, long enough to be looked up during the burst
     att = _on_timeline(attacker, fps, max(victim.n_frames, int(np.floor(attacker.duration * fps + 1e-9)) + 1))
     lib = _reach_limit_motions(index) if library_motions is None else list(library_motions)
-    scene = build_scene(attacker.skeleton, victim.skeleton, attacker_motions=[attacker],
+    from .scene import default_impact_body
+
+    scene = build_scene(attacker.skeleton, victim.skeleton, attacker_body=default_impact_body(attacker),
+                        victim_body=default_impact_body(victim), attacker_motions=[attacker],
                         victim_motions=[victim] + lib, contact_body=scenario.contact_body)
     timings["setup"], cpu["setup"] = time.perf_counter() - t, time.process_time() - c
 

@@ -301,13 +301,22 @@ def strike_joints(skeleton, contact_body: str | None) -> set[int] | None:
     return {k for k in range(skeleton.n_joints) if j in skeleton.chain(k)}
 
 
-def default_impact_body(skeleton):
-    """The body model a character gets: ASE's own inertials (props included) on the ASE humanoid,
-    otherwise the audit's default body model."""
+def default_impact_body(skeleton_or_motion):
+    """The body model a character gets: ASE's own inertials (props included) on the ASE humanoid; for a
+    motion on another skeleton the audit's default (a DeepMimic clip's own character, else de Leva's
+    table at 70 kg); for a bare skeleton de Leva's table at 70 kg."""
+    from ..core.motion import Motion as _Motion
+
+    motion = skeleton_or_motion if isinstance(skeleton_or_motion, _Motion) else None
+    skeleton = motion.skeleton if motion is not None else skeleton_or_motion
     if _is_ase(skeleton):
         from ..body import ase_body
 
         return ase_body(skeleton, props="ase")
+    if motion is not None:
+        from ..audit import default_body
+
+        return default_body(motion)
     from ..body import BodyModel
 
     return BodyModel.from_skeleton(skeleton, total_mass=70.0)
