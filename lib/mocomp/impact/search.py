@@ -50,7 +50,7 @@ import numpy as np
 from ..core.motion import Motion
 from ..core.rotations import quat_apply
 from ..errors import MotionFormatError
-from ..ops.align import GroundTransform, yaw_quaternion
+from ..ops.align import GroundTransform
 from .features import BODY_PARTS, FOOT_PARTS, body_model_for, ground_frame_features, part_weights
 from . import _kernels
 from .index import RATE_TOLERANCE, LibraryIndex, frame_distances
@@ -160,25 +160,27 @@ class _Query:
         # same numbers as body_features (tested)
         joints, coms, masses = _parts(index)
         P, G = motion.fk()
-        P, G = P[start:stop], G[start:stop]
-        pos = P[:, joints] + quat_apply(G[:, joints], coms)
-        ori = G[:, joints]
-        root_positions, q0 = motion.root_positions[start:stop], motion.rotations[start, 0]
-        self.L = pos.shape[0]
+        root0, q0 = motion.root_positions[start], motion.rotations[start, 0]
+        self.L = L = stop - start
+        self.ground0 = np.array([root0[0], 0.0, root0[2]])
+        self.heading0 = float(2.0 * np.arctan2(q0[1], q0[3]))         # twist about +y (ops.align.headings)
+        F = L - 1                                        # eq. A.1: the last frame has weight 0
+        self.frames = np.arange(F, dtype=np.int64)
+        self.w = np.ascontiguousarray(window_weights(L)[:F])
+        if _kernels.AVAILABLE:
+            pos, qp, qo, yq = (np.empty((L, joints.size, k)) for k in (3, 3, 4, 4))
+            _kernels.query_nb(P[start:stop], G[start:stop], joints, coms, self.ground0[0], self.ground0[2],
+                              self.heading0, pos, qp, qo, yq)
+        else:
+            P, G = P[start:stop, joints], G[start:stop, joints]
+            pos = P + quat_apply(G, coms)
+            qp, qo = ground_frame_features(pos, G, self.ground0, self.heading0)
+            # Y (x) Q with Y = (0, 1, 0, 0) (the yaw of each candidate enters as cos/sin(psi/2) weights):
+            # the Hamilton product with Y is the signed permutation (z, w, -x, -y) of Q
+            yq = qo[..., [2, 3, 0, 1]] * np.array([1.0, 1.0, -1.0, -1.0])
         com0 = masses @ pos[0] / masses.sum()
         self.support = support_foot_of(com0, pos[0]) if support is None else support
-        self.ground0 = np.array([root_positions[0, 0], 0.0, root_positions[0, 2]])
-        self.heading0 = float(2.0 * np.arctan2(q0[1], q0[3]))         # twist about +y (ops.align.headings)
-        qp, qo = ground_frame_features(pos, ori, self.ground0, self.heading0)
-        w = window_weights(self.L)
-        keep = w > 0                                     # the last frame has weight 0
-        self.frames = np.flatnonzero(keep).astype(np.int64)
-        self.w = np.ascontiguousarray(w[keep])
-        self.qp = np.ascontiguousarray(qp[keep])
-        self.qo = np.ascontiguousarray(qo[keep])
-        # Y (x) Q with Y = (0, 1, 0, 0) (the yaw of each candidate enters as cos/sin(psi/2) weights):
-        # the Hamilton product with Y is the signed permutation (z, w, -x, -y) of Q
-        self.yqo = np.ascontiguousarray(self.qo[..., [2, 3, 0, 1]] * np.array([1.0, 1.0, -1.0, -1.0]))
+        self.qp, self.qo, self.yqo = qp[:F], qo[:F], yq[:F]
         self.wp, self.wr = part_weights(self.support)
         cat = index.concatenated()
         self.P, self.O, self.G, self.H = cat["positions"], cat["orientations"], cat["ground"], cat["heading"]
@@ -189,8 +191,12 @@ class _Query:
             cat[key] = np.concatenate([[0.0], np.cumsum(step)])
         self.Cl = cat[key]
         self.first = np.full(self.P.shape[0], np.nan)   # first-frame terms computed so far, per library row
-        qstep = frame_distances(qp[:-1], qo[:-1], qp[1:], qo[1:], self.wp, self.wr)[: self.frames.size]
-        self.Cq = np.ascontiguousarray(np.concatenate([[0.0], np.cumsum(qstep)])[: self.frames.size])
+        if _kernels.AVAILABLE:
+            self.Cq = np.empty(F)
+            _kernels.steps_nb(qp, qo, self.wp, self.wr, F, self.Cq)
+        else:
+            qstep = frame_distances(qp[:-1], qo[:-1], qp[1:], qo[1:], self.wp, self.wr)[:F]
+            self.Cq = np.concatenate([[0.0], np.cumsum(qstep)])[:F]
 
     def terms(self, starts: np.ndarray, sel: slice | np.ndarray = slice(None)) -> np.ndarray:
         """``(K, F)`` weighted eq. 4.1 terms of the windows starting at library rows ``starts`` for the
@@ -239,6 +245,17 @@ def _unique_rows(index: LibraryIndex, n_valid: np.ndarray, L: int) -> np.ndarray
         keep = (u - cat["start"][ci]) < n_valid[ci]
         cat[key] = np.union1d(u[keep], (cat["start"] + n_valid - 1)[n_valid > 0]).astype(np.int64)
     return cat[key]
+
+
+def _unique_table(index: LibraryIndex) -> tuple[np.ndarray, np.ndarray]:
+    """Every clip's unique frames end to end (clip-local numbers) and the offsets of each clip's run
+    (``(C + 1,)``), for the compiled search (cached)."""
+    cat = index.concatenated()
+    if "unique_table" not in cat:
+        U = np.concatenate([c.unique for c in index.clips]).astype(np.int64)
+        off = np.concatenate([[0], np.cumsum([c.unique.size for c in index.clips])]).astype(np.int64)
+        cat["unique_table"] = (U, off)
+    return cat["unique_table"]
 
 
 def _valid_starts(index: LibraryIndex, L: int):
@@ -338,15 +355,25 @@ def _result(index: LibraryIndex, q: _Query, row: int, dist: float, stats: dict) 
     f = clip.native_frame(k)
     yaw = q.heading0 - float(clip.native_heading[f])
     yaw = float((yaw + np.pi) % (2 * np.pi) - np.pi)
-    g = np.asarray(clip.native_ground[f], dtype=float)
-    t = q.ground0 - _rot_y(yaw, g)
-    t[1] = 0.0
+    g = clip.native_ground[f]
+    c, s = np.cos(yaw), np.sin(yaw)                      # t = ground0 - R_y(yaw) g, in the ground plane
+    t = np.array([q.ground0[0] - (c * g[0] + s * g[2]), 0.0, q.ground0[2] - (c * g[2] - s * g[0])])
     st = dict(stats, index_frame=int(k), clip_name=clip.name)
     return SearchResult(clip.path, int(f), RootTransform(yaw, t), float(dist), None, st)
 
 
-def _rot_y(yaw: float, v: np.ndarray) -> np.ndarray:
-    return quat_apply(yaw_quaternion(yaw), v)
+def _same_skeleton(index: LibraryIndex, skeleton) -> bool:
+    """``skeleton`` equals the index's (the equal skeleton objects seen are remembered: the
+    comparison costs more than a small search)."""
+    if skeleton is index.skeleton:
+        return True
+    seen = index.concatenated().setdefault("same_skeletons", [])
+    if any(skeleton is s for s in seen):
+        return True
+    if skeleton != index.skeleton:
+        return False
+    seen[:] = seen[-31:] + [skeleton]                    # strong references: no id reuse
+    return True
 
 
 def _far_mask(index: LibraryIndex, rows: np.ndarray, best: int, L: int) -> np.ndarray:
@@ -384,7 +411,7 @@ def search(index: LibraryIndex, query: Motion, start: int, stop: int, *, support
         best first) are refined (module docstring).
     """
     t0 = time.perf_counter()
-    if query.skeleton is not index.skeleton and query.skeleton != index.skeleton:
+    if not _same_skeleton(index, query.skeleton):
         raise MotionFormatError(
             f"the query's skeleton ({query.skeleton.n_joints} joints, root {query.skeleton.names[0]!r}) is not the "
             f"index's ({index.skeleton.n_joints} joints, root {index.skeleton.names[0]!r}); build the index for "
@@ -422,8 +449,21 @@ def search(index: LibraryIndex, query: Motion, start: int, stop: int, *, support
     if exhaustive:
         all_rows = np.concatenate([s + np.arange(max(n, 0)) for s, n in zip(starts, n_valid)]).astype(np.int64)
         D[all_rows], _ = _distances(q, all_rows)
-        stats.update(frames_compared=stats["frames_exhaustive"], windows_compared=n_windows, unique_windows=0)
-    else:
+        stats.update(frames_compared=stats["frames_exhaustive"], frames_exact=stats["frames_exhaustive"],
+                     windows_compared=n_windows, unique_windows=0)
+    elif _kernels.AVAILABLE:                             # the whole search in one compiled call
+        uniq = _unique_rows(index, n_valid, L)
+        U, Uoff = _unique_table(index)
+        first = np.full(q.P.shape[0], np.nan)
+        out = np.empty(6, np.int64)
+        _kernels.search_nb(q.P, q.O, q.G, q.H, q.Cl, index.concatenated()["row_clip"], starts,
+                           np.ascontiguousarray(n_valid, dtype=np.int64), U, Uoff, uniq, q.frames, q.qp, q.qo,
+                           q.yqo, q.w, q.wp, q.wr, q.Cq, L, float(margin_factor * index.tolerance * q.w.sum()),
+                           int(max_regions), D, first, out)
+        stats.update(frames_compared=int(out[2]), frames_exact=int(out[3]), windows_compared=int(out[4]),
+                     unique_windows=int(uniq.size), refined_regions=int(out[5]))
+        best, ru = int(out[0]), (int(out[1]) if out[1] >= 0 else None)
+    else:                                                # the numpy reference of search_nb
         uniq = _unique_rows(index, n_valid, L)
         margin = float(margin_factor * index.tolerance * q.w.sum())
         # 1. windows at the unique frames (and at each clip's last valid start): every one within
@@ -446,10 +486,11 @@ def search(index: LibraryIndex, query: Motion, start: int, stop: int, *, support
             more = _interval_rows(index, ru, L)
             more = more[_far_mask(index, more, best, L)]
             compared += _evaluate(q, more, D, float(D[ru]))
-        stats.update(frames_compared=int(compared), windows_compared=int(np.count_nonzero(~np.isnan(q.first))),
-                     unique_windows=int(uniq.size), refined_regions=int(regions.size))
-    best = int(np.nanargmin(D))
-    ru = _runner_up(index, D, L)
+        stats.update(frames_compared=int(compared), frames_exact=int(compared),
+                     windows_compared=int(np.count_nonzero(~np.isnan(q.first))), unique_windows=int(uniq.size), refined_regions=int(regions.size))
+    if exhaustive or not _kernels.AVAILABLE:
+        best = int(np.nanargmin(D))
+        ru = _runner_up(index, D, L)
     t2 = time.perf_counter()
     stats.update(seconds=t2 - t0, seconds_query=t1 - t0, seconds_matching=t2 - t1)
     runner = _result(index, q, ru, float(D[ru]), stats) if ru is not None else None
