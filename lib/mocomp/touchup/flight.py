@@ -30,7 +30,8 @@ from ..dynamics.constants import G_STANDARD
 from ..ops import ease
 from .ground import rotation_centres
 from ..core.rotations import quat_multiply
-from .linksets import LinkSets, local_from_global, rotate_sets
+from ._fast import fk, turn_sets
+from .linksets import LinkSets
 
 __all__ = ["ballistic_targets", "FlightAdjustment", "flight_com_adjustment", "com_residual", "angular_momentum",
            "flight_momentum_adjustment"]
@@ -83,7 +84,7 @@ def flight_com_adjustment(body, motion, sets: LinkSets, flights, com: np.ndarray
                           g: float = G_STANDARD) -> FlightAdjustment:
     """Sec. 3.4.2 on the ``flights`` (half-open frame runs) of ``motion``; ``com`` ``(T, 3)`` its COM."""
     T = motion.n_frames
-    P, G = motion.fk()
+    P, G = fk(motion)
     corr = np.zeros((T, 3))
     for a, b in flights:
         corr[a:b] = ballistic_targets(com, a, b, motion.fps, g) - com[a:b]
@@ -131,9 +132,8 @@ def flight_com_adjustment(body, motion, sets: LinkSets, flights, com: np.ndarray
     ang = np.arctan2(np.linalg.norm(ax, axis=1), np.einsum("tk,tk->t", u, v))
     n = np.linalg.norm(ax, axis=1, keepdims=True)
     rv = np.where(n > 1e-15, ax / np.where(n > 0, n, 1.0), 0.0) * ang[:, None]
-    R = Rotation.from_rotvec(rv).as_matrix()
-    Pn, Gn = rotate_sets(P, G, sets, R, C)
-    return FlightAdjustment(corr, w, Pn[:, root], local_from_global(Gn, sets.parents))
+    root_pos, local = turn_sets(P, G, sets, rv, C)
+    return FlightAdjustment(corr, w, root_pos, local)
 
 
 def angular_momentum(masses, r: np.ndarray, v: np.ndarray, about: np.ndarray) -> np.ndarray:
@@ -162,7 +162,7 @@ def flight_momentum_adjustment(body, motion, sets: LinkSets, flights, *, neighbo
     from ..dynamics.momentum import momentum, world_inertias
 
     T = motion.n_frames
-    P, G = motion.fk()
+    P, G = fk(motion)
     dt = 1.0 / motion.fps
     mo = momentum(body, motion)
     r, v, om = mo.segment_positions, mo.segment_velocities, mo.segment_angular_velocities
@@ -205,7 +205,5 @@ def flight_momentum_adjustment(body, motion, sets: LinkSets, flights, *, neighbo
         rot[a:b] = Rotation.from_quat(acc).as_rotvec()
         for f in np.flatnonzero((owner == k) & (w < 1) & (np.arange(T) >= b)):
             rot[f] = rot[b - 1] * w[f]
-    R = Rotation.from_rotvec(rot).as_matrix()
-    Pn, Gn = rotate_sets(P, G, sets, R, C)
-    root = int(np.flatnonzero(sets.parents < 0)[0])
-    return FlightAdjustment(rot, w, Pn[:, root], local_from_global(Gn, sets.parents))
+    root_pos, local = turn_sets(P, G, sets, rot, C)
+    return FlightAdjustment(rot, w, root_pos, local)

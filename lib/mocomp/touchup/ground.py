@@ -37,9 +37,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
-from .linksets import LinkSets, local_from_global, rotate_sets
+from ._fast import fk, turn_sets
+from .linksets import LinkSets
 
 __all__ = ["GroundAdjustment", "eq6_coefficients", "eq7_angle", "ground_adjustment", "rotation_centres", "MAX_ANGLE"]
 
@@ -140,7 +140,7 @@ def ground_adjustment(body, motion, sets: LinkSets, state, frames: np.ndarray, *
     (module docstring; ``np.inf``: the paper's angles)."""
     if not (max_angle > 0):
         raise ValueError(f"max_angle must be a positive angle in rad, got {max_angle!r}")
-    P, G = motion.fk()
+    P, G = fk(motion)
     T = motion.n_frames
     frames = np.asarray(frames, bool) & np.isfinite(state.distance) & np.all(np.isfinite(state.target), axis=1)
     dvec = state.target - state.zmp
@@ -163,8 +163,5 @@ def ground_adjustment(body, motion, sets: LinkSets, state, frames: np.ndarray, *
         capped = np.abs(theta) > max_angle
         theta = np.clip(theta, -max_angle, max_angle)
     axis = np.cross(d, _UP)
-    R = Rotation.from_rotvec(axis * theta[:, None]).as_matrix()
-    Pn, Gn = rotate_sets(P, G, sets, R, C)
-    root = int(np.flatnonzero(sets.parents < 0)[0])
-    return GroundAdjustment(theta, axis, frames, clamped & frames, Pn[:, root], local_from_global(Gn, sets.parents),
-                            capped & frames)
+    root_pos, local = turn_sets(P, G, sets, axis * theta[:, None], C)
+    return GroundAdjustment(theta, axis, frames, clamped & frames, root_pos, local, capped & frames)

@@ -18,6 +18,7 @@ from ..dynamics.momentum import momentum
 from ..dynamics.constants import G_STANDARD
 from ..ops import HierarchyStep, apply_hierarchy, ease, enforce_footplants
 from ..ops.footplant import foot_points
+from ._fast import SegmentChains, fk
 from .flight import com_residual, flight_com_adjustment, flight_momentum_adjustment
 from .ground import MAX_ANGLE, ground_adjustment
 from .linksets import link_sets
@@ -25,7 +26,7 @@ from .schedule import schedule_from_spec
 from .stages import Stages, stages
 from .zmp import DEFAULT_SMOOTH_SIGMA, floor_levels, zmp_state
 
-__all__ = ["TouchupResult", "touchup", "NEIGHBOURHOOD_S", "ground_weights", "lift_feet"]
+__all__ = ["TouchupResult", "touchup", "NEIGHBOURHOOD_S", "ground_weights", "lift_feet", "resting_levels"]
 
 #: s: ground frames this close to a flight are adjusted with it (the paper's 15 frames, 1/2 s)
 NEIGHBOURHOOD_S = 0.5
@@ -99,7 +100,18 @@ def ground_weights(n_frames: int, flights, neighbourhood: int, min_ramp: int = 0
     return w
 
 
-def lift_feet(motion, plants, reference_points: np.ndarray, touching: np.ndarray, *, tol: float = 1e-3):
+def resting_levels(plants, reference_points: np.ndarray) -> np.ndarray:
+    """``(4,)`` m: each foot point's resting level for :func:`lift_feet` -- the median of its
+    plants' levels, its lowest height in ``reference_points`` ``(T, 4, 3)`` when never planted."""
+    lv = np.asarray(plants.levels, float)
+    has = np.isfinite(lv).any(axis=0)                               # a point never planted: its lowest height
+    rest = np.nanmin(reference_points[..., 1], axis=0)
+    rest[has] = np.nanmedian(lv[:, has], axis=0)
+    return rest
+
+
+def lift_feet(motion, plants, reference_points: np.ndarray, touching: np.ndarray, *, tol: float = 1e-3,
+              rest: np.ndarray | None = None):
     """``(motion, lifted frames per leg)``: each leg raised by two-bone IK
     (:func:`mocomp.ops.two_bone_ik`, the foot's orientation kept) on the frames where one of its
     foot points has been pushed down -- below its height in the input (``reference_points``
@@ -107,15 +119,13 @@ def lift_feet(motion, plants, reference_points: np.ndarray, touching: np.ndarray
     level elsewhere. The planted points are held by :func:`mocomp.ops.enforce_footplants`; a
     touching point that is not planted (a heel rolling in, a foot sliding through a blend window)
     is not, and a lean of the whole body about the ZMP's projection (the lower body in S2) swings
-    it through the floor: on the walk -> run blend, 10 cm after the first step's 5 iterations."""
+    it through the floor: on the walk -> run blend, 10 cm after the first step's 5 iterations.
+    ``rest``: :func:`resting_levels` when the caller has it (fixed for a touch-up run)."""
     from ..ops import two_bone_ik
 
-    P, G = motion.fk()
+    P, G = fk(motion)
     pts = foot_points(P, G, plants)
-    lv = np.asarray(plants.levels, float)
-    has = np.isfinite(lv).any(axis=0)                               # a point never planted: its lowest height
-    rest = np.nanmin(reference_points[..., 1], axis=0)
-    rest[has] = np.nanmedian(lv[:, has], axis=0)
+    rest = resting_levels(plants, reference_points) if rest is None else rest
     floor = np.where(touching, reference_points[..., 1], np.minimum(rest[None], reference_points[..., 1]))
     deficit = np.clip(floor - pts[..., 1], 0.0, None)              # (T, 4) m
     rot = None
@@ -140,6 +150,7 @@ def lift_feet(motion, plants, reference_points: np.ndarray, touching: np.ndarray
 def _flight_records(body, motion, flights, g: float) -> list:
     if not flights:
         return []
+    fk(motion)
     com = center_of_mass(body, motion)
     L = np.linalg.norm(momentum(body, motion).angular, axis=1)
     return [{"frames": [a, b], "com_residual_m": com_residual(com, a, b, motion.fps, g),
@@ -173,6 +184,7 @@ def touchup(motion, body=None, schedule=None, *, contacts=None, iterations: int 
                                                                                              iterations)
     if iterations is not None and isinstance(schedule, (list, tuple)):
         steps = tuple(replace(s, iterations=int(iterations)) for s in steps)
+    fk(motion)                                     # compiled, cached: the callees find it
     st = stages(motion, contacts)
     mask = st.polygon_mask(polygon)
     ground_y = floor_levels(st.plants.levels, float(np.nanmin(st.plants.levels)))
@@ -189,14 +201,16 @@ def touchup(motion, body=None, schedule=None, *, contacts=None, iterations: int 
         in_air[max(a - 1, 0):b + 1] = 1.0
 
     cache: dict = {}
+    chains = SegmentChains(body, motion.skeleton)
+    rest = resting_levels(st.plants, st.contact_points)
 
     def zstate(cur):
         """The ZMP state of ``cur``, computed once per motion (the record of an iteration is the
         state the next iteration adjusts from)."""
         if cache.get("motion") is not cur:
-            P, G = cur.fk()
+            P, G = fk(cur)
             cache["motion"], cache["z"] = cur, zmp_state(body, cur, foot_points(P, G, st.plants), mask, ground_y,
-                                                         smooth_sigma=smooth_sigma, g=g)
+                                                         smooth_sigma=smooth_sigma, g=g, chains=chains)
         return cache["z"]
 
     def measure(cur, with_flights: bool = True) -> dict:
@@ -229,18 +243,21 @@ def touchup(motion, body=None, schedule=None, *, contacts=None, iterations: int 
             clamped.setdefault(k, []).extend(np.flatnonzero(adj.clamped).tolist())
             capped.setdefault(k, []).extend(np.flatnonzero(adj.capped).tolist())
         else:
+            fk(cur)
             mom = flight_momentum_adjustment(body, cur, ls, flights, neighbourhood=nb)
             cur = cur.replace_trusted(mom.root_positions, mom.rotations)
+            fk(cur)
             adj = flight_com_adjustment(body, cur, ls, flights, center_of_mass(body, cur), neighbourhood=nb, g=g)
         # local rotations of rigid turns of unit quaternions: unit to rounding
         return cur.replace_trusted(adj.root_positions, adj.rotations)
 
     def hold(mm):
+        fk(mm)
         return DisplacementMap.between(mm, enforce_footplants(mm, st.plants, audit=False, passes=1).motion)
 
     def post(cur):
         prev = state["prev"]
-        moved = np.linalg.norm(cur.fk()[0][:, feet] - prev.fk()[0][:, feet], axis=-1).max(initial=0.0)
+        moved = np.linalg.norm(fk(cur)[0][:, feet] - fk(prev)[0][:, feet], axis=-1).max(initial=0.0)
         if footplants and moved > 1e-6:
             # hold the feet against what this step moved, not against the plants' ideal: the IK
             # correction of the input (its own slides; computed once) is taken off, so touch-up
@@ -254,7 +271,7 @@ def touchup(motion, body=None, schedule=None, *, contacts=None, iterations: int 
             # the plants' fade-out must not reach into a flight (its COM is on the parabola)
             cur = apply_displacement(cur, DisplacementMap.between(cur, held).weighted(1.0 - in_air)) if flights \
                 else held
-            cur, up = lift_feet(cur, st.plants, st.contact_points, st.touching)
+            cur, up = lift_feet(cur, st.plants, st.contact_points, st.touching, rest=rest)
             for side, fr in up.items():
                 lifted.setdefault(side, set()).update(fr)
         k = state["k"]

@@ -16,10 +16,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..audit.thresholds import AuditThresholds
-from ..audit.zmp import smoothed_segment_positions
 from ..dynamics.constants import G_STANDARD
 from ..dynamics.derivatives import second_difference
 from ..dynamics.zmp import nearest_on_polygon, support_polygon_distance, zmp_of_point_masses
+from ._fast import SegmentChains
 
 __all__ = ["ZmpState", "zmp_state", "project_to_polygon", "DEFAULT_SMOOTH_SIGMA", "floor_levels", "MIN_SUPPORT"]
 
@@ -82,16 +82,19 @@ def floor_levels(levels: np.ndarray, default: float) -> np.ndarray:
 
 
 def zmp_state(body, motion, contact_points: np.ndarray, contact_mask: np.ndarray, ground_y: float, *,
-              smooth_sigma: float | None = DEFAULT_SMOOTH_SIGMA, g: float = G_STANDARD) -> ZmpState:
+              smooth_sigma: float | None = DEFAULT_SMOOTH_SIGMA, g: float = G_STANDARD, chains=None) -> ZmpState:
     """Eq. 4 of ``motion`` with ``body``'s masses; support polygons from ``contact_points``
     ``(T, K, 3)`` where ``contact_mask`` ``(T, K)``; the floor at ``ground_y`` (m, a number or
     ``(T,)`` per frame: on a slope, eq. 4's plane ``y = y0`` is the support level of the frame's
-    planted points, :func:`floor_levels`)."""
+    planted points, :func:`floor_levels`). ``chains``: the body's
+    :class:`~mocomp.touchup._fast.SegmentChains` when the caller has it (a touch-up run: made once)."""
     if smooth_sigma is not None and not (np.isfinite(smooth_sigma) and smooth_sigma >= 0):
         raise ValueError(f"smooth_sigma must be 0 or more frames, got {smooth_sigma!r}")
     if motion.n_frames < 3:
         raise ValueError("the ZMP needs accelerations: at least 3 frames")
-    r = smoothed_segment_positions(body, motion, smooth_sigma or None)
+    if chains is None:
+        chains = SegmentChains(body, motion.skeleton)
+    r = chains.positions(motion, smooth_sigma or None)
     a = second_difference(r, motion.times)
     y0 = np.broadcast_to(np.asarray(ground_y, float), (motion.n_frames,))
     shift = np.zeros((motion.n_frames, 1, 3))

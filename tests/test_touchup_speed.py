@@ -1,0 +1,86 @@
+"""Touch-up's compiled hot paths (mocomp.touchup._fast, issue 16's speed goal) against the numpy code
+they replace: the same touched-up motions on the paper's examples, to rounding."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mocomp.audit import default_body
+from mocomp.audit.zmp import smoothed_segment_positions
+from mocomp.ops.synthetic import synthetic_walk
+from mocomp.touchup import _fast, link_sets, touchup
+from mocomp.touchup.examples import PAPER_TIMINGS, paper_examples
+from mocomp.touchup.ground import rotation_centres
+from mocomp.touchup.linksets import local_from_global, rotate_sets
+
+pytestmark = pytest.mark.skipif(not _fast.COMPILED, reason="numba switched off: nothing compiled to compare")
+
+
+def _quat_close(a, b):
+    """Largest component difference of two quaternion arrays, sign-blind."""
+    return float(np.minimum(np.abs(a - b).max(axis=-1), np.abs(a + b).max(axis=-1)).max())
+
+
+@pytest.fixture(scope="module")
+def walk():
+    m = synthetic_walk(duration=2.0, fps=30.0).motion
+    return m, default_body(m)
+
+
+def test_fk_fills_the_cache_with_core_fk_bit_for_bit(walk):
+    m, _ = walk
+    fresh = m.replace_trusted(m.root_positions, m.rotations)
+    P, G = _fast.fk(fresh)
+    P0, G0 = m.replace_trusted(m.root_positions, m.rotations).fk()      # the numpy FK
+    assert np.array_equal(P, P0) and np.array_equal(G, G0)
+    assert fresh.fk()[0] is P                                          # cached: callees find it
+
+
+def test_segment_chains_equal_the_audits_smoothed_segment_positions(walk):
+    m, body = walk
+    ch = _fast.SegmentChains(body, m.skeleton)
+    for sigma in (None, 2.0):
+        assert np.abs(ch.positions(m, sigma) - smoothed_segment_positions(body, m, sigma)).max() < 1e-12
+
+
+@pytest.mark.parametrize("s1,s2,s3,fallback", [("lower", "upper", (), False), ((), "lower", "upper", True),
+                                               ("rest", "arms", (), False)])
+def test_turn_sets_equals_rotate_sets_then_local_rotations(walk, s1, s2, s3, fallback):
+    m, body = walk
+    ls = link_sets(body, s1, s2, s3)
+    P, G = m.fk()
+    rng = np.random.default_rng(3)
+    rv = rng.normal(scale=0.3, size=(m.n_frames, 3))
+    rv[::7] = 0.0                                                      # the identity turn too
+    C = rotation_centres(P, ls, P[:, 5] + 0.1 if fallback else None)
+    root, local = _fast.turn_sets(P, G, ls, rv, C)
+    from scipy.spatial.transform import Rotation
+
+    Pn, Gn = rotate_sets(P, G, ls, Rotation.from_rotvec(rv).as_matrix(), C)
+    assert np.abs(root - Pn[:, 0]).max() < 1e-12
+    assert _quat_close(local, local_from_global(Gn, ls.parents)) < 1e-12
+    # the turn really moved S2: the numbers compared are not all the input's
+    assert _quat_close(local, m.rotations) > 0.05
+
+
+def test_touchup_compiled_equals_numpy_on_the_paper_examples(monkeypatch):
+    """Every example the data allow (synthetic curved walk and uphill without MOCOMP_DATA_DIR),
+    cut to the paper's frame counts with its schedule: the touched-up motion, the per-iteration
+    ZMP record and the reported frame lists agree with the numpy path to 1e-9 m / 1e-9."""
+    for name, e in paper_examples().items():
+        m = e.motion.slice(0, min(PAPER_TIMINGS[name][0], e.motion.n_frames))
+        body = default_body(m)
+        fast = touchup(m, body, e.schedule)
+        monkeypatch.setattr(_fast, "COMPILED", False)
+        ref = touchup(m, body, e.schedule)
+        monkeypatch.setattr(_fast, "COMPILED", True)
+        assert np.abs(fast.motion.root_positions - ref.motion.root_positions).max() < 1e-9, name
+        assert _quat_close(fast.motion.rotations, ref.motion.rotations) < 1e-9, name
+        # touch-up did something on these edited inputs
+        assert _quat_close(fast.motion.rotations, m.rotations) > 1e-3, name
+        assert len(fast.history) == len(ref.history) > 0
+        for h, r in zip(fast.history, ref.history):
+            assert abs(h["mean_outside_m"] - r["mean_outside_m"]) < 1e-9, (name, h["step"], h["iteration"])
+            assert h["frames_outside"] == r["frames_outside"]
+        assert fast.clamped == ref.clamped and fast.capped == ref.capped and fast.lifted == ref.lifted
+        np.testing.assert_allclose(fast.distance_after, ref.distance_after, atol=1e-9, rtol=0)
