@@ -104,6 +104,9 @@ def _maybe_crash(path: Path) -> None:
     if path.name in names:
         import faulthandler
 
+        with open(path, "rb") as f:  # a reader that reads, then crashes
+            f.read(1 << 16)
+        time.sleep(0.5)
         faulthandler.disable()
         faulthandler._sigsegv()  # a real SIGSEGV, as from a reader's C extension
 

@@ -180,6 +180,15 @@ def _write_table(df: pd.DataFrame, out: Path) -> None:
         os.replace(tmp, out / name)
 
 
+def _warm_up() -> None:
+    """Import the commands on a worker, so that no clip's time holds the imports. (Not a worker
+    plugin: a plugin's setup runs while a restarted worker starts, and a clip that crashes that
+    worker then, while its nanny is still starting it, leaves the nanny without restarting it.)"""
+    from ..cli import build_parser
+
+    build_parser()
+
+
 def _completed(task: ClipTask) -> bool:
     """Whether ``task``'s clip folder is complete, written by this run."""
     row = read_row(Path(task.out_dir))
@@ -252,9 +261,7 @@ def run_batch(command: str, source, out_dir, options=(), *, workers: int | None 
         try:
             with cm as c:
                 res.workers = sum(c.nthreads().values())
-                from .warmup import WarmUp
-
-                c.register_plugin(WarmUp())
+                c.run(_warm_up)  # imports on every worker before the first clip (a restarted worker: in its first)
                 for o in map_items(run_clip, tasks, client=c, name=f"batch-{command}", fetch=False,
                                    done=_completed, stall_seconds=120.0):
                     task = o.item
