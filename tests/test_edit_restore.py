@@ -404,7 +404,9 @@ def test_foot_slide_of_the_upright_recovery_is_reported_beside_the_captures_own(
     own = stance_slide(pos, _contact_weights(pos[..., 1], (0.05, 0.12)))
     assert res.foot_slide_own == pytest.approx(own, abs=1e-12)
     assert own > 0.05
-    assert res.foot_slide < own + 0.06
+    # +0.075: since flips.takeoff leaves the legs of the landing repair's still-airborne frames unbent
+    # (moving rigidly with the root, horizontally too) the crude measure counts 1.2 cm more on 90_08
+    assert res.foot_slide < own + 0.075
 
     def slide(m):
         return next(x.value for x in audit(m).measures() if x.key == "max_foot_slide_m")

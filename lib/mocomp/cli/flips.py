@@ -36,6 +36,12 @@ def register(subparsers) -> None:
                         "leg IK, vertical ground force within 0.1-8 body weights, knees no tighter than the clip's "
                         "tuck) so the centre of mass reaches the new flight's velocity without a jump; refused with "
                         "the frames and the force needed when the stance cannot do it")
+    p.add_argument("--landing", choices=("auto", "as-is"), default="auto",
+                   help="auto (default, beyond the paper): when the input flight is not ballistic (a DeepMimic "
+                        "clip's take-off velocity differs from its ballistic fit's), the landing stance is decelerated "
+                        "smoothly from the new flight's arrival velocity, feet held by leg IK, keeping the input's own "
+                        "landing impact (as mocomp edit --landing auto); as-is: the paper's (the stance retimed and "
+                        "moved rigidly). Not used with --takeoff repair, which repairs the landing itself")
     add_gravity_arg(p)
     p.add_argument("-o", "--output", required=True, metavar="OUT.bvh", help="where to write the new motion (BVH)")
     p.add_argument("--report", metavar="report.json", help="also write the physics report as JSON")
@@ -109,7 +115,7 @@ def _run(args: argparse.Namespace) -> int:
     check_flight(prep, args, "flips", fps_hint="--fix-timing, or --fps F")
     res = multiflip(prep, flips=args.flips, k=args.k, k_ratio=args.k_ratio, height_change=args.height_change,
                     takeoff_height_change=args.takeoff_height_change, seam_retime=not args.no_seam_retime,
-                    gravity=args.gravity, takeoff=args.takeoff)
+                    gravity=args.gravity, takeoff=args.takeoff, landing=args.landing)
     out = write_bvh(res.motion, args.output)
     print(prep.summary())
     print("planned (the method's model values; the audit line at the end measures the frames written):")
