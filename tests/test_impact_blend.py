@@ -112,3 +112,17 @@ def test_attacker_follows_the_simulation_then_returns_to_its_clip(walk):
     dr, _ = frame_steps(out)
     d0 = np.linalg.norm(sim.root_positions[nf] - walk.root_positions[rewind + nf])
     assert dr[rewind + nf:after].max() <= np.abs(np.diff(walk.root_positions[:, 0])).max() + d0 / 2 + 1e-9
+
+
+def test_floor_lift_leaves_frames_before_start_alone_and_eases_in(walk):
+    low0 = np.minimum(walk.positions[..., 1].min(axis=1), walk.end_site_positions()[..., 1].min(axis=1))
+    floor = float(low0.min())
+    sink = np.zeros(walk.n_frames)
+    sink[25:31] = 0.15
+    sunk = walk.replace(root_positions=walk.root_positions - sink[:, None] * np.array([0, 1, 0]))
+    out, lift = floor_lift(sunk, floor, tolerance=0.005, start=20, ramp_frames=5)
+    assert np.all(lift[:20] == 0)
+    np.testing.assert_allclose(out.root_positions[:20], sunk.root_positions[:20])
+    low = np.minimum(out.positions[..., 1].min(axis=1), out.end_site_positions()[..., 1].min(axis=1))
+    assert np.all(low[20:] >= floor - 0.005 - 1e-9)
+    assert np.all(np.diff(lift[20:26]) >= -1e-12)          # eased in, not a step at the start

@@ -104,7 +104,8 @@ def run(args) -> int:
     ru = s.runner_up
     print(f"search: {Path(s.clip).name} frame {s.frame} (distance {s.distance:.3f})"
           + (f", runner-up {Path(ru.clip).name} frame {ru.frame} ({ru.distance:.3f})" if ru is not None else "")
-          + f"; frames compared {s.stats.get('frames_compared')} of {s.stats.get('frames_exhaustive')} (exhaustive)")
+          + f"; {r.evidence['search']['query_windows']} query window(s) (match times); frame pairs compared "
+            f"{r.evidence['search']['frames_compared']} of {r.evidence['search']['frames_exhaustive']} (exhaustive)")
     ba, bn = r.blend_active, r.blend_naive
     print(f"final-blend correction (planned): root {ba.root_error_m:.3f} m, joints {ba.joint_error_deg:.1f} deg at "
           f"re-entry from the active simulation" + (f"; from the naive one {bn.root_error_m:.3f} m, "

@@ -103,11 +103,13 @@ def frame_steps(motion: Motion) -> tuple[np.ndarray, np.ndarray]:
 
 
 def floor_lift(motion: Motion, floor_y: float, *, smooth_frames: float = 2.0,
-               tolerance: float = 0.005) -> tuple[Motion, np.ndarray]:
+               tolerance: float = 0.005, start: int = 0, ramp_frames: int = 0) -> tuple[Motion, np.ndarray]:
     """``(motion, lift (T,))``: the root raised per frame so that no joint or end site is more than
     ``tolerance`` (m) below ``floor_y`` (m), the lift smoothed in time (a running maximum over ``3 * smooth_frames`` frames each
     side, then a Gaussian of ``smooth_frames``: never less than what a frame needs, no jumps).
-    Frames that need nothing keep a zero lift unless within the smoothing of one that does."""
+    Frames that need nothing keep a zero lift unless within the smoothing of one that does.
+    ``start``: frames before it are never lifted (the input clip before the impact); the lift then
+    eases in over ``ramp_frames`` frames from ``start`` (never below what a frame needs)."""
     P = motion.positions
     ends = motion.end_site_positions()
     low = P[..., 1].min(axis=1)
@@ -118,7 +120,14 @@ def floor_lift(motion: Motion, floor_y: float, *, smooth_frames: float = 2.0,
         return motion, np.zeros(motion.n_frames)
     r = int(np.ceil(3 * smooth_frames))
     lift = gaussian_filter1d(maximum_filter1d(need, 2 * r + 1, mode="nearest"), smooth_frames, mode="nearest")
-    lift = np.maximum(lift, need)
+    if start > 0 or ramp_frames > 0:
+        from ..ops import ease
+
+        k = np.arange(motion.n_frames) - start
+        w = ease(np.clip(k / max(ramp_frames, 1), 0.0, 1.0), "smoothstep") if ramp_frames > 0 else (k >= 0) * 1.0
+        w[k < 0] = 0.0
+        lift = lift * w
+    lift = np.maximum(lift, need if start <= 0 else np.where(np.arange(motion.n_frames) >= start, need, 0.0))
     lift[lift < 1e-6] = 0.0
     rp = np.array(motion.root_positions)
     rp[:, 1] += lift

@@ -345,8 +345,10 @@ def impact_response(attacker: Motion, victim: Motion, index, scenario: Scenario 
     evidence["continuity"] = _continuity(out, clip_steps, re_frame, fc.rewind_frame, frame_steps)
     floor_y = _floor_level(placed.slice(0, max(fc.rewind_frame + 1, 2)))
     lift = np.zeros(out.n_frames)
+    # the input before the rewind frame is left as it is; the lift eases in over the simulated segment
+    lift_kw = dict(tolerance=0.002, start=fc.rewind_frame, ramp_frames=max(reentry, 1))
     if config.lift:
-        out, lift = floor_lift(out, floor_y, tolerance=0.002)
+        out, lift = floor_lift(out, floor_y, **lift_kw)
     if config.plant:
         from ..ops import NoContactError
 
@@ -361,7 +363,7 @@ def impact_response(attacker: Motion, victim: Motion, index, scenario: Scenario 
     if config.lift:
         # the plants set planted heights on their support level, which can sink a few mm below the floor
         # again: a second, vertical-only lift (the plants stay put in the ground plane)
-        out, lift2 = floor_lift(out, floor_y, tolerance=0.002)
+        out, lift2 = floor_lift(out, floor_y, **lift_kw)
         lift = lift + lift2
         evidence["floor_lift"] = {"floor_y_m": floor_y, "frames_lifted": int((lift > 0).sum()),
                                   "max_lift_m": float(lift.max()), "lift_at_reentry_m": float(lift[re_frame]),

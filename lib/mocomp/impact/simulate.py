@@ -40,12 +40,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.motion import Motion, slerp
-from ..core.rotations import quat_apply, quat_inverse, quat_multiply
-from .convert import frames_to_motion, motion_state, qpos_to_pose, to_wxyz, to_xyzw
+from .convert import frames_to_motion, motion_state, qpos_to_pose, to_wxyz
 from .scene import FRICTION_ACTIVE, FRICTION_NAIVE, ImpactError, Scene
 
 __all__ = ["ServoGains", "FirstContact", "PassResult", "find_first_contact", "simulate", "clip_targets",
-           "blend_targets", "ease_in_out", "on_ground"]
+           "blend_targets", "ease_in_out", "on_ground", "naive_targets", "FRICTION_NAIVE", "FRICTION_ACTIVE"]
 
 
 @dataclass(frozen=True)
@@ -61,8 +60,8 @@ class ServoGains:
 
     kp: float = 1.0
     kv: float = 2.0
-    omega_victim: float = 20.0
-    omega_attacker: float = 40.0
+    omega_victim: float = 50.0
+    omega_attacker: float = 60.0
     control_every: int = 4
 
 
@@ -424,5 +423,3 @@ def naive_targets(victim: Motion, t0: float, t_end: float) -> np.ndarray:
     K = int(np.floor((t_end - t0) * victim.fps + 1e-9)) + 1
     return clip_targets(victim, t0 + np.arange(K) / victim.fps)
 
-
-__all__ += ["naive_targets", "FRICTION_NAIVE", "FRICTION_ACTIVE"]

@@ -100,7 +100,10 @@ def plot_waist_height(result, ax=None, joint: str | None = None):
     ax.plot(t[re:], y[re:], color="tab:blue", lw=2, label="mocap after (found clip)")
     tf = (rw + np.arange(result.found.n_frames)) / fps
     ax.plot(tf, result.found.positions[:, j, 1], color="tab:blue", lw=1, ls=":", label="found clip (aligned)")
-    for k, name in ((fr["impact"], "impact"), (fr["window_start"], "window start"), (re, "re-entry")):
+    marks = [(fr["impact"], "impact"), (re, "re-entry")]
+    if fr["window_start"] != re:
+        marks.insert(1, (fr["window_start"], "window start"))
+    for k, name in marks:
         ax.axvline(k / fps, color="0.7", lw=0.8)
         ax.text(k / fps, ax.get_ylim()[1], name, fontsize=7, rotation=90, va="top", ha="right")
     ax.set_xlabel("time (s)")
