@@ -7,6 +7,7 @@ import pytest
 
 from mocomp.audit import default_body
 from mocomp.audit.zmp import smoothed_segment_positions
+from mocomp.dynamics.derivatives import second_difference
 from mocomp.ops.synthetic import synthetic_walk
 from mocomp.touchup import _fast, link_sets, touchup
 from mocomp.touchup.examples import PAPER_TIMINGS, paper_examples
@@ -39,8 +40,13 @@ def test_fk_fills_the_cache_with_core_fk_bit_for_bit(walk):
 def test_segment_chains_equal_the_audits_smoothed_segment_positions(walk):
     m, body = walk
     ch = _fast.SegmentChains(body, m.skeleton)
-    for sigma in (None, 2.0):
-        assert np.abs(ch.positions(m, sigma) - smoothed_segment_positions(body, m, sigma)).max() < 1e-12
+    for sigma in (None, 2.0, 40.0):                 # 40: the Gaussian reaches past both ends
+        r0 = smoothed_segment_positions(body, m, sigma)
+        assert np.abs(ch.positions(m, sigma) - r0).max() < 1e-12
+        r, a = ch.positions_and_accelerations(m, sigma)
+        assert np.abs(r - r0).max() < 1e-12
+        a0 = second_difference(r0, m.times)
+        assert np.abs(a - a0).max() < 1e-9 and np.abs(a0).max() > 1.0      # m/s^2; a walk accelerates
 
 
 @pytest.mark.parametrize("s1,s2,s3,fallback", [("lower", "upper", (), False), ((), "lower", "upper", True),

@@ -26,11 +26,22 @@ from ..dynamics.derivatives import gaussian_smooth
 COMPILED = os.environ.get("MOCOMP_NO_NUMBA", "").strip() in ("", "0")
 if COMPILED:
     try:
-        from ..edit._kernels import motion_fk
+        from ..edit._kernels import forward_kinematics as fk_nb, motion_fk
     except Exception:                                   # pragma: no cover - numba missing or broken
         COMPILED = False
+if COMPILED:
+    import numba
 
-__all__ = ["COMPILED", "fk", "SegmentChains"]
+__all__ = ["COMPILED", "fk", "SegmentChains", "turn_sets", "gaussian_weights"]
+
+
+def gaussian_weights(sigma: float, truncate: float = 4.0) -> np.ndarray:
+    """The weights :func:`scipy.ndimage.gaussian_filter1d` correlates with (radius
+    ``int(truncate * sigma + 0.5)``, normalised to sum 1; symmetric)."""
+    radius = int(truncate * float(sigma) + 0.5)
+    x = np.arange(-radius, radius + 1)
+    phi = np.exp(-0.5 / (float(sigma) * float(sigma)) * x ** 2)
+    return phi / phi.sum()
 
 
 def fk(motion):
@@ -38,6 +49,113 @@ def fk(motion):
     if COMPILED:
         return motion_fk(motion)
     return motion.fk()
+
+
+if COMPILED:
+    @numba.njit(cache=True, nogil=True)
+    def _correlate_nearest(x, w, out):
+        """``out[i] = sum_k w[k] x[clip(i + k - r)]`` for symmetric ``w`` (radius ``r``), in the
+        order of scipy's ``correlate1d`` for symmetric weights: ``x_i w_0 + sum_{j=r..1} (x_{i-j} +
+        x_{i+j}) w_j``, the samples beyond the ends the end values (``mode="nearest"``)."""
+        T = x.shape[0]
+        r = (w.shape[0] - 1) // 2
+        for i in range(T):
+            acc = x[i] * w[r]
+            for j in range(r, 0, -1):
+                lo = i - j
+                hi = i + j
+                if lo < 0:
+                    lo = 0
+                if hi > T - 1:
+                    hi = T - 1
+                acc += (x[lo] + x[hi]) * w[r + j]
+            out[i] = acc
+
+    @numba.njit(cache=True, nogil=True)
+    def _central(x, t, out):
+        """``np.gradient(x, t, axis=0, edge_order=1)`` of ``(T, S, 3)`` (numpy's non-uniform formula)."""
+        T = x.shape[0]
+        for s in range(x.shape[1]):
+            for k in range(3):
+                out[0, s, k] = (x[1, s, k] - x[0, s, k]) / (t[1] - t[0])
+                out[T - 1, s, k] = (x[T - 1, s, k] - x[T - 2, s, k]) / (t[T - 1] - t[T - 2])
+        for i in range(1, T - 1):
+            dx1 = t[i] - t[i - 1]
+            dx2 = t[i + 1] - t[i]
+            a = -(dx2) / (dx1 * (dx1 + dx2))
+            b = (dx2 - dx1) / (dx1 * dx2)
+            c = dx1 / (dx2 * (dx1 + dx2))
+            for s in range(x.shape[1]):
+                for k in range(3):
+                    out[i, s, k] = a * x[i - 1, s, k] + b * x[i, s, k] + c * x[i + 1, s, k]
+
+    @numba.njit(cache=True, nogil=True)
+    def _zmp_inputs_nb(root, rot, parents, offsets, seg, local_coms, w, t):
+        """Segment COMs ``(T, S, 3)`` of the Gaussian-smoothed chains (``w``: the weights; one
+        weight: no smoothing) and their second central difference on the times ``t``."""
+        T = rot.shape[0]
+        J = rot.shape[1]
+        smooth = w.shape[0] > 1
+        q = np.empty((T, J, 4))
+        line = np.empty(T)
+        out = np.empty(T)
+        for j in range(J):                       # hemisphere-continuous, then filtered, per joint
+            sign = 1.0
+            for f in range(T):
+                if f > 0:
+                    d = (rot[f, j, 0] * rot[f - 1, j, 0] + rot[f, j, 1] * rot[f - 1, j, 1]
+                         + rot[f, j, 2] * rot[f - 1, j, 2] + rot[f, j, 3] * rot[f - 1, j, 3])
+                    if d < 0.0:
+                        sign = -sign
+                for k in range(4):
+                    q[f, j, k] = rot[f, j, k] * sign
+            if smooth:
+                for k in range(4):
+                    for f in range(T):
+                        line[f] = q[f, j, k]
+                    _correlate_nearest(line, w, out)
+                    for f in range(T):
+                        q[f, j, k] = out[f]
+                for f in range(T):
+                    n = np.sqrt(q[f, j, 0] * q[f, j, 0] + q[f, j, 1] * q[f, j, 1] + q[f, j, 2] * q[f, j, 2]
+                                + q[f, j, 3] * q[f, j, 3])
+                    for k in range(4):
+                        q[f, j, k] /= n
+        rp = np.empty((T, 3))
+        for k in range(3):
+            if smooth:
+                for f in range(T):
+                    line[f] = root[f, k]
+                _correlate_nearest(line, w, out)
+                for f in range(T):
+                    rp[f, k] = out[f]
+            else:
+                for f in range(T):
+                    rp[f, k] = root[f, k]
+        P, G = fk_nb(parents, offsets, rp, q)
+        S = seg.shape[0]
+        r = np.empty((T, S, 3))
+        for f in range(T):
+            for s in range(S):
+                j = seg[s]
+                ux = G[f, j, 0]
+                uy = G[f, j, 1]
+                uz = G[f, j, 2]
+                ww = G[f, j, 3]
+                vx = local_coms[s, 0]
+                vy = local_coms[s, 1]
+                vz = local_coms[s, 2]
+                tx = 2.0 * (uy * vz - uz * vy)
+                ty = 2.0 * (uz * vx - ux * vz)
+                tz = 2.0 * (ux * vy - uy * vx)
+                r[f, s, 0] = P[f, j, 0] + (vx + ww * tx + (uy * tz - uz * ty))
+                r[f, s, 1] = P[f, j, 1] + (vy + ww * ty + (uz * tx - ux * tz))
+                r[f, s, 2] = P[f, j, 2] + (vz + ww * tz + (ux * ty - uy * tx))
+        v = np.empty_like(r)
+        a = np.empty_like(r)
+        _central(r, t, v)
+        _central(v, t, a)
+        return r, a
 
 
 class SegmentChains:
@@ -58,14 +176,29 @@ class SegmentChains:
         self.seg = remap[np.asarray(body.segment_joint)]
         self.local_coms = np.asarray(body.local_coms, float)
 
+    def positions_and_accelerations(self, motion, sigma: float | None) -> tuple[np.ndarray, np.ndarray]:
+        """``(r, a)`` ``(T, S, 3)`` each: :meth:`positions` and their second central difference on
+        the frame times (:func:`mocomp.dynamics.derivatives.second_difference`, ``edge_order=1``).
+        Compiled: the hemisphere flips, the Gaussian (scipy's correlation order, ``mode="nearest"``),
+        the renormalisation, the chains' FK, the segment COMs and the differences in one call,
+        equal to the numpy path to rounding (~1e-15 m, ~1e-12 m/s^2)."""
+        if not COMPILED:
+            from ..dynamics.derivatives import second_difference
+
+            r = self.positions(motion, sigma)
+            return r, second_difference(r, motion.times)
+        w = gaussian_weights(sigma) if sigma else np.ones(1)
+        return _zmp_inputs_nb(np.ascontiguousarray(motion.root_positions, dtype=float),
+                              np.ascontiguousarray(motion.rotations[:, self.idx], dtype=float), self.parents,
+                              self.offsets, np.asarray(self.seg, np.int64), self.local_coms, w,
+                              np.ascontiguousarray(motion.times, dtype=float))
+
     def positions(self, motion, sigma: float | None) -> np.ndarray:
         """``(T, S, 3)`` m: the segment COMs of ``motion`` Gaussian-smoothed by ``sigma`` frames
         (:func:`mocomp.audit.zmp.smoothed_segment_positions`, the same arithmetic)."""
         root = gaussian_smooth(motion.root_positions, sigma, axis=0) if sigma else motion.root_positions
         rot = smooth_quaternions_fast(motion.rotations[:, self.idx], sigma) if sigma else motion.rotations[:, self.idx]
         if COMPILED:
-            from ..edit._kernels import forward_kinematics as fk_nb
-
             P, Gr = fk_nb(self.parents, self.offsets, np.ascontiguousarray(root, dtype=float),
                           np.ascontiguousarray(rot, dtype=float))
         else:
@@ -75,8 +208,6 @@ class SegmentChains:
 
 
 if COMPILED:
-    import numba
-
     @numba.njit(cache=True, nogil=True)
     def _turn_local_nb(P, G, parents, comp, root, rotvec, C):
         """Per frame: S2 turned by ``rotvec`` ``(T, 3)`` about its components' centres ``C``

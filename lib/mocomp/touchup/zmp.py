@@ -17,7 +17,6 @@ import numpy as np
 
 from ..audit.thresholds import AuditThresholds
 from ..dynamics.constants import G_STANDARD
-from ..dynamics.derivatives import second_difference
 from ..dynamics.zmp import nearest_on_polygon, support_polygon_distance, zmp_of_point_masses
 from ._fast import SegmentChains
 
@@ -94,8 +93,7 @@ def zmp_state(body, motion, contact_points: np.ndarray, contact_mask: np.ndarray
         raise ValueError("the ZMP needs accelerations: at least 3 frames")
     if chains is None:
         chains = SegmentChains(body, motion.skeleton)
-    r = chains.positions(motion, smooth_sigma or None)
-    a = second_difference(r, motion.times)
+    r, a = chains.positions_and_accelerations(motion, smooth_sigma or None)
     y0 = np.broadcast_to(np.asarray(ground_y, float), (motion.n_frames,))
     shift = np.zeros((motion.n_frames, 1, 3))
     shift[:, 0, 1] = y0
