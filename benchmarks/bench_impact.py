@@ -11,9 +11,10 @@ repair and attacker stages left out of the response. Goal (issue 18): **under 2 
 paper's "approximately one minute each (without graphics)" (sec. 4.4, 2007), quoted, not rerun.
 Without ``MOCOMP_DATA_DIR`` the row is skipped (the method needs the ASE clips and the library).
 
-Measured (2026-12-02, load ~12 on 2 cores, quick, 4 runs, the match time searched too: 8 query
-windows per response): median CPU 0.86 s (naive simulation 528 ms, search 29 ms, active simulation
-245 ms, blend 34 ms; targets 21 ms); median wall of the whole call 4.3 s at that load. Goal met.
+Measured (2026-12-02, load ~11 on 2 cores, quick, 4 runs, the match time searched too: 8 query
+windows per response; servos at 50/60 rad/s): median CPU 0.77 s (naive simulation 463 ms, search
+15 ms, active simulation 228 ms, blend 33 ms; targets 21 ms); median wall of the whole call 2.9 s at
+that load. Goal met.
 
 Search and index rows (the search half, :mod:`mocomp.impact.index` / :mod:`mocomp.impact.search`):
 
