@@ -360,3 +360,40 @@ def test_blend_with_a_given_ground_transform():
                                                            abs=1e-6)
     with pytest.raises(TypeError, match="GroundTransform"):
         blend(m, turned, (200, 150), 20, plant=False, transform=(0.1, (0, 0, 0), (0, 0, 0)))
+
+
+def test_plants_go_on_the_resting_level_not_on_a_sunk_frame():
+    """Three plants of one point resting at 2 cm, 3 cm and 2.5 cm above a detector level of 0 (the
+    1st percentile of a clip whose point sank through the floor elsewhere): with the resting levels
+    each plant's lowest frame goes on their median, 2.5 cm (the plants move by -0.5, +0.5 and 0 cm);
+    on the detector's level (ROBUST_LEVEL off) each would drop by 2-3 cm. Runs on another detector
+    level keep their own median."""
+    import dataclasses
+
+    import mocomp.ops.plants as pl
+    from mocomp.ops.plants import plant_targets
+
+    T = 60
+    lab = np.zeros((T, 4), bool)
+    runs = [(0, 10, 0.02), (20, 30, 0.03), (40, 50, 0.025)]
+    pts = np.zeros((T, 4, 3))
+    pts[:, :, 1] = 0.2
+    for a, b, y in runs:
+        lab[a:b, 0] = True
+        pts[a:b, 0, 1] = y + 0.001 * np.arange(b - a)          # the heel rolls up 1 mm a frame
+    lab[52:58, 2] = True                                       # another point on a box 0.3 m up
+    pts[52:58, 2, 1] = 0.31
+    lev = np.where(lab, 0.0, np.nan)
+    lev[52:58, 2] = 0.3
+    walk = synthetic_walk(duration=0.5, fps=120.0).motion
+    plants = dataclasses.replace(pl.foot_plants(walk), labels=lab, levels=lev)
+    y = plant_targets(pts, plants)[..., 1]
+    for a, b, _ in runs:
+        np.testing.assert_allclose(y[a:b, 0], 0.025 + 0.001 * np.arange(b - a), atol=1e-12)
+    np.testing.assert_allclose(y[52:58, 2], 0.31, atol=1e-12)
+    try:
+        pl.ROBUST_LEVEL = False
+        y0 = plant_targets(pts, plants)[..., 1]
+    finally:
+        pl.ROBUST_LEVEL = True
+    np.testing.assert_allclose(y0[20:30, 0], 0.001 * np.arange(10), atol=1e-12)

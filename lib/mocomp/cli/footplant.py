@@ -64,9 +64,8 @@ def register(sub) -> None:
                         "throughout, or unchanged")
     p.add_argument("--passes", type=int_in(1, 20), default=2, metavar="N",
                    help="enforcement passes: after each, the contact detector runs on the result and the frames it "
-                        "finds planted that were not held are added (default 2; more hold contacts the input's "
-                        "detection misses, at the cost of a detection and a partial re-solve per pass: CMU 131_01 "
-                        "1.76 -> 0.85 cm with 4)")
+                        "finds planted that were not held are added (default 2; each further pass costs a detection "
+                        "and a partial re-solve)")
     p.set_defaults(func=run)
 
 

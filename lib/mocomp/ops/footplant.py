@@ -61,6 +61,12 @@ UNREACHABLE_TOL = 1e-3
 #: run mean (:func:`bounded_foot_pitch`; shared by the two points: at most this much slide each);
 #: ``None`` leaves the input's pitch as it is
 PITCH_SLACK = 0.008
+#: :func:`bounded_foot_pitch` keeps the mismatch within :data:`PITCH_SLACK` of zero (``True``: the foot
+#: fits its two targets up to the slack, the rest of the misfit made heel height) or of its run mean
+#: (``False``, as before: a constant misfit -- the two targets' heights set apart from the foot's own
+#: pitch, as the resting levels of :func:`~mocomp.ops.plants.plant_targets` may -- stays, shared as a
+#: slide of both points along the foot; CMU 131_02: 1.5 cm at each point)
+PITCH_TO_ZERO = True
 #: fraction of the leg length over which the reach is softened (see :func:`_solve`)
 SOFT_REACH = 0.02
 #: weight of the knee's hinge axis (averaged over the clip in the thigh frame) against the leg's
@@ -243,7 +249,10 @@ def bounded_foot_pitch(targets: np.ndarray, pts: np.ndarray, plants: FootPlants,
     run, the horizontal mismatch ``h_target - h(t)`` is kept within ``slack`` of its run mean; the
     rest becomes height: the ankle point's target is lowered (or raised) to the pitch whose
     horizontal length fits (the heel rises less while the toe is planted, and the rest of its rise
-    after its plant ends, over the fade)."""
+    after its plant ends, over the fade). With :data:`PITCH_TO_ZERO` the mismatch is kept within
+    ``slack`` of zero instead of its run mean: a misfit constant over the run (the ankle point's and the
+    toe tip's targets put on resting levels that do not fit the foot's pitch) is turned into heel height
+    too rather than shared by the two points."""
     out = np.array(targets)
     for li in range(len(plants.legs)):
         ka, kt = 2 * li, 2 * li + 1
@@ -259,7 +268,7 @@ def bounded_foot_pitch(targets: np.ndarray, pts: np.ndarray, plants: FootPlants,
         h_t = _norm((out[sel, kt] - out[sel, ka])[:, [0, 2]])
         h = np.sqrt(np.maximum(L3 * L3 - dy * dy, 0.0))
         res = h_t - h
-        ref = (np.add.reduceat(res, first) / cnt)[rid]
+        ref = (np.add.reduceat(res, first) / cnt)[rid] if not PITCH_TO_ZERO else 0.0
         res_c = np.clip(res, ref - slack, ref + slack)
         change = res_c != res
         if not change.any():

@@ -9,8 +9,9 @@ slow), restricted to the feet: per leg the ankle point (``foot_l``/``foot_r``) a
 labels of its two inputs).
 
 A plant's target (:func:`plant_targets`) is the mean horizontal position of the point over its
-planted run, at the height of its support level (the detector's level for that effector, the
-floor it rests on), so a foot that slid is held where it was on average, on the floor.
+planted run, at the height of its support level (the height the point typically rests at on the
+detector's level for that effector, the floor it rests on), so a foot that slid is held where it
+was on average, on the floor.
 """
 from __future__ import annotations
 
@@ -266,9 +267,11 @@ def plant_targets(points: np.ndarray, plants: FootPlants, height: str = "level")
 
     Per planted run: the mean ``x``, ``z`` of the point over the run (``points (T, 4, 3)``, its
     world positions). ``y``: with ``height="level"`` (default) the point's own height shifted so
-    that its lowest height in the run lies on the support level (the heel still rolls up at the
-    end of a stance, on the floor); ``"hold"`` the support level on every frame (held still in 3-D);
-    ``"keep"`` its own height."""
+    that its lowest height in the run lies on the support level the point rests on (with
+    :data:`ROBUST_LEVEL`, the median of its runs' lowest heights on that detector level,
+    :func:`_resting_levels`; the heel still rolls up at the end of a stance, on the floor);
+    ``"hold"`` the detector's support level on every frame (held still in 3-D); ``"keep"`` its own
+    height."""
     if height not in HEIGHT_MODES:
         raise ValueError(f"height must be one of {', '.join(HEIGHT_MODES)}, got {height!r}")
     T = plants.n_frames
@@ -291,5 +294,28 @@ def plant_targets(points: np.ndarray, plants: FootPlants, height: str = "level")
             out[sel, k, 1] = y
         else:
             low = np.minimum.reduceat(y, first)
-            out[sel, k, 1] = y - low[rid] + plants.levels[sel, k]
+            out[sel, k, 1] = y - low[rid] + (_resting_levels(low, plants.levels[sel[first], k])[rid]
+                                             if ROBUST_LEVEL else plants.levels[sel, k])
+    return out
+
+
+#: ``plant_targets(height="level")``: each plant's lowest height goes on the median resting height of
+#: that point over its plants on the same support level (see :func:`_resting_levels`); ``False``: on the
+#: detector's level (the 1st percentile of the point's height over the clip)
+ROBUST_LEVEL = True
+
+
+def _resting_levels(low: np.ndarray, level: np.ndarray) -> np.ndarray:
+    """Per plant run of one point: the height its lowest frame is put on. ``low``: the runs' lowest
+    heights; ``level``: the detector's support level of each run. Runs on one support level (levels
+    within 1 mm) share the median of their lows: the height the point typically rests at on that floor.
+    The detector's level is the 1st percentile of the point's height over the clip, which a few frames
+    of the point sunk through the floor (raw CMU toes) pull centimetres below where it rests: putting
+    every plant there lowers most of them by centimetres, which the audit then finds as contacts the
+    input does not have (a lowered foot is still near the floor while the correction fades out)."""
+    out = np.array(level, dtype=float)
+    key = np.round(level, 3)
+    for v in np.unique(key[np.isfinite(key)]):
+        g = key == v
+        out[g] = np.median(low[g])
     return out
