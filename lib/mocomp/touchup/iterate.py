@@ -266,11 +266,11 @@ def touchup(motion, body=None, schedule=None, *, contacts=None, iterations: int 
             if "d_ref" not in cache:
                 cache["d_ref"] = hold(motion)
             d_cur, d_ref = hold(cur), cache["d_ref"]
-            held = apply_displacement(cur, DisplacementMap(d_cur.root - d_ref.root,
-                                                           d_cur.rotations - d_ref.rotations))
-            # the plants' fade-out must not reach into a flight (its COM is on the parabola)
-            cur = apply_displacement(cur, DisplacementMap.between(cur, held).weighted(1.0 - in_air)) if flights \
-                else held
+            hold_map = DisplacementMap(d_cur.root - d_ref.root, d_cur.rotations - d_ref.rotations)
+            # the plants' fade-out must not reach into a flight (its COM is on the parabola): the map
+            # weighted directly (the map from ``cur`` to ``cur`` held is this map again, to rounding,
+            # for turns below pi; the leg corrections are a few degrees)
+            cur = apply_displacement(cur, hold_map.weighted(1.0 - in_air) if flights else hold_map)
             cur, up = lift_feet(cur, st.plants, st.contact_points, st.touching, rest=rest)
             for side, fr in up.items():
                 lifted.setdefault(side, set()).update(fr)
