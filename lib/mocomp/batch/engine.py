@@ -34,6 +34,8 @@ __all__ = ["Outcome", "open_client", "map_items", "default_workers"]
 
 #: worker deaths a task may be involved in before Dask gives up on it (LocalCluster only)
 ALLOWED_FAILURES = 1
+#: seconds without any worker after which a local cluster's workers are replaced
+REVIVE_SECONDS = 15.0
 
 
 @dataclass
@@ -173,7 +175,7 @@ def _map_dask(func, items, client, name, fetch: bool, fetch_timeout: float, done
     t0 = time.perf_counter()
     pending = {f.key: f for f in client.map(func, items, key=keys, pure=False, retries=0)}
     index = {k: i for i, k in enumerate(keys)}
-    last_scan = last_worker = time.monotonic()
+    last_scan = last_worker = revived = time.monotonic()
 
     def outcome(fut) -> Outcome:
         i = index[fut.key]
@@ -220,7 +222,15 @@ def _map_dask(func, items, client, name, fetch: bool, fetch_timeout: float, done
                     yield Outcome(index[k], items[index[k]], "ok", seconds=time.perf_counter() - t0)
             if stall is not None and pending:
                 if client.scheduler_info().get("workers"):
-                    last_worker = now
+                    last_worker = revived = now
+                elif now - revived > REVIVE_SECONDS and getattr(client, "cluster", None) is not None:
+                    # a worker process that dies while its nanny is still starting it is not restarted by
+                    # the nanny (Dask 2026.8): replace the local cluster's workers
+                    revived = now
+                    cluster = client.cluster
+                    n = max(1, len(cluster.worker_spec))
+                    cluster.scale(0)
+                    cluster.scale(n)
                 elif now - last_worker > stall:
                     for k, fut in list(pending.items()):
                         fut.cancel()
