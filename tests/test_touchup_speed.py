@@ -90,3 +90,29 @@ def test_touchup_compiled_equals_numpy_on_the_paper_examples(monkeypatch):
             assert h["frames_outside"] == r["frames_outside"]
         assert fast.clamped == ref.clamped and fast.capped == ref.capped and fast.lifted == ref.lifted
         np.testing.assert_allclose(fast.distance_after, ref.distance_after, atol=1e-9, rtol=0)
+
+
+def test_polygon_distance_and_target_compiled_equal_the_dynamics_functions(monkeypatch):
+    """Random frames of 4 foot points with every mask (none, one point, two, collinear, a
+    quadrilateral), ZMPs inside, outside, on a vertex and undefined: the signed distance and eq. 7's
+    target agree with :func:`mocomp.dynamics.zmp.support_polygon_distance` / ``nearest_on_polygon``."""
+    rng = np.random.default_rng(7)
+    T = 600
+    pts = rng.normal(scale=0.15, size=(T, 4, 3))
+    pts[100:150, 2] = pts[100:150, 0] + 0.5 * (pts[100:150, 1] - pts[100:150, 0])   # collinear triples
+    pts[150:200, :, 2] = 0.3                                                        # all on a line z = 0.3
+    mask = rng.random((T, 4)) < 0.6
+    mask[:20] = False
+    zmp = np.column_stack([rng.normal(scale=0.2, size=T), np.zeros(T), rng.normal(scale=0.2, size=T)])
+    zmp[200:220, [0, 2]] = pts[200:220, 0][:, [0, 2]]                              # on a point
+    zmp[220:230] = np.nan                                                           # no ZMP
+    mask[300:400] = True
+    zmp[300:400] = pts[300:400].mean(axis=1)                                        # inside the quadrilateral
+    d, t = _fast.polygon_distance_and_target(zmp, pts, mask)
+    monkeypatch.setattr(_fast, "COMPILED", False)
+    d0, t0 = _fast.polygon_distance_and_target(zmp, pts, mask)
+    assert np.array_equal(np.isnan(d), np.isnan(d0)) and np.array_equal(np.isnan(t), np.isnan(t0))
+    assert np.nanmax(np.abs(d - d0)) < 1e-12 and np.nanmax(np.abs(t - t0)) < 1e-12
+    assert (d0 < 0).sum() > 50 and (d0 > 0).sum() > 50 and np.isnan(d0).sum() >= 30   # every case met
+    out = d0 > 0
+    assert np.abs(t[out] - zmp[out]).max() > 0.05                                    # targets moved

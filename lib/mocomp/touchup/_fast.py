@@ -32,7 +32,7 @@ if COMPILED:
 if COMPILED:
     import numba
 
-__all__ = ["COMPILED", "fk", "SegmentChains", "turn_sets", "gaussian_weights"]
+__all__ = ["COMPILED", "fk", "SegmentChains", "turn_sets", "gaussian_weights", "polygon_distance_and_target"]
 
 
 def gaussian_weights(sigma: float, truncate: float = 4.0) -> np.ndarray:
@@ -156,6 +156,138 @@ if COMPILED:
         _central(r, t, v)
         _central(v, t, a)
         return r, a
+
+
+if COMPILED:
+    @numba.njit(cache=True, nogil=True)
+    def _polygon_nb(p, pts, mask, rel_eps):
+        """Per frame the signed distance of ``p`` ``(T, 2)`` to the convex hull of the masked
+        ``pts`` ``(T, K, 2)`` and the nearest point of the segments between masked points: the
+        arithmetic of :func:`mocomp.dynamics.zmp._signed_distance_frames` and
+        :func:`mocomp.dynamics.zmp.nearest_on_polygon` (pairs in ``triu_indices`` order), one frame
+        at a time."""
+        T = p.shape[0]
+        K = pts.shape[1]
+        dist_out = np.full(T, np.nan)
+        near_out = np.full((T, 2), np.nan)
+        for f in range(T):
+            px = p[f, 0]
+            py = p[f, 1]
+            fin = np.isfinite(px) and np.isfinite(py)
+            anyk = False
+            lo0 = np.inf
+            lo1 = np.inf
+            hi0 = -np.inf
+            hi1 = -np.inf
+            for k in range(K):
+                if mask[f, k]:
+                    anyk = True
+                    lo0 = min(lo0, pts[f, k, 0])
+                    hi0 = max(hi0, pts[f, k, 0])
+                    lo1 = min(lo1, pts[f, k, 1])
+                    hi1 = max(hi1, pts[f, k, 1])
+            if not anyk:
+                continue
+            # the nearest point of the segments (nearest_on_polygon: NaN for a non-finite p)
+            best = np.inf
+            for i in range(K):
+                for j in range(i, K):
+                    if not (mask[f, i] and mask[f, j]):
+                        continue
+                    ax = pts[f, i, 0]
+                    ay = pts[f, i, 1]
+                    bx = pts[f, j, 0] - ax
+                    by = pts[f, j, 1] - ay
+                    den = bx * bx + by * by
+                    qx = px - ax
+                    qy = py - ay
+                    tt = 0.0
+                    if den > 0:
+                        tt = min(max((qx * bx + qy * by) / den, 0.0), 1.0)
+                    nx = ax + tt * bx
+                    ny = ay + tt * by
+                    ex = px - nx
+                    ey = py - ny
+                    d = np.sqrt(ex * ex + ey * ey)
+                    if np.isfinite(d) and d < best:
+                        best = d
+                        near_out[f, 0] = nx
+                        near_out[f, 1] = ny
+            if not fin:
+                continue
+            ext = max(hi0 - lo0, hi1 - lo1)
+            eps = rel_eps * ext ** 2
+            nonflat = False
+            inside = True
+            d_all = np.inf
+            d_edge = np.inf
+            for i in range(K):
+                for j in range(i, K):
+                    if not (mask[f, i] and mask[f, j]):
+                        continue
+                    ax = pts[f, i, 0]
+                    ay = pts[f, i, 1]
+                    bx = pts[f, j, 0] - ax
+                    by = pts[f, j, 1] - ay
+                    den = bx * bx + by * by
+                    qx = px - ax
+                    qy = py - ay
+                    tt = 0.0
+                    if den > 0:
+                        tt = min(max((qx * bx + qy * by) / den, 0.0), 1.0)
+                    ex = qx - tt * bx
+                    ey = qy - tt * by
+                    d = np.sqrt(ex * ex + ey * ey)
+                    pos = False
+                    neg = False
+                    for k in range(K):
+                        if mask[f, k]:
+                            cr = bx * (pts[f, k, 1] - ay) - by * (pts[f, k, 0] - ax)
+                            if cr > eps:
+                                pos = True
+                            elif cr < -eps:
+                                neg = True
+                    if pos or neg:
+                        nonflat = True
+                    if d < d_all:
+                        d_all = d
+                    if i < j and den > 0 and not (pos and neg):
+                        if d < d_edge:
+                            d_edge = d
+                        side = 1.0 if pos else -1.0
+                        if not ((bx * qy - by * qx) * side >= 0):
+                            inside = False
+            if (not nonflat) or eps == 0:
+                dist_out[f] = d_all
+            elif inside:
+                dist_out[f] = -d_edge
+            else:
+                dist_out[f] = d_edge
+        return dist_out, near_out
+
+
+def polygon_distance_and_target(zmp: np.ndarray, contact_points: np.ndarray, mask: np.ndarray):
+    """``(distance (T,), target (T, 3))``: the ZMP's signed distance to the support polygon
+    (:func:`mocomp.dynamics.zmp.support_polygon_distance`) and, where it is outside, its nearest
+    point of the polygon (:func:`mocomp.touchup.zmp.project_to_polygon`; the ZMP itself
+    elsewhere). Compiled: one pass per frame, the same arithmetic."""
+    from ..dynamics.zmp import nearest_on_polygon, support_polygon_distance
+
+    mask = np.asarray(mask, bool)
+    if COMPILED:
+        c = np.asarray(contact_points, float)
+        d, near = _polygon_nb(np.ascontiguousarray(zmp[:, [0, 2]], dtype=float),
+                              np.ascontiguousarray(c[..., [0, 2]]), np.ascontiguousarray(mask), 1e-10)
+    else:
+        d = support_polygon_distance(zmp, contact_points, mask)
+        near = None
+    tgt = np.array(zmp)
+    out = np.isfinite(d) & (np.nan_to_num(d) > 0)
+    if out.any():
+        pr = near[out] if near is not None else nearest_on_polygon(
+            zmp[out][:, [0, 2]], np.asarray(contact_points)[out][..., [0, 2]], mask[out])
+        tgt[out, 0], tgt[out, 2] = pr[:, 0], pr[:, 1]
+    return d, tgt
 
 
 class SegmentChains:

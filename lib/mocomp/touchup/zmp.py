@@ -17,8 +17,8 @@ import numpy as np
 
 from ..audit.thresholds import AuditThresholds
 from ..dynamics.constants import G_STANDARD
-from ..dynamics.zmp import nearest_on_polygon, support_polygon_distance, zmp_of_point_masses
-from ._fast import SegmentChains
+from ..dynamics.zmp import nearest_on_polygon, zmp_of_point_masses
+from ._fast import SegmentChains, polygon_distance_and_target
 
 __all__ = ["ZmpState", "zmp_state", "project_to_polygon", "DEFAULT_SMOOTH_SIGMA", "floor_levels", "MIN_SUPPORT"]
 
@@ -99,11 +99,5 @@ def zmp_state(body, motion, contact_points: np.ndarray, contact_mask: np.ndarray
     shift[:, 0, 1] = y0
     Z, _, _ = zmp_of_point_masses(body.masses, r - shift, a, 0.0, g, MIN_SUPPORT * body.total_mass * g)
     Z[:, 1] += y0
-    mask = np.asarray(contact_mask, bool)
-    d = support_polygon_distance(Z, contact_points, mask)
-    tgt = np.array(Z)
-    out = np.isfinite(d) & (np.nan_to_num(d) > 0)
-    if out.any():
-        pr = project_to_polygon(Z[out][:, [0, 2]], np.asarray(contact_points)[out][..., [0, 2]], mask[out])
-        tgt[out, 0], tgt[out, 2] = pr[:, 0], pr[:, 1]
+    d, tgt = polygon_distance_and_target(Z, contact_points, contact_mask)
     return ZmpState(r, a, Z, d, tgt, y0)
