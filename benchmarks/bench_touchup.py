@@ -16,21 +16,31 @@ Peer: the paper's own numbers (Shin, Kovar & Gleicher 2003, sec. 4: 0.108, 0.172
 on a 2.0 GHz Xeon), quoted, not rerun. The note gives the best CPU time of the process beside the
 runner's wall time: on the shared 2-core machine (load 8-10) the wall time is 3-5 times the CPU time.
 
-Measured (2026-12-02, load 8-10 on 2 cores, after the paper's 5 + 5 + 2 iterations were restored,
-so 12 ground iterations instead of 3), CPU best of 5 beside the paper: walk -> jog 98 frames
-0.13-0.17 s vs 0.108; curved walk 111 frames 0.128 s vs 0.172; uphill 166 frames 0.147 s vs 0.211;
-curved hop 91 frames at 120 Hz 0.196 s vs 0.14 (wall time 3-5x the CPU time at that load). Cut to
-98 frames the walk -> jog example ends before its blend window (frames 110-130): those 98 frames
-are walk only. The 10 ms goal is missed by more than 10x: every iteration runs forward kinematics
-twice (the motion and its smoothed copy for eq. 4), the eq. 6-7 solve and the map, and the steps
-that move the feet (the lower body in S2) a contact-free leg IK (:func:`mocomp.ops.enforce_footplants`,
-against the input's own correction computed once) and the legs' lift with their forward kinematics.
-The 10,000-frame row was not rerun after the iterations went from 3 to 12 (12.6 s before).
+Where the time goes (2026-12-02, after the compiled hot paths of :mod:`mocomp.touchup._fast`;
+CPU per run, best of 5 at load ~9 on 2 shared cores, walk -> jog 98 frames, 12 iterations, ~75 ms):
+``ops.enforce_footplants`` (the footplant hold after each step that moves the feet) ~34 %, the
+displacement maps of :func:`mocomp.ops.apply_hierarchy` and the hold (``DisplacementMap.between`` /
+``smoothed`` / ``apply_displacement``: quaternion log/exp and products through numpy) ~15 %,
+:func:`mocomp.touchup.lift_feet` (its :func:`mocomp.ops.two_bone_ik`) ~8 %, eq. 4 with the polygon
+(``zmp_state``, compiled) ~8 %, eq. 6-7 ~7 %, stages (contact detection, once) ~4 %, the rest Python
+glue. About 55 % of the time is in ``mocomp.ops``; on 10,000 frames the share is larger (the maps'
+Gaussian of width 40 paper frames = 160 frames at 120 Hz is a direct correlation, O(T * 1280)).
+
+Measured (2026-12-02, load 8-10 on 2 cores; the paper's 5 + 5 + 2 iterations), CPU best of 3-5,
+before -> after the compiled paths (same ops, outputs within 3e-13): walk -> jog 98 frames
+0.14 -> 0.08 s (paper 0.108); curved walk 111 frames 0.15 -> 0.08-0.10 s (0.172); uphill 166 frames
+0.17 -> 0.10-0.13 s (0.211); curved hop 91 frames at 120 Hz 0.28 -> 0.11-0.13 s (0.14). Wall time
+is 2-4x the CPU time at that load. Cut to 98 frames the walk -> jog example ends before its blend
+window (frames 110-130): those 98 frames are walk only. The 10 ms goal is still missed by ~8-10x
+(see above: most of what is left is the footplant IK and the maps in ``mocomp.ops``). Synthetic walk
+at 120 Hz, ``ground-default``: 1,000 frames 0.80 -> 0.58 s CPU, 10,000 frames 8.2 -> 6.2 s CPU
+(linear in the frames; the 1 s goal is missed ~6x).
 """
 from __future__ import annotations
 
 import time
 
+import numpy as np
 from timing import best_of, result
 
 
@@ -56,14 +66,29 @@ def run(quick: bool = False) -> list[dict]:
         rows.append(result(f"touchup {e.schedule}, {m.n_frames} frames ({name})", s,
                            "paper (Shin et al. 2003, 2.0 GHz Xeon)", paper_s,
                            "ours_s <= 0.01" if m.n_frames <= 100 else None,
-                           f"{e.source}; CPU best {min(cpu):.3f} s; planned mean ZMP outside "
+                           f"{e.source}; CPU best {min(cpu):.3f} s, median {float(np.median(cpu)):.3f} s; "
+                           f"planned mean ZMP outside "
                            f"{r.before['mean_outside_m'] * 100:.1f} -> {r.after['mean_outside_m'] * 100:.1f} cm"))
     if not quick:
         from mocomp.ops.synthetic import synthetic_walk
 
-        m = synthetic_walk(duration=10000 / 120.0 - 1e-9, fps=120.0).motion
-        body = default_body(m)
-        s, _ = best_of(lambda _: touchup(m, body, "ground-default"), repeat=1)
-        rows.append(result(f"touchup ground-default, {m.n_frames} frames", s, goal="ours_s <= 1.0",
-                           note="synthetic walk at 120 Hz"))
+        per_frame = {}
+        for n in (1000, 10000):                    # linear growth: the per-frame cost of the two
+            m = synthetic_walk(duration=n / 120.0 - 1e-9, fps=120.0).motion
+            body = default_body(m)
+            cpu = []
+
+            def go_long(_, m=m, body=body, cpu=cpu):
+                t0 = time.process_time()
+                out = touchup(m, body, "ground-default")
+                cpu.append(time.process_time() - t0)
+                return out
+
+            s, _ = best_of(go_long, repeat=2 if n <= 1000 else 1)
+            per_frame[n] = min(cpu) / m.n_frames
+            growth = (f"; CPU per frame {per_frame[n] * 1e3:.3f} ms, {per_frame[n] / per_frame[1000]:.2f}x the "
+                      f"1,000-frame clip's (linear: 1)") if n > 1000 else ""
+            rows.append(result(f"touchup ground-default, {m.n_frames} frames", s,
+                               goal="ours_s <= 1.0" if n == 10000 else None,
+                               note=f"synthetic walk at 120 Hz; CPU best {min(cpu):.2f} s{growth}"))
     return rows
