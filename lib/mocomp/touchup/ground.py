@@ -43,7 +43,6 @@ from .linksets import LinkSets
 
 __all__ = ["GroundAdjustment", "eq6_coefficients", "eq7_angle", "ground_adjustment", "rotation_centres", "MAX_ANGLE"]
 
-_UP = np.array([0.0, 1.0, 0.0])
 #: rad: the largest per-frame turn of one ground adjustment (module docstring)
 MAX_ANGLE = float(np.radians(20.0))
 
@@ -162,6 +161,6 @@ def ground_adjustment(body, motion, sets: LinkSets, state, frames: np.ndarray, *
         theta[f], clamped[f] = th, cl
         capped = np.abs(theta) > max_angle
         theta = np.clip(theta, -max_angle, max_angle)
-    axis = np.cross(d, _UP)
+    axis = np.column_stack([-d[:, 2], np.zeros(T), d[:, 0]])      # d x up (y), written out
     root_pos, local = turn_sets(P, G, sets, axis * theta[:, None], C)
     return GroundAdjustment(theta, axis, frames, clamped & frames, root_pos, local, capped & frames)

@@ -17,6 +17,7 @@ path) with its global orientation kept -- S3 by definition, and S1 when it hangs
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -76,13 +77,20 @@ def body_parts(body) -> dict[str, np.ndarray]:
     return {"lower": ~upper, "upper": upper, "arms": arm_mask, "all": np.ones(J, bool)}
 
 
+def _frozen(a: np.ndarray) -> np.ndarray:
+    a.setflags(write=False)
+    return a
+
+
 @dataclass(frozen=True, eq=False)
 class LinkSets:
     """Per joint its set: ``label`` ``(J,)`` int in {1, 2, 3}; ``spec`` the text it came from.
 
     Derived: ``anchor`` ``(J,)`` -- for a joint outside S2 that hangs below S2, the first joint
     below S2 on its path (it is carried by that joint's position); ``-1`` elsewhere. ``pivots``:
-    the S2 joints whose parent is not in S2 (each S2 component's joint bordering the rest)."""
+    the S2 joints whose parent is not in S2 (each S2 component's joint bordering the rest).
+    The derived arrays are computed once per instance (read-only: the touch-up loop asks for them
+    on every iteration)."""
 
     label: np.ndarray
     spec: dict
@@ -100,13 +108,13 @@ class LinkSets:
     def s3(self) -> np.ndarray:
         return self.label == 3
 
-    @property
+    @cached_property
     def pivots(self) -> np.ndarray:
         s2 = self.s2
         par = self.parents
-        return np.array([j for j in np.flatnonzero(s2) if par[j] < 0 or not s2[par[j]]], int)
+        return _frozen(np.array([j for j in np.flatnonzero(s2) if par[j] < 0 or not s2[par[j]]], int))
 
-    @property
+    @cached_property
     def component(self) -> np.ndarray:
         """``(J,)``: for S2 joints the pivot of their component, -1 elsewhere."""
         out = np.full(self.label.shape, -1)
@@ -114,9 +122,9 @@ class LinkSets:
             if self.label[j] == 2:
                 p = self.parents[j]
                 out[j] = j if (p < 0 or self.label[p] != 2) else out[p]
-        return out
+        return _frozen(out)
 
-    @property
+    @cached_property
     def anchor(self) -> np.ndarray:
         out = np.full(self.label.shape, -1)
         for j in range(out.size):
@@ -127,7 +135,7 @@ class LinkSets:
                 out[j] = j
             elif out[p] >= 0:
                 out[j] = out[p]
-        return out
+        return _frozen(out)
 
     def to_dict(self, names) -> dict:
         return {f"S{k}": [names[j] for j in np.flatnonzero(self.label == k)] for k in (1, 2, 3)} | {"spec": self.spec}
