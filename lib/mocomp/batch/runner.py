@@ -64,7 +64,8 @@ class BatchResult:
                  f"{c.get('crashed', 0)} crashed; {c.get('skipped', 0)} skipped (not motions); "
                  f"{self.ran} run now, {self.resumed} resumed"]
         lines.append(f"time: {self.seconds:.1f} s wall ({self.run_seconds:.1f} s running"
-                     + (f", {rate:.2f} clips/s on {self.workers} worker(s)" if math.isfinite(rate) else "")
+                     + (f", {rate:.2f} clips/s " + (f"on {self.workers} worker(s)" if self.workers else "in this process")
+                        if math.isfinite(rate) else "")
                      + (f"; command time per clip median {t['seconds'].median():.2f} s, "
                         f"max {t['seconds'].max():.2f} s ({t.loc[t['seconds'].idxmax(), 'clip']})"
                         if t["seconds"].notna().any() else "") + ")")
@@ -215,7 +216,8 @@ def run_batch(command: str, source, out_dir, options=(), *, workers: int | None 
 
     options: the command's own options, as on its command line (file options take file names).
     workers / scheduler / client: a LocalCluster of that many single-threaded worker processes
-        (default: one per core), an existing cluster's scheduler address, or an open Client.
+        (default: one per core; 0: no cluster, the clips run one after the other in this process,
+        where a crash ends the batch), an existing cluster's scheduler address, or an open Client.
     resume: keep every clip whose folder is complete (its ``row.json``); ``retry_failed`` also
         re-runs those that failed or crashed.
     Writes ``out_dir/clips/<clip>/``, ``results.parquet``, ``results.csv`` and ``batch.json``;
@@ -257,13 +259,16 @@ def run_batch(command: str, source, out_dir, options=(), *, workers: int | None 
     if tasks:
         bar = _bar(len(tasks), f"batch {command}", progress)
         n_bad = 0
-        cm = contextlib.nullcontext(client) if client is not None else open_client(workers, scheduler)
+        in_process = client is None and scheduler is None and workers == 0
+        cm = (contextlib.nullcontext(client) if client is not None or in_process
+              else open_client(workers, scheduler))
         try:
             with cm as c:
-                res.workers = sum(c.nthreads().values())
-                c.run(_warm_up)  # imports on every worker before the first clip (a restarted worker: in its first)
-                for o in map_items(run_clip, tasks, client=c, name=f"batch-{command}", fetch=False,
-                                   done=_completed, stall_seconds=120.0):
+                if c is not None:
+                    res.workers = sum(c.nthreads().values())
+                    c.run(_warm_up)  # imports on every worker before the first clip (a restarted one: in its first)
+                for o in map_items(run_clip, tasks, client=c, workers=0 if in_process else None,
+                                   name=f"batch-{command}", fetch=False, done=_completed, stall_seconds=120.0):
                     task = o.item
                     final = Path(task.out_dir)
                     done = read_row(final)  # the row the worker wrote (run_clip's result stays on the worker)

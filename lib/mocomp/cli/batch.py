@@ -13,8 +13,9 @@ def _add_batch_options(p: argparse.ArgumentParser, default) -> None:
                    help="output folder: clips/<clip>/ (each clip's outputs, report.json, printed summary, row.json), "
                         "results.parquet and results.csv (one row per input file), batch.json")
     g = p.add_mutually_exclusive_group()
-    g.add_argument("--workers", type=int_in(1, 512), metavar="N", default=default,
-                   help="worker processes of the local Dask cluster (default: one per core)")
+    g.add_argument("--workers", type=int_in(0, 512), metavar="N", default=default,
+                   help="worker processes of the local Dask cluster (default: one per core; 0: no cluster, one clip "
+                        "after the other in this process, for debugging: a crash there ends the batch)")
     g.add_argument("--scheduler", metavar="tcp://HOST:PORT", default=default,
                    help="run on an existing Dask cluster (started with `dask scheduler` and `dask worker`; the "
                         "workers must see INPUT and OUT_DIR at the same paths: a shared filesystem)")
