@@ -397,3 +397,25 @@ def test_plants_go_on_the_resting_level_not_on_a_sunk_frame():
     finally:
         pl.ROBUST_LEVEL = True
     np.testing.assert_allclose(y0[20:30, 0], 0.001 * np.arange(10), atol=1e-12)
+    # given plants (a blend's labels, a CSV file) keep their level: the percentile of their own planted frames
+    given = dataclasses.replace(plants, source={e: "given" for e in plants.effectors})
+    np.testing.assert_allclose(plant_targets(pts, given)[..., 1], y0, atol=1e-12)
+
+
+def test_detected_slide_is_the_audits_foot_slide():
+    """ops.footplant.detected_slide on a detection of a motion equals the audit's largest foot slide
+    (the measure the extra passes are chosen by), here on a drifting synthetic walk (a few mm) and
+    on its enforced result."""
+    from mocomp.audit import audit
+    from mocomp.dynamics.contacts import detect_contacts
+    from mocomp.ops.evidence import foot_slide
+    from mocomp.ops.footplant import detected_slide
+
+    m = walk().motion
+    rp = np.array(m.root_positions)
+    rp[:, 0] += 0.04 * m.times                                 # the body drifts 4 cm/s sideways
+    m = m.replace(root_positions=rp)
+    for x in (m, enforce_footplants(m, audit=False).motion):
+        want = foot_slide(audit(x))
+        assert want > 0
+        assert abs(detected_slide(detect_contacts(x), ("foot_l", "toe_l", "foot_r", "toe_r")) - want) < 1e-12

@@ -269,7 +269,9 @@ def plant_targets(points: np.ndarray, plants: FootPlants, height: str = "level")
     world positions). ``y``: with ``height="level"`` (default) the point's own height shifted so
     that its lowest height in the run lies on the support level the point rests on (with
     :data:`ROBUST_LEVEL`, the median of its runs' lowest heights on that detector level,
-    :func:`_resting_levels`; the heel still rolls up at the end of a stance, on the floor);
+    :func:`_resting_levels`, for a point planted by the detector; a point whose plants were given or
+    read from a CSV file goes on its level as it is, the 1st percentile of its height over its planted
+    frames; the heel still rolls up at the end of a stance, on the floor);
     ``"hold"`` the detector's support level on every frame (held still in 3-D); ``"keep"`` its own
     height."""
     if height not in HEIGHT_MODES:
@@ -294,8 +296,9 @@ def plant_targets(points: np.ndarray, plants: FootPlants, height: str = "level")
             out[sel, k, 1] = y
         else:
             low = np.minimum.reduceat(y, first)
+            rest = ROBUST_LEVEL and plants.source.get(plants.effectors[k]) == "detector"
             out[sel, k, 1] = y - low[rid] + (_resting_levels(low, plants.levels[sel[first], k])[rid]
-                                             if ROBUST_LEVEL else plants.levels[sel, k])
+                                             if rest else plants.levels[sel, k])
     return out
 
 
