@@ -90,7 +90,9 @@ def test_query_cut_from_a_clip_finds_it_after_any_yaw_and_shift(index, clip, sta
         if exhaustive:
             assert s["frames_compared"] == s["frames_exhaustive"]
         else:
-            assert s["frames_compared"] < s["frames_exhaustive"] / 3 and s["unique_windows"] > 0
+            # compiled: early abandoning with bounds; numpy fallback: whole windows, still fewer of them
+            assert s["frames_compared"] < s["frames_exhaustive"] / (3 if _kernels.AVAILABLE else 1)
+            assert s["unique_windows"] > 0 and s["frames_exact"] <= s["frames_compared"]
 
 
 def test_resampled_query_and_native_frame_numbers(index):
@@ -178,7 +180,8 @@ def test_unique_frame_search_matches_exhaustive_on_the_shared_library(shared, re
         np.testing.assert_allclose(a.distance, b.distance, rtol=1e-12)
         compared += a.stats["frames_compared"]
         exhaustive += b.stats["frames_compared"]
-    assert exhaustive >= 10 * compared, exhaustive / compared
+    # compiled: early abandoning on the bound stage; the numpy fallback compares whole windows
+    assert exhaustive >= (10 if _kernels.AVAILABLE else 2) * compared, exhaustive / compared
 
 
 @pytest.mark.realdata

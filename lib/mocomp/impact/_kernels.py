@@ -152,7 +152,7 @@ if AVAILABLE:
 
     # -------------------------------------------------------------- the compiled search
     @numba.njit(cache=True, nogil=True)
-    def _window(P, O, G, H, s, frames, qp, qo, yq, w, wp, wr, Cl, Cq, first_lb, thr, lbf, suf, cnt):
+    def _window(P, O, G, H, s, frames, qp, qo, yq, w, wp, wr, Cl, Cq, first_lb, thr, lbf, suf, cnt, ws, low):
         """Two-stage distance of the window at library row ``s`` (module docstring): the exact
         distance, or ``inf`` when it exceeds ``thr``. ``first_lb[s]`` holds its first-frame bound.
         ``cnt[0]`` += bound terms, ``cnt[1]`` += exact terms."""
@@ -171,8 +171,11 @@ if AVAILABLE:
             lbf[f] = w[f] * t
             lb += lbf[f]
             if lb > thr_s:
+                low[s] = thr
                 return np.inf
-            if f + 1 < F and lb + _rest_bound(t, f, s, frames, w, Cl, Cq) > thr_s:
+            # the rest's bound is at most t * sum_{j > f} w_j: computed only when it could abandon
+            if f + 1 < F and lb + t * ws[f + 1] > thr_s and lb + _rest_bound(t, f, s, frames, w, Cl, Cq) > thr_s:
+                low[s] = thr
                 return np.inf
         suf[F] = 0.0
         for f in range(F - 1, -1, -1):
@@ -183,24 +186,28 @@ if AVAILABLE:
             acc += w[f] * term
             cnt[1] += 1
             if acc + suf[f + 1] > thr_s:
+                low[s] = thr
                 return np.inf
-        return acc if acc <= thr else np.inf
+        if acc > thr:
+            low[s] = thr
+            return np.inf
+        return acc
 
     @numba.njit(cache=True, nogil=True)
     def _evaluate(P, O, G, H, rows, frames, qp, qo, yq, w, wp, wr, Cl, Cq, threshold, margin, D, first_lb,
-                  lbf, suf, cnt):
+                  lbf, suf, cnt, ws, low):
         """Record in ``D`` the distance of every window at ``rows`` not computed yet (``D`` NaN) that is
         at most ``threshold`` and, with ``margin >= 0``, at most the best complete one + ``margin``;
         best-first by the first-frame bound plus the bound of the rest, so the threshold is tight early."""
         n = 0
         for r in rows:
-            if np.isnan(D[r]):
+            if np.isnan(D[r]) and low[r] < threshold:
                 n += 1
         todo = np.empty(n, np.int64)
         key = np.empty(n)
         n = 0
-        for r in rows:
-            if np.isnan(D[r]):
+        for r in rows:                                 # windows dropped before against a threshold at or
+            if np.isnan(D[r]) and low[r] < threshold:  # below this one are known to exceed it: skipped
                 if np.isnan(first_lb[r]):
                     psi = H[r]
                     first_lb[r] = _frame_term(P, O, r + frames[0], qp, qo, yq, 0, wp, wr, G[r, 0], G[r, 1], G[r, 2],
@@ -213,7 +220,9 @@ if AVAILABLE:
         thr = threshold
         for k in order:
             r = todo[k]
-            d = _window(P, O, G, H, r, frames, qp, qo, yq, w, wp, wr, Cl, Cq, first_lb, thr, lbf, suf, cnt)
+            if low[r] >= thr:
+                continue
+            d = _window(P, O, G, H, r, frames, qp, qo, yq, w, wp, wr, Cl, Cq, first_lb, thr, lbf, suf, cnt, ws, low)
             if d < np.inf:
                 D[r] = d
                 if margin >= 0.0 and d + margin < thr:
@@ -253,6 +262,38 @@ if AVAILABLE:
         return best, ru
 
     @numba.njit(cache=True, nogil=True)
+    def _refine(P, O, G, H, cand, frames, qp, qo, yq, w, wp, wr, Cl, Cq, margin, max_regions, D, first_lb, lbf,
+                suf, cnt, ws, low, row_clip, cstart, nvalid, U, Uoff):
+        """Sec. 4.1's search over the unique-frame windows ``cand``: every one within ``margin`` of the
+        best of them exactly, then every window between the neighbouring unique frames of those (at
+        most ``max_regions``, best first) within the best one's distance. Returns the regions refined."""
+        n = cand.shape[0]
+        _evaluate(P, O, G, H, cand, frames, qp, qo, yq, w, wp, wr, Cl, Cq, np.inf, margin, D, first_lb, lbf, suf,
+                  cnt, ws, low)
+        best_u = np.inf
+        for r in cand:
+            if D[r] < best_u:
+                best_u = D[r]
+        ev = np.empty(n, np.int64)
+        m = 0
+        for r in cand:
+            if D[r] <= best_u + margin:
+                ev[m] = r
+                m += 1
+        ev = ev[:m]
+        dv = np.empty(m)
+        for k in range(m):
+            dv[k] = D[ev[k]]
+        regions = ev[np.argsort(dv, kind="mergesort")][:max_regions]
+        mark = np.zeros(D.shape[0], np.bool_)
+        for r in regions:
+            _interval(r, row_clip, cstart, nvalid, U, Uoff, mark)
+        rows = np.flatnonzero(mark)
+        _evaluate(P, O, G, H, rows, frames, qp, qo, yq, w, wp, wr, Cl, Cq, best_u, 0.0, D, first_lb, lbf, suf,
+                  cnt, ws, low)
+        return regions.shape[0]
+
+    @numba.njit(cache=True, nogil=True)
     def search_nb(P, O, G, H, Cl, row_clip, cstart, nvalid, U, Uoff, cand, frames, qp, qo, yq, w, wp, wr, Cq,
                   L, margin, max_regions, D, first_lb, out):
         """The unique-frame search of :func:`mocomp.impact.search.search` (phases 1-3 of its code),
@@ -265,31 +306,16 @@ if AVAILABLE:
         lbf = np.empty(F)
         suf = np.empty(F + 1)
         cnt = np.zeros(2, np.int64)
-        # 1. the unique-frame windows: every one within `margin` of the best, exactly
-        _evaluate(P, O, G, H, cand, frames, qp, qo, yq, w, wp, wr, Cl, Cq, np.inf, margin, D, first_lb, lbf, suf, cnt)
-        best_u = np.inf
-        for r in cand:
-            if D[r] < best_u:
-                best_u = D[r]
-        # 2. the intervals between the neighbouring unique frames of the best ones (<= max_regions)
-        ev = np.empty(cand.shape[0], np.int64)
-        n = 0
-        for r in cand:
-            if D[r] <= best_u + margin:
-                ev[n] = r
-                n += 1
-        ev = ev[:n]
-        dv = np.empty(n)
-        for k in range(n):
-            dv[k] = D[ev[k]]
-        regions = ev[np.argsort(dv, kind="mergesort")][:max_regions]
-        mark = np.zeros(N, np.bool_)
-        for r in regions:
-            _interval(r, row_clip, cstart, nvalid, U, Uoff, mark)
-        rows = np.flatnonzero(mark)
-        _evaluate(P, O, G, H, rows, frames, qp, qo, yq, w, wp, wr, Cl, Cq, best_u, 0.0, D, first_lb, lbf, suf, cnt)
-        # 3. the runner-up: the best computed window far from the best; if none, the far unique-frame
-        #    windows are computed; then it is refined in its own interval
+        low = np.full(N, -1.0)                         # per row: its distance exceeds this (abandoned)
+        ws = np.zeros(F + 1)                           # suffix sums of the window weights
+        for f in range(F - 1, -1, -1):
+            ws[f] = ws[f + 1] + w[f]
+        # 1.-2. the best: the unique-frame windows, then the intervals of the best of them
+        nreg = _refine(P, O, G, H, cand, frames, qp, qo, yq, w, wp, wr, Cl, Cq, margin, max_regions, D, first_lb,
+                       lbf, suf, cnt, ws, low, row_clip, cstart, nvalid, U, Uoff)
+        # 3. the runner-up: the best computed window far from the best (another clip or at least L rows
+        #    away); if there is none, the far unique-frame windows are computed first; then the interval
+        #    around it is refined
         best, ru = _best_rows(D, row_clip, L)
         if ru < 0:
             far = np.empty(cand.shape[0], np.int64)
@@ -299,10 +325,10 @@ if AVAILABLE:
                     far[n] = r
                     n += 1
             _evaluate(P, O, G, H, far[:n], frames, qp, qo, yq, w, wp, wr, Cl, Cq, np.inf, 0.0, D, first_lb, lbf,
-                      suf, cnt)
+                      suf, cnt, ws, low)
             best, ru = _best_rows(D, row_clip, L)
         if ru >= 0:
-            mark[:] = False
+            mark = np.zeros(N, np.bool_)
             _interval(ru, row_clip, cstart, nvalid, U, Uoff, mark)
             more = np.flatnonzero(mark)
             keep = np.empty(more.shape[0], np.int64)
@@ -312,7 +338,7 @@ if AVAILABLE:
                     keep[n] = r
                     n += 1
             _evaluate(P, O, G, H, keep[:n], frames, qp, qo, yq, w, wp, wr, Cl, Cq, D[ru], -1.0, D, first_lb, lbf,
-                      suf, cnt)
+                      suf, cnt, ws, low)
             best, ru = _best_rows(D, row_clip, L)
         touched = 0
         for r in range(N):
@@ -323,7 +349,7 @@ if AVAILABLE:
         out[2] = cnt[0]
         out[3] = cnt[1]
         out[4] = touched
-        out[5] = regions.shape[0]
+        out[5] = nreg
 
     # -------------------------------------------------------------- the query window
     @numba.njit(cache=True, nogil=True)

@@ -330,6 +330,23 @@ def _evaluate(q: _Query, rows: np.ndarray, D: np.ndarray, threshold: float = np.
     return n0 + n
 
 
+def _refine(index: LibraryIndex, q: _Query, uniq: np.ndarray, D: np.ndarray, margin: float, max_regions: int,
+            L: int) -> tuple[int, int]:
+    """Sec. 4.1's search over the unique-frame windows ``uniq``: 1. every one within ``margin`` of the
+    best of them, exactly; 2. every window between the neighbouring unique frames of those (at most
+    ``max_regions``, best first) that is within the best one's distance. Returns (frame pairs
+    compared, regions refined); the numpy twin of :func:`mocomp.impact._kernels._refine`."""
+    compared = _evaluate(q, uniq, D, np.inf, margin)
+    ev = uniq[~np.isnan(D[uniq])]
+    if ev.size == 0:
+        return compared, 0
+    best_u = float(D[ev].min())
+    ev = ev[D[ev] <= best_u + margin]
+    regions = ev[np.argsort(D[ev], kind="stable")][:max_regions]
+    rows = np.unique(np.concatenate([_interval_rows(index, int(r), L) for r in regions]))
+    return compared + _evaluate(q, rows, D, best_u, 0.0), int(regions.size)
+
+
 def _interval_rows(index: LibraryIndex, row: int, L: int) -> np.ndarray:
     """Library rows of every valid window start strictly between the unique frames neighbouring ``row``."""
     cat = index.concatenated()
@@ -466,28 +483,19 @@ def search(index: LibraryIndex, query: Motion, start: int, stop: int, *, support
     else:                                                # the numpy reference of search_nb
         uniq = _unique_rows(index, n_valid, L)
         margin = float(margin_factor * index.tolerance * q.w.sum())
-        # 1. windows at the unique frames (and at each clip's last valid start): every one within
-        #    `margin` of the best, exactly
-        compared = _evaluate(q, uniq, D, np.inf, margin)
-        ev = uniq[~np.isnan(D[uniq])]
-        best_u = float(D[ev].min())
-        ev = ev[D[ev] <= best_u + margin]
-        regions = ev[np.argsort(D[ev], kind="stable")][:max_regions]
-        # 2. every window between the neighbouring unique frames of those: exact for the best of them
-        rows = np.unique(np.concatenate([_interval_rows(index, int(r), L) for r in regions]))
-        compared += _evaluate(q, rows, D, best_u, 0.0)
-        # 3. the runner-up: the best complete window far from the best (a unique-frame window or a
-        #    refined one; if none, the best far unique-frame window), refined in its interval
+        compared, n_regions = _refine(index, q, uniq, D, margin, max_regions, L)
+        # 3. the runner-up: the best complete window far from the best (if none, the far unique-frame
+        #    windows are computed first), refined in its interval
         best = int(np.nanargmin(D))
         if _runner_up(index, D, L) is None:
             compared += _evaluate(q, uniq[_far_mask(index, uniq, best, L)], D, np.inf, 0.0)
         ru = _runner_up(index, D, L)
         if ru is not None:
             more = _interval_rows(index, ru, L)
-            more = more[_far_mask(index, more, best, L)]
-            compared += _evaluate(q, more, D, float(D[ru]))
+            compared += _evaluate(q, more[_far_mask(index, more, best, L)], D, float(D[ru]))
         stats.update(frames_compared=int(compared), frames_exact=int(compared),
-                     windows_compared=int(np.count_nonzero(~np.isnan(q.first))), unique_windows=int(uniq.size), refined_regions=int(regions.size))
+                     windows_compared=int(np.count_nonzero(~np.isnan(q.first))), unique_windows=int(uniq.size),
+                     refined_regions=int(n_regions))
     if exhaustive or not _kernels.AVAILABLE:
         best = int(np.nanargmin(D))
         ru = _runner_up(index, D, L)
