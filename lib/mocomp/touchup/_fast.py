@@ -53,23 +53,25 @@ def fk(motion):
 
 if COMPILED:
     @numba.njit(cache=True, nogil=True)
-    def _correlate_nearest(x, w, out):
-        """``out[i] = sum_k w[k] x[clip(i + k - r)]`` for symmetric ``w`` (radius ``r``), in the
+    def _correlate_nearest(pad, w, out):
+        """``out[i] = sum_k w[k] x[clip(i + k - r)]`` for symmetric ``w`` (radius ``r``) of the line
+        ``x`` given padded with its end values (``pad`` ``(T + 2r,)``, ``mode="nearest"``), in the
         order of scipy's ``correlate1d`` for symmetric weights: ``x_i w_0 + sum_{j=r..1} (x_{i-j} +
-        x_{i+j}) w_j``, the samples beyond the ends the end values (``mode="nearest"``)."""
-        T = x.shape[0]
+        x_{i+j}) w_j``."""
         r = (w.shape[0] - 1) // 2
-        for i in range(T):
-            acc = x[i] * w[r]
+        for i in range(out.shape[0]):
+            c = i + r
+            acc = pad[c] * w[r]
             for j in range(r, 0, -1):
-                lo = i - j
-                hi = i + j
-                if lo < 0:
-                    lo = 0
-                if hi > T - 1:
-                    hi = T - 1
-                acc += (x[lo] + x[hi]) * w[r + j]
+                acc += (pad[c - j] + pad[c + j]) * w[r + j]
             out[i] = acc
+
+    @numba.njit(cache=True, nogil=True)
+    def _fill_pad(pad, r, T):
+        """The ends of a padded line: ``r`` copies of its first and last samples."""
+        for i in range(r):
+            pad[i] = pad[r]
+            pad[r + T + i] = pad[r + T - 1]
 
     @numba.njit(cache=True, nogil=True)
     def _central(x, t, out):
@@ -90,29 +92,32 @@ if COMPILED:
                     out[i, s, k] = a * x[i - 1, s, k] + b * x[i, s, k] + c * x[i + 1, s, k]
 
     @numba.njit(cache=True, nogil=True)
-    def _zmp_inputs_nb(root, rot, parents, offsets, seg, local_coms, w, t):
-        """Segment COMs ``(T, S, 3)`` of the Gaussian-smoothed chains (``w``: the weights; one
-        weight: no smoothing) and their second central difference on the times ``t``."""
+    def _zmp_inputs_nb(root, rot, idx, parents, offsets, seg, local_coms, w, t):
+        """Segment COMs ``(T, S, 3)`` of the Gaussian-smoothed chains ``idx`` of ``rot`` (``w``: the
+        weights; one weight: no smoothing) and their second central difference on the times ``t``."""
         T = rot.shape[0]
-        J = rot.shape[1]
+        J = idx.shape[0]
         smooth = w.shape[0] > 1
+        r = (w.shape[0] - 1) // 2
         q = np.empty((T, J, 4))
-        line = np.empty(T)
+        line = np.empty(T + 2 * r)
         out = np.empty(T)
         for j in range(J):                       # hemisphere-continuous, then filtered, per joint
+            jj = idx[j]
             sign = 1.0
             for f in range(T):
                 if f > 0:
-                    d = (rot[f, j, 0] * rot[f - 1, j, 0] + rot[f, j, 1] * rot[f - 1, j, 1]
-                         + rot[f, j, 2] * rot[f - 1, j, 2] + rot[f, j, 3] * rot[f - 1, j, 3])
+                    d = (rot[f, jj, 0] * rot[f - 1, jj, 0] + rot[f, jj, 1] * rot[f - 1, jj, 1]
+                         + rot[f, jj, 2] * rot[f - 1, jj, 2] + rot[f, jj, 3] * rot[f - 1, jj, 3])
                     if d < 0.0:
                         sign = -sign
                 for k in range(4):
-                    q[f, j, k] = rot[f, j, k] * sign
+                    q[f, j, k] = rot[f, jj, k] * sign
             if smooth:
                 for k in range(4):
                     for f in range(T):
-                        line[f] = q[f, j, k]
+                        line[r + f] = q[f, j, k]
+                    _fill_pad(line, r, T)
                     _correlate_nearest(line, w, out)
                     for f in range(T):
                         q[f, j, k] = out[f]
@@ -125,7 +130,8 @@ if COMPILED:
         for k in range(3):
             if smooth:
                 for f in range(T):
-                    line[f] = root[f, k]
+                    line[r + f] = root[f, k]
+                _fill_pad(line, r, T)
                 _correlate_nearest(line, w, out)
                 for f in range(T):
                     rp[f, k] = out[f]
@@ -321,7 +327,8 @@ class SegmentChains:
             return r, second_difference(r, motion.times)
         w = gaussian_weights(sigma) if sigma else np.ones(1)
         return _zmp_inputs_nb(np.ascontiguousarray(motion.root_positions, dtype=float),
-                              np.ascontiguousarray(motion.rotations[:, self.idx], dtype=float), self.parents,
+                              np.ascontiguousarray(motion.rotations, dtype=float), np.asarray(self.idx, np.int64),
+                              self.parents,
                               self.offsets, np.asarray(self.seg, np.int64), self.local_coms, w,
                               np.ascontiguousarray(motion.times, dtype=float))
 
