@@ -20,6 +20,7 @@ BAD_BVH = ("HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHANNELS 3 Xposition Ypos
 
 #: commands that take no input file: argv (after the command) with a bad value
 NO_FILE_CASES = {"demo": ["--flips", "0", "-o", "{tmp}/demo"],
+                 "batch": ["audit", "{tmp}/no-such-folder", "-o", "{tmp}/out_batch"],  # a bad clip is a row
                  "impact": ["--attacker", "{tmp}/bad.bvh", "--victim", "{tmp}/bad.bvh", "-o", "{tmp}/impact"],
                  "reproduce": ["--check-baseline", "{tmp}/bad.bvh", "-o", "{tmp}/out_report"],
                  # (keyed by the whole command path where one sub-command takes no file)
@@ -175,7 +176,7 @@ def _complete_argv(path, parser, tmp_path):
             continue
         n = a.nargs if isinstance(a.nargs, int) else 1
         if not a.option_strings:
-            argv += [str(tmp_path / "in.bvh")] * n
+            argv += [str(next(iter(a.choices))) if a.choices else str(tmp_path / "in.bvh")] * n
         elif a.required:
             value = str(next(iter(a.choices))) if a.choices else ("1" if a.type is not None else
                                                                   str(tmp_path / "out.bvh"))

@@ -6,27 +6,27 @@ import argparse
 import sys
 
 
-def _add_batch_options(p: argparse.ArgumentParser, default) -> None:
+def _add_batch_options(p: argparse.ArgumentParser) -> None:
     from ._common import int_in
 
-    p.add_argument("-o", "--out", metavar="OUT_DIR", default=default,
+    p.add_argument("-o", "--out", metavar="OUT_DIR",
                    help="output folder: clips/<clip>/ (each clip's outputs, report.json, printed summary, row.json), "
                         "results.parquet and results.csv (one row per input file), batch.json")
     g = p.add_mutually_exclusive_group()
-    g.add_argument("--workers", type=int_in(0, 512), metavar="N", default=default,
+    g.add_argument("--workers", type=int_in(0, 512), metavar="N",
                    help="worker processes of the local Dask cluster (default: one per core; 0: no cluster, one clip "
                         "after the other in this process, for debugging: a crash there ends the batch)")
-    g.add_argument("--scheduler", metavar="tcp://HOST:PORT", default=default,
+    g.add_argument("--scheduler", metavar="tcp://HOST:PORT",
                    help="run on an existing Dask cluster (started with `dask scheduler` and `dask worker`; the "
                         "workers must see INPUT and OUT_DIR at the same paths: a shared filesystem)")
-    p.add_argument("--resume", action="store_true", default=default,
+    p.add_argument("--resume", action="store_true",
                    help="keep the clips a previous run of the same batch completed (their row.json); run the rest")
-    p.add_argument("--retry-failed", action="store_true", default=default,
+    p.add_argument("--retry-failed", action="store_true",
                    help="with --resume: also re-run the clips that failed or crashed")
-    p.add_argument("--output-type", metavar="EXT", default=default,
+    p.add_argument("--output-type", metavar="EXT",
                    help="type of the main output where the command offers several (render: png (default, a phase "
                         "filmstrip), mp4, gif)")
-    p.add_argument("--no-progress", action="store_true", default=default, help="no progress bar")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
 
 
 def register(sub) -> None:
@@ -34,6 +34,9 @@ def register(sub) -> None:
 
     p = sub.add_parser(
         "batch", help="run a command over every clip of a folder on Dask (results.parquet, --resume)",
+        allow_abbrev=False,
+        usage="mocomp batch COMMAND INPUT_DIR_OR_GLOB -o OUT_DIR [COMMAND options] [--workers N | --scheduler "
+              "tcp://HOST:PORT] [--resume [--retry-failed]] [--output-type EXT] [--no-progress]",
         description="Run a mocomp command over every clip of a folder (recursively) or glob with dask.distributed: "
                     "a local cluster of one worker process per core, or an existing cluster (--scheduler). The "
                     "command's own options follow the input (file options such as --plot take a file name, "
@@ -49,31 +52,31 @@ def register(sub) -> None:
                    help="the command to run: " + ", ".join(COMMANDS))
     p.add_argument("input", metavar="INPUT_DIR_OR_GLOB",
                    help="a folder (every file below it), a glob ('data/flips/*.bvh', 'data/**/*.amc') or a file")
-    _add_batch_options(p, None)
-    p.add_argument("command_options", nargs=argparse.REMAINDER, metavar="...",
-                   help="the command's options, and batch options given after the input")
+    _add_batch_options(p)
+    p.__class__ = _batch_parser_class()  # options it does not know are the command's (its parser checks them)
     p.set_defaults(func=run)
 
 
-def _split(args) -> list[str]:
-    """Batch options given after the input (argparse hands them over with the command's) are taken
-    out; what is left are the command's options."""
+def _batch_parser_class():
     from . import Parser
 
-    q = Parser(prog="mocomp batch", add_help=False, allow_abbrev=False)
-    _add_batch_options(q, argparse.SUPPRESS)
-    ns, rest = q.parse_known_args(args.command_options)
-    for k, v in vars(ns).items():
-        setattr(args, k, v)
-    if args.workers is not None and args.scheduler is not None:
-        raise ValueError("--workers and --scheduler exclude each other (the scheduler's cluster has its workers)")
-    return rest
+    class BatchParser(Parser):
+        """The batch command's parser: the arguments it does not know are the command's options
+        (``args.command_options``, in their order), not an error; its own options are checked at
+        parse time wherever they stand."""
+
+        def parse_known_args(self, args=None, namespace=None):
+            ns, extras = super().parse_known_args(args, namespace)
+            ns.command_options = list(getattr(ns, "command_options", None) or []) + list(extras)
+            return ns, []
+
+    return BatchParser
 
 
 def run(args) -> int:
     from ..batch import run_batch
 
-    options = _split(args)
+    options = list(args.command_options)
     if args.out is None:
         raise ValueError("-o OUT_DIR is required")
     if args.retry_failed and not args.resume:
