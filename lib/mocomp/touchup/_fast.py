@@ -194,35 +194,9 @@ if COMPILED:
                     hi1 = max(hi1, pts[f, k, 1])
             if not anyk:
                 continue
-            # the nearest point of the segments (nearest_on_polygon: NaN for a non-finite p)
-            best = np.inf
-            for i in range(K):
-                for j in range(i, K):
-                    if not (mask[f, i] and mask[f, j]):
-                        continue
-                    ax = pts[f, i, 0]
-                    ay = pts[f, i, 1]
-                    bx = pts[f, j, 0] - ax
-                    by = pts[f, j, 1] - ay
-                    den = bx * bx + by * by
-                    qx = px - ax
-                    qy = py - ay
-                    tt = 0.0
-                    if den > 0:
-                        tt = min(max((qx * bx + qy * by) / den, 0.0), 1.0)
-                    nx = ax + tt * bx
-                    ny = ay + tt * by
-                    ex = px - nx
-                    ey = py - ny
-                    d = np.sqrt(ex * ex + ey * ey)
-                    if np.isfinite(d) and d < best:
-                        best = d
-                        near_out[f, 0] = nx
-                        near_out[f, 1] = ny
-            if not fin:
-                continue
             ext = max(hi0 - lo0, hi1 - lo1)
             eps = rel_eps * ext ** 2
+            best = np.inf                        # nearest_on_polygon: NaN for a non-finite p
             nonflat = False
             inside = True
             d_all = np.inf
@@ -241,6 +215,17 @@ if COMPILED:
                     tt = 0.0
                     if den > 0:
                         tt = min(max((qx * bx + qy * by) / den, 0.0), 1.0)
+                    # the segment's nearest point, its distance as nearest_on_polygon computes it
+                    nx = ax + tt * bx
+                    ny = ay + tt * by
+                    dn = np.sqrt((px - nx) * (px - nx) + (py - ny) * (py - ny))
+                    if np.isfinite(dn) and dn < best:
+                        best = dn
+                        near_out[f, 0] = nx
+                        near_out[f, 1] = ny
+                    if not fin:
+                        continue
+                    # the signed distance's terms, as _signed_distance_frames computes them
                     ex = qx - tt * bx
                     ey = qy - tt * by
                     d = np.sqrt(ex * ex + ey * ey)
@@ -263,6 +248,8 @@ if COMPILED:
                         side = 1.0 if pos else -1.0
                         if not ((bx * qy - by * qx) * side >= 0):
                             inside = False
+            if not fin:
+                continue
             if (not nonflat) or eps == 0:
                 dist_out[f] = d_all
             elif inside:
