@@ -208,3 +208,68 @@ def test_numpy_fallback_gives_the_same_search(index, monkeypatch):
         assert (a.clip, a.frame) == (b.clip, b.frame)
         # arccos of dot products within rounding of 1 (numpy's vs numba's): ~1e-9 apart
         np.testing.assert_allclose(a.distance, b.distance, rtol=1e-7)
+        assert (a.runner_up.clip, a.runner_up.frame) == (b.runner_up.clip, b.runner_up.frame)
+        np.testing.assert_allclose(a.runner_up.distance, b.runner_up.distance, rtol=1e-7)
+        assert a.stats.get("refined_regions") == b.stats.get("refined_regions")
+
+
+def test_mocomp_no_numba_switches_the_search_to_numpy(tmp_path):
+    """``MOCOMP_NO_NUMBA=1`` (the project's switch) turns the compiled search off; it still runs."""
+    import os
+    import subprocess
+    import sys
+
+    code = ("from mocomp.impact import _kernels; from mocomp.impact.search import search; "
+            "from mocomp.impact.index import build_index; from mocomp.io import write_bvh; "
+            "from mocomp.ops.synthetic import synthetic_walk; import pathlib; "
+            f"d = pathlib.Path({str(tmp_path)!r}); m = synthetic_walk(duration=2.0, fps=30.0).motion; "
+            "write_bvh(m, d / 'walk.bvh'); i = build_index(d, m.skeleton, progress=False, use_cache=False); "
+            "r = search(i, m, 10, 30); print(_kernels.AVAILABLE, r.frame, r.stats['frames_compared'] == "
+            "r.stats['frames_exact'])")
+    out = subprocess.run([sys.executable, "-c", code], env={**os.environ, "MOCOMP_NO_NUMBA": "1"},
+                         capture_output=True, text=True, check=True).stdout.split()
+    assert out == ["False", "10", "True"]
+
+
+@pytest.mark.skipif(not _kernels.AVAILABLE, reason="the compiled bound stage")
+def test_bound_stage_is_below_every_exact_term_and_tight(index):
+    """The compiled search's first stage: the chord bound 2 sqrt(2 (1 - |d|)) of each angle 2 acos|d|
+    makes every frame term a lower bound of the exact one, within theta^2/96 (relative) per angle."""
+    m = synthetic_walk(duration=2.0, fps=30.0, speed=0.9).motion.rotated(yaw_quaternion(1.1))
+    q = _Query(index, m, 5, 30, None)
+    rows = np.arange(0, q.P.shape[0] - q.L, 7)
+    lo = np.empty((rows.size, q.frames.size))
+    ex = np.empty_like(lo)
+    for i, r in enumerate(rows):
+        psi = q.H[r]
+        trig = (np.cos(psi), np.sin(psi), np.cos(0.5 * psi), np.sin(0.5 * psi))
+        for f in range(q.frames.size):
+            args = (q.P, q.O, int(r + f), q.qp, q.qo, q.yqo, f, q.wp, q.wr, *q.G[r], *trig)
+            lo[i, f] = _kernels._frame_term(*args, False)
+            ex[i, f] = _kernels._frame_term(*args, True)
+    np.testing.assert_allclose((ex * q.w).sum(axis=1), q.terms(rows).sum(axis=1), rtol=1e-10)
+    assert np.all(lo <= ex) and np.all(lo >= 0)
+    # the angular part is at most ~10 % of a term here, and its bound loses < 1/96 of angles below 1 rad
+    assert np.median((ex - lo) / ex) < 2e-3
+
+
+def test_exhaustive_runner_up_is_the_best_window_far_from_the_best(index):
+    """exhaustive=True: the runner-up is the least eq. 4.1 distance over every window in another clip
+    or at least a window length from the best one (brute force over all windows)."""
+    m = synthetic_walk(duration=3.0, fps=30.0, speed=0.9).motion
+    cat = index.concatenated()
+    for s, L in ((4, 20), (30, 12)):
+        r = search(index, m, s, s + L, exhaustive=True)
+        q = _Query(index, m, s, s + L, None)
+        rows = np.concatenate([st + np.arange(n - L + 1) for st, n in zip(cat["start"], cat["length"]) if n >= L])
+        d = q.terms(rows).sum(axis=1)
+        best = rows[np.argmin(d)]
+        far = (cat["row_clip"][rows] != cat["row_clip"][best]) | (np.abs(rows - best) >= L)
+        np.testing.assert_allclose([r.distance, r.runner_up.distance], [d.min(), d[far].min()], rtol=1e-7)
+        # the rows found (the synthetic walks repeat their steps: near-ties, compare distances)
+        row = {}
+        for k, res in (("best", r), ("ru", r.runner_up)):
+            ci = [c.path for c in index.clips].index(res.clip)
+            row[k] = int(cat["start"][ci] + res.stats["index_frame"])
+        assert cat["row_clip"][row["ru"]] != cat["row_clip"][row["best"]] or abs(row["ru"] - row["best"]) >= L
+        np.testing.assert_allclose(d[rows == row["ru"]], d[far].min(), rtol=1e-7)

@@ -52,7 +52,7 @@ except ImportError:                                    # pragma: no cover - olde
 if AVAILABLE:
     import numba
 
-__all__ = ["AVAILABLE", "window_distances_nb", "rest_bounds_nb", "search_nb", "query_nb", "steps_nb", "SLACK"]
+__all__ = ["AVAILABLE", "window_distances_nb", "rest_bounds_nb", "search_nb", "query_nb", "steps_nb", "trig_nb", "SLACK"]
 
 #: relative slack of the bound comparisons (rounding of the chord bound near theta = 0)
 SLACK = 1e-10
@@ -84,7 +84,7 @@ if AVAILABLE:
         return term
 
     @numba.njit(cache=True, nogil=True)
-    def window_distances_nb(P, O, G, H, starts, frames, qp, qo, yq, w, wp, wr, f_start, acc0, term0,
+    def window_distances_nb(P, O, G, T, starts, frames, qp, qo, yq, w, wp, wr, f_start, acc0, term0,
                             Cl, Cq, threshold, margin, out):
         """Fill ``out (K,)`` with the window distances (``inf`` when abandoned); return the number
         of frame pairs compared.
@@ -108,8 +108,7 @@ if AVAILABLE:
             if abandoned:
                 out[k] = np.inf
                 continue
-            psi = H[s]
-            c, sn, ch, sh = np.cos(psi), np.sin(psi), np.cos(0.5 * psi), np.sin(0.5 * psi)
+            c, sn, ch, sh = T[s, 0], T[s, 1], T[s, 2], T[s, 3]
             for f in range(f_start, F):
                 term = _frame_term(P, O, s + frames[f], qp, qo, yq, f, wp, wr, G[s, 0], G[s, 1], G[s, 2],
                                    c, sn, ch, sh, True)
@@ -152,14 +151,13 @@ if AVAILABLE:
 
     # -------------------------------------------------------------- the compiled search
     @numba.njit(cache=True, nogil=True)
-    def _window(P, O, G, H, s, frames, qp, qo, yq, w, wp, wr, Cl, Cq, first_lb, thr, lbf, suf, cnt, ws, low):
+    def _window(P, O, G, T, s, frames, qp, qo, yq, w, wp, wr, Cl, Cq, first_lb, thr, lbf, suf, cnt, ws, low):
         """Two-stage distance of the window at library row ``s`` (module docstring): the exact
         distance, or ``inf`` when it exceeds ``thr``. ``first_lb[s]`` holds its first-frame bound.
         ``cnt[0]`` += bound terms, ``cnt[1]`` += exact terms."""
         F = frames.shape[0]
         thr_s = thr + SLACK * abs(thr)
-        psi = H[s]
-        c, sn, ch, sh = np.cos(psi), np.sin(psi), np.cos(0.5 * psi), np.sin(0.5 * psi)
+        c, sn, ch, sh = T[s, 0], T[s, 1], T[s, 2], T[s, 3]
         g0, g1, g2 = G[s, 0], G[s, 1], G[s, 2]
         lb = 0.0
         for f in range(F):
@@ -194,7 +192,7 @@ if AVAILABLE:
         return acc
 
     @numba.njit(cache=True, nogil=True)
-    def _evaluate(P, O, G, H, rows, frames, qp, qo, yq, w, wp, wr, Cl, Cq, threshold, margin, D, first_lb,
+    def _evaluate(P, O, G, T, rows, frames, qp, qo, yq, w, wp, wr, Cl, Cq, threshold, margin, D, first_lb,
                   lbf, suf, cnt, ws, low):
         """Record in ``D`` the distance of every window at ``rows`` not computed yet (``D`` NaN) that is
         at most ``threshold`` and, with ``margin >= 0``, at most the best complete one + ``margin``;
@@ -209,9 +207,8 @@ if AVAILABLE:
         for r in rows:                                 # windows dropped before against a threshold at or
             if np.isnan(D[r]) and low[r] < threshold:  # below this one are known to exceed it: skipped
                 if np.isnan(first_lb[r]):
-                    psi = H[r]
                     first_lb[r] = _frame_term(P, O, r + frames[0], qp, qo, yq, 0, wp, wr, G[r, 0], G[r, 1], G[r, 2],
-                                              np.cos(psi), np.sin(psi), np.cos(0.5 * psi), np.sin(0.5 * psi), False)
+                                              T[r, 0], T[r, 1], T[r, 2], T[r, 3], False)
                     cnt[0] += 1
                 todo[n] = r
                 key[n] = w[0] * first_lb[r] + _rest_bound(first_lb[r], 0, r, frames, w, Cl, Cq)
@@ -219,10 +216,12 @@ if AVAILABLE:
         order = np.argsort(key, kind="mergesort")
         thr = threshold
         for k in order:
+            if key[k] > thr + SLACK * abs(thr):        # this one and all after it fail at their first frame
+                break
             r = todo[k]
             if low[r] >= thr:
                 continue
-            d = _window(P, O, G, H, r, frames, qp, qo, yq, w, wp, wr, Cl, Cq, first_lb, thr, lbf, suf, cnt, ws, low)
+            d = _window(P, O, G, T, r, frames, qp, qo, yq, w, wp, wr, Cl, Cq, first_lb, thr, lbf, suf, cnt, ws, low)
             if d < np.inf:
                 D[r] = d
                 if margin >= 0.0 and d + margin < thr:
@@ -262,13 +261,13 @@ if AVAILABLE:
         return best, ru
 
     @numba.njit(cache=True, nogil=True)
-    def _refine(P, O, G, H, cand, frames, qp, qo, yq, w, wp, wr, Cl, Cq, margin, max_regions, D, first_lb, lbf,
+    def _refine(P, O, G, T, cand, frames, qp, qo, yq, w, wp, wr, Cl, Cq, margin, max_regions, D, first_lb, lbf,
                 suf, cnt, ws, low, row_clip, cstart, nvalid, U, Uoff):
         """Sec. 4.1's search over the unique-frame windows ``cand``: every one within ``margin`` of the
         best of them exactly, then every window between the neighbouring unique frames of those (at
         most ``max_regions``, best first) within the best one's distance. Returns the regions refined."""
         n = cand.shape[0]
-        _evaluate(P, O, G, H, cand, frames, qp, qo, yq, w, wp, wr, Cl, Cq, np.inf, margin, D, first_lb, lbf, suf,
+        _evaluate(P, O, G, T, cand, frames, qp, qo, yq, w, wp, wr, Cl, Cq, np.inf, margin, D, first_lb, lbf, suf,
                   cnt, ws, low)
         best_u = np.inf
         for r in cand:
@@ -289,12 +288,12 @@ if AVAILABLE:
         for r in regions:
             _interval(r, row_clip, cstart, nvalid, U, Uoff, mark)
         rows = np.flatnonzero(mark)
-        _evaluate(P, O, G, H, rows, frames, qp, qo, yq, w, wp, wr, Cl, Cq, best_u, 0.0, D, first_lb, lbf, suf,
+        _evaluate(P, O, G, T, rows, frames, qp, qo, yq, w, wp, wr, Cl, Cq, best_u, 0.0, D, first_lb, lbf, suf,
                   cnt, ws, low)
         return regions.shape[0]
 
     @numba.njit(cache=True, nogil=True)
-    def search_nb(P, O, G, H, Cl, row_clip, cstart, nvalid, U, Uoff, cand, frames, qp, qo, yq, w, wp, wr, Cq,
+    def search_nb(P, O, G, T, Cl, row_clip, cstart, nvalid, U, Uoff, cand, frames, qp, qo, yq, w, wp, wr, Cq,
                   L, margin, max_regions, D, first_lb, out):
         """The unique-frame search of :func:`mocomp.impact.search.search` (phases 1-3 of its code),
         compiled. ``cand``: the unique-frame rows (and each clip's last valid start); ``U``/``Uoff``:
@@ -311,7 +310,7 @@ if AVAILABLE:
         for f in range(F - 1, -1, -1):
             ws[f] = ws[f + 1] + w[f]
         # 1.-2. the best: the unique-frame windows, then the intervals of the best of them
-        nreg = _refine(P, O, G, H, cand, frames, qp, qo, yq, w, wp, wr, Cl, Cq, margin, max_regions, D, first_lb,
+        nreg = _refine(P, O, G, T, cand, frames, qp, qo, yq, w, wp, wr, Cl, Cq, margin, max_regions, D, first_lb,
                        lbf, suf, cnt, ws, low, row_clip, cstart, nvalid, U, Uoff)
         # 3. the runner-up: the best computed window far from the best (another clip or at least L rows
         #    away); if there is none, the far unique-frame windows are computed first; then the interval
@@ -324,7 +323,7 @@ if AVAILABLE:
                 if row_clip[r] != row_clip[best] or abs(r - best) >= L:
                     far[n] = r
                     n += 1
-            _evaluate(P, O, G, H, far[:n], frames, qp, qo, yq, w, wp, wr, Cl, Cq, np.inf, 0.0, D, first_lb, lbf,
+            _evaluate(P, O, G, T, far[:n], frames, qp, qo, yq, w, wp, wr, Cl, Cq, np.inf, 0.0, D, first_lb, lbf,
                       suf, cnt, ws, low)
             best, ru = _best_rows(D, row_clip, L)
         if ru >= 0:
@@ -337,7 +336,7 @@ if AVAILABLE:
                 if row_clip[r] != row_clip[best] or abs(r - best) >= L:
                     keep[n] = r
                     n += 1
-            _evaluate(P, O, G, H, keep[:n], frames, qp, qo, yq, w, wp, wr, Cl, Cq, D[ru], -1.0, D, first_lb, lbf,
+            _evaluate(P, O, G, T, keep[:n], frames, qp, qo, yq, w, wp, wr, Cl, Cq, D[ru], -1.0, D, first_lb, lbf,
                       suf, cnt, ws, low)
             best, ru = _best_rows(D, row_clip, L)
         touched = 0
@@ -350,6 +349,16 @@ if AVAILABLE:
         out[3] = cnt[1]
         out[4] = touched
         out[5] = nreg
+
+    @numba.njit(cache=True, nogil=True)
+    def trig_nb(H, T):
+        """``T (N, 4)``: ``cos psi, sin psi, cos psi/2, sin psi/2`` of the library headings ``H (N,)`` (once
+        per index, shared by both searches so their distances agree to the bit)."""
+        for r in range(H.shape[0]):
+            T[r, 0] = np.cos(H[r])
+            T[r, 1] = np.sin(H[r])
+            T[r, 2] = np.cos(0.5 * H[r])
+            T[r, 3] = np.sin(0.5 * H[r])
 
     # -------------------------------------------------------------- the query window
     @numba.njit(cache=True, nogil=True)

@@ -190,6 +190,14 @@ class _Query:
             step = frame_distances(self.P[:-1], self.O[:-1], self.P[1:], self.O[1:], self.wp, self.wr)
             cat[key] = np.concatenate([[0.0], np.cumsum(step)])
         self.Cl = cat[key]
+        if "trig" not in cat:                            # cos/sin of every library heading and its half
+            T = np.empty((self.H.shape[0], 4))
+            if _kernels.AVAILABLE:
+                _kernels.trig_nb(self.H, T)
+            else:
+                T[:] = np.stack([np.cos(self.H), np.sin(self.H), np.cos(0.5 * self.H), np.sin(0.5 * self.H)], axis=1)
+            cat["trig"] = T
+        self.T = cat["trig"]
         self.first = np.full(self.P.shape[0], np.nan)   # first-frame terms computed so far, per library row
         if _kernels.AVAILABLE:
             self.Cq = np.empty(F)
@@ -282,7 +290,7 @@ def _distances(q: _Query, rows: np.ndarray, threshold: float = np.inf, margin: f
     if _kernels.AVAILABLE:
         out = np.empty(rows.size)
         Cl, Cq = (q.Cl, q.Cq) if bound and not first_only else (_EMPTY, _EMPTY)
-        n = _kernels.window_distances_nb(q.P, q.O, q.G, q.H, rows, q.frames[sel], q.qp[sel], q.qo[sel], q.yqo[sel],
+        n = _kernels.window_distances_nb(q.P, q.O, q.G, q.T, rows, q.frames[sel], q.qp[sel], q.qo[sel], q.yqo[sel],
                                          q.w[sel], q.wp, q.wr, f_start, acc0, acc0, Cl, Cq, float(threshold),
                                          float(margin), out)
         return out, int(n)
@@ -473,7 +481,7 @@ def search(index: LibraryIndex, query: Motion, start: int, stop: int, *, support
         U, Uoff = _unique_table(index)
         first = np.full(q.P.shape[0], np.nan)
         out = np.empty(6, np.int64)
-        _kernels.search_nb(q.P, q.O, q.G, q.H, q.Cl, index.concatenated()["row_clip"], starts,
+        _kernels.search_nb(q.P, q.O, q.G, q.T, q.Cl, index.concatenated()["row_clip"], starts,
                            np.ascontiguousarray(n_valid, dtype=np.int64), U, Uoff, uniq, q.frames, q.qp, q.qo,
                            q.yqo, q.w, q.wp, q.wr, q.Cq, L, float(margin_factor * index.tolerance * q.w.sum()),
                            int(max_regions), D, first, out)
