@@ -17,24 +17,26 @@ on a 2.0 GHz Xeon), quoted, not rerun. The note gives the best CPU time of the p
 runner's wall time: on the shared 2-core machine (load 8-10) the wall time is 3-5 times the CPU time.
 
 Where the time goes (2026-12-02, after the compiled hot paths of :mod:`mocomp.touchup._fast`;
-CPU per run, best of 5 at load ~9 on 2 shared cores, walk -> jog 98 frames, 12 iterations, ~75 ms):
-``ops.enforce_footplants`` (the footplant hold after each step that moves the feet) ~34 %, the
-displacement maps of :func:`mocomp.ops.apply_hierarchy` and the hold (``DisplacementMap.between`` /
-``smoothed`` / ``apply_displacement``: quaternion log/exp and products through numpy) ~15 %,
+CPU per run at load 6-9 on 2 shared cores). Walk -> jog, 98 frames, 12 iterations, ~75-100 ms:
+``ops.enforce_footplants`` (the footplant hold after each step that moves the feet) ~35 %, the
+displacement maps of :func:`mocomp.ops.apply_hierarchy` and of the hold (``DisplacementMap.between``
+/ ``smoothed`` / ``apply_displacement``: quaternion log/exp and products through numpy) ~18 %,
 :func:`mocomp.touchup.lift_feet` (its :func:`mocomp.ops.two_bone_ik`) ~8 %, eq. 4 with the polygon
-(``zmp_state``, compiled) ~8 %, eq. 6-7 ~7 %, stages (contact detection, once) ~4 %, the rest Python
-glue. About 55 % of the time is in ``mocomp.ops``; on 10,000 frames the share is larger (the maps'
-Gaussian of width 40 paper frames = 160 frames at 120 Hz is a direct correlation, O(T * 1280)).
+(``zmp_state``, compiled) ~11 %, eq. 6-7 ~8 %, stages (contact detection, once) ~4 %, the rest
+Python glue: about 60 % in ``mocomp.ops``. Synthetic walk, 10,001 frames at 120 Hz, 5.6 s: the maps
+52 % (``between`` 23 %, ``smoothed`` 17 % -- the Gaussian of width 40 paper frames is 160 frames at
+120 Hz, a direct correlation of radius 640 --, ``apply_displacement`` 11 %), the footplant hold
+12 %, ``zmp_state`` 12 %, ``lift_feet`` 6 %, eq. 6-7 5 %.
 
-Measured (2026-12-02, load 8-10 on 2 cores; the paper's 5 + 5 + 2 iterations), CPU best of 3-5,
-before -> after the compiled paths (same ops, outputs within 3e-13): walk -> jog 98 frames
-0.14 -> 0.08 s (paper 0.108); curved walk 111 frames 0.15 -> 0.08-0.10 s (0.172); uphill 166 frames
-0.17 -> 0.10-0.13 s (0.211); curved hop 91 frames at 120 Hz 0.28 -> 0.11-0.13 s (0.14). Wall time
-is 2-4x the CPU time at that load. Cut to 98 frames the walk -> jog example ends before its blend
-window (frames 110-130): those 98 frames are walk only. The 10 ms goal is still missed by ~8-10x
-(see above: most of what is left is the footplant IK and the maps in ``mocomp.ops``). Synthetic walk
-at 120 Hz, ``ground-default``: 1,000 frames 0.80 -> 0.58 s CPU, 10,000 frames 8.2 -> 6.2 s CPU
-(linear in the frames; the 1 s goal is missed ~6x).
+Measured (2026-12-02, the paper's 5 + 5 + 2 iterations), CPU best of 5, before -> after the
+compiled paths, alternated A/B runs at load 5-6 on the same ``mocomp.ops`` (outputs within 3e-13,
+same clamped/capped/lifted frames): walk -> jog 98 frames 0.134 -> 0.064 s (paper 0.108); curved
+walk 111 frames 0.127 -> 0.069 s (0.172); uphill 166 frames 0.148 -> 0.076 s (0.211); curved hop 91
+frames at 120 Hz 0.219 -> 0.098 s (0.14). Wall time is 1-3x the CPU time at that load. Cut to 98
+frames the walk -> jog example ends before its blend window (frames 110-130): those 98 frames are
+walk only. The 10 ms goal is still missed by 6-10x (most of what is left is in ``mocomp.ops``, see
+above). Synthetic walk at 120 Hz, ``ground-default``: 1,001 frames 0.80 -> 0.45 s CPU, 10,001 frames
+8.2 -> 5.9 s CPU (0.59 ms per frame, 1.3x the 1,000-frame clip's); the 1 s goal is missed ~6x.
 """
 from __future__ import annotations
 
