@@ -28,8 +28,11 @@ workers' imports once, as in real use):
 The plain loop and the ``workers=0`` batch run before and after the two Dask runs (the best of the
 two is used), so that a change of the host's load touches every variant.
 
-Measured (2026-12-02, full mode, load average ~10-11 on 2 cores: 8 helpers' jobs beside it):
-see the rows of ``python benchmarks/run.py --only batch`` and the numbers quoted in docs/batch.md.
+Measured (2026-12-02, full mode, 80 clips, load average 6-7 on the 2 cores: 8 helpers' jobs beside
+it): plain loop 11.5 s (0.14 s/clip), workers=0 9.1 s, 1 worker 27.2 s (command time 17.3 s of it),
+2 workers 50.1 s (command time 59.3 s: the audits ran 3.4x slower with the second worker competing
+with the host's other jobs), so speed-up 0.54 (FAIL) and overhead 0.20 s/clip (FAIL). An earlier run
+at load 8-11: 1 worker 103 s, 2 workers 93 s, plain loop 40.5 s. See docs/batch.md.
 """
 from __future__ import annotations
 
