@@ -244,6 +244,17 @@ if AVAILABLE:
             mark[s0 + j] = True
 
     @numba.njit(cache=True, nogil=True)
+    def _far(rows, best, row_clip, L):
+        """The ``rows`` in another clip than row ``best`` or at least ``L`` rows from it."""
+        out = np.empty(rows.shape[0], np.int64)
+        n = 0
+        for r in rows:
+            if row_clip[r] != row_clip[best] or abs(r - best) >= L:
+                out[n] = r
+                n += 1
+        return out[:n]
+
+    @numba.njit(cache=True, nogil=True)
     def _best_rows(D, row_clip, L):
         """``(best, runner-up)`` rows of the computed windows (``D`` not NaN): the least distance (first
         row on ties), and the least among the windows in another clip or at least ``L`` rows away
@@ -317,26 +328,13 @@ if AVAILABLE:
         #    around it is refined
         best, ru = _best_rows(D, row_clip, L)
         if ru < 0:
-            far = np.empty(cand.shape[0], np.int64)
-            n = 0
-            for r in cand:
-                if row_clip[r] != row_clip[best] or abs(r - best) >= L:
-                    far[n] = r
-                    n += 1
-            _evaluate(P, O, G, T, far[:n], frames, qp, qo, yq, w, wp, wr, Cl, Cq, np.inf, 0.0, D, first_lb, lbf,
+            _evaluate(P, O, G, T, _far(cand, best, row_clip, L), frames, qp, qo, yq, w, wp, wr, Cl, Cq, np.inf, 0.0, D, first_lb, lbf,
                       suf, cnt, ws, low)
             best, ru = _best_rows(D, row_clip, L)
         if ru >= 0:
             mark = np.zeros(N, np.bool_)
             _interval(ru, row_clip, cstart, nvalid, U, Uoff, mark)
-            more = np.flatnonzero(mark)
-            keep = np.empty(more.shape[0], np.int64)
-            n = 0
-            for r in more:
-                if row_clip[r] != row_clip[best] or abs(r - best) >= L:
-                    keep[n] = r
-                    n += 1
-            _evaluate(P, O, G, T, keep[:n], frames, qp, qo, yq, w, wp, wr, Cl, Cq, D[ru], -1.0, D, first_lb, lbf,
+            _evaluate(P, O, G, T, _far(np.flatnonzero(mark), best, row_clip, L), frames, qp, qo, yq, w, wp, wr, Cl, Cq, D[ru], -1.0, D, first_lb, lbf,
                       suf, cnt, ws, low)
             best, ru = _best_rows(D, row_clip, L)
         touched = 0
