@@ -419,3 +419,33 @@ def test_detected_slide_is_the_audits_foot_slide():
         want = foot_slide(audit(x))
         assert want > 0
         assert abs(detected_slide(detect_contacts(x), ("foot_l", "toe_l", "foot_r", "toe_r")) - want) < 1e-12
+
+
+def test_a_toe_plant_moves_with_its_heels_plant():
+    """Ankle point planted on frames 0-20 resting at 5 cm and on 40-50 at 0 cm (its resting level, the
+    median of the two lows, is 2.5 cm: the first plant moves by -2.5 cm); the toe tip planted on
+    frames 10-30, its only plant (on its own resting level it would not move: 2.5 cm apart from the
+    heel's shift, more than TOE_HEEL_GAP): it moves by the heel's -2.5 cm over its whole run (the foot
+    keeps its pitch). With a second toe plant 4 cm lower its own shift is -2 cm, within TOE_HEEL_GAP of
+    the heel's: it keeps its own."""
+    import dataclasses
+
+    import mocomp.ops.plants as pl
+    from mocomp.ops.plants import plant_targets
+
+    T = 60
+    lab = np.zeros((T, 4), bool)
+    lab[0:20, 0] = lab[40:50, 0] = True
+    lab[10:30, 1] = True
+    pts = np.full((T, 4, 3), 0.2)
+    pts[0:20, 0, 1], pts[40:50, 0, 1] = 0.05, 0.0
+    pts[10:30, 1, 1] = -0.04 + 0.001 * np.arange(20)
+    walk = synthetic_walk(duration=0.5, fps=120.0).motion
+    plants = dataclasses.replace(pl.foot_plants(walk), labels=lab, levels=np.where(lab, 0.0, np.nan))
+    y = plant_targets(pts, plants)[..., 1]
+    np.testing.assert_allclose(y[0:20, 0], 0.025, atol=1e-12)
+    np.testing.assert_allclose(y[10:30, 1], pts[10:30, 1, 1] - 0.025, atol=1e-12)
+    lab[52:55, 1] = True
+    pts[52:55, 1, 1] = -0.08
+    y = plant_targets(pts, dataclasses.replace(plants, labels=lab, levels=np.where(lab, 0.0, np.nan)))[..., 1]
+    np.testing.assert_allclose(y[10:30, 1], pts[10:30, 1, 1] - 0.02, atol=1e-12)

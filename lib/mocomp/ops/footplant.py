@@ -257,7 +257,8 @@ def consistent_toe_targets(targets: np.ndarray, pts: np.ndarray, plants: FootPla
         out[f, kt, 2] = targets[first[r], ka, 2] + scale * u[r, 1]
     return out
 
-def bounded_foot_pitch(targets: np.ndarray, pts: np.ndarray, plants: FootPlants, slack: float) -> np.ndarray:
+def bounded_foot_pitch(targets: np.ndarray, pts: np.ndarray, plants: FootPlants, slack: float,
+                       fade: int = 0) -> np.ndarray:
     """Ankle-point target heights that keep a foot with both points planted nearly rigid on its
     horizontal targets. With both points held horizontally, the foot's horizontal length is fixed;
     the input's pitch (heel rising about the toe, toe rolling down after the heel strike) changes it,
@@ -269,7 +270,9 @@ def bounded_foot_pitch(targets: np.ndarray, pts: np.ndarray, plants: FootPlants,
     after its plant ends, over the fade). With :data:`PITCH_TO_ZERO` the mismatch is kept within
     ``slack`` of zero instead of its run mean: a misfit constant over the run (the ankle point's and the
     toe tip's targets put on resting levels that do not fit the foot's pitch) is turned into heel height
-    too rather than shared by the two points."""
+    too rather than shared by the two points; ``fade`` (frames, the enforcement's blend): the change of
+    the ankle point's height is eased out over the planted frames around the shared ones
+    (:func:`_fade_height_change`), so it does not jump where the toe lifts or lands."""
     out = np.array(targets)
     for li in range(len(plants.legs)):
         ka, kt = 2 * li, 2 * li + 1
@@ -294,7 +297,29 @@ def bounded_foot_pitch(targets: np.ndarray, pts: np.ndarray, plants: FootPlants,
         dy_new = np.sign(dy) * np.sqrt(np.maximum(L3 * L3 - h_new * h_new, 0.0))
         f = sel[change]
         out[f, ka, 1] = out[f, kt, 1] + dy_new[change]
+        if fade > 0:
+            _fade_height_change(out[:, ka, 1], targets[:, ka, 1], both, plants.labels[:, ka], fade)
     return out
+
+
+def _fade_height_change(y: np.ndarray, y0: np.ndarray, both: np.ndarray, planted: np.ndarray, fade: int) -> None:
+    """In place: the change ``y - y0`` an ankle point's target height took on the frames ``both`` (its
+    toe tip planted too) carried into the point's other planted frames of the same run, eased out over
+    ``fade`` frames from the nearest such frame: where the toe lifts (or lands) while the heel stays
+    planted, the heel's height does not jump back to its own target in one frame."""
+    ch = np.where(both, y - y0, 0.0)
+    for a, b in label_intervals(planted):
+        s_idx = np.flatnonzero(both[a:b])
+        if s_idx.size == 0 or s_idx.size == b - a or not np.any(ch[a:b]):
+            continue
+        t = np.arange(b - a)
+        j = np.clip(np.searchsorted(s_idx, t), 1, s_idx.size - 1) if s_idx.size > 1 else np.zeros(b - a, int)
+        if s_idx.size > 1:
+            j = np.where(np.abs(s_idx[j - 1] - t) <= np.abs(s_idx[j] - t), j - 1, j)
+        near = s_idx[j]
+        w = ease(np.clip(1.0 - np.abs(t - near) / (fade + 1.0), 0.0, 1.0), "smoothstep")
+        other = ~both[a:b]
+        y[a:b][other] = y0[a:b][other] + w[other] * ch[a:b][near[other]]
 
 
 def _quat_to_rotvec(q: np.ndarray) -> np.ndarray:
@@ -336,7 +361,7 @@ def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: st
         hinges = [hinge_axis(P, G, leg.chain) for leg in plants.legs]
     targets = consistent_toe_targets(plant_targets(pts, plants, height), pts, plants)
     if height == "level" and PITCH_SLACK is not None:
-        targets = bounded_foot_pitch(targets, pts, plants, PITCH_SLACK)
+        targets = bounded_foot_pitch(targets, pts, plants, PITCH_SLACK, blend if PITCH_TO_ZERO else 0)
     rot = np.array(motion.rotations) if prev is None else np.array(prev[0])
     state = {}
     jobs = []

@@ -299,7 +299,40 @@ def plant_targets(points: np.ndarray, plants: FootPlants, height: str = "level")
             rest = ROBUST_LEVEL and plants.source.get(plants.effectors[k]) == "detector"
             out[sel, k, 1] = y - low[rid] + (_resting_levels(low, plants.levels[sel[first], k])[rid]
                                              if rest else plants.levels[sel, k])
+    if height == "level" and ROBUST_LEVEL:
+        _toes_with_their_heels(out, points, plants)
     return out
+
+
+def _toes_with_their_heels(out: np.ndarray, points: np.ndarray, plants: FootPlants) -> None:
+    """In place: a toe-tip plant (points 1 and 3) that overlaps plants of its foot's ankle point
+    (0 and 2) is moved up or down by the same amount as the ankle point's plant it shares most frames
+    with, over its whole run, so the foot keeps its pitch: two points put on resting levels of their
+    own (a raw CMU toe sunk 5 cm through the floor while the heel rests 1 cm above it) would ask for a
+    foot pitched otherwise than the input's, which the rigid foot can only meet by sliding both
+    points along itself or by a steep change of pitch. Only points planted by the detector (resting
+    levels), and only where the two shifts differ by more than :data:`TOE_HEEL_GAP`."""
+    for ka, kt in ((0, 1), (2, 3)):
+        if any(plants.source.get(plants.effectors[k]) != "detector" for k in (ka, kt)):
+            continue
+        la, lt = plants.labels[:, ka], plants.labels[:, kt]
+        if not (la & lt).any():
+            continue
+        shift_a = out[:, ka, 1] - points[:, ka, 1]                     # constant over each ankle run
+        ra = np.cumsum(np.r_[la[0], la[1:] & ~la[:-1]]) * la            # ankle run id per frame (0: none)
+        for a, b in label_intervals(lt):
+            ids = ra[a:b][ra[a:b] > 0]
+            if ids.size == 0:
+                continue
+            f = a + int(np.flatnonzero(ra[a:b] == np.bincount(ids).argmax())[0])
+            if abs(out[a, kt, 1] - points[a, kt, 1] - shift_a[f]) > TOE_HEEL_GAP:
+                out[a:b, kt, 1] = points[a:b, kt, 1] + shift_a[f]
+
+
+#: m: :func:`_toes_with_their_heels` moves a toe plant with its heel's only where their own shifts
+#: differ by more than this (a toe sunk centimetres through the floor); smaller differences are left to
+#: the foot's pitch (:func:`mocomp.ops.footplant.bounded_foot_pitch`)
+TOE_HEEL_GAP = 0.02
 
 
 #: ``plant_targets(height="level")``: each plant's lowest height goes on the median resting height of
