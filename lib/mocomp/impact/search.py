@@ -190,8 +190,13 @@ class _Query:
         self.ground0 = np.array([root0[0], 0.0, root0[2]])
         self.heading0 = float(2.0 * np.arctan2(q0[1], q0[3]))         # twist about +y (ops.align.headings)
         F = L - 1                                        # eq. A.1: the last frame has weight 0
-        self.frames = np.arange(F, dtype=np.int64)
-        self.w = np.ascontiguousarray(window_weights(L)[:F])
+        key = ("window", L)                              # per window length, cached in the index
+        cat = index.concatenated()
+        if key not in cat:
+            cat[key] = (np.arange(F, dtype=np.int64), np.ascontiguousarray(window_weights(L)[:F]))
+            for a in cat[key]:
+                a.setflags(write=False)
+        self.frames, self.w = cat[key]
         if _kernels.AVAILABLE:
             pos, qp, qo, yq = (np.empty((L, joints.size, k)) for k in (3, 3, 4, 4))
             _kernels.query_nb(P[start:stop], G[start:stop], joints, coms, self.ground0[0], self.ground0[2],
@@ -292,9 +297,13 @@ def _unique_table(index: LibraryIndex) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _valid_starts(index: LibraryIndex, L: int):
-    """Per clip: first row, number of valid window starts (``n - L + 1``, may be <= 0)."""
+    """Per clip: first row, number of valid window starts (``n - L + 1``, may be <= 0; cached per ``L``)."""
     cat = index.concatenated()
-    return cat["start"], cat["length"] - L + 1
+    key = ("n_valid", L)
+    if key not in cat:
+        cat[key] = np.ascontiguousarray(cat["length"] - L + 1, dtype=np.int64)
+        cat[key].setflags(write=False)
+    return cat["start"], cat[key]
 
 
 def _distances(q: _Query, rows: np.ndarray, threshold: float = np.inf, margin: float = -1.0, *,
@@ -507,7 +516,7 @@ def search(index: LibraryIndex, query: Motion, start: int, stop: int, *, support
         first = np.full(q.P.shape[0], np.nan)
         out = np.empty(6, np.int64)
         _kernels.search_nb(q.P, q.O, q.G, q.T, q.Cl, index.concatenated()["row_clip"], starts,
-                           np.ascontiguousarray(n_valid, dtype=np.int64), U, Uoff, uniq, q.frames, q.qp, q.qo,
+                           n_valid, U, Uoff, uniq, q.frames, q.qp, q.qo,
                            q.yqo, q.w, q.wp, q.wr, q.Cq, L, float(margin_factor * index.tolerance * q.w.sum()),
                            int(max_regions), D, first, out)
         stats.update(frames_compared=int(out[2]), frames_exact=int(out[3]), windows_compared=int(out[4]),
