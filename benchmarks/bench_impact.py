@@ -44,15 +44,13 @@ turned and shifted at random (as ``tests/test_impact_search.py``). Without it: a
 
 Measured before (2026-12-02, load ~7, ``--quick``): same best in 23/23, 11.0x fewer frame pairs,
 CPU per query 3.5 vs 15.3 ms, **4.4x**: every search paid ~1.5 ms of Python control flow that
-pruning does not shrink. Now (the whole search one compiled call, each window bounded first without
-``acos`` and finished exactly only if it survives, :mod:`mocomp.impact._kernels`; full mode, load
-6.5-7): same best in 23/23, 74 k frame pairs vs 822 k (11.1x fewer; 7.6 k of them exact), CPU per
-query ~1.2-1.6 ms vs ~12.5-16.7 ms, **10.2-11.2x** over runs (full run at load 5.7-6.0: 1.49 vs
-16.27 ms, 10.9x) (the exhaustive figure itself moves by
-~30 % with the load; the victim queries, absent from the library, cost 1.1-2.0 ms, the windows cut
-from library clips ~0.8 ms). The goal is met, with little margin: on this 1739-frame library the
-exhaustive search is only ~35 k windows. Index build 242 / 232 us per frame at 1x / 2x (linear);
-cached reload of the 14 clips 66 ms.
+pruning does not shrink. Now (the whole search one compiled call, each window bounded first without ``acos`` and finished
+exactly only if it survives, :mod:`mocomp.impact._kernels`; full mode): same best in 23/23, 74 k
+frame pairs vs 822 k (11.1x fewer; 7.6 k of them exact), CPU per query 0.85 vs 10.94 ms, **12.9x**
+at load 4.1; 1.49 vs 16.27 ms, **10.9x** at load 5.7-6.0 (the victim queries, absent from the
+library, cost the most; the windows cut from library clips little). The goal is met with a thin
+margin under heavy load: on this 1739-frame library the exhaustive search is only ~35 k windows.
+Index build 242 / 232 us per frame at 1x / 2x (linear); cached reload of the 14 clips 66 ms.
 
 The paper (Majkowska 2007, sec. 4.4) quotes about one minute per response, 70 % of it in the search
 of a 110-clip library, on 2007 hardware: quoted in the notes, not comparable.

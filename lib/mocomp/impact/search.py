@@ -53,9 +53,9 @@ visit, i.e. they change how many frames are compared, never which of the visited
 The compiled search (numba) runs the passes above in one call (:func:`._kernels.search_nb`); the
 query window's body parts come from one compiled function too. Without numba (``MOCOMP_NO_NUMBA=1``)
 the same passes run in Python over the numpy twin of the kernel (whole windows, no abandoning; the
-same results, tested). Measured on the benchmark's 23 queries (``benchmarks/bench_impact.py``, load
-6-7 on 2 shared cores): CPU ~1.2-1.6 ms per query against ~12.5-16.7 ms for the exhaustive search
-(10.2-11.2x; before the compiled control flow 3.1-3.5 ms, 4.4x).
+same results, tested). Measured on the benchmark's 23 queries (``benchmarks/bench_impact.py``, 2 shared
+cores): CPU 0.85 vs 10.94 ms per query for the exhaustive search at load 4 (12.9x), 1.49 vs 16.27 ms
+at load 6 (10.9x); before the compiled control flow 3.1-3.5 ms, 4.4x.
 
 ``exhaustive=True`` compares every window of every clip in full: the reference.
 
