@@ -59,7 +59,10 @@ passes where the re-detection disagrees with the input's (2026-12-02, 13:58, loa
 switched call by call in one process, 12 calls each, min / median): footplant 61.4 / 74.0 ->
 62.4 / 74.5 ms, pathedit 65.3 / 69.7 -> 65.0 / 71.4 ms, blend with feet planted 63.8 / 68.8 ->
 67.6 / 71.7 ms (+4-6 %). The bench clip never starts the extra passes (its re-detection adds 0.4 % of
-the planted frames); a raw CMU clip that does (131_02, 32 %) costs 2.8x its two passes.
+the planted frames); a raw CMU clip that does (131_02, 32 %) costs 2.8x its two passes. With the
+heel-height easing and the toes moved with their heels (vectorised; 14:09, load 3.5, 12 calls each):
+footplant 24.6 / 25.3 -> 25.9 / 28.3 ms (+5 % min), pathedit 27.3 / 28.9 -> 29.4 / 30.9 ms (+8 %),
+blend with feet planted 27.0 / 27.8 -> 28.7 / 29.7 ms (+6 %).
 """
 from __future__ import annotations
 

@@ -320,13 +320,21 @@ def _toes_with_their_heels(out: np.ndarray, points: np.ndarray, plants: FootPlan
             continue
         shift_a = out[:, ka, 1] - points[:, ka, 1]                     # constant over each ankle run
         ra = np.cumsum(np.r_[la[0], la[1:] & ~la[:-1]]) * la            # ankle run id per frame (0: none)
-        for a, b in label_intervals(lt):
-            ids = ra[a:b][ra[a:b] > 0]
-            if ids.size == 0:
-                continue
-            f = a + int(np.flatnonzero(ra[a:b] == np.bincount(ids).argmax())[0])
-            if abs(out[a, kt, 1] - points[a, kt, 1] - shift_a[f]) > TOE_HEEL_GAP:
-                out[a:b, kt, 1] = points[a:b, kt, 1] + shift_a[f]
+        rt = np.cumsum(np.r_[lt[0], lt[1:] & ~lt[:-1]]) * lt            # toe run id per frame
+        sh = np.flatnonzero(la & lt)
+        # per toe run, the ankle run it shares most frames with (the first of equals) and its shift
+        pairs, first, cnt = np.unique(rt[sh] * (int(ra.max()) + 1) + ra[sh], return_index=True, return_counts=True)
+        toe_run = pairs // (int(ra.max()) + 1)
+        order = np.lexsort((first, -cnt, toe_run))
+        keep = order[np.r_[True, toe_run[order][1:] != toe_run[order][:-1]]]
+        shift = np.full(int(rt.max()) + 1, np.nan)
+        shift[toe_run[keep]] = shift_a[sh[first[keep]]]
+        f = np.flatnonzero(lt)
+        s_t = shift[rt[f]]
+        starts = np.r_[0, np.flatnonzero(np.diff(f) > 1) + 1]           # the toe's own shift, per run
+        own = np.repeat((out[f, kt, 1] - points[f, kt, 1])[starts], np.diff(np.r_[starts, f.size]))
+        move = np.isfinite(s_t) & (np.abs(own - s_t) > TOE_HEEL_GAP)
+        out[f[move], kt, 1] = points[f[move], kt, 1] + s_t[move]
 
 
 #: m: :func:`_toes_with_their_heels` moves a toe plant with its heel's only where their own shifts
