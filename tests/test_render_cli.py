@@ -12,8 +12,9 @@ TINY = ["--size", "96x72"]
 
 
 def _leaf(name: str) -> argparse.ArgumentParser:
+    """The parser of command ``name`` (a module name: ``impact_index`` is ``mocomp impact-index``)."""
     sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
-    return sub.choices[name]
+    return sub.choices[name.replace("_", "-")]
 
 
 def _one_error_line(capsys, command: str) -> str:
