@@ -161,8 +161,8 @@ def slerp4(ax, ay, az, aw, bx, by, bz, bw, t, cos_near):
     z = w0 * az + w1 * bz
     w = w0 * aw + w1 * bw
     nn = x * x + y * y + z * z + w * w
-    r = 1.0 / math.sqrt(nn)
-    return x * r, y * r, z * r, w * r, nn
+    n = math.sqrt(nn)
+    return x / n, y / n, z / n, w / n, nn
 
 
 # ------------------------------------------------------------------ forward kinematics

@@ -153,8 +153,10 @@ class Motion:
         if step != 1:
             raise ValueError(f"fk(frames=...) takes a slice with step 1, got step {step}")
         stop = max(stop, start)
-        if "fk" in self._cache or (start == 0 and stop == self.n_frames):
-            P, G = self._fk()
+        if start == 0 and stop == self.n_frames:
+            return self._fk()
+        if "fk" in self._cache:
+            P, G = self._cache["fk"]
             return P[start:stop], G[start:stop]
         return forward_kinematics(self.skeleton.parents, self.skeleton.offsets, self.root_positions[start:stop],
                                   self.rotations[start:stop])

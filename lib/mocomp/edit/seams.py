@@ -154,7 +154,7 @@ def recover_upright(motion: Motion, first_ground: int, up_now: np.ndarray, secon
     Returns ``(motion, slide)``: ``slide`` (m) is the largest horizontal travel of a foot joint
     during a contact, from where that contact began (:func:`stance_slide`).
     """
-    from ._kernels import fk_arrays, motion_fk
+    from ..core.kinematics import forward_kinematics
     from ..ops.ik import leg_chains, plant_rotations
 
     fix = _shortest_arc(np.asarray(up_now, dtype=float), np.array([0.0, 1.0, 0.0]))
@@ -166,7 +166,7 @@ def recover_upright(motion: Motion, first_ground: int, up_now: np.ndarray, secon
     q = slerp(ident, np.broadcast_to(fix, (n, 4)), s)
     c = ce(motion.root_positions[first_ground:first_ground + 1], motion.rotations[first_ground:first_ground + 1])[0]
     if pivot is None:
-        low = motion_fk(motion, first_ground, first_ground + 1)[0][0, :, 1].min()
+        low = motion.fk(frames=slice(first_ground, first_ground + 1))[0][0, :, 1].min()
         pivot = np.array([c[0], low, c[2]])
     pivot = np.asarray(pivot, dtype=float)
     rp = np.array(motion.root_positions)
@@ -178,10 +178,10 @@ def recover_upright(motion: Motion, first_ground: int, up_now: np.ndarray, secon
     if not feet:
         return motion.replace(root_positions=rp, rotations=rot), 0.0
     # FK of the frames from touchdown only, on the arrays (one motion is built, at the end)
-    after = fk_arrays(sk, rp[first_ground:], rot[first_ground:])[0][:, feet]
+    after = forward_kinematics(sk.parents, sk.offsets, rp[first_ground:], rot[first_ground:])[0][:, feet]
     w = _contact_weights(after[..., 1], contact)
     if pin_feet:
-        before = motion_fk(motion, first_ground)[0][:, feet]
+        before = motion.fk(frames=slice(first_ground, None))[0][:, feet]
         err = before[..., [0, 2]] - after[..., [0, 2]]                    # (n, F, 2)
         shift = _held_shift(w, err)
         rp[first_ground:, 0] += shift[:, 0]
@@ -197,10 +197,10 @@ def recover_upright(motion: Motion, first_ground: int, up_now: np.ndarray, secon
 
             rate = 1.0 / max(RELEASE_S * motion.fps, 1.0)
             wa = np.stack([_release_limited(wa[:, i], rate) for i in range(wa.shape[1])], axis=1)
-            P, G = fk_arrays(sk, rp[first_ground:], rot[first_ground:])
+            P, G = forward_kinematics(sk.parents, sk.offsets, rp[first_ground:], rot[first_ground:])
             rot, solves = plant_rotations(sk.parents, rot, P, G, first_ground, wa, chains)
             if solves:
-                after = fk_arrays(sk, rp[first_ground:], rot[first_ground:])[0][:, feet]
+                after = forward_kinematics(sk.parents, sk.offsets, rp[first_ground:], rot[first_ground:])[0][:, feet]
                 return motion.replace(root_positions=rp, rotations=rot), stance_slide(after, w)
         after[..., 0] += shift[:, None, 0]
         after[..., 2] += shift[:, None, 1]
