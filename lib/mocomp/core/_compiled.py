@@ -28,7 +28,7 @@ import os
 
 import numpy as np
 
-__all__ = ["AVAILABLE", "DISABLED", "njit", "qmul", "qrot", "qlog", "qexp", "qpow", "qmat", "slerp4", "fk_pose",
+__all__ = ["AVAILABLE", "DISABLED", "njit", "qmul", "qrot", "qangle", "qlog", "qexp", "qpow", "qmat", "slerp4", "fk_pose",
            "forward_kinematics"]
 
 #: numba switched off by the environment (``MOCOMP_NO_NUMBA=1``): the numpy reference runs everywhere
@@ -81,6 +81,13 @@ def qrot(ux, uy, uz, w, vx, vy, vz):
     return (vx + w * tx + (uy * tz - uz * ty),
             vy + w * ty + (uz * tx - ux * tz),
             vz + w * tz + (ux * ty - uy * tx))
+
+
+@njit(inline="always")
+def qangle(x, y, z, w):
+    """Rotation angle in ``[0, pi]`` of a unit quaternion (sign-independent): ``2 atan2(|u|, |w|)``;
+    as :func:`mocomp.core.rotations.quat_angle`."""
+    return 2.0 * math.atan2(math.sqrt(x * x + y * y + z * z), abs(w))
 
 
 @njit(inline="always")

@@ -61,25 +61,36 @@ def as_rotation(q: np.ndarray) -> Rotation:
     return Rotation.from_quat(q.reshape(-1, 4))
 
 
-def quat_multiply(a: np.ndarray, b: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+def _components(a: np.ndarray, axis: int) -> tuple:
+    if axis == -1:
+        return tuple(a[..., k] for k in range(a.shape[-1]))
+    if axis == 0:
+        return tuple(a)
+    raise ValueError(f"the component axis must be -1 (last) or 0 (first), got {axis}")
+
+
+def quat_multiply(a: np.ndarray, b: np.ndarray, out: np.ndarray | None = None, axis: int = -1) -> np.ndarray:
     """Hamilton product ``a * b`` (apply ``b`` first, then ``a``), broadcasting (Sola 2017, eq. 12).
 
     Equivalent to ``(Rotation.from_quat(a) * Rotation.from_quat(b)).as_quat()``
     without canonicalising the sign; written out so that it broadcasts over any
     leading shape without flattening (tests compare it with scipy). ``out``: an
     array of the broadcast shape to write into (may not alias ``a`` or ``b``).
+    ``axis``: where the four components are, ``-1`` (``(..., 4)``, the default) or
+    ``0`` (``(4, ...)``, component-major: contiguous rows, as forward kinematics uses).
     The compiled twin is :func:`mocomp.core._compiled.qmul`.
     """
     a = np.asarray(a, dtype=float)
     b = np.asarray(b, dtype=float)
-    ax, ay, az, aw = a[..., 0], a[..., 1], a[..., 2], a[..., 3]
-    bx, by, bz, bw = b[..., 0], b[..., 1], b[..., 2], b[..., 3]
+    ax, ay, az, aw = _components(a, axis)
+    bx, by, bz, bw = _components(b, axis)
     if out is None:
         out = np.empty(np.broadcast_shapes(a.shape, b.shape))
-    out[..., 0] = aw * bx + ax * bw + ay * bz - az * by
-    out[..., 1] = aw * by - ax * bz + ay * bw + az * bx
-    out[..., 2] = aw * bz + ax * by - ay * bx + az * bw
-    out[..., 3] = aw * bw - ax * bx - ay * by - az * bz
+    ox, oy, oz, ow = _components(out, axis)
+    ox[...] = aw * bx + ax * bw + ay * bz - az * by
+    oy[...] = aw * by - ax * bz + ay * bw + az * bx
+    oz[...] = aw * bz + ax * by - ay * bx + az * bw
+    ow[...] = aw * bw - ax * bx - ay * by - az * bz
     return out
 
 
@@ -103,35 +114,37 @@ def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return out
 
 
-def quat_apply(q: np.ndarray, v: np.ndarray) -> np.ndarray:
+def quat_apply(q: np.ndarray, v: np.ndarray, axis: int = -1) -> np.ndarray:
     """Rotate vectors ``v (..., 3)`` by unit quaternions ``q (..., 4)``, broadcasting.
 
     Uses ``v' = v + 2 w (u x v) + 2 u x (u x v)`` with ``q = (u, w)`` (Sola 2017,
-    eq. 111, expanded). ``R(q)^T v`` is ``quat_apply(quat_inverse(q), v)``. The
-    compiled twin is :func:`mocomp.core._compiled.qrot`.
+    eq. 111, expanded). ``R(q)^T v`` is ``quat_apply(quat_inverse(q), v)``. ``axis``: where
+    the components of ``q``, ``v`` and the result are, last (``-1``) or first (``0``), as in
+    :func:`quat_multiply`. The compiled twin is :func:`mocomp.core._compiled.qrot`.
     """
     q = np.asarray(q, dtype=float)
     v = np.asarray(v, dtype=float)
-    ux, uy, uz, w = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
-    vx, vy, vz = v[..., 0], v[..., 1], v[..., 2]
+    ux, uy, uz, w = _components(q, axis)
+    vx, vy, vz = _components(v, axis)
     # written out (np.cross has a large per-call overhead); same operations as
     # t = 2 (u x v); v + w t + u x t
     tx = 2.0 * (uy * vz - uz * vy)
     ty = 2.0 * (uz * vx - ux * vz)
     tz = 2.0 * (ux * vy - uy * vx)
-    out = np.empty(np.broadcast_shapes(q.shape[:-1], v.shape[:-1]) + (3,))
-    out[..., 0] = vx + w * tx + (uy * tz - uz * ty)
-    out[..., 1] = vy + w * ty + (uz * tx - ux * tz)
-    out[..., 2] = vz + w * tz + (ux * ty - uy * tx)
+    lead = np.broadcast_shapes(tx.shape, vx.shape)
+    out = np.empty(lead + (3,) if axis == -1 else (3,) + lead)
+    ox, oy, oz = _components(out, axis)
+    ox[...] = vx + w * tx + (uy * tz - uz * ty)
+    oy[...] = vy + w * ty + (uz * tx - ux * tz)
+    oz[...] = vz + w * tz + (ux * ty - uy * tx)
     return out
 
 
 def quat_angle(q: np.ndarray) -> np.ndarray:
-    """Rotation angle in ``[0, pi]`` of unit quaternions (sign-independent)."""
+    """Rotation angle in ``[0, pi]`` of unit quaternions (sign-independent): ``2 atan2(|u|, |w|)``.
+    The compiled twin is :func:`mocomp.core._compiled.qangle`."""
     q = np.asarray(q, dtype=float)
-    w = np.clip(np.abs(q[..., 3]), 0.0, 1.0)
-    vec = np.linalg.norm(q[..., :3], axis=-1)
-    return 2.0 * np.arctan2(vec, w)
+    return 2.0 * np.arctan2(np.sqrt(np.einsum("...i,...i->...", q[..., :3], q[..., :3])), np.abs(q[..., 3]))
 
 
 def quat_log(q: np.ndarray) -> np.ndarray:
