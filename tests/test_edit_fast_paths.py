@@ -94,7 +94,7 @@ def _plant_feet_reference(motion, start, weights, chains, tol=1e-3):
 
 
 def _recover_upright_reference(motion, first_ground, up_now, seconds, ce, contact=(0.05, 0.12), pivot=None):
-    fix = seams._shortest_arc(np.asarray(up_now, dtype=float), np.array([0.0, 1.0, 0.0]))
+    fix = seams.shortest_arc(np.asarray(up_now, dtype=float), np.array([0.0, 1.0, 0.0]))
     n = motion.n_frames - first_ground
     m = max(1, int(round(seconds * motion.fps)))
     s = np.clip(np.arange(1, n + 1) / m, 0.0, 1.0)

@@ -28,7 +28,7 @@ import os
 
 import numpy as np
 
-__all__ = ["AVAILABLE", "DISABLED", "njit", "qmul", "qrot", "qangle", "qlog", "qexp", "qpow", "qmat", "slerp4", "fk_pose",
+__all__ = ["AVAILABLE", "DISABLED", "njit", "qmul", "qrot", "qangle", "qlog", "qexp", "qpow", "qmat", "slerp4", "centroid", "world_inertia", "spin", "fk_pose",
            "forward_kinematics"]
 
 #: numba switched off by the environment (``MOCOMP_NO_NUMBA=1``): the numpy reference runs everywhere
@@ -170,6 +170,47 @@ def slerp4(ax, ay, az, aw, bx, by, bz, bw, t, cos_near):
     nn = x * x + y * y + z * z + w * w
     n = math.sqrt(nn)
     return x / n, y / n, z / n, w / n, nn
+
+
+# ------------------------------------------------------------------ segment sums
+@njit(inline="always")
+def centroid(m, X, f, M):
+    """``sum_s m[s] X[f, s] / M`` (``X (T, S, 3)``): the whole-body COM of frame ``f`` from
+    segment COMs (``M`` the total mass), or with ``M = 1`` and velocities the linear momentum
+    (eq. 5.4); accumulated in segment order, then divided."""
+    cx = 0.0
+    cy = 0.0
+    cz = 0.0
+    for s in range(m.shape[0]):
+        cx += m[s] * X[f, s, 0]
+        cy += m[s] * X[f, s, 1]
+        cz += m[s] * X[f, s, 2]
+    return cx / M, cy / M, cz / M
+
+
+@njit(inline="always")
+def world_inertia(R, I_local, s, out):
+    """``out = R I_local[s] R^T`` (3x3): segment ``s``'s inertia tensor in the world frame for
+    its orientation matrix ``R`` (:func:`qmat`)."""
+    for i in range(3):
+        for j in range(3):
+            acc = 0.0
+            for p in range(3):
+                for r in range(3):
+                    acc += R[i, p] * I_local[s, p, r] * R[j, r]
+            out[i, j] = acc
+
+
+@njit(inline="always")
+def spin(x, y, z, w, I_local, s, wx, wy, wz):
+    """``R I_local[s] R^T omega`` with ``R`` the unit quaternion ``(x, y, z, w)``: segment ``s``'s
+    spin angular momentum (the first term of eq. 5.5) for the world angular velocity ``omega``,
+    computed as ``R (I (R^T omega))`` with :func:`qrot` (no matrix)."""
+    ux, uy, uz = qrot(-x, -y, -z, w, wx, wy, wz)
+    ix = I_local[s, 0, 0] * ux + I_local[s, 0, 1] * uy + I_local[s, 0, 2] * uz
+    iy = I_local[s, 1, 0] * ux + I_local[s, 1, 1] * uy + I_local[s, 1, 2] * uz
+    iz = I_local[s, 2, 0] * ux + I_local[s, 2, 1] * uy + I_local[s, 2, 2] * uz
+    return qrot(x, y, z, w, ix, iy, iz)
 
 
 # ------------------------------------------------------------------ forward kinematics

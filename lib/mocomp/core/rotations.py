@@ -41,6 +41,7 @@ __all__ = [
     "quat_matrix",
     "slerp",
     "cross",
+    "shortest_arc",
     "make_continuous",
     "swing_twist",
     "euler_sequence",
@@ -240,6 +241,32 @@ def slerp(q0: np.ndarray, q1: np.ndarray, t: np.ndarray, nlerp_below: float | No
     w1 = np.where(small, t, np.sin(t * theta) / safe)
     out = w0 * q0 + w1 * q1
     return out / np.sqrt(np.sum(out * out, axis=-1, keepdims=True))
+
+
+def shortest_arc(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Quaternions of the shortest rotations taking directions ``u`` to ``v`` (``(..., 3)``,
+    broadcasting; need not be unit): ``(u x v, 1 + u . v)`` normalised, for unit ``u``, ``v``
+    (the half-way vector construction). Exactly opposite directions (that quaternion's norm
+    below 1e-9) have no unique shortest arc; they get a rotation by pi about ``u x e``, ``e``
+    the x axis, or the y axis when ``u`` is within ~26 degrees of x (a deterministic choice)."""
+    u = np.asarray(u, dtype=float)
+    v = np.asarray(v, dtype=float)
+    u = u / np.sqrt(np.einsum("...i,...i->...", u, u))[..., None]
+    v = v / np.sqrt(np.einsum("...i,...i->...", v, v))[..., None]
+    u, v = np.broadcast_arrays(u, v)
+    q = np.empty(u.shape[:-1] + (4,))
+    q[..., :3] = cross(u, v)
+    q[..., 3] = 1.0 + np.einsum("...i,...i->...", u, v)
+    n = np.sqrt(np.einsum("...i,...i->...", q, q))
+    bad = n < 1e-9
+    if np.any(bad):
+        ub = u[bad]
+        alt = np.where(np.abs(ub[:, :1]) < 0.9, np.array([[1.0, 0.0, 0.0]]), np.array([[0.0, 1.0, 0.0]]))
+        perp = cross(ub, alt)
+        perp /= np.sqrt(np.einsum("...i,...i->...", perp, perp))[..., None]
+        q[bad] = np.concatenate([perp, np.zeros((perp.shape[0], 1))], axis=-1)
+        n = np.where(bad, 1.0, n)
+    return q / n[..., None]
 
 
 def make_continuous(q: np.ndarray, axis: int = 0) -> np.ndarray:

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core._compiled import AVAILABLE, njit, qmul, qrot
+from ..core._compiled import AVAILABLE, centroid, njit, qmul, qrot, spin
 
 __all__ = ["AVAILABLE", "momentum_given_nb", "assemble_nb", "warmup"]
 
@@ -50,19 +50,8 @@ if AVAILABLE:
         ``omega`` (T, S, 3) into ``com``, ``lin``, ``ang`` (T, 3); the same operations, in the same
         order per segment, as the numpy ``assemble_momentum`` (``R (I (R^T w))`` with quaternions)."""
         S = masses.shape[0]
-        cx = cy = cz = 0.0
-        px = py = pz = 0.0
-        for s in range(S):
-            m = masses[s]
-            cx += m * pos[t, s, 0]
-            cy += m * pos[t, s, 1]
-            cz += m * pos[t, s, 2]
-            px += m * vel[t, s, 0]
-            py += m * vel[t, s, 1]
-            pz += m * vel[t, s, 2]
-        cx /= M
-        cy /= M
-        cz /= M
+        cx, cy, cz = centroid(masses, pos, t, M)
+        px, py, pz = centroid(masses, vel, t, 1.0)
         com[t, 0] = cx
         com[t, 1] = cy
         com[t, 2] = cz
@@ -72,16 +61,9 @@ if AVAILABLE:
         sx = sy = sz = 0.0
         ox = oy = oz = 0.0
         for s in range(S):
-            qx, qy, qz, qw = rot[t, s, 0], rot[t, s, 1], rot[t, s, 2], rot[t, s, 3]
-            wx, wy, wz = omega[t, s, 0], omega[t, s, 1], omega[t, s, 2]
-            # u = R^T w (conjugate quaternion: vector part negated)
-            ux, uy, uz = qrot(-qx, -qy, -qz, qw, wx, wy, wz)
-            # I u in the segment frame
-            ix = inertias[s, 0, 0] * ux + inertias[s, 0, 1] * uy + inertias[s, 0, 2] * uz
-            iy = inertias[s, 1, 0] * ux + inertias[s, 1, 1] * uy + inertias[s, 1, 2] * uz
-            iz = inertias[s, 2, 0] * ux + inertias[s, 2, 1] * uy + inertias[s, 2, 2] * uz
-            # R (I u)
-            ex, ey, ez = qrot(qx, qy, qz, qw, ix, iy, iz)
+            # R I R^T w
+            ex, ey, ez = spin(rot[t, s, 0], rot[t, s, 1], rot[t, s, 2], rot[t, s, 3], inertias, s,
+                              omega[t, s, 0], omega[t, s, 1], omega[t, s, 2])
             sx += ex
             sy += ey
             sz += ez

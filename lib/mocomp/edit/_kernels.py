@@ -21,7 +21,7 @@ import math
 
 import numpy as np
 
-from ..core._compiled import njit, qexp, qlog, qmat, qmul, qrot, slerp4
+from ..core._compiled import centroid, njit, qexp, qlog, qmat, qmul, qrot, slerp4, world_inertia
 
 __all__ = ["direction_sweep", "interior_momentum", "rotate_frames", "momentum_blocks", "slerp_frames",
            "sampled_segments"]
@@ -142,14 +142,10 @@ def direction_sweep(m, I_local, X, Q, t, U, a, b, tol, max_iter):
                 d[s, k] = X[f + 1, s, k] - c1[k]
             # world inertia at f
             qmat(Q[f, s, 0], Q[f, s, 1], Q[f, s, 2], Q[f, s, 3], Rf)
+            world_inertia(Rf, I_local, s, Iw[s])
             for i in range(3):
                 for j in range(3):
-                    acc = 0.0
-                    for p in range(3):
-                        for r in range(3):
-                            acc += Rf[i, p] * I_local[s, p, r] * Rf[j, r]
-                    Iw[s, i, j] = acc
-                    Iw_sum[i, j] += acc
+                    Iw_sum[i, j] += Iw[s, i, j]
             # backward rotation vector q_f q_{f-1}^-1
             b0, b1, b2, b3 = qmul(Q[f, s, 0], Q[f, s, 1], Q[f, s, 2], Q[f, s, 3],
                                    -Q[f - 1, s, 0], -Q[f - 1, s, 1], -Q[f - 1, s, 2], Q[f - 1, s, 3])
@@ -286,16 +282,7 @@ def interior_momentum(m, I_local, X, Q, t):
         h1 = t[f] - t[f - 1]
         h2 = t[f + 1] - t[f]
         dt = h1 + h2
-        c0 = 0.0
-        c1 = 0.0
-        c2 = 0.0
-        for s in range(S):
-            c0 += m[s] * X[f, s, 0]
-            c1 += m[s] * X[f, s, 1]
-            c2 += m[s] * X[f, s, 2]
-        c0 /= M
-        c1 /= M
-        c2 /= M
+        c0, c1, c2 = centroid(m, X, f, M)
         L0 = 0.0
         L1 = 0.0
         L2 = 0.0
@@ -501,13 +488,7 @@ def momentum_blocks(m, I_local, X, Q, t, pivots):
             w1 = wf * rf1 + wb * rb1
             w2 = wf * rf2 + wb * rb2
             qmat(Q[f, s, 0], Q[f, s, 1], Q[f, s, 2], Q[f, s, 3], Rf)
-            for i in range(3):
-                for j in range(3):
-                    acc = 0.0
-                    for p in range(3):
-                        for r in range(3):
-                            acc += Rf[i, p] * I_local[s, p, r] * Rf[j, r]
-                    Iw[i, j] = acc
+            world_inertia(Rf, I_local, s, Iw)
             h0 = Iw[0, 0] * w0 + Iw[0, 1] * w1 + Iw[0, 2] * w2
             hh1 = Iw[1, 0] * w0 + Iw[1, 1] * w1 + Iw[1, 2] * w2
             hh2 = Iw[2, 0] * w0 + Iw[2, 1] * w1 + Iw[2, 2] * w2

@@ -42,7 +42,7 @@ import numpy as np
 from scipy.optimize import minimize
 
 from ..core.motion import Motion
-from ..core.rotations import quat_apply, quat_exp, quat_inverse, quat_log, quat_matrix, quat_multiply
+from ..core.rotations import quat_apply, quat_exp, quat_inverse, quat_log, quat_matrix, quat_multiply, shortest_arc
 from ..dynamics.com import check_compatible
 from .layers import EditRangeError
 
@@ -243,20 +243,6 @@ def _angle(L: np.ndarray, u: np.ndarray) -> float:
     """Angle between one vector and a unit vector."""
     c = np.cross(L, u)
     return math.atan2(math.sqrt(float(c @ c)), float(L @ u))
-
-
-def _rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    a = a / np.linalg.norm(a)
-    b = b / np.linalg.norm(b)
-    c = np.cross(a, b)
-    d = float(a @ b)
-    if d < -1 + 1e-12:
-        perp = np.cross(a, [1.0, 0.0, 0.0])
-        if np.linalg.norm(perp) < 1e-6:
-            perp = np.cross(a, [0.0, 1.0, 0.0])
-        return np.append(perp / np.linalg.norm(perp), 0.0)
-    q = np.append(c, 1.0 + d)
-    return q / np.linalg.norm(q)
 
 
 # ---------------------------------------------------------------- step 1
@@ -502,7 +488,7 @@ def _bfgs_sweep(m, I_local, X, Q, t, U, a, b, tol, pivots):
         B = np.linalg.svd(J)[2][:2].T                      # (3, 2): the two constrained directions
         # start: the previous frame's rotation (already applied, so zero here); at the first
         # departure f*, the rotation between L_new and L* (section 5.5.1), projected on the plane
-        start = B.T @ quat_log(_rotation_between(L0, u)[None])[0] if is_first else np.zeros(2)
+        start = B.T @ quat_log(shortest_arc(L0, u)[None])[0] if is_first else np.zeros(2)
 
         def cost(x):
             L = fm.L(quat_exp(B @ x))

@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.motion import Motion, slerp
-from ..core.rotations import quat_apply, quat_inverse, quat_multiply
+from ..core.rotations import quat_apply, quat_inverse, quat_multiply, shortest_arc
 
 __all__ = ["crossfade", "recover_upright", "landing_tilt", "stance_slide"]
 
@@ -55,19 +55,6 @@ def crossfade(rot: np.ndarray, rp: np.ndarray, last_left: int, left_ref: np.ndar
         rot[i, 0] = quat_multiply(qroot, rot[i, 0])
         rp[i] = c + quat_apply(qroot, rp[i] - c)
     return float(np.degrees(2 * np.arccos(min(1.0, abs(float(q_rel[3]))))))
-
-
-def _shortest_arc(u, v):
-    u = u / np.linalg.norm(u)
-    v = v / np.linalg.norm(v)
-    d = float(u @ v)
-    if d < -1 + 1e-12:
-        p = np.cross(u, [1.0, 0.0, 0.0])
-        if np.linalg.norm(p) < 1e-6:
-            p = np.cross(u, [0.0, 1.0, 0.0])
-        return np.append(p / np.linalg.norm(p), 0.0)
-    q = np.append(np.cross(u, v), 1.0 + d)
-    return q / np.linalg.norm(q)
 
 
 def landing_tilt(q_ref: np.ndarray, q_now: np.ndarray) -> tuple[float, np.ndarray]:
@@ -157,7 +144,7 @@ def recover_upright(motion: Motion, first_ground: int, up_now: np.ndarray, secon
     from ..core.kinematics import forward_kinematics
     from ..ops.ik import leg_chains, plant_rotations
 
-    fix = _shortest_arc(np.asarray(up_now, dtype=float), np.array([0.0, 1.0, 0.0]))
+    fix = shortest_arc(np.asarray(up_now, dtype=float), np.array([0.0, 1.0, 0.0]))
     n = motion.n_frames - first_ground
     m = max(1, int(round(seconds * motion.fps)))
     s = np.clip(np.arange(1, n + 1) / m, 0.0, 1.0)

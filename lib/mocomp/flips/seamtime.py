@@ -48,7 +48,7 @@ import math
 import numpy as np
 
 from ..body.model import BodyModel
-from ..core._compiled import fk_pose, njit, qlog, qmul, qrot
+from ..core._compiled import centroid, fk_pose, njit, qlog, qmul, qrot, spin
 
 __all__ = ["AngularMomentumEvaluator", "seam_speed", "reference_levels", "warp_time", "warped_positions",
            "SPEED_BOUNDS"]
@@ -119,16 +119,7 @@ def _angular_nb(q, parents, offsets, seg_joint, local_coms, masses, inertias, fp
         M += masses[s]
     h = 0.5 * fps
     for t in range(1, n - 1):
-        cx = 0.0
-        cy = 0.0
-        cz = 0.0
-        for s in range(S):
-            cx += masses[s] * C[t, s, 0]
-            cy += masses[s] * C[t, s, 1]
-            cz += masses[s] * C[t, s, 2]
-        cx /= M
-        cy /= M
-        cz /= M
+        cx, cy, cz = centroid(masses, C, t, M)
         Lx = 0.0
         Ly = 0.0
         Lz = 0.0
@@ -148,12 +139,7 @@ def _angular_nb(q, parents, offsets, seg_joint, local_coms, masses, inertias, fp
             wy *= h
             wz *= h
             # R I R^T w: to the body frame, times I, back
-            x, y, z, w = R[t, s, 0], R[t, s, 1], R[t, s, 2], R[t, s, 3]
-            bx, by, bz = qrot(-x, -y, -z, w, wx, wy, wz)
-            ix = inertias[s, 0, 0] * bx + inertias[s, 0, 1] * by + inertias[s, 0, 2] * bz
-            iy = inertias[s, 1, 0] * bx + inertias[s, 1, 1] * by + inertias[s, 1, 2] * bz
-            iz = inertias[s, 2, 0] * bx + inertias[s, 2, 1] * by + inertias[s, 2, 2] * bz
-            ex, ey, ez = qrot(x, y, z, w, ix, iy, iz)
+            ex, ey, ez = spin(R[t, s, 0], R[t, s, 1], R[t, s, 2], R[t, s, 3], inertias, s, wx, wy, wz)
             Lx += ex
             Ly += ey
             Lz += ez

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.rotations import cross, quat_apply, quat_inverse, quat_multiply, slerp
+from ..core.rotations import quat_apply, quat_inverse, quat_multiply, shortest_arc, slerp
 from .similarity import axis_quat, twist_angle
 
 __all__ = ["root_reference", "split_root", "compose_root", "shortest_arc", "ramp", "SeamSide", "seam_corrections",
@@ -66,30 +66,6 @@ def split_root(q: np.ndarray, axis: np.ndarray, ref: np.ndarray | None = None,
         theta = np.unwrap(theta, period=2 * np.pi)
     b = quat_apply(quat_inverse(q), a)
     return theta, b
-
-
-def shortest_arc(u: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Quaternions of the shortest rotations taking unit vectors ``u`` to ``v`` (broadcasting).
-
-    Undefined for exactly opposite vectors; those get a rotation by pi about an
-    axis perpendicular to ``u`` (a deterministic choice).
-    """
-    u = np.asarray(u, dtype=float)
-    v = np.asarray(v, dtype=float)
-    u, v = np.broadcast_arrays(u, v)
-    q = np.empty(u.shape[:-1] + (4,))
-    q[..., :3] = cross(u, v)
-    q[..., 3] = 1.0 + np.sum(u * v, axis=-1)
-    n = np.linalg.norm(q, axis=-1)
-    bad = n < 1e-9
-    if np.any(bad):
-        ub = u[bad]
-        alt = np.where(np.abs(ub[:, :1]) < 0.9, np.array([[1.0, 0, 0]]), np.array([[0, 1.0, 0]]))
-        perp = np.cross(ub, alt)
-        perp /= np.linalg.norm(perp, axis=-1, keepdims=True)
-        q[bad] = np.concatenate([perp, np.zeros((perp.shape[0], 1))], axis=-1)
-        n = np.where(bad, 1.0, n)
-    return q / n[..., None]
 
 
 def compose_root(theta: np.ndarray, b: np.ndarray, axis: np.ndarray, ref: np.ndarray | None = None) -> np.ndarray:
