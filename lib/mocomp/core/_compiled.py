@@ -28,7 +28,7 @@ import os
 
 import numpy as np
 
-__all__ = ["AVAILABLE", "DISABLED", "njit", "qmul", "qrot", "qangle", "qlog", "qexp", "qpow", "qmat", "slerp4", "centroid", "world_inertia", "spin", "fk_pose",
+__all__ = ["AVAILABLE", "DISABLED", "njit", "qmul", "qrot", "qangle", "qlog", "qexp", "qpow", "qmat", "slerp4", "qdelta", "centroid", "world_inertia", "spin", "fk_pose",
            "forward_kinematics"]
 
 #: numba switched off by the environment (``MOCOMP_NO_NUMBA=1``): the numpy reference runs everywhere
@@ -170,6 +170,16 @@ def slerp4(ax, ay, az, aw, bx, by, bz, bw, t, cos_near):
     nn = x * x + y * y + z * z + w * w
     n = math.sqrt(nn)
     return x / n, y / n, z / n, w / n, nn
+
+
+@njit(inline="always")
+def qdelta(Q, a, b, s):
+    """``Log(Q[b, s] Q[a, s]^-1)``: the world rotation vector taking orientation ``a`` of segment
+    (or joint) ``s`` to orientation ``b`` (``Q (T, S, 4)``), the short way; a finite-difference
+    angular velocity is this over the time between them (as
+    :func:`mocomp.dynamics.derivatives.angular_velocity`)."""
+    x, y, z, w = qmul(Q[b, s, 0], Q[b, s, 1], Q[b, s, 2], Q[b, s, 3], -Q[a, s, 0], -Q[a, s, 1], -Q[a, s, 2], Q[a, s, 3])
+    return qlog(x, y, z, w)
 
 
 # ------------------------------------------------------------------ segment sums

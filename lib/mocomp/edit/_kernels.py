@@ -21,7 +21,7 @@ import math
 
 import numpy as np
 
-from ..core._compiled import centroid, njit, qexp, qlog, qmat, qmul, qrot, slerp4, world_inertia
+from ..core._compiled import centroid, njit, qdelta, qexp, qlog, qmat, qmul, qrot, slerp4, world_inertia
 
 __all__ = ["direction_sweep", "interior_momentum", "rotate_frames", "momentum_blocks", "slerp_frames",
            "sampled_segments"]
@@ -147,9 +147,7 @@ def direction_sweep(m, I_local, X, Q, t, U, a, b, tol, max_iter):
                 for j in range(3):
                     Iw_sum[i, j] += Iw[s, i, j]
             # backward rotation vector q_f q_{f-1}^-1
-            b0, b1, b2, b3 = qmul(Q[f, s, 0], Q[f, s, 1], Q[f, s, 2], Q[f, s, 3],
-                                   -Q[f - 1, s, 0], -Q[f - 1, s, 1], -Q[f - 1, s, 2], Q[f - 1, s, 3])
-            r0, r1, r2 = qlog(b0, b1, b2, b3)
+            r0, r1, r2 = qdelta(Q, f - 1, f, s)
             w_back[s, 0] = h2 / dt * r0 / h1
             w_back[s, 1] = h2 / dt * r1 / h1
             w_back[s, 2] = h2 / dt * r2 / h1
@@ -287,12 +285,8 @@ def interior_momentum(m, I_local, X, Q, t):
         L1 = 0.0
         L2 = 0.0
         for s in range(S):
-            b0, b1, b2, b3 = qmul(Q[f, s, 0], Q[f, s, 1], Q[f, s, 2], Q[f, s, 3],
-                                   -Q[f - 1, s, 0], -Q[f - 1, s, 1], -Q[f - 1, s, 2], Q[f - 1, s, 3])
-            r0, r1, r2 = qlog(b0, b1, b2, b3)
-            e0, e1, e2, e3 = qmul(Q[f + 1, s, 0], Q[f + 1, s, 1], Q[f + 1, s, 2], Q[f + 1, s, 3],
-                                   -Q[f, s, 0], -Q[f, s, 1], -Q[f, s, 2], Q[f, s, 3])
-            g0, g1, g2 = qlog(e0, e1, e2, e3)
+            r0, r1, r2 = qdelta(Q, f - 1, f, s)
+            g0, g1, g2 = qdelta(Q, f, f + 1, s)
             w0 = (h1 * g0 / h2 + h2 * r0 / h1) / dt
             w1 = (h1 * g1 / h2 + h2 * r1 / h1) / dt
             w2 = (h1 * g2 / h2 + h2 * r2 / h1) / dt
@@ -478,12 +472,8 @@ def momentum_blocks(m, I_local, X, Q, t, pivots):
             v0 = al * q0 + be * a0 + ga * p0
             v1 = al * q1 + be * a1 + ga * p1
             v2 = al * q2 + be * a2 + ga * p2
-            b0, b1, b2, b3 = qmul(Q[f, s, 0], Q[f, s, 1], Q[f, s, 2], Q[f, s, 3],
-                                   -Q[f - 1, s, 0], -Q[f - 1, s, 1], -Q[f - 1, s, 2], Q[f - 1, s, 3])
-            rb0, rb1, rb2 = qlog(b0, b1, b2, b3)
-            e0, e1, e2, e3 = qmul(Q[f + 1, s, 0], Q[f + 1, s, 1], Q[f + 1, s, 2], Q[f + 1, s, 3],
-                                   -Q[f, s, 0], -Q[f, s, 1], -Q[f, s, 2], Q[f, s, 3])
-            rf0, rf1, rf2 = qlog(e0, e1, e2, e3)
+            rb0, rb1, rb2 = qdelta(Q, f - 1, f, s)
+            rf0, rf1, rf2 = qdelta(Q, f, f + 1, s)
             w0 = wf * rf0 + wb * rb0
             w1 = wf * rf1 + wb * rb1
             w2 = wf * rf2 + wb * rb2
@@ -541,10 +531,3 @@ def momentum_blocks(m, I_local, X, Q, t, pivots):
                     J0[f, i, j] += wb * accb - wf * accfT
     return L, Jm, J0, Jp
 
-
-def fk_arrays(skeleton, root_positions, rotations) -> tuple[np.ndarray, np.ndarray]:
-    """Transitional alias of :func:`mocomp.core.kinematics.forward_kinematics` for raw arrays
-    (kept until :mod:`mocomp.edit.landing` imports core's directly)."""
-    from ..core.kinematics import forward_kinematics
-
-    return forward_kinematics(skeleton.parents, skeleton.offsets, root_positions, rotations)

@@ -48,7 +48,7 @@ import math
 import numpy as np
 
 from ..body.model import BodyModel
-from ..core._compiled import centroid, fk_pose, njit, qlog, qmul, qrot, spin
+from ..core._compiled import centroid, fk_pose, njit, qdelta, qrot, spin
 
 __all__ = ["AngularMomentumEvaluator", "seam_speed", "reference_levels", "warp_time", "warped_positions",
            "SPEED_BOUNDS"]
@@ -129,9 +129,7 @@ def _angular_nb(q, parents, offsets, seg_joint, local_coms, masses, inertias, fp
             wy = 0.0
             wz = 0.0
             for a, b in ((t, t + 1), (t - 1, t)):
-                dx, dy, dz, dw = qmul(R[b, s, 0], R[b, s, 1], R[b, s, 2], R[b, s, 3],
-                                      -R[a, s, 0], -R[a, s, 1], -R[a, s, 2], R[a, s, 3])
-                lx, ly, lz = qlog(dx, dy, dz, dw)
+                lx, ly, lz = qdelta(R, a, b, s)
                 wx += lx
                 wy += ly
                 wz += lz
