@@ -61,6 +61,10 @@ def frame_path(request, monkeypatch):
     """Run a test through the numpy frame reader and through the compiled one (which the
     reader uses only for frame blocks of ``_FAST_MIN_BYTES`` and more; 0 forces it)."""
     if request.param == "compiled":
+        from mocomp.core._compiled import DISABLED
+
+        if DISABLED:
+            pytest.skip("numba switched off by MOCOMP_NO_NUMBA")
         assert kern.AVAILABLE, "numba is a dependency"
         monkeypatch.setattr(bvh_module, "_FAST_MIN_BYTES", 0)
     return request.param
