@@ -11,6 +11,11 @@ fresh motion (empty FK cache) against two peers on the same clip.
 The clip is the real CMU ``jumps/01_01.bvh`` (31 joints) repeated to 10,000
 frames when ``MOCOMP_DATA_DIR`` is set, else a synthetic 31-joint clip with the
 same tree and smooth random joint rotations. Goal (issue 2): at most 50 ms.
+
+Ours is :func:`mocomp.core.kinematics.forward_kinematics`: compiled
+(:mod:`mocomp.core._compiled`) once numba is loaded in the process (reading the real clip
+loads it), else the numpy reference; the note says which ran. A third row times the numpy
+reference alone (the backend with ``MOCOMP_NO_NUMBA=1``), which gives the same bits.
 """
 from __future__ import annotations
 
@@ -87,6 +92,12 @@ def run(quick: bool) -> list[dict]:
     m, origin = clip(N_FRAMES)
     repeat = 5 if quick else 15
     ours_s, P = best_of(lambda mm: mm.positions, repeat=repeat, setup=lambda: m.replace())
+    import sys
+
+    from mocomp.core import _compiled
+
+    backend = ("compiled (numba, mocomp.core._compiled)" if _compiled.AVAILABLE and "numba" in sys.modules
+               else "the numpy reference")
     rows = []
 
     # bvhio: per-frame; quick mode times 500 frames and scales linearly to 10,000
@@ -109,7 +120,18 @@ def run(quick: bool) -> list[dict]:
     err = float(np.abs(Ps - P).max())
     rows.append(result(
         f"fk {m.skeleton.n_joints}j x {m.n_frames}f", ours_s, "scipy Rotation per joint (vectorised)", sc_s,
-        note=f"same clip; max |ours - scipy| = {err:.1e} m"))
+        note=f"same clip; max |ours - scipy| = {err:.1e} m; ours ran {backend}"))
+
+    # the numpy reference alone (what runs without numba, MOCOMP_NO_NUMBA=1): no goal
+    from mocomp.core.kinematics import forward_kinematics_numpy
+
+    sk = m.skeleton
+    np_s, Pn = best_of(lambda mm: forward_kinematics_numpy(sk.parents, sk.offsets, mm.root_positions, mm.rotations)[0],
+                       repeat=3 if quick else 7, setup=lambda: m)
+    rows.append(result(
+        f"fk {sk.n_joints}j x {m.n_frames}f, numpy reference", np_s, "scipy Rotation per joint (vectorised)", sc_s,
+        note=f"mocomp.core.kinematics.forward_kinematics_numpy (the backend without numba); "
+             f"identical to the compiled result: {bool(np.array_equal(Pn, P))}"))
     return rows
 
 

@@ -23,13 +23,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 from scipy.optimize import minimize
 from scipy.special import expit, gammaln
 
+from mocomp.core._compiled import njit
 
-@numba.njit(cache=True, nogil=True)
+
+@njit
 def _quadrature(eta, k, n, U, base):
     """Adaptive Gauss-Hermite sums of :func:`fit_logit_glmm` for every participant.
 

@@ -15,12 +15,11 @@ import pytest
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
-from mocomp.core.kinematics import forward_kinematics
+from mocomp.core.kinematics import forward_kinematics, forward_kinematics_numpy
 from mocomp.core.motion import slerp
 from mocomp.core.rotations import quat_apply, quat_multiply
 from mocomp.edit import apply_preset, restore_momentum, seams
 from mocomp.edit import smooth_direction as sd
-from mocomp.edit._kernels import fk_arrays, motion_fk
 from mocomp.ops.ik import descends, leg_chains, run_starts, two_bone_ik
 from mocomp.flips.reposition import ComEvaluator
 from mocomp.synth.flights import backflip, sideflip
@@ -44,11 +43,11 @@ def test_compiled_fk_is_bit_identical_to_numpy_fk(seed):
     sk = m.skeleton
     rot = m.rotations if seed == 0 else _random_rotations(m.rotations.shape[:2], seed)
     rp = m.root_positions + np.random.default_rng(seed).normal(0, 0.3, m.root_positions.shape) * seed
-    P0, G0 = forward_kinematics(sk.parents, sk.offsets, rp, rot)
-    P1, G1 = fk_arrays(sk, rp, rot)
+    P0, G0 = forward_kinematics_numpy(sk.parents, sk.offsets, rp, rot)
+    P1, G1 = forward_kinematics(sk.parents, sk.offsets, rp, rot)
     assert np.array_equal(P0, P1) and np.array_equal(G0, G1)
     # the identity pose puts each joint at its parent plus its offset (known answer)
-    Pi, Gi = fk_arrays(sk, np.zeros((1, 3)), np.tile([0.0, 0.0, 0.0, 1.0], (1, sk.n_joints, 1)))
+    Pi, Gi = forward_kinematics(sk.parents, sk.offsets, np.zeros((1, 3)), np.tile([0.0, 0.0, 0.0, 1.0], (1, sk.n_joints, 1)))
     for j in range(1, sk.n_joints):
         np.testing.assert_allclose(Pi[0, j], Pi[0, sk.parents[j]] + sk.offsets[j], atol=1e-15)
     assert np.array_equal(Gi[0], np.tile([0.0, 0.0, 0.0, 1.0], (sk.n_joints, 1)))
@@ -56,13 +55,13 @@ def test_compiled_fk_is_bit_identical_to_numpy_fk(seed):
 
 def test_motion_fk_ranges_and_cache():
     m = backflip(jump_height=1.25).motion.replace()
-    P, G = motion_fk(m, 40, 90)                            # a range: computed alone, nothing cached
+    P, G = m.fk(frames=slice(40, 90))                      # a range: computed alone, nothing cached
     assert "fk" not in m._cache
     Pr, Gr = m[40:90].fk()
     assert np.array_equal(P, Pr) and np.array_equal(G, Gr)
-    Pa, Ga = motion_fk(m)                                  # the whole motion fills Motion's cache
+    Pa, Ga = m.fk(frames=slice(None))                      # the whole motion fills Motion's cache
     assert m._cache["fk"][0] is Pa and not Pa.flags.writeable
-    P2, _ = motion_fk(m, 40, 90)                           # ranges now read the cache
+    P2, _ = m.fk(frames=slice(40, 90))                     # ranges now read the cache
     assert np.shares_memory(P2, Pa) and np.array_equal(P2, P)
     fresh = m.replace()
     assert np.array_equal(fresh.positions, Pa) and np.array_equal(fresh.global_rotations, Ga)
@@ -95,7 +94,7 @@ def _plant_feet_reference(motion, start, weights, chains, tol=1e-3):
 
 
 def _recover_upright_reference(motion, first_ground, up_now, seconds, ce, contact=(0.05, 0.12), pivot=None):
-    fix = seams._shortest_arc(np.asarray(up_now, dtype=float), np.array([0.0, 1.0, 0.0]))
+    fix = seams.shortest_arc(np.asarray(up_now, dtype=float), np.array([0.0, 1.0, 0.0]))
     n = motion.n_frames - first_ground
     m = max(1, int(round(seconds * motion.fps)))
     s = np.clip(np.arange(1, n + 1) / m, 0.0, 1.0)

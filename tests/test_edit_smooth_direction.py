@@ -16,7 +16,8 @@ from mocomp.core.rotations import quat_multiply
 from mocomp.dynamics import center_of_mass
 from mocomp.edit import apply_preset, correct_direction, restore_momentum
 from mocomp.edit._kernels import interior_momentum, momentum_blocks, rotate_frames
-from mocomp.edit.restore import _qexp, segment_state
+from mocomp.core.rotations import quat_exp as _qexp
+from mocomp.edit.restore import segment_state
 from mocomp.edit.smooth_direction import rotvecs_continuous, second_difference_deg
 
 

@@ -298,7 +298,7 @@ def test_loop_seam_smoothing_is_computed_once_and_reused(prepared, monkeypatch):
     self-looping sequence is computed once (in pre-processing) and pasted at every repetition
     (rotated about L); so are its eq. 5.22 playback speeds."""
     from mocomp.flips import preprocess
-    from mocomp.flips._quat import qangle, qconj, qmul
+    from mocomp.core.rotations import quat_angle as qangle, quat_inverse as qconj, quat_multiply as qmul
     from mocomp.flips.similarity import axis_quat
 
     P = prepared["frontflip"]

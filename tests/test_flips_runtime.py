@@ -1,31 +1,57 @@
-"""The run-time kernels agree with the core rotation functions (mocomp.flips._quat)."""
+"""The run-time stage's compiled kernels agree with their numpy oracles, which are built from the
+core kernel (mocomp.core.rotations); the landing-seam oracle lives here (it has no run-time use)."""
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from mocomp.core.motion import slerp
-from mocomp.core.rotations import quat_angle, quat_apply, quat_inverse, quat_multiply
-from mocomp.flips._quat import qapply, qconj, qmul, qpow, slerp_rows
+from mocomp.core.rotations import quat_angle, quat_apply, quat_inverse, quat_multiply, quat_pow, slerp
 
 
 def ang(a, b):
     return quat_angle(quat_multiply(a, quat_inverse(b)))
 
 
-def test_kernels_match_core():
+def slerp_rows(q0, q1, t):
+    """The run-time stage's numpy retiming interpolation: one weight per row, nlerp below 0.1 rad."""
+    return slerp(q0, q1, np.asarray(t)[:, None], nlerp_below=0.1)
+
+
+def _landing_seam_numpy(P, rot: np.ndarray, src: np.ndarray, a: int, g: int, la: int, rb: int,
+                        w: int) -> None:
+    """The oracle of the compiled landing seam (moved here from mocomp.flips.multiflip): the seam
+    f -> g+1 in place on ``rot`` in numpy, half the mismatch on each side with the raised-cosine
+    ramp (section 5.4.2.2), the root's part perpendicular to L only (eq. 5.14)."""
+    from mocomp.flips.smoothing import compose_root, ramp, shortest_arc
+
+    blk = rot[la:rb]
+    idx = np.arange(la, rb)
+    left = idx <= a
+    wts = ramp(np.abs(idx - a), w)
+    ql, qr = rot[a], P.rotations[g]
+    sgn = np.where(np.einsum("ji,ji->j", ql, qr) < 0.0, -1.0, 1.0)[:, None]
+    mid = ql + sgn * qr
+    mid /= np.linalg.norm(mid, axis=-1, keepdims=True)       # slerp at 1/2
+    off_l, off_r = quat_multiply(quat_inverse(ql), mid), quat_multiply(quat_inverse(qr), mid)
+    bl, br = quat_apply(quat_inverse(rot[a, 0]), P.axis), P.bdir[g]
+    bm = bl + br
+    bm /= np.linalg.norm(bm)
+    arc_l, arc_r = shortest_arc(bl, bm), shortest_arc(br, bm)
+    offs = np.where(left[:, None, None], off_l[None], off_r[None])
+    blk[:, 1:] = quat_multiply(blk[:, 1:], quat_pow(offs[:, 1:], wts[:, None]))
+    bb = quat_apply(quat_inverse(blk[:, 0]), P.axis)
+    arcs = np.where(left[:, None], arc_l[None], arc_r[None])
+    blk[:, 0] = compose_root(P.theta[src[la:rb]], quat_apply(quat_pow(arcs, wts), bb), P.axis, P.root_ref)
+
+
+def test_quat_pow_is_slerp_from_identity():
     a = Rotation.random(200, random_state=1).as_quat().reshape(20, 10, 4)
-    b = Rotation.random(200, random_state=2).as_quat().reshape(20, 10, 4)
-    np.testing.assert_allclose(qmul(a, b), quat_multiply(a, b), atol=1e-14)
-    np.testing.assert_allclose(qconj(a), quat_inverse(a))
-    v = np.random.default_rng(0).normal(size=(20, 10, 3))
-    np.testing.assert_allclose(qapply(a, v), quat_apply(a, v), atol=1e-13)
     w = np.random.default_rng(1).uniform(0, 1, (20, 10))
     ident = np.zeros_like(a)
     ident[..., 3] = 1.0
-    assert ang(qpow(a, w), slerp(ident, a, w)).max() < 1e-10
-    # tiny rotations: qpow of (almost) the identity
+    assert ang(quat_pow(a, w), slerp(ident, a, w)).max() < 1e-10
+    # tiny rotations: the power of (almost) the identity
     tiny = np.array([[1e-14, 0, 0, 1.0]])
-    assert np.allclose(qpow(tiny, np.array([0.5])), [[5e-15, 0, 0, 1.0]])
+    assert np.allclose(quat_pow(tiny, np.array([0.5])), [[5e-15, 0, 0, 1.0]])
 
 
 def test_slerp_rows_is_slerp_within_1e_4_rad():
@@ -179,8 +205,6 @@ def test_compiled_landing_seam_and_root_turn_match_numpy():
     versions to rounding, on the sequences of a double and a triple flip (joined 4 frames off, so
     the synthetic clips' near-perfect joins do not make the correction vanish)."""
     from mocomp.flips import _kernels, multiflip, prepare
-    from mocomp.flips._quat import qmul
-    from mocomp.flips.multiflip import _landing_seam_numpy
     from mocomp.flips.similarity import axis_quat
 
     if not _kernels.AVAILABLE:
@@ -201,7 +225,7 @@ def test_compiled_landing_seam_and_root_turn_match_numpy():
         assert np.abs(fast[la:rb] - P.rotations[src[la:rb]]).max() > 1e-3       # the seam did change them
         np.testing.assert_array_equal(fast[:la], slow[:la])
         turned = _kernels.turn_roots_nb(fast.copy(), seq.extra, P.axis)
-        ref = qmul(axis_quat(P.axis, seq.extra), fast[:, 0])
+        ref = quat_multiply(axis_quat(P.axis, seq.extra), fast[:, 0])
         assert np.abs(turned[:, 0] - ref).max() < 1e-14
         np.testing.assert_array_equal(turned[:, 1:], fast[:, 1:])
 
@@ -228,8 +252,8 @@ def test_compiled_landing_seam_speeds_match_numpy(monkeypatch):
         a = seq.landing_seam
         la, rb = max(a - w, 0), min(a + 2 + w, seq.n_frames)
         fast = mod._seam_speeds(P, seq, rot, w, a + 1, la, rb)
-        monkeypatch.setattr(mod, "SEAM_NB", False)
+        monkeypatch.setattr(mod, "KERNELS", False)
         slow = mod._seam_speeds(P, seq, rot, w, a + 1, la, rb)
-        monkeypatch.setattr(mod, "SEAM_NB", True)
+        monkeypatch.setattr(mod, "KERNELS", True)
         assert np.abs(fast - slow).max() < 1e-12
         assert np.abs(fast[la - 1:rb + 1] - 1.0).max() > 1e-3

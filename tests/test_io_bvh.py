@@ -56,11 +56,20 @@ def synthetic_motion(T: int = 25, fps: float = 60.0, seed: int = 0, channels=Non
     return Motion(sk, fps, root, rot, source=SourceInfo(format="synthetic"))
 
 
+#: tests of the compiled kernels themselves: skipped when MOCOMP_NO_NUMBA switches numba off
+needs_compiled = pytest.mark.skipif(__import__("mocomp.core._compiled", fromlist=["DISABLED"]).DISABLED,
+                                    reason="numba switched off by MOCOMP_NO_NUMBA")
+
+
 @pytest.fixture(params=["numpy", "compiled"])
 def frame_path(request, monkeypatch):
     """Run a test through the numpy frame reader and through the compiled one (which the
     reader uses only for frame blocks of ``_FAST_MIN_BYTES`` and more; 0 forces it)."""
     if request.param == "compiled":
+        from mocomp.core._compiled import DISABLED
+
+        if DISABLED:
+            pytest.skip("numba switched off by MOCOMP_NO_NUMBA")
         assert kern.AVAILABLE, "numba is a dependency"
         monkeypatch.setattr(bvh_module, "_FAST_MIN_BYTES", 0)
     return request.param
@@ -736,6 +745,7 @@ def _number_tokens(rng, n: int) -> list[str]:
     return toks
 
 
+@needs_compiled
 def test_compiled_frame_parse_gives_the_bits_of_float():
     """Every number the compiled reader returns is float(token), bit for bit (signed zeros
     too), whether it took the exact one-operation path (m <= 2**53, |e| <= 22) or was
@@ -760,6 +770,7 @@ def test_compiled_frame_parse_gives_the_bits_of_float():
     assert np.signbit(one[0, 4])
 
 
+@needs_compiled
 @pytest.mark.parametrize("block, why", [
     (b"1 2\n3 nan\n", "nan"), (b"1 2\n3 inf\n", "inf"), (b"1 2\n3 1_0\n", "underscore"), (b"1 2\n3 0x10\n", "hex"),
     (b"1 2\n3 1e\n", "no exponent digits"), (b"1 2\n3 -\n", "sign only"), (b"1 2\n3 .\n", "point only"),
@@ -774,6 +785,7 @@ def test_compiled_frame_parse_declines_what_it_does_not_handle(block, why):
     assert _fast_frames(b"1 2\n3 4\n", 0, 2, 2) is not None
 
 
+@needs_compiled
 def test_compiled_frame_parse_limits():
     """A corrupt 'Frames:' count cannot make it allocate (each value needs two bytes),
     and a block of mostly out-of-range numbers (more than one in four) goes back to
@@ -791,6 +803,7 @@ def test_compiled_frame_parse_limits():
     np.testing.assert_array_equal(_bits(bvh_module._parse_frames(raw)), _bits(ref))
 
 
+@needs_compiled
 @pytest.mark.parametrize("seq", ORDERS + ["ZXZ", "XYX", "YZY", "XY", "ZX", "Z", "Y"])
 def test_compiled_euler_conversion_gives_the_numpy_bits(seq):
     """The compiled Euler -> quaternion pass performs the numpy version's operations in its
@@ -857,6 +870,7 @@ def test_real_clips_compiled_and_numpy_readers_agree_bit_for_bit(path, monkeypat
         _assert_same_bits(*_read_both(path, monkeypatch))
 
 
+@needs_compiled
 def test_large_synthetic_file_takes_the_compiled_path_and_matches(tmp_path, monkeypatch):
     """A file over the size threshold with every rotation order, in every line-end style:
     the default read (compiled) equals the numpy read bit for bit."""

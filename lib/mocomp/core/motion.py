@@ -10,7 +10,7 @@ import numpy as np
 
 from ..errors import MotionFormatError
 from .kinematics import end_site_positions, forward_kinematics
-from .rotations import make_continuous, quat_multiply
+from .rotations import make_continuous, quat_multiply, slerp
 from .skeleton import EndSite, Skeleton
 
 __all__ = ["Motion", "SourceInfo", "slerp", "concatenate"]
@@ -43,29 +43,6 @@ def _frozen(a) -> np.ndarray:
     a = np.array(a, dtype=float, copy=True)
     a.setflags(write=False)
     return a
-
-
-def slerp(q0: np.ndarray, q1: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """Spherical linear interpolation between unit quaternions, broadcasting.
-
-    ``t`` has the leading shape of ``q0[..., 0]`` (or broadcasts to it). Takes the
-    short way (flips ``q1`` into ``q0``'s hemisphere). Agrees with
-    ``scipy.spatial.transform.Slerp`` (tested).
-    """
-    q0 = np.asarray(q0, dtype=float)
-    q1 = np.asarray(q1, dtype=float)
-    t = np.asarray(t, dtype=float)[..., None]
-    dot = np.sum(q0 * q1, axis=-1, keepdims=True)
-    q1 = np.where(dot < 0, -q1, q1)
-    dot = np.abs(dot)
-    theta = np.arccos(np.clip(dot, -1.0, 1.0))
-    sin = np.sin(theta)
-    small = sin < 1e-9
-    safe = np.where(small, 1.0, sin)
-    w0 = np.where(small, 1.0 - t, np.sin((1.0 - t) * theta) / safe)
-    w1 = np.where(small, t, np.sin(t * theta) / safe)
-    out = w0 * q0 + w1 * q1
-    return out / np.linalg.norm(out, axis=-1, keepdims=True)
 
 
 @dataclass(frozen=True, eq=False)
@@ -159,9 +136,30 @@ class Motion:
             self._cache["fk"] = (P, G)
         return self._cache["fk"]
 
-    def fk(self) -> tuple[np.ndarray, np.ndarray]:
-        """``(positions (T, J, 3), global_rotations (T, J, 4))``; computed once, cached."""
-        return self._fk()
+    def fk(self, frames: slice | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """``(positions (T, J, 3), global_rotations (T, J, 4))`` by
+        :func:`~mocomp.core.kinematics.forward_kinematics`; the whole motion's is computed once and
+        cached (read-only arrays).
+
+        ``frames``: a ``slice`` of frames (step 1), e.g. ``slice(a, b)``: only those frames'
+        FK, taken from the cache when the whole motion's is there, else computed for those frames
+        alone (not cached; the same values as the whole motion's rows, bit for bit). A slice that
+        covers every frame fills the cache as ``fk()`` does."""
+        if frames is None:
+            return self._fk()
+        if not isinstance(frames, slice):
+            raise TypeError(f"fk(frames=...) takes a slice of frames, got {type(frames).__name__}")
+        start, stop, step = frames.indices(self.n_frames)
+        if step != 1:
+            raise ValueError(f"fk(frames=...) takes a slice with step 1, got step {step}")
+        stop = max(stop, start)
+        if start == 0 and stop == self.n_frames:
+            return self._fk()
+        if "fk" in self._cache:
+            P, G = self._cache["fk"]
+            return P[start:stop], G[start:stop]
+        return forward_kinematics(self.skeleton.parents, self.skeleton.offsets, self.root_positions[start:stop],
+                                  self.rotations[start:stop])
 
     @property
     def positions(self) -> np.ndarray:

@@ -7,7 +7,8 @@
   velocities (``v_j = v_parent + w_parent x (P_j - P_parent)``), segment COMs
   ``c_i = P_j + R_i l_i`` and their velocities ``v_i = v_j + w_j x (c_i - P_j)``, then eq. 5.4
   ``p = sum_i m_i v_i`` and eq. 5.5 ``L = sum_i R_i I_i R_i^T w_i + m_i (c_i - COM) x v_i``
-  (dissertation; flips paper section 4.3), with no per-joint temporaries;
+  (dissertation; flips paper section 4.3), with no per-joint temporaries; the quaternion algebra
+  is the core kernel's inline ``qmul``/``qrot`` (:mod:`mocomp.core._compiled`);
 * :func:`assemble_nb` -- eq. 5.4-5.5 alone from segment kinematics in hand
   (:func:`mocomp.dynamics.momentum.assemble_momentum`).
 
@@ -16,7 +17,8 @@ They exist because the numpy versions are dominated by per-call overhead: for a 
 numpy versions' results to rounding (``tests/test_dynamics_kernels.py``: 1e-12 relative on the
 synthetic backflip with its exact rates and on a random motion); the numpy versions stay in
 :mod:`mocomp.dynamics.momentum` as the reference and as the fallback when numba cannot be imported
-(``AVAILABLE`` False). Numba is a project dependency (also used by :mod:`mocomp.flips` and
+(``AVAILABLE`` False: numba missing or ``MOCOMP_NO_NUMBA`` set, decided in
+:mod:`mocomp.core._compiled`). Numba is a project dependency (also used by :mod:`mocomp.flips` and
 :mod:`mocomp.splice`); compiled code is cached on disk (``cache=True``). The first call in a
 process loads it from that cache (or compiles it, the first time on a machine: a few seconds);
 :func:`warmup` does that ahead of time (:mod:`~mocomp.dynamics.momentum` imports this module, and
@@ -27,12 +29,7 @@ from __future__ import annotations
 
 import numpy as np
 
-try:
-    import numba
-
-    AVAILABLE = True
-except Exception:  # pragma: no cover - numba is a dependency; keep the library importable without it
-    AVAILABLE = False
+from ..core._compiled import AVAILABLE, centroid, njit, qmul, qrot, spin
 
 __all__ = ["AVAILABLE", "momentum_given_nb", "assemble_nb", "warmup"]
 
@@ -47,36 +44,14 @@ def _ro(a, dtype=np.float64) -> np.ndarray:
 
 
 if AVAILABLE:
-    @numba.njit(cache=True, nogil=True, inline="always")
-    def _qrot(qx, qy, qz, qw, vx, vy, vz):
-        """``R(q) v`` for a unit quaternion (scalar-last): ``v + w t + q_v x t`` with
-        ``t = 2 q_v x v``, the operations (and so the bits) of :func:`mocomp.core.rotations.quat_apply`."""
-        tx = 2.0 * (qy * vz - qz * vy)
-        ty = 2.0 * (qz * vx - qx * vz)
-        tz = 2.0 * (qx * vy - qy * vx)
-        return (vx + qw * tx + (qy * tz - qz * ty),
-                vy + qw * ty + (qz * tx - qx * tz),
-                vz + qw * tz + (qx * ty - qy * tx))
-
-    @numba.njit(cache=True, nogil=True)
+    @njit
     def _sum_frame(t, masses, M, inertias, rot, pos, vel, omega, com, lin, ang):
         """eq. 5.4-5.5 for frame ``t`` from segment kinematics ``rot`` (T, S, 4), ``pos``, ``vel``,
         ``omega`` (T, S, 3) into ``com``, ``lin``, ``ang`` (T, 3); the same operations, in the same
         order per segment, as the numpy ``assemble_momentum`` (``R (I (R^T w))`` with quaternions)."""
         S = masses.shape[0]
-        cx = cy = cz = 0.0
-        px = py = pz = 0.0
-        for s in range(S):
-            m = masses[s]
-            cx += m * pos[t, s, 0]
-            cy += m * pos[t, s, 1]
-            cz += m * pos[t, s, 2]
-            px += m * vel[t, s, 0]
-            py += m * vel[t, s, 1]
-            pz += m * vel[t, s, 2]
-        cx /= M
-        cy /= M
-        cz /= M
+        cx, cy, cz = centroid(masses, pos, t, M)
+        px, py, pz = centroid(masses, vel, t, 1.0)
         com[t, 0] = cx
         com[t, 1] = cy
         com[t, 2] = cz
@@ -86,16 +61,9 @@ if AVAILABLE:
         sx = sy = sz = 0.0
         ox = oy = oz = 0.0
         for s in range(S):
-            qx, qy, qz, qw = rot[t, s, 0], rot[t, s, 1], rot[t, s, 2], rot[t, s, 3]
-            wx, wy, wz = omega[t, s, 0], omega[t, s, 1], omega[t, s, 2]
-            # u = R^T w (conjugate quaternion: vector part negated)
-            ux, uy, uz = _qrot(-qx, -qy, -qz, qw, wx, wy, wz)
-            # I u in the segment frame
-            ix = inertias[s, 0, 0] * ux + inertias[s, 0, 1] * uy + inertias[s, 0, 2] * uz
-            iy = inertias[s, 1, 0] * ux + inertias[s, 1, 1] * uy + inertias[s, 1, 2] * uz
-            iz = inertias[s, 2, 0] * ux + inertias[s, 2, 1] * uy + inertias[s, 2, 2] * uz
-            # R (I u)
-            ex, ey, ez = _qrot(qx, qy, qz, qw, ix, iy, iz)
+            # R I R^T w
+            ex, ey, ez = spin(rot[t, s, 0], rot[t, s, 1], rot[t, s, 2], rot[t, s, 3], inertias, s,
+                              omega[t, s, 0], omega[t, s, 1], omega[t, s, 2])
             sx += ex
             sy += ey
             sz += ez
@@ -110,12 +78,12 @@ if AVAILABLE:
         ang[t, 1] = sy + oy
         ang[t, 2] = sz + oz
 
-    @numba.njit(cache=True, nogil=True)
+    @njit
     def _assemble(masses, M, inertias, rot, pos, vel, omega, com, lin, ang):
         for t in range(pos.shape[0]):
             _sum_frame(t, masses, M, inertias, rot, pos, vel, omega, com, lin, ang)
 
-    @numba.njit(cache=True, nogil=True)
+    @njit
     def _momentum_given(parents, offsets, root_pos, local_rot, root_vel, root_omega, joint_rates,
                         seg_joint, local_coms, masses, M, inertias,
                         G, P, W, V, rot, pos, vel, omega, com, lin, ang):
@@ -133,14 +101,11 @@ if AVAILABLE:
                 p = parents[j]
                 ax, ay, az, aw = G[t, p, 0], G[t, p, 1], G[t, p, 2], G[t, p, 3]
                 bx, by, bz, bw = local_rot[t, j, 0], local_rot[t, j, 1], local_rot[t, j, 2], local_rot[t, j, 3]
-                # G_j = G_p L_j (Hamilton product, scalar-last; as forward_kinematics)
-                gx = aw * bx + ax * bw + ay * bz - az * by
-                gy = aw * by - ax * bz + ay * bw + az * bx
-                gz = aw * bz + ax * by - ay * bx + az * bw
-                gw = aw * bw - ax * bx - ay * by - az * bz
+                # G_j = G_p L_j (as forward_kinematics)
+                gx, gy, gz, gw = qmul(ax, ay, az, aw, bx, by, bz, bw)
                 G[t, j, 0], G[t, j, 1], G[t, j, 2], G[t, j, 3] = gx, gy, gz, gw
                 # P_j = P_p + G_p offset_j
-                dx, dy, dz = _qrot(ax, ay, az, aw, offsets[j, 0], offsets[j, 1], offsets[j, 2])
+                dx, dy, dz = qrot(ax, ay, az, aw, offsets[j, 0], offsets[j, 1], offsets[j, 2])
                 P[t, j, 0] = P[t, p, 0] + dx
                 P[t, j, 1] = P[t, p, 1] + dy
                 P[t, j, 2] = P[t, p, 2] + dz
@@ -150,7 +115,7 @@ if AVAILABLE:
                 V[t, j, 1] = V[t, p, 1] + (wpz * dx - wpx * dz)
                 V[t, j, 2] = V[t, p, 2] + (wpx * dy - wpy * dx)
                 # w_j = w_p + G_j w_j^local
-                ex, ey, ez = _qrot(gx, gy, gz, gw, joint_rates[t, j, 0], joint_rates[t, j, 1], joint_rates[t, j, 2])
+                ex, ey, ez = qrot(gx, gy, gz, gw, joint_rates[t, j, 0], joint_rates[t, j, 1], joint_rates[t, j, 2])
                 W[t, j, 0] = wpx + ex
                 W[t, j, 1] = wpy + ey
                 W[t, j, 2] = wpz + ez
@@ -159,7 +124,7 @@ if AVAILABLE:
                 qx, qy, qz, qw = G[t, j, 0], G[t, j, 1], G[t, j, 2], G[t, j, 3]
                 rot[t, s, 0], rot[t, s, 1], rot[t, s, 2], rot[t, s, 3] = qx, qy, qz, qw
                 # c_i = P_j + R_i l_i
-                dx, dy, dz = _qrot(qx, qy, qz, qw, local_coms[s, 0], local_coms[s, 1], local_coms[s, 2])
+                dx, dy, dz = qrot(qx, qy, qz, qw, local_coms[s, 0], local_coms[s, 1], local_coms[s, 2])
                 pos[t, s, 0] = P[t, j, 0] + dx
                 pos[t, s, 1] = P[t, j, 1] + dy
                 pos[t, s, 2] = P[t, j, 2] + dz

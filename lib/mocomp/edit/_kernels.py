@@ -9,62 +9,25 @@ backward and forward rotation vectors, ``L = sum_i R_i I_i R_i^T w_i +
 m_i (c_i - COM) x v_i`` (eq. 5.5). :class:`mocomp.edit.restore._FrameMomentum`
 is the same model in numpy (used by the BFGS variant and by the tests that pin
 the two to each other).
+
+Quaternion algebra and forward kinematics are the core kernel's
+(:mod:`mocomp.core._compiled`: ``qmul``, ``qlog``, ``qexp``, ``qrot``, ``qmat``,
+``slerp4`` inlined here); this module holds only the method's own loops. Without
+numba (``MOCOMP_NO_NUMBA=1``) they run as plain Python: same results, slower.
 """
 from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
-__all__ = ["direction_sweep"]
+from ..core._compiled import centroid, njit, qdelta, qexp, qlog, qmat, qmul, qrot, slerp4, world_inertia
+
+__all__ = ["direction_sweep", "interior_momentum", "rotate_frames", "momentum_blocks", "slerp_frames",
+           "sampled_segments"]
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
-def _qmul(a0, a1, a2, a3, b0, b1, b2, b3):
-    return (a3 * b0 + a0 * b3 + a1 * b2 - a2 * b1,
-            a3 * b1 - a0 * b2 + a1 * b3 + a2 * b0,
-            a3 * b2 + a0 * b1 - a1 * b0 + a2 * b3,
-            a3 * b3 - a0 * b0 - a1 * b1 - a2 * b2)
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
-def _qlog(x, y, z, w):
-    """Rotation vector of a unit quaternion, the short way."""
-    if w < 0.0:
-        x, y, z, w = -x, -y, -z, -w
-    s = math.sqrt(x * x + y * y + z * z)
-    if s < 1e-12:
-        return 2.0 * x, 2.0 * y, 2.0 * z
-    k = 2.0 * math.atan2(s, w) / s
-    return k * x, k * y, k * z
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
-def _qexp(p0, p1, p2):
-    a = math.sqrt(p0 * p0 + p1 * p1 + p2 * p2)
-    if a < 1e-12:
-        k = 0.5
-    else:
-        k = math.sin(0.5 * a) / a
-    return k * p0, k * p1, k * p2, math.cos(0.5 * a)
-
-
-@numba.njit(cache=True, nogil=True)
-def _qmat(q, R):
-    x, y, z, w = q[0], q[1], q[2], q[3]
-    R[0, 0] = 1 - 2 * (y * y + z * z)
-    R[0, 1] = 2 * (x * y - z * w)
-    R[0, 2] = 2 * (x * z + y * w)
-    R[1, 0] = 2 * (x * y + z * w)
-    R[1, 1] = 1 - 2 * (x * x + z * z)
-    R[1, 2] = 2 * (y * z - x * w)
-    R[2, 0] = 2 * (x * z - y * w)
-    R[2, 1] = 2 * (y * z + x * w)
-    R[2, 2] = 1 - 2 * (x * x + y * y)
-
-
-@numba.njit(cache=True, nogil=True)
+@njit
 def _angle(L, u):
     cx = L[1] * u[2] - L[2] * u[1]
     cy = L[2] * u[0] - L[0] * u[2]
@@ -72,10 +35,10 @@ def _angle(L, u):
     return math.atan2(math.sqrt(cx * cx + cy * cy + cz * cz), L[0] * u[0] + L[1] * u[1] + L[2] * u[2])
 
 
-@numba.njit(cache=True, nogil=True)
+@njit
 def _frame_L(q, Iw, D, w_back, wf, C0, const, dt, R, out):
     """L at frame f when pose f+1 is rotated by ``q`` about its COM (eq. 5.21's L(R pose))."""
-    _qmat(q, R)
+    qmat(q[0], q[1], q[2], q[3], R)
     # orbital part: axial(C0 R^T) / dt + const
     C = np.empty((3, 3))
     for i in range(3):
@@ -86,8 +49,8 @@ def _frame_L(q, Iw, D, w_back, wf, C0, const, dt, R, out):
     out[2] = (C[0, 1] - C[1, 0]) / dt + const[2]
     S = D.shape[0]
     for s in range(S):
-        a0, a1, a2, a3 = _qmul(q[0], q[1], q[2], q[3], D[s, 0], D[s, 1], D[s, 2], D[s, 3])
-        r0, r1, r2 = _qlog(a0, a1, a2, a3)
+        a0, a1, a2, a3 = qmul(q[0], q[1], q[2], q[3], D[s, 0], D[s, 1], D[s, 2], D[s, 3])
+        r0, r1, r2 = qlog(a0, a1, a2, a3)
         w0 = wf * r0 + w_back[s, 0]
         w1 = wf * r1 + w_back[s, 1]
         w2 = wf * r2 + w_back[s, 2]
@@ -96,10 +59,10 @@ def _frame_L(q, Iw, D, w_back, wf, C0, const, dt, R, out):
         out[2] += Iw[s, 2, 0] * w0 + Iw[s, 2, 1] * w1 + Iw[s, 2, 2] * w2
 
 
-@numba.njit(cache=True, nogil=True)
+@njit
 def _rotate_frame(X, Q, pivot, f, q, R):
     """Rotate frame ``f``'s segment COMs about ``pivot`` and its orientations by ``q`` (in place)."""
-    _qmat(q, R)
+    qmat(q[0], q[1], q[2], q[3], R)
     for s in range(X.shape[1]):
         d0 = X[f, s, 0] - pivot[0]
         d1 = X[f, s, 1] - pivot[1]
@@ -107,14 +70,14 @@ def _rotate_frame(X, Q, pivot, f, q, R):
         X[f, s, 0] = pivot[0] + R[0, 0] * d0 + R[0, 1] * d1 + R[0, 2] * d2
         X[f, s, 1] = pivot[1] + R[1, 0] * d0 + R[1, 1] * d1 + R[1, 2] * d2
         X[f, s, 2] = pivot[2] + R[2, 0] * d0 + R[2, 1] * d1 + R[2, 2] * d2
-        a0, a1, a2, a3 = _qmul(q[0], q[1], q[2], q[3], Q[f, s, 0], Q[f, s, 1], Q[f, s, 2], Q[f, s, 3])
+        a0, a1, a2, a3 = qmul(q[0], q[1], q[2], q[3], Q[f, s, 0], Q[f, s, 1], Q[f, s, 2], Q[f, s, 3])
         Q[f, s, 0] = a0
         Q[f, s, 1] = a1
         Q[f, s, 2] = a2
         Q[f, s, 3] = a3
 
 
-@numba.njit(cache=True, nogil=True)
+@njit
 def direction_sweep(m, I_local, X, Q, t, U, a, b, tol, max_iter):
     """Eq. 5.18-5.21 over the flight ``[a, b)``: for ``f = a+1 .. b-2`` find the rotation of
     pose ``f+1`` about its COM that makes ``unit(L_f) = U[f]``, warm-started from the
@@ -178,23 +141,17 @@ def direction_sweep(m, I_local, X, Q, t, U, a, b, tol, max_iter):
                 ma[s, k] = m[s] * (X[f, s, k] - pivots[f, k])
                 d[s, k] = X[f + 1, s, k] - c1[k]
             # world inertia at f
-            _qmat(Q[f, s], Rf)
+            qmat(Q[f, s, 0], Q[f, s, 1], Q[f, s, 2], Q[f, s, 3], Rf)
+            world_inertia(Rf, I_local, s, Iw[s])
             for i in range(3):
                 for j in range(3):
-                    acc = 0.0
-                    for p in range(3):
-                        for r in range(3):
-                            acc += Rf[i, p] * I_local[s, p, r] * Rf[j, r]
-                    Iw[s, i, j] = acc
-                    Iw_sum[i, j] += acc
+                    Iw_sum[i, j] += Iw[s, i, j]
             # backward rotation vector q_f q_{f-1}^-1
-            b0, b1, b2, b3 = _qmul(Q[f, s, 0], Q[f, s, 1], Q[f, s, 2], Q[f, s, 3],
-                                   -Q[f - 1, s, 0], -Q[f - 1, s, 1], -Q[f - 1, s, 2], Q[f - 1, s, 3])
-            r0, r1, r2 = _qlog(b0, b1, b2, b3)
+            r0, r1, r2 = qdelta(Q, f - 1, f, s)
             w_back[s, 0] = h2 / dt * r0 / h1
             w_back[s, 1] = h2 / dt * r1 / h1
             w_back[s, 2] = h2 / dt * r2 / h1
-            e0, e1, e2, e3 = _qmul(Q[f + 1, s, 0], Q[f + 1, s, 1], Q[f + 1, s, 2], Q[f + 1, s, 3],
+            e0, e1, e2, e3 = qmul(Q[f + 1, s, 0], Q[f + 1, s, 1], Q[f + 1, s, 2], Q[f + 1, s, 3],
                                    -Q[f, s, 0], -Q[f, s, 1], -Q[f, s, 2], Q[f, s, 3])
             D[s, 0] = e0
             D[s, 1] = e1
@@ -230,7 +187,7 @@ def direction_sweep(m, I_local, X, Q, t, U, a, b, tol, max_iter):
                 break
             it += 1
             # Jacobian dL/dphi for q <- exp(phi) q: K/dt + wf * Iw_sum
-            _qmat(q, R)
+            qmat(q[0], q[1], q[2], q[3], R)
             K = np.zeros((3, 3))
             ad = 0.0
             rd = np.empty((S, 3))
@@ -267,8 +224,8 @@ def direction_sweep(m, I_local, X, Q, t, U, a, b, tol, max_iter):
             step = -np.linalg.solve(JtJ, J.T @ e)
             accepted = False
             for _h in range(7):
-                x0, x1, x2, x3 = _qexp(step[0], step[1], step[2])
-                a0, a1, a2, a3 = _qmul(x0, x1, x2, x3, q[0], q[1], q[2], q[3])
+                x0, x1, x2, x3 = qexp(step[0], step[1], step[2])
+                a0, a1, a2, a3 = qmul(x0, x1, x2, x3, q[0], q[1], q[2], q[3])
                 qn[0] = a0
                 qn[1] = a1
                 qn[2] = a2
@@ -290,7 +247,7 @@ def direction_sweep(m, I_local, X, Q, t, U, a, b, tol, max_iter):
         for k in range(4):
             q[k] /= nq
         _rotate_frame(X, Q, pivots[f + 1], f + 1, q, R)
-        a0, a1, a2, a3 = _qmul(q[0], q[1], q[2], q[3], cur[0], cur[1], cur[2], cur[3])
+        a0, a1, a2, a3 = qmul(q[0], q[1], q[2], q[3], cur[0], cur[1], cur[2], cur[3])
         nq = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2 + a3 * a3)
         cur[0] = a0 / nq
         cur[1] = a1 / nq
@@ -304,7 +261,7 @@ def direction_sweep(m, I_local, X, Q, t, U, a, b, tol, max_iter):
     return corr, evals, first, iters
 
 
-@numba.njit(cache=True, nogil=True)
+@njit
 def interior_momentum(m, I_local, X, Q, t):
     """``(n, 3)`` angular momentum about the COM (eq. 5.5) at frames ``1 .. n-2`` of segment COMs
     ``X (n, S, 3)`` and orientations ``Q (n, S, 4)`` at times ``t``; rows 0 and n-1 are NaN.
@@ -323,31 +280,18 @@ def interior_momentum(m, I_local, X, Q, t):
         h1 = t[f] - t[f - 1]
         h2 = t[f + 1] - t[f]
         dt = h1 + h2
-        c0 = 0.0
-        c1 = 0.0
-        c2 = 0.0
-        for s in range(S):
-            c0 += m[s] * X[f, s, 0]
-            c1 += m[s] * X[f, s, 1]
-            c2 += m[s] * X[f, s, 2]
-        c0 /= M
-        c1 /= M
-        c2 /= M
+        c0, c1, c2 = centroid(m, X, f, M)
         L0 = 0.0
         L1 = 0.0
         L2 = 0.0
         for s in range(S):
-            b0, b1, b2, b3 = _qmul(Q[f, s, 0], Q[f, s, 1], Q[f, s, 2], Q[f, s, 3],
-                                   -Q[f - 1, s, 0], -Q[f - 1, s, 1], -Q[f - 1, s, 2], Q[f - 1, s, 3])
-            r0, r1, r2 = _qlog(b0, b1, b2, b3)
-            e0, e1, e2, e3 = _qmul(Q[f + 1, s, 0], Q[f + 1, s, 1], Q[f + 1, s, 2], Q[f + 1, s, 3],
-                                   -Q[f, s, 0], -Q[f, s, 1], -Q[f, s, 2], Q[f, s, 3])
-            g0, g1, g2 = _qlog(e0, e1, e2, e3)
+            r0, r1, r2 = qdelta(Q, f - 1, f, s)
+            g0, g1, g2 = qdelta(Q, f, f + 1, s)
             w0 = (h1 * g0 / h2 + h2 * r0 / h1) / dt
             w1 = (h1 * g1 / h2 + h2 * r1 / h1) / dt
             w2 = (h1 * g2 / h2 + h2 * r2 / h1) / dt
             # R I R^T w = R (I (R^T w))
-            _qmat(Q[f, s], Rf)
+            qmat(Q[f, s, 0], Q[f, s, 1], Q[f, s, 2], Q[f, s, 3], Rf)
             u0 = Rf[0, 0] * w0 + Rf[1, 0] * w1 + Rf[2, 0] * w2
             u1 = Rf[0, 1] * w0 + Rf[1, 1] * w1 + Rf[2, 1] * w2
             u2 = Rf[0, 2] * w0 + Rf[1, 2] * w1 + Rf[2, 2] * w2
@@ -376,35 +320,7 @@ def interior_momentum(m, I_local, X, Q, t):
     return out
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
-def _slerp1(q0, q1, a, out):
-    """Slerp of two unit quaternions as :func:`mocomp.core.motion.slerp` (short way, normalised)."""
-    d = q0[0] * q1[0] + q0[1] * q1[1] + q0[2] * q1[2] + q0[3] * q1[3]
-    s = 1.0
-    if d < 0.0:
-        s = -1.0
-        d = -d
-    if d > 1.0:
-        d = 1.0
-    th = math.acos(d)
-    sn = math.sin(th)
-    if sn < 1e-9:
-        w0 = 1.0 - a
-        w1 = a
-    else:
-        w0 = math.sin((1.0 - a) * th) / sn
-        w1 = math.sin(a * th) / sn
-    w1 *= s
-    n = 0.0
-    for k in range(4):
-        out[k] = w0 * q0[k] + w1 * q1[k]
-        n += out[k] * out[k]
-    n = math.sqrt(n)
-    for k in range(4):
-        out[k] /= n
-
-
-@numba.njit(cache=True, nogil=True)
+@njit
 def slerp_frames(rot, i0, i1, alpha):
     """``(n, J, 4)`` local rotations at fractional frames: ``slerp(rot[i0], rot[i1], alpha)``
     per joint, exact copies where ``alpha == 0`` (as :meth:`mocomp.core.Motion.sample`)."""
@@ -418,11 +334,14 @@ def slerp_frames(rot, i0, i1, alpha):
                 for c in range(4):
                     out[k, j, c] = rot[i0[k], j, c]
             else:
-                _slerp1(rot[i0[k], j], rot[i1[k], j], a, out[k, j])
+                a0, a1 = i0[k], i1[k]
+                out[k, j, 0], out[k, j, 1], out[k, j, 2], out[k, j, 3], _ = slerp4(
+                    rot[a0, j, 0], rot[a0, j, 1], rot[a0, j, 2], rot[a0, j, 3],
+                    rot[a1, j, 0], rot[a1, j, 1], rot[a1, j, 2], rot[a1, j, 3], a, 2.0)
     return out
 
 
-@numba.njit(cache=True, nogil=True)
+@njit
 def sampled_segments(parents, offsets, root_pos, rot, i0, i1, alpha, seg_joint, local_coms):
     """Segment COMs ``(n, S, 3)`` and orientations ``(n, S, 4)`` of the motion sampled at
     fractional frames (root linear, joints slerped, then forward kinematics): the fused
@@ -442,7 +361,10 @@ def sampled_segments(parents, offsets, root_pos, rot, i0, i1, alpha, seg_joint, 
                 for c in range(4):
                     loc[c] = rot[i0[k], j, c]
             else:
-                _slerp1(rot[i0[k], j], rot[i1[k], j], a, loc)
+                a0, a1 = i0[k], i1[k]
+                loc[0], loc[1], loc[2], loc[3], _ = slerp4(
+                    rot[a0, j, 0], rot[a0, j, 1], rot[a0, j, 2], rot[a0, j, 3],
+                    rot[a1, j, 0], rot[a1, j, 1], rot[a1, j, 2], rot[a1, j, 3], a, 2.0)
             p = parents[j]
             if p < 0:
                 for c in range(4):
@@ -450,35 +372,26 @@ def sampled_segments(parents, offsets, root_pos, rot, i0, i1, alpha, seg_joint, 
                 for c in range(3):
                     P[j, c] = (1.0 - a) * root_pos[i0[k], c] + a * root_pos[i1[k], c]
             else:
-                g0, g1, g2, g3 = _qmul(G[p, 0], G[p, 1], G[p, 2], G[p, 3], loc[0], loc[1], loc[2], loc[3])
+                g0, g1, g2, g3 = qmul(G[p, 0], G[p, 1], G[p, 2], G[p, 3], loc[0], loc[1], loc[2], loc[3])
                 G[j, 0] = g0
                 G[j, 1] = g1
                 G[j, 2] = g2
                 G[j, 3] = g3
-                v = _qrot(G[p, 0], G[p, 1], G[p, 2], G[p, 3], offsets[j, 0], offsets[j, 1], offsets[j, 2])
+                v = qrot(G[p, 0], G[p, 1], G[p, 2], G[p, 3], offsets[j, 0], offsets[j, 1], offsets[j, 2])
                 for c in range(3):
                     P[j, c] = P[p, c] + v[c]
         for s in range(S):
             j = seg_joint[s]
             for c in range(4):
                 Q[k, s, c] = G[j, c]
-            v = _qrot(G[j, 0], G[j, 1], G[j, 2], G[j, 3], local_coms[s, 0], local_coms[s, 1], local_coms[s, 2])
+            v = qrot(G[j, 0], G[j, 1], G[j, 2], G[j, 3], local_coms[s, 0], local_coms[s, 1], local_coms[s, 2])
             for c in range(3):
                 X[k, s, c] = P[j, c] + v[c]
     return X, Q
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
-def _qrot(ux, uy, uz, w, vx, vy, vz):
-    """``q v q^-1`` as :func:`mocomp.core.rotations.quat_apply`: v + w t + u x t, t = 2 u x v."""
-    tx = 2.0 * (uy * vz - uz * vy)
-    ty = 2.0 * (uz * vx - ux * vz)
-    tz = 2.0 * (ux * vy - uy * vx)
-    return (vx + w * tx + uy * tz - uz * ty, vy + w * ty + uz * tx - ux * tz, vz + w * tz + ux * ty - uy * tx)
-
-
 # ------------------------------------------------ joint direction solve (eq. 5.21 stacked)
-@numba.njit(cache=True, nogil=True, inline="always")
+@njit(inline="always")
 def _jl_inv(r0, r1, r2, J):
     """Inverse left Jacobian of SO(3) at rotation vector ``r``: ``log(exp(d) exp(r)) ~ r + J d``."""
     th2 = r0 * r0 + r1 * r1 + r2 * r2
@@ -499,7 +412,7 @@ def _jl_inv(r0, r1, r2, J):
     J[2, 1] = -0.5 * r0 + k * r1 * r2
 
 
-@numba.njit(cache=True, nogil=True)
+@njit
 def rotate_frames(X, Q, pivots, corr):
     """Copies of ``X (n, S, 3)``, ``Q (n, S, 4)`` with frame ``g`` rotated by ``corr[g]`` about ``pivots[g]``."""
     Xc = X.copy()
@@ -511,7 +424,7 @@ def rotate_frames(X, Q, pivots, corr):
     return Xc, Qc
 
 
-@numba.njit(cache=True, nogil=True)
+@njit
 def momentum_blocks(m, I_local, X, Q, t, pivots):
     """``L (n, 3)`` (eq. 5.5, central differences, as :func:`interior_momentum`) and its
     derivatives with respect to a rotation of the whole pose at frames ``f-1``, ``f`` and
@@ -559,23 +472,13 @@ def momentum_blocks(m, I_local, X, Q, t, pivots):
             v0 = al * q0 + be * a0 + ga * p0
             v1 = al * q1 + be * a1 + ga * p1
             v2 = al * q2 + be * a2 + ga * p2
-            b0, b1, b2, b3 = _qmul(Q[f, s, 0], Q[f, s, 1], Q[f, s, 2], Q[f, s, 3],
-                                   -Q[f - 1, s, 0], -Q[f - 1, s, 1], -Q[f - 1, s, 2], Q[f - 1, s, 3])
-            rb0, rb1, rb2 = _qlog(b0, b1, b2, b3)
-            e0, e1, e2, e3 = _qmul(Q[f + 1, s, 0], Q[f + 1, s, 1], Q[f + 1, s, 2], Q[f + 1, s, 3],
-                                   -Q[f, s, 0], -Q[f, s, 1], -Q[f, s, 2], Q[f, s, 3])
-            rf0, rf1, rf2 = _qlog(e0, e1, e2, e3)
+            rb0, rb1, rb2 = qdelta(Q, f - 1, f, s)
+            rf0, rf1, rf2 = qdelta(Q, f, f + 1, s)
             w0 = wf * rf0 + wb * rb0
             w1 = wf * rf1 + wb * rb1
             w2 = wf * rf2 + wb * rb2
-            _qmat(Q[f, s], Rf)
-            for i in range(3):
-                for j in range(3):
-                    acc = 0.0
-                    for p in range(3):
-                        for r in range(3):
-                            acc += Rf[i, p] * I_local[s, p, r] * Rf[j, r]
-                    Iw[i, j] = acc
+            qmat(Q[f, s, 0], Q[f, s, 1], Q[f, s, 2], Q[f, s, 3], Rf)
+            world_inertia(Rf, I_local, s, Iw)
             h0 = Iw[0, 0] * w0 + Iw[0, 1] * w1 + Iw[0, 2] * w2
             hh1 = Iw[1, 0] * w0 + Iw[1, 1] * w1 + Iw[1, 2] * w2
             hh2 = Iw[2, 0] * w0 + Iw[2, 1] * w1 + Iw[2, 2] * w2
@@ -628,71 +531,3 @@ def momentum_blocks(m, I_local, X, Q, t, pivots):
                     J0[f, i, j] += wb * accb - wf * accfT
     return L, Jm, J0, Jp
 
-
-# ------------------------------------------------------------------ forward kinematics
-@numba.njit(cache=True, nogil=True)
-def forward_kinematics(parents, offsets, root_pos, rot):
-    """``(P (T, J, 3), G (T, J, 4))``: :func:`mocomp.core.kinematics.forward_kinematics` compiled,
-    with its operations in its order (``G_j = G_p L_j``, ``P_j = P_p + G_p offset_j``), so the
-    results are the same to the last bit; ~50x faster on a 120-frame, 31-joint clip, where the
-    numpy version's cost is its ~1200 array calls, not the arithmetic."""
-    T = rot.shape[0]
-    J = rot.shape[1]
-    P = np.empty((T, J, 3))
-    G = np.empty((T, J, 4))
-    for f in range(T):
-        for c in range(4):
-            G[f, 0, c] = rot[f, 0, c]
-        for c in range(3):
-            P[f, 0, c] = root_pos[f, c]
-        for j in range(1, J):
-            p = parents[j]
-            ax = G[f, p, 0]
-            ay = G[f, p, 1]
-            az = G[f, p, 2]
-            aw = G[f, p, 3]
-            bx = rot[f, j, 0]
-            by = rot[f, j, 1]
-            bz = rot[f, j, 2]
-            bw = rot[f, j, 3]
-            G[f, j, 0] = aw * bx + ax * bw + ay * bz - az * by
-            G[f, j, 1] = aw * by - ax * bz + ay * bw + az * bx
-            G[f, j, 2] = aw * bz + ax * by - ay * bx + az * bw
-            G[f, j, 3] = aw * bw - ax * bx - ay * by - az * bz
-            vx = offsets[j, 0]
-            vy = offsets[j, 1]
-            vz = offsets[j, 2]
-            tx = (ay * vz - az * vy) * 2.0
-            ty = (az * vx - ax * vz) * 2.0
-            tz = (ax * vy - ay * vx) * 2.0
-            P[f, j, 0] = aw * tx + vx + (ay * tz - az * ty) + P[f, p, 0]
-            P[f, j, 1] = aw * ty + vy + (az * tx - ax * tz) + P[f, p, 1]
-            P[f, j, 2] = aw * tz + vz + (ax * ty - ay * tx) + P[f, p, 2]
-    return P, G
-
-
-def fk_arrays(skeleton, root_positions, rotations) -> tuple[np.ndarray, np.ndarray]:
-    """Compiled FK (:func:`forward_kinematics`) of raw ``(T, 3)`` / ``(T, J, 4)`` arrays (for
-    frame ranges of a motion, without building a :class:`~mocomp.core.Motion` for them)."""
-    return forward_kinematics(np.asarray(skeleton.parents, dtype=np.int64),
-                              np.ascontiguousarray(skeleton.offsets, dtype=float),
-                              np.ascontiguousarray(root_positions, dtype=float),
-                              np.ascontiguousarray(rotations, dtype=float))
-
-
-def motion_fk(motion, start: int = 0, stop: int | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """``motion.fk()`` restricted to frames ``start:stop``, computed compiled. A whole-motion
-    request fills the motion's FK cache (the same arrays ``Motion.fk`` would cache: bit-identical,
-    read-only); a range reuses that cache when present, else computes only its own frames."""
-    T = motion.n_frames
-    start, stop, _ = slice(start, stop).indices(T)
-    cache = motion._cache
-    if "fk" in cache:
-        P, G = cache["fk"]
-        return P[start:stop], G[start:stop]
-    P, G = fk_arrays(motion.skeleton, motion.root_positions[start:stop], motion.rotations[start:stop])
-    if start == 0 and stop == T:
-        P.setflags(write=False)
-        G.setflags(write=False)
-        cache["fk"] = (P, G)
-    return P, G

@@ -95,7 +95,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.motion import Motion
-from ..core.rotations import make_continuous, quat_apply, quat_inverse, quat_multiply
+from ..core.rotations import make_continuous, quat_apply, quat_inverse, quat_multiply, shortest_arc
 from ..errors import JoinError
 from ..flips.looping import PHI_TOL, TIE_ATOL, TIE_RTOL, choose_tied
 from .pipeline import RestoreResult, boundary_velocity_jumps, three_steps
@@ -120,18 +120,6 @@ def _axis_quat(axis, angle):
     out[..., :3] = np.sin(h)[..., None] * a
     out[..., 3] = np.cos(h)
     return out
-
-
-def _shortest_arc(u, v):
-    u, v = _unit(u), _unit(v)
-    c = np.cross(u, v)
-    d = float(u @ v)
-    if d < -1 + 1e-12:
-        p = np.cross(u, [1.0, 0.0, 0.0])
-        if np.linalg.norm(p) < 1e-6:
-            p = np.cross(u, [0.0, 1.0, 0.0])
-        return np.append(_unit(p), 0.0)
-    return _unit(np.append(c, 1.0 + d))
 
 
 def _ramp(d, window):
@@ -523,7 +511,7 @@ def join_flights(takeoff, landing, *, body=None, flights=(None, None), match: st
                 + (f"full alignment would tilt its landing by that much (limit max_tilt_deg = {max_tilt_deg:g})"
                    if full_alignment else "full alignment is disabled")
                 + "; join flights that rotate about similar axes (e.g. a back flip with a side flip)")
-        q_full = _shortest_arc(LB1, LA0)
+        q_full = shortest_arc(LB1, LA0)
         q_B = quat_multiply(q_full, q_yaw)
         tilt, full = resid, True
         notes.append(f"L directions differ by {resid:.1f} deg after the turn about the vertical: the landing part "

@@ -51,10 +51,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.kinematics import end_site_positions
+from ..core.kinematics import end_site_positions, forward_kinematics
 from ..core.motion import Motion, slerp
 from ..core.rotations import quat_apply, quat_inverse, quat_multiply, swing_twist
-from ._kernels import fk_arrays
 from ..ops.ik import descends, leg_chains, run_starts, two_bone_ik
 
 __all__ = ["TOUCH_TOL", "REST_TOL", "LANDING_VELOCITY_CHOICES", "ARRIVAL_TOL", "LANDING_MAX_FORCE", "stance_velocity", "stance_stop",
@@ -93,8 +92,8 @@ REACH_SOFT = 0.003
 
 
 def _points(skeleton, root_positions, rotations) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(points (n, J + E, 3), P (n, J, 3), G (n, J, 4))``: joints and end sites (compiled FK)."""
-    P, G = fk_arrays(skeleton, root_positions, rotations)
+    """``(points (n, J + E, 3), P (n, J, 3), G (n, J, 4))``: joints and end sites (core FK)."""
+    P, G = forward_kinematics(skeleton.parents, skeleton.offsets, root_positions, rotations)
     if skeleton.end_sites:
         return np.concatenate([P, end_site_positions(skeleton.end_sites, P, G)], axis=1), P, G
     return P, P, G

@@ -25,7 +25,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..core.motion import Motion, slerp
-from ..core.rotations import quat_apply, quat_inverse, quat_multiply
+from ..core.rotations import quat_apply, quat_inverse, quat_multiply, shortest_arc
 from ..errors import MocompError
 
 __all__ = ["ease_weights", "OffsetLayer", "TargetLayer", "AimLayer", "apply_layers", "EditRangeError"]
@@ -130,7 +130,7 @@ class AimLayer(_Range):
         d = d / np.linalg.norm(d)
         cur = quat_apply(G[:, j], bone)                       # (T, 3) bone direction now
         want = quat_apply(G[:, r], d)                         # (T, 3) target direction
-        fix = _rotation_between(cur, want)                    # world rotation taking cur -> want
+        fix = shortest_arc(cur, want)                    # world rotation taking cur -> want
         fix = slerp(np.broadcast_to([0.0, 0.0, 0.0, 1.0], fix.shape), fix, w)
         p = sk.parents[j]
         Gp = G[:, p] if p >= 0 else np.broadcast_to([0.0, 0.0, 0.0, 1.0], (motion.n_frames, 4))
@@ -139,22 +139,6 @@ class AimLayer(_Range):
         on = w > 0   # frames outside the layer stay bit-identical
         rot[on, j] = quat_multiply(quat_inverse(Gp[on]), new_global[on])
         return motion.replace(rotations=rot)
-
-
-def _rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Shortest-arc quaternions taking unit vectors ``a`` to ``b`` (rows)."""
-    a = a / np.linalg.norm(a, axis=-1, keepdims=True)
-    b = b / np.linalg.norm(b, axis=-1, keepdims=True)
-    cross = np.cross(a, b)
-    dot = np.sum(a * b, axis=-1)
-    q = np.concatenate([cross, (1.0 + dot)[..., None]], axis=-1)
-    anti = (1.0 + dot) < 1e-9
-    if np.any(anti):  # opposite vectors: any perpendicular axis, 180 degrees
-        perp = np.cross(a[anti], np.array([1.0, 0.0, 0.0]))
-        small = np.linalg.norm(perp, axis=-1) < 1e-6
-        perp[small] = np.cross(a[anti][small], np.array([0.0, 1.0, 0.0]))
-        q[anti] = np.concatenate([perp, np.zeros((perp.shape[0], 1))], axis=-1)
-    return q / np.linalg.norm(q, axis=-1, keepdims=True)
 
 
 def apply_layers(motion: Motion, layers: Sequence) -> Motion:

@@ -189,9 +189,7 @@ def _neighbour_flights(motion: Motion, ce, a: int, b: int) -> tuple[float, float
 
 def _lowest_and_forward(motion: Motion, frame: int, direction: np.ndarray) -> tuple[float, float]:
     from ..core.kinematics import end_site_positions
-    from ._kernels import motion_fk
-
-    Pf, Gf = motion_fk(motion, frame, frame + 1)           # this frame only
+    Pf, Gf = motion.fk(frames=slice(frame, frame + 1))           # this frame only
     P = np.concatenate([Pf[0], end_site_positions(motion.skeleton.end_sites, Pf, Gf)[0]], axis=0) \
         if motion.skeleton.end_sites else Pf[0]
     return float(P[:, 1].min()), float((P @ direction).max())
@@ -301,9 +299,7 @@ def correct_linear(body, motion: Motion, flight, fit: FlightFit, *, k: float | N
         # joint positions relative to each flight frame's COM (translation-invariant)
         sk = out.skeleton
         from ..core.kinematics import end_site_positions
-        from ._kernels import motion_fk
-
-        Pj, Gj = motion_fk(out, int(fl[0]), int(fl[-1]) + 1)
+        Pj, Gj = out.fk(frames=slice(int(fl[0]), int(fl[-1]) + 1))
         if sk.end_sites:
             Pj = np.concatenate([Pj, end_site_positions(sk.end_sites, Pj, Gj)], axis=1)
         com_fl = rp[fl] + rel

@@ -323,9 +323,7 @@ def _own_slide(motion: Motion, stop: int, contact=(0.05, 0.12)) -> float | None:
     feet = [j for j, nm in enumerate(motion.skeleton.names) if any(k in nm.lower() for k in ("toe", "foot", "ankle"))]
     if not feet or stop >= motion.n_frames - 1:
         return None
-    from ._kernels import motion_fk
-
-    pos = motion_fk(motion, stop)[0][:, feet]
+    pos = motion.fk(frames=slice(stop, None))[0][:, feet]
     return stance_slide(pos, _contact_weights(pos[..., 1], contact))
 
 

@@ -42,7 +42,7 @@ import numpy as np
 from scipy.optimize import minimize
 
 from ..core.motion import Motion
-from ..core.rotations import quat_apply, quat_inverse, quat_multiply
+from ..core.rotations import quat_apply, quat_exp, quat_inverse, quat_log, quat_matrix, quat_multiply, shortest_arc
 from ..dynamics.com import check_compatible
 from .layers import EditRangeError
 
@@ -102,9 +102,7 @@ def _nan_rows(fn, L, ref):
 def segment_state(body, motion: Motion, start: int = 0, stop: int | None = None) -> tuple[np.ndarray, np.ndarray]:
     """``(X (n, S, 3), Q (n, S, 4))``: segment COM positions and world orientations (contiguous)
     of frames ``start:stop`` (default all; a range needs FK of its own frames only)."""
-    from ._kernels import motion_fk
-
-    P, G = motion_fk(motion, start, stop)
+    P, G = motion.fk(frames=slice(start, stop))
     Q = np.ascontiguousarray(G[:, body.segment_joint])
     X = np.ascontiguousarray(P[:, body.segment_joint] + quat_apply(Q, body.local_coms[None]))
     return X, Q
@@ -191,37 +189,6 @@ def validate_flight(motion: Motion, flight) -> tuple[int, int]:
     return a, b
 
 
-# ------------------------------------------------- small quaternion helpers
-def _qlog(q: np.ndarray) -> np.ndarray:
-    """Rotation vectors of unit quaternions (short way), rows."""
-    q = np.where(q[..., 3:4] < 0, -q, q)
-    v = q[..., :3]
-    s = np.linalg.norm(v, axis=-1, keepdims=True)
-    ang = 2.0 * np.arctan2(s, q[..., 3:4])
-    with np.errstate(invalid="ignore", divide="ignore"):
-        k = np.where(s > 1e-12, ang / np.where(s > 1e-12, s, 1.0), 2.0)
-    return v * k
-
-
-def _qexp(phi: np.ndarray) -> np.ndarray:
-    phi = np.asarray(phi, dtype=float)
-    a = np.linalg.norm(phi, axis=-1, keepdims=True)
-    half = 0.5 * a
-    k = np.where(a > 1e-12, np.sin(half) / np.where(a > 1e-12, a, 1.0), 0.5)
-    return np.concatenate([phi * k, np.cos(half)], axis=-1)
-
-
-def _left_matrix(q: np.ndarray) -> np.ndarray:
-    """4x4 matrix ``A`` with ``q * p = p @ A`` for scalar-last quaternions ``p`` (rows)."""
-    x, y, z, w = q
-    return np.array([
-        [w, z, -y, -x],
-        [-z, w, x, -y],
-        [y, -x, w, -z],
-        [x, y, z, w],
-    ])
-
-
 class _FrameMomentum:
     """Angular momentum at one frame ``f`` as a function of a rigid rotation of
     the pose at ``f+1`` about that pose's COM (eq. 5.21), with the discretisation
@@ -240,9 +207,9 @@ class _FrameMomentum:
         self.dt = self.h1 + self.h2
         Xf = X[f]
         a = Xf - masses @ Xf / M                     # (S, 3) lever arms at f
-        Rf = _quat_matrix(Q[f])
+        Rf = quat_matrix(Q[f])
         self.Iw = np.einsum("sij,sjk,slk->sil", Rf, I_local, Rf)
-        back = _qlog(quat_multiply(Q[f], quat_inverse(Q[f - 1]))) / self.h1
+        back = quat_log(quat_multiply(Q[f], quat_inverse(Q[f - 1]))) / self.h1
         self.w_back = self.h2 / self.dt * back
         self.wf = self.h1 / self.dt / self.h2
         c1 = masses @ X[f + 1] / M
@@ -256,71 +223,26 @@ class _FrameMomentum:
 
     def L(self, q: np.ndarray) -> np.ndarray:
         """L at frame f when pose f+1 is rotated by quaternion ``q`` about its COM."""
-        R = _quat_matrix1(q)
+        R = quat_matrix(q)
         C = self.C0 @ R.T
         orb = np.array([C[1, 2] - C[2, 1], C[2, 0] - C[0, 2], C[0, 1] - C[1, 0]]) / self.dt + self.const
-        w = self.wf * _qlog(self.D @ _left_matrix(q)) + self.w_back
+        w = self.wf * quat_log(quat_multiply(q, self.D)) + self.w_back
         return np.einsum("sij,sj->i", self.Iw, w) + orb
 
     def jacobian(self, q: np.ndarray) -> np.ndarray:
         """Approximate ``dL/dphi`` for ``q <- exp(phi) q`` (small-step linearisation:
         positions rotate as ``phi x d``; the forward rotation vectors change by ``phi``)."""
-        d = self.d @ _quat_matrix1(q).T                # (S, 3) rotated lever arms at f+1
+        d = self.d @ quat_matrix(q).T                # (S, 3) rotated lever arms at f+1
         # d/dphi sum_i m_i a_i x (phi x d_i) = sum_i m_i ((a_i . d_i) 1 - d_i a_i^T)
         ad = np.einsum("si,si->", self.ma, d)
         K = ad * np.eye(3) - d.T @ self.ma
         return K / self.dt + self.Iw_sum * self.wf
 
 
-def _quat_matrix1(q) -> np.ndarray:
-    """Rotation matrix of one quaternion (plain floats: cheap for single rotations)."""
-    x, y, z, w = (float(v) for v in q)
-    return np.array([
-        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-    ])
-
-
-def _qmul1(a, b) -> np.ndarray:
-    """Hamilton product of two single quaternions (plain floats)."""
-    ax, ay, az, aw = (float(v) for v in a)
-    bx, by, bz, bw = (float(v) for v in b)
-    return np.array([
-        aw * bx + ax * bw + ay * bz - az * by,
-        aw * by - ax * bz + ay * bw + az * bx,
-        aw * bz + ax * by - ay * bx + az * bw,
-        aw * bw - ax * bx - ay * by - az * bz,
-    ])
-
-
 def _angle(L: np.ndarray, u: np.ndarray) -> float:
     """Angle between one vector and a unit vector."""
     c = np.cross(L, u)
     return math.atan2(math.sqrt(float(c @ c)), float(L @ u))
-
-
-def _quat_matrix(q: np.ndarray) -> np.ndarray:
-    x, y, z, w = np.moveaxis(q, -1, 0)
-    return np.stack([
-        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
-        np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
-        np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1),
-    ], -2)
-
-
-def _rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    a = a / np.linalg.norm(a)
-    b = b / np.linalg.norm(b)
-    c = np.cross(a, b)
-    d = float(a @ b)
-    if d < -1 + 1e-12:
-        perp = np.cross(a, [1.0, 0.0, 0.0])
-        if np.linalg.norm(perp) < 1e-6:
-            perp = np.cross(a, [0.0, 1.0, 0.0])
-        return np.append(perp / np.linalg.norm(perp), 0.0)
-    q = np.append(c, 1.0 + d)
-    return q / np.linalg.norm(q)
 
 
 # ---------------------------------------------------------------- step 1
@@ -545,7 +467,7 @@ def _bfgs_sweep(m, I_local, X, Q, t, U, a, b, tol, pivots):
     for f in range(a + 1, b - 1):
         qf = current
         if qf[3] < 1.0:
-            X[f + 1] = pivots[f + 1] + (X[f + 1] - pivots[f + 1]) @ _quat_matrix1(qf).T
+            X[f + 1] = pivots[f + 1] + (X[f + 1] - pivots[f + 1]) @ quat_matrix(qf).T
             Q[f + 1] = quat_multiply(qf, Q[f + 1])
         fm = _FrameMomentum(m, I_local, X, Q, t, f)
         u = U[f]
@@ -566,19 +488,19 @@ def _bfgs_sweep(m, I_local, X, Q, t, U, a, b, tol, pivots):
         B = np.linalg.svd(J)[2][:2].T                      # (3, 2): the two constrained directions
         # start: the previous frame's rotation (already applied, so zero here); at the first
         # departure f*, the rotation between L_new and L* (section 5.5.1), projected on the plane
-        start = B.T @ _qlog(_rotation_between(L0, u)[None])[0] if is_first else np.zeros(2)
+        start = B.T @ quat_log(shortest_arc(L0, u)[None])[0] if is_first else np.zeros(2)
 
         def cost(x):
-            L = fm.L(_qexp(B @ x))
+            L = fm.L(quat_exp(B @ x))
             c = min(float(L @ u) / float(np.linalg.norm(L)), 1.0)
             return (1.0 - c) * 2.0           # ~ angle^2 near the optimum
 
         r = minimize(cost, start, method="BFGS", options={"gtol": 1e-14, "maxiter": 200})
         evals += int(r.nfev)
-        dq = _qexp(B @ r.x)
-        X[f + 1] = pivots[f + 1] + (X[f + 1] - pivots[f + 1]) @ _quat_matrix1(dq).T
+        dq = quat_exp(B @ r.x)
+        X[f + 1] = pivots[f + 1] + (X[f + 1] - pivots[f + 1]) @ quat_matrix(dq).T
         Q[f + 1] = quat_multiply(dq, Q[f + 1])
-        current = _qmul1(dq, qf)
+        current = quat_multiply(dq, qf)
         current /= np.linalg.norm(current)
         corr[f + 1] = current
     corr[b:] = current

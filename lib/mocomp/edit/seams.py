@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.motion import Motion, slerp
-from ..core.rotations import quat_apply, quat_inverse, quat_multiply
+from ..core.rotations import quat_apply, quat_inverse, quat_multiply, shortest_arc
 
 __all__ = ["crossfade", "recover_upright", "landing_tilt", "stance_slide"]
 
@@ -55,19 +55,6 @@ def crossfade(rot: np.ndarray, rp: np.ndarray, last_left: int, left_ref: np.ndar
         rot[i, 0] = quat_multiply(qroot, rot[i, 0])
         rp[i] = c + quat_apply(qroot, rp[i] - c)
     return float(np.degrees(2 * np.arccos(min(1.0, abs(float(q_rel[3]))))))
-
-
-def _shortest_arc(u, v):
-    u = u / np.linalg.norm(u)
-    v = v / np.linalg.norm(v)
-    d = float(u @ v)
-    if d < -1 + 1e-12:
-        p = np.cross(u, [1.0, 0.0, 0.0])
-        if np.linalg.norm(p) < 1e-6:
-            p = np.cross(u, [0.0, 1.0, 0.0])
-        return np.append(p / np.linalg.norm(p), 0.0)
-    q = np.append(np.cross(u, v), 1.0 + d)
-    return q / np.linalg.norm(q)
 
 
 def landing_tilt(q_ref: np.ndarray, q_now: np.ndarray) -> tuple[float, np.ndarray]:
@@ -154,10 +141,10 @@ def recover_upright(motion: Motion, first_ground: int, up_now: np.ndarray, secon
     Returns ``(motion, slide)``: ``slide`` (m) is the largest horizontal travel of a foot joint
     during a contact, from where that contact began (:func:`stance_slide`).
     """
-    from ._kernels import fk_arrays, motion_fk
+    from ..core.kinematics import forward_kinematics
     from ..ops.ik import leg_chains, plant_rotations
 
-    fix = _shortest_arc(np.asarray(up_now, dtype=float), np.array([0.0, 1.0, 0.0]))
+    fix = shortest_arc(np.asarray(up_now, dtype=float), np.array([0.0, 1.0, 0.0]))
     n = motion.n_frames - first_ground
     m = max(1, int(round(seconds * motion.fps)))
     s = np.clip(np.arange(1, n + 1) / m, 0.0, 1.0)
@@ -166,7 +153,7 @@ def recover_upright(motion: Motion, first_ground: int, up_now: np.ndarray, secon
     q = slerp(ident, np.broadcast_to(fix, (n, 4)), s)
     c = ce(motion.root_positions[first_ground:first_ground + 1], motion.rotations[first_ground:first_ground + 1])[0]
     if pivot is None:
-        low = motion_fk(motion, first_ground, first_ground + 1)[0][0, :, 1].min()
+        low = motion.fk(frames=slice(first_ground, first_ground + 1))[0][0, :, 1].min()
         pivot = np.array([c[0], low, c[2]])
     pivot = np.asarray(pivot, dtype=float)
     rp = np.array(motion.root_positions)
@@ -178,10 +165,10 @@ def recover_upright(motion: Motion, first_ground: int, up_now: np.ndarray, secon
     if not feet:
         return motion.replace(root_positions=rp, rotations=rot), 0.0
     # FK of the frames from touchdown only, on the arrays (one motion is built, at the end)
-    after = fk_arrays(sk, rp[first_ground:], rot[first_ground:])[0][:, feet]
+    after = forward_kinematics(sk.parents, sk.offsets, rp[first_ground:], rot[first_ground:])[0][:, feet]
     w = _contact_weights(after[..., 1], contact)
     if pin_feet:
-        before = motion_fk(motion, first_ground)[0][:, feet]
+        before = motion.fk(frames=slice(first_ground, None))[0][:, feet]
         err = before[..., [0, 2]] - after[..., [0, 2]]                    # (n, F, 2)
         shift = _held_shift(w, err)
         rp[first_ground:, 0] += shift[:, 0]
@@ -197,10 +184,10 @@ def recover_upright(motion: Motion, first_ground: int, up_now: np.ndarray, secon
 
             rate = 1.0 / max(RELEASE_S * motion.fps, 1.0)
             wa = np.stack([_release_limited(wa[:, i], rate) for i in range(wa.shape[1])], axis=1)
-            P, G = fk_arrays(sk, rp[first_ground:], rot[first_ground:])
+            P, G = forward_kinematics(sk.parents, sk.offsets, rp[first_ground:], rot[first_ground:])
             rot, solves = plant_rotations(sk.parents, rot, P, G, first_ground, wa, chains)
             if solves:
-                after = fk_arrays(sk, rp[first_ground:], rot[first_ground:])[0][:, feet]
+                after = forward_kinematics(sk.parents, sk.offsets, rp[first_ground:], rot[first_ground:])[0][:, feet]
                 return motion.replace(root_positions=rp, rotations=rot), stance_slide(after, w)
         after[..., 0] += shift[:, None, 0]
         after[..., 2] += shift[:, None, 1]

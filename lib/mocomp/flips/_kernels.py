@@ -1,7 +1,7 @@
 """Compiled (numba) versions of the run-time stage's per-frame loops.
 
 * :func:`slerp_rows_nb` / :func:`slerp_gather_nb` -- the retiming interpolation of
-  :func:`mocomp.flips._quat.slerp_rows` (normalised lerp for neighbours closer than
+  :func:`mocomp.core.rotations.slerp` with ``nlerp_below`` (normalised lerp for neighbours closer than
   ``nlerp_below``, exact slerp otherwise); the gather variant reads rows ``i0`` and ``i0 + 1``
   in place and reports that every output is a finite unit quaternion (so the new ``Motion``
   need not be validated again);
@@ -17,10 +17,14 @@
 
 They give the numpy versions' results to rounding (tested, most bit for bit); they exist because
 the numpy versions are dominated by per-call overhead on small arrays (a few thousand
-quaternions, or a single frame's 31 joints). Numba is a project dependency (also used by
-:mod:`mocomp.splice`); compiled code is cached on disk (``cache=True``) and loaded by
-:func:`warmup` during pre-processing. ``AVAILABLE`` is False when numba cannot be imported and
-the numpy versions are used instead.
+quaternions, or a single frame's 31 joints). Their quaternion algebra is the core kernel's
+inline helpers (:mod:`mocomp.core._compiled`: ``qmul``, ``qrot``, ``qpow``, ``qangle``,
+``slerp4``); only the method's own loops live here. Compiled code is cached on disk
+(``cache=True``) and loaded by :func:`warmup` during pre-processing. ``AVAILABLE`` (numba
+importable and ``MOCOMP_NO_NUMBA`` unset, decided in :mod:`mocomp.core._compiled`) False: the
+run-time stage takes its numpy paths (the retiming slerp, the root turn, the COM evaluator,
+the landing search), and the landing-seam kernels, which have no numpy twin outside the tests,
+run as plain Python on their few frames.
 """
 from __future__ import annotations
 
@@ -28,148 +32,113 @@ import math
 
 import numpy as np
 
-try:
-    import numba
-
-    AVAILABLE = True
-except Exception:  # pragma: no cover - numba is a dependency; keep the library importable without it
-    AVAILABLE = False
+from ..core._compiled import AVAILABLE, njit, qangle, qmul, qpow, qrot, slerp4
 
 __all__ = ["AVAILABLE", "slerp_rows_nb", "com_relative_nb", "seam_block_nb", "frame_distance_nb", "slerp_gather_nb",
            "landing_search_nb", "landing_seam_nb",
            "turn_roots_nb", "reposition_nb", "warmup"]
 
-if AVAILABLE:
-    @numba.njit(cache=True, nogil=True, inline="always")
-    def _slerp1(q0, n0, q1, n1, j, t, cos_near, out, n):
-        """Row ``n`` joint ``j`` of the retiming slerp: ``q0[n0, j] -> q1[n1, j]`` at weight ``t``
-        into ``out[n, j]``; returns the squared norm before normalisation (finite and > 0 for a
-        valid unit result)."""
-        d = q0[n0, j, 0] * q1[n1, j, 0] + q0[n0, j, 1] * q1[n1, j, 1] + q0[n0, j, 2] * q1[n1, j, 2] \
-            + q0[n0, j, 3] * q1[n1, j, 3]
-        s = 1.0
-        if d < 0.0:
-            d = -d
-            s = -1.0
-        if d >= cos_near:
-            w0 = 1.0 - t
-            w1 = t * s
-        else:
-            if d > 1.0:
-                d = 1.0
-            th = math.acos(d)
-            inv = 1.0 / math.sin(th)
-            w0 = math.sin((1.0 - t) * th) * inv
-            w1 = math.sin(t * th) * inv * s
-        x = w0 * q0[n0, j, 0] + w1 * q1[n1, j, 0]
-        y = w0 * q0[n0, j, 1] + w1 * q1[n1, j, 1]
-        z = w0 * q0[n0, j, 2] + w1 * q1[n1, j, 2]
-        w = w0 * q0[n0, j, 3] + w1 * q1[n1, j, 3]
-        nn = x * x + y * y + z * z + w * w
-        r = 1.0 / math.sqrt(nn)
-        out[n, j, 0] = x * r
-        out[n, j, 1] = y * r
-        out[n, j, 2] = z * r
-        out[n, j, 3] = w * r
-        return nn
-
-    @numba.njit(cache=True, nogil=True)
-    def _slerp_rows(q0, q1, a, cos_near, out):
-        N, J, _ = q0.shape
-        for n in range(N):
-            t = a[n]
-            for j in range(J):
-                _slerp1(q0, n, q1, n, j, t, cos_near, out, n)
-        return out
-
-    @numba.njit(cache=True, nogil=True)
-    def _slerp_gather(rot, i0, a, cos_near, out):
-        """``out[n] = slerp(rot[i0[n]], rot[i0[n] + 1], a[n])`` without gathering the two rows first;
-        returns whether every result is a finite unit quaternion (its pre-normalisation norm finite
-        and positive), so the caller need not check again."""
-        N = i0.shape[0]
-        J = rot.shape[1]
-        ok = True
-        for n in range(N):
-            t = a[n]
-            k = i0[n]
-            for j in range(J):
-                nn = _slerp1(rot, k, rot, k + 1, j, t, cos_near, out, n)
-                if not (nn > 0.0 and nn < math.inf):
-                    ok = False
-        return ok
-
-    @numba.njit(cache=True, nogil=True)
-    def _com_relative(q, joints, parent, u, out):
-        T = q.shape[0]
-        n = joints.shape[0]
-        G = np.empty((n, 4))
-        for t in range(T):
-            r = joints[0]
-            G[0, 0] = q[t, r, 0]
-            G[0, 1] = q[t, r, 1]
-            G[0, 2] = q[t, r, 2]
-            G[0, 3] = q[t, r, 3]
-            sx = 0.0
-            sy = 0.0
-            sz = 0.0
-            for i in range(n):
-                if i > 0:
-                    p = parent[i]
-                    jj = joints[i]
-                    ax, ay, az, aw = G[p, 0], G[p, 1], G[p, 2], G[p, 3]
-                    bx, by, bz, bw = q[t, jj, 0], q[t, jj, 1], q[t, jj, 2], q[t, jj, 3]
-                    G[i, 0] = aw * bx + ax * bw + ay * bz - az * by
-                    G[i, 1] = aw * by - ax * bz + ay * bw + az * bx
-                    G[i, 2] = aw * bz + ax * by - ay * bx + az * bw
-                    G[i, 3] = aw * bw - ax * bx - ay * by - az * bz
-                ux, uy, uz, w = G[i, 0], G[i, 1], G[i, 2], G[i, 3]
-                vx, vy, vz = u[i, 0], u[i, 1], u[i, 2]
-                tx = 2.0 * (uy * vz - uz * vy)
-                ty = 2.0 * (uz * vx - ux * vz)
-                tz = 2.0 * (ux * vy - uy * vx)
-                sx += vx + w * tx + uy * tz - uz * ty
-                sy += vy + w * ty + uz * tx - ux * tz
-                sz += vz + w * tz + ux * ty - uy * tx
-            out[t, 0] = sx
-            out[t, 1] = sy
-            out[t, 2] = sz
-        return out
+@njit(inline="always")
+def _slerp1(q0, n0, q1, n1, j, t, cos_near, out, n):
+    """Row ``n`` joint ``j`` of the retiming slerp: ``q0[n0, j] -> q1[n1, j]`` at weight ``t``
+    into ``out[n, j]`` (core's :func:`~mocomp.core._compiled.slerp4`, normalised lerp for pairs
+    closer than ``cos_near``); returns the squared norm before normalisation (finite and > 0 for
+    a valid unit result)."""
+    out[n, j, 0], out[n, j, 1], out[n, j, 2], out[n, j, 3], nn = slerp4(
+        q0[n0, j, 0], q0[n0, j, 1], q0[n0, j, 2], q0[n0, j, 3],
+        q1[n1, j, 0], q1[n1, j, 1], q1[n1, j, 2], q1[n1, j, 3], t, cos_near)
+    return nn
 
 
-    @numba.njit(cache=True, nogil=True)
-    def _reposition(rp_seq, i0, al, tw, f0, f1, w_to, div, c0, vel, a_y, rot_out, joints, parent, u, out):
-        """Root positions of the retimed frames: linear interpolation of the sequence's root
-        positions ``rp_seq`` at ``i0 + al``, then on output frames ``f0 .. f1-1`` the position that
-        puts the COM on the eq. 5.15/5.17 parabola (``c0 + t vel``, ``+ a_y t^2`` vertically, at
-        ``t = (tw - w_to) / div``) minus the COM offset of ``rot_out``; the same operations in the
-        same order as the numpy version in :func:`mocomp.flips.multiflip.multiflip`. Returns whether
-        every position is finite."""
-        N = i0.shape[0]
-        for n in range(N):
-            k = i0[n]
-            t = al[n]
-            for c in range(3):
-                a = rp_seq[k, c]
-                out[n, c] = a + t * (rp_seq[k + 1, c] - a)
-        rel = _com_relative(rot_out[f0:f1], joints, parent, u, np.empty((f1 - f0, 3)))
-        for n in range(f0, f1):
-            t = (tw[n] - w_to) / div
-            x = c0[0] + t * vel[0]
-            y = c0[1] + t * vel[1]
-            z = c0[2] + t * vel[2]
-            y += a_y * t * t
-            r = n - f0
-            out[n, 0] = x - rel[r, 0]
-            out[n, 1] = y - rel[r, 1]
-            out[n, 2] = z - rel[r, 2]
-        ok = True
-        for n in range(N):
-            for c in range(3):
-                v = out[n, c]
-                if not (v - v == 0.0):
-                    ok = False
-        return ok
+@njit
+def _slerp_rows(q0, q1, a, cos_near, out):
+    N, J, _ = q0.shape
+    for n in range(N):
+        t = a[n]
+        for j in range(J):
+            _slerp1(q0, n, q1, n, j, t, cos_near, out, n)
+    return out
+
+@njit
+def _slerp_gather(rot, i0, a, cos_near, out):
+    """``out[n] = slerp(rot[i0[n]], rot[i0[n] + 1], a[n])`` without gathering the two rows first;
+    returns whether every result is a finite unit quaternion (its pre-normalisation norm finite
+    and positive), so the caller need not check again."""
+    N = i0.shape[0]
+    J = rot.shape[1]
+    ok = True
+    for n in range(N):
+        t = a[n]
+        k = i0[n]
+        for j in range(J):
+            nn = _slerp1(rot, k, rot, k + 1, j, t, cos_near, out, n)
+            if not (nn > 0.0 and nn < math.inf):
+                ok = False
+    return ok
+
+@njit
+def _com_relative(q, joints, parent, u, out):
+    T = q.shape[0]
+    n = joints.shape[0]
+    G = np.empty((n, 4))
+    for t in range(T):
+        r = joints[0]
+        G[0, 0] = q[t, r, 0]
+        G[0, 1] = q[t, r, 1]
+        G[0, 2] = q[t, r, 2]
+        G[0, 3] = q[t, r, 3]
+        sx = 0.0
+        sy = 0.0
+        sz = 0.0
+        for i in range(n):
+            if i > 0:
+                p = parent[i]
+                jj = joints[i]
+                G[i, 0], G[i, 1], G[i, 2], G[i, 3] = qmul(G[p, 0], G[p, 1], G[p, 2], G[p, 3], q[t, jj, 0],
+                                                          q[t, jj, 1], q[t, jj, 2], q[t, jj, 3])
+            dx, dy, dz = qrot(G[i, 0], G[i, 1], G[i, 2], G[i, 3], u[i, 0], u[i, 1], u[i, 2])
+            sx += dx
+            sy += dy
+            sz += dz
+        out[t, 0] = sx
+        out[t, 1] = sy
+        out[t, 2] = sz
+    return out
+
+
+@njit
+def _reposition(rp_seq, i0, al, tw, f0, f1, w_to, div, c0, vel, a_y, rot_out, joints, parent, u, out):
+    """Root positions of the retimed frames: linear interpolation of the sequence's root
+    positions ``rp_seq`` at ``i0 + al``, then on output frames ``f0 .. f1-1`` the position that
+    puts the COM on the eq. 5.15/5.17 parabola (``c0 + t vel``, ``+ a_y t^2`` vertically, at
+    ``t = (tw - w_to) / div``) minus the COM offset of ``rot_out``; the same operations in the
+    same order as the numpy version in :func:`mocomp.flips.multiflip.multiflip`. Returns whether
+    every position is finite."""
+    N = i0.shape[0]
+    for n in range(N):
+        k = i0[n]
+        t = al[n]
+        for c in range(3):
+            a = rp_seq[k, c]
+            out[n, c] = a + t * (rp_seq[k + 1, c] - a)
+    rel = _com_relative(rot_out[f0:f1], joints, parent, u, np.empty((f1 - f0, 3)))
+    for n in range(f0, f1):
+        t = (tw[n] - w_to) / div
+        x = c0[0] + t * vel[0]
+        y = c0[1] + t * vel[1]
+        z = c0[2] + t * vel[2]
+        y += a_y * t * t
+        r = n - f0
+        out[n, 0] = x - rel[r, 0]
+        out[n, 1] = y - rel[r, 1]
+        out[n, 2] = z - rel[r, 2]
+    ok = True
+    for n in range(N):
+        for c in range(3):
+            v = out[n, c]
+            if not (v - v == 0.0):
+                ok = False
+    return ok
 
 
 def reposition_nb(rp_seq, i0, al, tw, f0, f1, w_to, div, traj, rot_out, com_eval):
@@ -181,131 +150,101 @@ def reposition_nb(rp_seq, i0, al, tw, f0, f1, w_to, div, traj, rot_out, com_eval
     return out, bool(ok)
 
 
-if AVAILABLE:
-    @numba.njit(cache=True, nogil=True, inline="always")
-    def _qmul(ax, ay, az, aw, bx, by, bz, bw):
-        return (aw * bx + ax * bw + ay * bz - az * by, aw * by - ax * bz + ay * bw + az * bx,
-                aw * bz + ax * by - ay * bx + az * bw, aw * bw - ax * bx - ay * by - az * bz)
-
-    @numba.njit(cache=True, nogil=True, inline="always")
-    def _qpow(x, y, z, w, t):
-        if w < 0.0:
-            x, y, z, w = -x, -y, -z, -w
-        vn = math.sqrt(x * x + y * y + z * z)
-        if vn < 1e-12:
-            return x * t, y * t, z * t, 1.0
-        h = math.atan2(vn, w) * t
-        sc = math.sin(h) / vn
-        return x * sc, y * sc, z * sc, math.cos(h)
-
-    @numba.njit(cache=True, nogil=True, inline="always")
-    def _rot(x, y, z, w, vx, vy, vz):
-        tx = 2.0 * (y * vz - z * vy)
-        ty = 2.0 * (z * vx - x * vz)
-        tz = 2.0 * (x * vy - y * vx)
-        return (vx + w * tx + y * tz - z * ty, vy + w * ty + z * tx - x * tz, vz + w * tz + x * ty - y * tx)
-
-    @numba.njit(cache=True, nogil=True)
-    def _seam_block(blk, wts, left, off_l, off_r, arc_l, arc_r, theta, axis, ref):
-        n, J, _ = blk.shape
-        Lx, Ly, Lz = axis[0], axis[1], axis[2]
-        for i in range(n):
-            t = wts[i]
-            off = off_l if left[i] else off_r
-            for j in range(1, J):
-                px, py, pz, pw = _qpow(off[j, 0], off[j, 1], off[j, 2], off[j, 3], t)
-                x, y, z, w = _qmul(blk[i, j, 0], blk[i, j, 1], blk[i, j, 2], blk[i, j, 3], px, py, pz, pw)
-                blk[i, j, 0], blk[i, j, 1], blk[i, j, 2], blk[i, j, 3] = x, y, z, w
-            # root: b = q^-1 L (body frame), rotated by arc^t, recomposed q = q_L(theta) arc(ref b -> L) ref
-            qx, qy, qz, qw = blk[i, 0, 0], blk[i, 0, 1], blk[i, 0, 2], blk[i, 0, 3]
-            bx, by, bz = _rot(-qx, -qy, -qz, qw, Lx, Ly, Lz)
-            arc = arc_l if left[i] else arc_r
-            ax_, ay_, az_, aw_ = _qpow(arc[0], arc[1], arc[2], arc[3], t)
-            bx, by, bz = _rot(ax_, ay_, az_, aw_, bx, by, bz)
-            nb = 1.0 / math.sqrt(bx * bx + by * by + bz * bz)
-            bx, by, bz = _rot(ref[0], ref[1], ref[2], ref[3], bx * nb, by * nb, bz * nb)
-            # shortest arc from (bx, by, bz) to L
-            sx, sy, sz = by * Lz - bz * Ly, bz * Lx - bx * Lz, bx * Ly - by * Lx
-            sw = 1.0 + bx * Lx + by * Ly + bz * Lz
-            sn = math.sqrt(sx * sx + sy * sy + sz * sz + sw * sw)
-            sx, sy, sz, sw = sx / sn, sy / sn, sz / sn, sw / sn
-            h = 0.5 * theta[i]
-            c, s_ = math.cos(h), math.sin(h)
-            x, y, z, w = _qmul(s_ * Lx, s_ * Ly, s_ * Lz, c, sx, sy, sz, sw)
-            x, y, z, w = _qmul(x, y, z, w, ref[0], ref[1], ref[2], ref[3])
-            blk[i, 0, 0], blk[i, 0, 1], blk[i, 0, 2], blk[i, 0, 3] = x, y, z, w
-        return blk
+@njit
+def _seam_block(blk, wts, left, off_l, off_r, arc_l, arc_r, theta, axis, ref):
+    n, J, _ = blk.shape
+    Lx, Ly, Lz = axis[0], axis[1], axis[2]
+    for i in range(n):
+        t = wts[i]
+        off = off_l if left[i] else off_r
+        for j in range(1, J):
+            px, py, pz, pw = qpow(off[j, 0], off[j, 1], off[j, 2], off[j, 3], t)
+            x, y, z, w = qmul(blk[i, j, 0], blk[i, j, 1], blk[i, j, 2], blk[i, j, 3], px, py, pz, pw)
+            blk[i, j, 0], blk[i, j, 1], blk[i, j, 2], blk[i, j, 3] = x, y, z, w
+        # root: b = q^-1 L (body frame), rotated by arc^t, recomposed q = q_L(theta) arc(ref b -> L) ref
+        qx, qy, qz, qw = blk[i, 0, 0], blk[i, 0, 1], blk[i, 0, 2], blk[i, 0, 3]
+        bx, by, bz = qrot(-qx, -qy, -qz, qw, Lx, Ly, Lz)
+        arc = arc_l if left[i] else arc_r
+        ax_, ay_, az_, aw_ = qpow(arc[0], arc[1], arc[2], arc[3], t)
+        bx, by, bz = qrot(ax_, ay_, az_, aw_, bx, by, bz)
+        nb = 1.0 / math.sqrt(bx * bx + by * by + bz * bz)
+        bx, by, bz = qrot(ref[0], ref[1], ref[2], ref[3], bx * nb, by * nb, bz * nb)
+        # shortest arc from (bx, by, bz) to L
+        sx, sy, sz = by * Lz - bz * Ly, bz * Lx - bx * Lz, bx * Ly - by * Lx
+        sw = 1.0 + bx * Lx + by * Ly + bz * Lz
+        sn = math.sqrt(sx * sx + sy * sy + sz * sz + sw * sw)
+        sx, sy, sz, sw = sx / sn, sy / sn, sz / sn, sw / sn
+        h = 0.5 * theta[i]
+        c, s_ = math.cos(h), math.sin(h)
+        x, y, z, w = qmul(s_ * Lx, s_ * Ly, s_ * Lz, c, sx, sy, sz, sw)
+        x, y, z, w = qmul(x, y, z, w, ref[0], ref[1], ref[2], ref[3])
+        blk[i, 0, 0], blk[i, 0, 1], blk[i, 0, 2], blk[i, 0, 3] = x, y, z, w
+    return blk
 
 
-if AVAILABLE:
-    @numba.njit(cache=True, nogil=True, inline="always")
-    def _arc(ux, uy, uz, vx, vy, vz):
-        """Shortest-arc quaternion from unit ``u`` to unit ``v`` (:func:`~mocomp.flips.smoothing.shortest_arc`)
-        and its norm before normalisation (``< 1e-9``: opposite vectors, not handled here)."""
-        x, y, z = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
-        w = 1.0 + (ux * vx + uy * vy + uz * vz)
-        n = math.sqrt(x * x + y * y + z * z + w * w)
-        return x / n, y / n, z / n, w / n, n
+@njit(inline="always")
+def _arc(ux, uy, uz, vx, vy, vz):
+    """Shortest-arc quaternion from unit ``u`` to unit ``v`` (:func:`~mocomp.flips.smoothing.shortest_arc`)
+    and its norm before normalisation (``< 1e-9``: opposite vectors, not handled here)."""
+    x, y, z = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+    w = 1.0 + (ux * vx + uy * vy + uz * vz)
+    n = math.sqrt(x * x + y * y + z * z + w * w)
+    return x / n, y / n, z / n, w / n, n
 
-    @numba.njit(cache=True, nogil=True)
-    def _landing_seam(rot, a, la, rb, w, qr, br, axis, theta, src, ref):
-        """The landing seam of :func:`mocomp.flips.multiflip.multiflip` in place on ``rot`` (frames
-        ``la .. rb-1``, seam after ``a``; ``qr``/``br`` the pose and body-frame ``L`` of ``g``): the
-        half-way pose ``mid = slerp(rot[a], qr, 1/2)``, the per-joint offsets to it, the root
-        swing arcs to the middle direction, the raised-cosine ramp, then :func:`_seam_block`.
-        Returns False, leaving ``rot`` untouched, when a swing arc is degenerate (opposite
-        directions), so the caller can take the numpy path that handles it."""
-        J = rot.shape[1]
-        off_l = np.empty((J, 4))
-        off_r = np.empty((J, 4))
-        for j in range(J):
-            lx, ly, lz, lw = rot[a, j, 0], rot[a, j, 1], rot[a, j, 2], rot[a, j, 3]
-            rx, ry, rz, rw = qr[j, 0], qr[j, 1], qr[j, 2], qr[j, 3]
-            sg = -1.0 if lx * rx + ly * ry + lz * rz + lw * rw < 0.0 else 1.0
-            mx, my, mz, mw = lx + sg * rx, ly + sg * ry, lz + sg * rz, lw + sg * rw
-            mn = math.sqrt(mx * mx + my * my + mz * mz + mw * mw)
-            mx, my, mz, mw = mx / mn, my / mn, mz / mn, mw / mn
-            off_l[j, 0], off_l[j, 1], off_l[j, 2], off_l[j, 3] = _qmul(-lx, -ly, -lz, lw, mx, my, mz, mw)
-            off_r[j, 0], off_r[j, 1], off_r[j, 2], off_r[j, 3] = _qmul(-rx, -ry, -rz, rw, mx, my, mz, mw)
-        # b_l = q_root(a)^-1 L, b_m the normalised mean of b_l and b_r
-        qx, qy, qz, qw = -rot[a, 0, 0], -rot[a, 0, 1], -rot[a, 0, 2], rot[a, 0, 3]
-        vx, vy, vz = axis[0], axis[1], axis[2]
-        tx, ty, tz = 2.0 * (qy * vz - qz * vy), 2.0 * (qz * vx - qx * vz), 2.0 * (qx * vy - qy * vx)
-        blx = vx + qw * tx + (qy * tz - qz * ty)
-        bly = vy + qw * ty + (qz * tx - qx * tz)
-        blz = vz + qw * tz + (qx * ty - qy * tx)
-        bmx, bmy, bmz = blx + br[0], bly + br[1], blz + br[2]
-        bn = math.sqrt(bmx * bmx + bmy * bmy + bmz * bmz)
-        bmx, bmy, bmz = bmx / bn, bmy / bn, bmz / bn
-        arc_l = np.empty(4)
-        arc_r = np.empty(4)
-        arc_l[0], arc_l[1], arc_l[2], arc_l[3], nl = _arc(blx, bly, blz, bmx, bmy, bmz)
-        arc_r[0], arc_r[1], arc_r[2], arc_r[3], nr = _arc(br[0], br[1], br[2], bmx, bmy, bmz)
-        if not (nl >= 1e-9 and nr >= 1e-9):
-            return False
-        n = rb - la
-        wts = np.empty(n)
-        left = np.empty(n, dtype=np.bool_)
-        th = np.empty(n)
-        for i in range(n):
-            d = abs(la + i - a) / (w + 1.0)
-            wts[i] = 0.5 * (1.0 + math.cos(math.pi * min(max(d, 0.0), 1.0)))
-            left[i] = la + i <= a
-            th[i] = theta[src[la + i]]
-        _seam_block(rot[la:rb], wts, left, off_l, off_r, arc_l, arc_r, th, axis, ref)
-        return True
+@njit
+def _landing_seam(rot, a, la, rb, w, qr, br, axis, theta, src, ref):
+    """The landing seam of :func:`mocomp.flips.multiflip.multiflip` in place on ``rot`` (frames
+    ``la .. rb-1``, seam after ``a``; ``qr``/``br`` the pose and body-frame ``L`` of ``g``): the
+    half-way pose ``mid = slerp(rot[a], qr, 1/2)``, the per-joint offsets to it, the root
+    swing arcs to the middle direction, the raised-cosine ramp, then :func:`_seam_block`.
+    Returns False, leaving ``rot`` untouched, when a swing arc is degenerate (opposite
+    directions), so the caller can take the numpy path that handles it."""
+    J = rot.shape[1]
+    off_l = np.empty((J, 4))
+    off_r = np.empty((J, 4))
+    for j in range(J):
+        lx, ly, lz, lw = rot[a, j, 0], rot[a, j, 1], rot[a, j, 2], rot[a, j, 3]
+        rx, ry, rz, rw = qr[j, 0], qr[j, 1], qr[j, 2], qr[j, 3]
+        sg = -1.0 if lx * rx + ly * ry + lz * rz + lw * rw < 0.0 else 1.0
+        mx, my, mz, mw = lx + sg * rx, ly + sg * ry, lz + sg * rz, lw + sg * rw
+        mn = math.sqrt(mx * mx + my * my + mz * mz + mw * mw)
+        mx, my, mz, mw = mx / mn, my / mn, mz / mn, mw / mn
+        off_l[j, 0], off_l[j, 1], off_l[j, 2], off_l[j, 3] = qmul(-lx, -ly, -lz, lw, mx, my, mz, mw)
+        off_r[j, 0], off_r[j, 1], off_r[j, 2], off_r[j, 3] = qmul(-rx, -ry, -rz, rw, mx, my, mz, mw)
+    # b_l = q_root(a)^-1 L, b_m the normalised mean of b_l and b_r
+    blx, bly, blz = qrot(-rot[a, 0, 0], -rot[a, 0, 1], -rot[a, 0, 2], rot[a, 0, 3], axis[0], axis[1], axis[2])
+    bmx, bmy, bmz = blx + br[0], bly + br[1], blz + br[2]
+    bn = math.sqrt(bmx * bmx + bmy * bmy + bmz * bmz)
+    bmx, bmy, bmz = bmx / bn, bmy / bn, bmz / bn
+    arc_l = np.empty(4)
+    arc_r = np.empty(4)
+    arc_l[0], arc_l[1], arc_l[2], arc_l[3], nl = _arc(blx, bly, blz, bmx, bmy, bmz)
+    arc_r[0], arc_r[1], arc_r[2], arc_r[3], nr = _arc(br[0], br[1], br[2], bmx, bmy, bmz)
+    if not (nl >= 1e-9 and nr >= 1e-9):
+        return False
+    n = rb - la
+    wts = np.empty(n)
+    left = np.empty(n, dtype=np.bool_)
+    th = np.empty(n)
+    for i in range(n):
+        d = abs(la + i - a) / (w + 1.0)
+        wts[i] = 0.5 * (1.0 + math.cos(math.pi * min(max(d, 0.0), 1.0)))
+        left[i] = la + i <= a
+        th[i] = theta[src[la + i]]
+    _seam_block(rot[la:rb], wts, left, off_l, off_r, arc_l, arc_r, th, axis, ref)
+    return True
 
-    @numba.njit(cache=True, nogil=True)
-    def _turn_roots(rot, extra, axis):
-        """``rot[:, 0] = q_L(extra) rot[:, 0]`` in place: each frame's rotation about the unit ``axis``."""
-        ax, ay, az = axis[0], axis[1], axis[2]
-        for i in range(rot.shape[0]):
-            h = 0.5 * extra[i]
-            s_ = math.sin(h)
-            c = math.cos(h)
-            x, y, z, w = _qmul(s_ * ax, s_ * ay, s_ * az, c, rot[i, 0, 0], rot[i, 0, 1], rot[i, 0, 2], rot[i, 0, 3])
-            rot[i, 0, 0], rot[i, 0, 1], rot[i, 0, 2], rot[i, 0, 3] = x, y, z, w
-        return rot
+@njit
+def _turn_roots(rot, extra, axis):
+    """``rot[:, 0] = q_L(extra) rot[:, 0]`` in place: each frame's rotation about the unit ``axis``."""
+    ax, ay, az = axis[0], axis[1], axis[2]
+    for i in range(rot.shape[0]):
+        h = 0.5 * extra[i]
+        s_ = math.sin(h)
+        c = math.cos(h)
+        x, y, z, w = qmul(s_ * ax, s_ * ay, s_ * az, c, rot[i, 0, 0], rot[i, 0, 1], rot[i, 0, 2], rot[i, 0, 3])
+        rot[i, 0, 0], rot[i, 0, 1], rot[i, 0, 2], rot[i, 0, 3] = x, y, z, w
+    return rot
 
 
 def landing_seam_nb(rot, a, la, rb, w, qr, br, axis, theta, src, ref) -> bool:
@@ -365,73 +304,72 @@ def _unit_axis(axis) -> np.ndarray:
     return u
 
 
-if AVAILABLE:
-    @numba.njit(cache=True, nogil=True, inline="always")
-    def _pair_distance(r1, p1, r2, p2, ax, ay, az, wr, nz, wj):
-        """Eq. 5.12-5.13 between frame ``r1[p1]`` and frame ``r2[p2]``: ``(D, phi)``."""
-        # eq. 5.12: twist about the axis of q_r2 q_r1^-1, wrapped to (-pi, pi]
-        x, y, z, w = _qmul(r2[p2, 0, 0], r2[p2, 0, 1], r2[p2, 0, 2], r2[p2, 0, 3],
-                           -r1[p1, 0, 0], -r1[p1, 0, 1], -r1[p1, 0, 2], r1[p1, 0, 3])
-        phi = 2.0 * math.atan2(x * ax + y * ay + z * az, w)
-        phi = (phi + math.pi) % (2.0 * math.pi) - math.pi
-        h = 0.5 * phi
-        c, s_ = math.cos(h), math.sin(h)
-        # aligned root q_phi q_r1, then the angle of q_r2 aligned^-1
-        bx, by, bz, bw = _qmul(s_ * ax, s_ * ay, s_ * az, c, r1[p1, 0, 0], r1[p1, 0, 1], r1[p1, 0, 2], r1[p1, 0, 3])
-        x, y, z, w = _qmul(r2[p2, 0, 0], r2[p2, 0, 1], r2[p2, 0, 2], r2[p2, 0, 3], -bx, -by, -bz, bw)
-        d = wr * 2.0 * math.atan2(math.sqrt(x * x + y * y + z * z), abs(w))
-        # eq. 5.13: weighted joint-angle differences
-        for k in range(nz.shape[0]):
-            j = nz[k]
-            x, y, z, w = _qmul(r2[p2, j, 0], r2[p2, j, 1], r2[p2, j, 2], r2[p2, j, 3],
-                               -r1[p1, j, 0], -r1[p1, j, 1], -r1[p1, j, 2], r1[p1, j, 3])
-            d += wj[k] * 2.0 * math.atan2(math.sqrt(x * x + y * y + z * z), abs(w))
-        return d, phi
+@njit(inline="always")
+def _pair_distance(r1, p1, r2, p2, ax, ay, az, wr, nz, wj):
+    """Eq. 5.12-5.13 between frame ``r1[p1]`` and frame ``r2[p2]``: ``(D, phi)``."""
+    # eq. 5.12: twist about the axis of q_r2 q_r1^-1, wrapped to (-pi, pi]
+    x, y, z, w = qmul(r2[p2, 0, 0], r2[p2, 0, 1], r2[p2, 0, 2], r2[p2, 0, 3],
+                       -r1[p1, 0, 0], -r1[p1, 0, 1], -r1[p1, 0, 2], r1[p1, 0, 3])
+    phi = 2.0 * math.atan2(x * ax + y * ay + z * az, w)
+    phi = (phi + math.pi) % (2.0 * math.pi) - math.pi
+    h = 0.5 * phi
+    c, s_ = math.cos(h), math.sin(h)
+    # aligned root q_phi q_r1, then the angle of q_r2 aligned^-1
+    bx, by, bz, bw = qmul(s_ * ax, s_ * ay, s_ * az, c, r1[p1, 0, 0], r1[p1, 0, 1], r1[p1, 0, 2], r1[p1, 0, 3])
+    x, y, z, w = qmul(r2[p2, 0, 0], r2[p2, 0, 1], r2[p2, 0, 2], r2[p2, 0, 3], -bx, -by, -bz, bw)
+    d = wr * qangle(x, y, z, w)
+    # eq. 5.13: weighted joint-angle differences
+    for k in range(nz.shape[0]):
+        j = nz[k]
+        x, y, z, w = qmul(r2[p2, j, 0], r2[p2, j, 1], r2[p2, j, 2], r2[p2, j, 3],
+                           -r1[p1, j, 0], -r1[p1, j, 1], -r1[p1, j, 2], r1[p1, j, 3])
+        d += wj[k] * qangle(x, y, z, w)
+    return d, phi
 
-    @numba.njit(cache=True, nogil=True)
-    def _frame_distance(r1, r2, axis, wr, nz, wj, out_d, out_phi):
-        N = r1.shape[0]
-        ax, ay, az = axis[0], axis[1], axis[2]
-        for p in range(N):
-            d, phi = _pair_distance(r1, p, r2, p, ax, ay, az, wr, nz, wj)
-            out_d[p] = d
-            out_phi[p] = phi
-        return out_d
+@njit
+def _frame_distance(r1, r2, axis, wr, nz, wj, out_d, out_phi):
+    N = r1.shape[0]
+    ax, ay, az = axis[0], axis[1], axis[2]
+    for p in range(N):
+        d, phi = _pair_distance(r1, p, r2, p, ax, ay, az, wr, nz, wj)
+        out_d[p] = d
+        out_phi[p] = phi
+    return out_d
 
-    @numba.njit(cache=True, nogil=True)
-    def _landing_search(rot, theta, m, period, n_u, phi, g0, g1, extra_total, max_delta, axis, wr, nz, wj):
-        """The candidate pairs of :func:`mocomp.flips.sequence.find_landing` without the (G, U)
-        arrays: over ``g`` in ``g0 .. g1-1`` (outer) and ``u`` in ``0 .. n_u-1`` (inner, source
-        frame ``m + u % period``, copy ``u // period`` turned by ``copy * phi``), the pairs whose
-        rotation about ``L`` is within ``max_delta`` of ``theta[g] + extra_total``, with their
-        eq. 5.13 distance. Returns ``(u, g, D, mismatch)`` arrays (empty: none); the caller
-        chooses among them."""
-        ax, ay, az = axis[0], axis[1], axis[2]
-        th_u = np.empty(n_u)                       # rotation about L of each unrolled frame
+@njit
+def _landing_search(rot, theta, m, period, n_u, phi, g0, g1, extra_total, max_delta, axis, wr, nz, wj):
+    """The candidate pairs of :func:`mocomp.flips.sequence.find_landing` without the (G, U)
+    arrays: over ``g`` in ``g0 .. g1-1`` (outer) and ``u`` in ``0 .. n_u-1`` (inner, source
+    frame ``m + u % period``, copy ``u // period`` turned by ``copy * phi``), the pairs whose
+    rotation about ``L`` is within ``max_delta`` of ``theta[g] + extra_total``, with their
+    eq. 5.13 distance. Returns ``(u, g, D, mismatch)`` arrays (empty: none); the caller
+    chooses among them."""
+    ax, ay, az = axis[0], axis[1], axis[2]
+    th_u = np.empty(n_u)                       # rotation about L of each unrolled frame
+    for u in range(n_u):
+        cp = u // period
+        th_u[u] = theta[m + u - cp * period] + cp * phi
+    n_pairs = 0
+    for g in range(g0, g1):
+        want = theta[g] + extra_total
         for u in range(n_u):
-            cp = u // period
-            th_u[u] = theta[m + u - cp * period] + cp * phi
-        n_pairs = 0
-        for g in range(g0, g1):
-            want = theta[g] + extra_total
-            for u in range(n_u):
-                if abs(th_u[u] - want) <= max_delta:
-                    n_pairs += 1
-        us = np.empty(n_pairs, dtype=np.int64)
-        gs = np.empty(n_pairs, dtype=np.int64)
-        ds = np.empty(n_pairs)
-        diffs = np.empty(n_pairs)
-        k = 0
-        for g in range(g0, g1):
-            want = theta[g] + extra_total
-            for u in range(n_u):
-                diff = th_u[u] - want
-                if abs(diff) <= max_delta:
-                    f = m + u % period
-                    d, _ = _pair_distance(rot, f, rot, g, ax, ay, az, wr, nz, wj)
-                    us[k], gs[k], ds[k], diffs[k] = u, g, d, diff
-                    k += 1
-        return us, gs, ds, diffs
+            if abs(th_u[u] - want) <= max_delta:
+                n_pairs += 1
+    us = np.empty(n_pairs, dtype=np.int64)
+    gs = np.empty(n_pairs, dtype=np.int64)
+    ds = np.empty(n_pairs)
+    diffs = np.empty(n_pairs)
+    k = 0
+    for g in range(g0, g1):
+        want = theta[g] + extra_total
+        for u in range(n_u):
+            diff = th_u[u] - want
+            if abs(diff) <= max_delta:
+                f = m + u % period
+                d, _ = _pair_distance(rot, f, rot, g, ax, ay, az, wr, nz, wj)
+                us[k], gs[k], ds[k], diffs[k] = u, g, d, diff
+                k += 1
+    return us, gs, ds, diffs
 
 
 def landing_search_nb(rotations: np.ndarray, theta: np.ndarray, m: int, period: int, n_u: int, phi: float,
@@ -539,19 +477,18 @@ def warmup() -> None:
     th.setflags(write=False)
     _landing_search(ro, th, 0, 1, 1, 1.0, 1, 2, 0.0, 1.0, np.array([1.0, 0.0, 0.0]), 1.0,
                     np.arange(2, dtype=np.int64), np.ones(2))
-    from ..flips.seamtime import _NUMBA, _angular_nb, _landing_speed_nb
+    from .seamtime import _angular_nb, _landing_speed_nb
 
-    if _NUMBA:
-        def ro(x):                              # the body's evaluator arrays are read-only
-            x = np.array(x)
-            x.setflags(write=False)
-            return x
+    def ro(x):                              # the body's evaluator arrays are read-only
+        x = np.array(x)
+        x.setflags(write=False)
+        return x
 
-        _landing_speed_nb(np.concatenate([q, q[:1]]), 0, 3, ro(np.array([-1, 0], dtype=np.int64)), ro(np.zeros((2, 3))),
-                          ro(np.arange(2, dtype=np.int64)), ro(np.zeros((2, 3))), ro(np.ones(2)),
-                          ro(np.tile(np.eye(3), (2, 1, 1))), 1.0, np.zeros(3, dtype=np.int64), np.zeros(3),
-                          np.array([1.0, 0.0, 0.0]), np.zeros((3, 3)), 1, 1, 1.0, 1.0, 1.0, 0.5, 2.0)
-        _angular_nb(np.concatenate([q, q[:1]]), np.array([-1, 0], dtype=np.int64), np.zeros((2, 3)),
-                    np.arange(2, dtype=np.int64), np.zeros((2, 3)), np.ones(2), np.tile(np.eye(3), (2, 1, 1)), 1.0,
-                    np.empty((1, 3)))
+    _landing_speed_nb(np.concatenate([q, q[:1]]), 0, 3, ro(np.array([-1, 0], dtype=np.int64)), ro(np.zeros((2, 3))),
+                      ro(np.arange(2, dtype=np.int64)), ro(np.zeros((2, 3))), ro(np.ones(2)),
+                      ro(np.tile(np.eye(3), (2, 1, 1))), 1.0, np.zeros(3, dtype=np.int64), np.zeros(3),
+                      np.array([1.0, 0.0, 0.0]), np.zeros((3, 3)), 1, 1, 1.0, 1.0, 1.0, 0.5, 2.0)
+    _angular_nb(np.concatenate([q, q[:1]]), np.array([-1, 0], dtype=np.int64), np.zeros((2, 3)),
+                np.arange(2, dtype=np.int64), np.zeros((2, 3)), np.ones(2), np.tile(np.eye(3), (2, 1, 1)), 1.0,
+                np.empty((1, 3)))
     _WARM = True

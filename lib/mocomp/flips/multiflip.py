@@ -30,51 +30,23 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.motion import Motion
-from ..core.rotations import quat_angle, quat_apply, quat_inverse, quat_multiply
+from ..core.rotations import quat_angle, quat_apply, quat_inverse, quat_multiply, slerp
 from ..dynamics.constants import G_STANDARD
 from ..errors import PhysicsError
 from .preprocess import PreparedFlip, flight_L_stats, smooth_block
 from .reposition import FlightTrajectory, event_velocity, flight_trajectory
 from .retime import EASE_S, RetimePlan, TimeWarp, ease_limits, plan_retime, resolve_gravity, sample_positions
 from .takeoff import TAKEOFF_CHOICES
-from .seamtime import SPEED_BOUNDS, seam_speed, warp_time, warped_positions
-from .seamtime import _NUMBA as SEAM_NB
-if SEAM_NB:
-    from .seamtime import _landing_speed_nb
+from .seamtime import SPEED_BOUNDS, _landing_speed_nb, seam_speed, warp_time, warped_positions
 from .sequence import Sequence, build_sequence
-from ..core.motion import slerp
 from .similarity import axis_quat, twist_angle
 from ._kernels import AVAILABLE as KERNELS
 from ._kernels import landing_seam_nb, reposition_nb, slerp_gather_nb, turn_roots_nb
-from ._quat import qapply, qconj, qmul, qpow, slerp_rows
-from .smoothing import compose_root, ramp, shortest_arc, split_root
+from .smoothing import compose_root, ramp, split_root
 
-__all__ = ["PhysicsReport", "MultiFlipResult", "multiflip", "slerp_frames", "landing_change_for_k"]
+__all__ = ["PhysicsReport", "MultiFlipResult", "multiflip", "landing_change_for_k"]
 
 RUNTIME_STAGES = ("sequence", "smooth", "retime", "reposition", "assemble")
-
-
-def slerp_frames(q0: np.ndarray, q1: np.ndarray, a: np.ndarray) -> np.ndarray:
-    """Slerp of ``(N, J, 4)`` quaternion rows with one weight per row ``a (N,)``: the
-    run-time stage's hot loop, written for few temporaries (agrees with
-    :func:`mocomp.core.motion.slerp`, tested)."""
-    dot = np.einsum("nji,nji->nj", q0, q1)
-    sign = np.where(dot < 0.0, -1.0, 1.0)
-    dot *= sign
-    np.minimum(dot, 1.0, out=dot)
-    theta = np.arccos(dot)
-    s = np.sin(theta)
-    small = s < 1e-8
-    s[small] = 1.0
-    a2 = a[:, None]
-    w0 = np.sin((1.0 - a2) * theta) / s
-    w1 = np.sin(a2 * theta) / s * sign
-    if small.any():
-        w0 = np.where(small, 1.0 - a2, w0)
-        w1 = np.where(small, a2 * sign, w1)
-    out = q0 * w0[..., None]
-    out += q1 * w1[..., None]
-    return out
 
 
 @dataclass(frozen=True)
@@ -426,14 +398,15 @@ def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None 
     # raised-cosine ramp (section 5.4.2.2); the root's part perpendicular to L only (eq. 5.14)
     a, g = seq.landing_seam, seq.join.g
     la, rb = max(a - w, 0), min(a + 2 + w, nseq)
-    if not (KERNELS and landing_seam_nb(rot, a, la, rb, w, P.rotations[g], P.bdir[g], P.axis, P.theta, src,
-                                        P.root_ref)):
-        _landing_seam_numpy(P, rot, src, a, g, la, rb, w)
+    if not landing_seam_nb(rot, a, la, rb, w, P.rotations[g], P.bdir[g], P.axis, P.theta, src, P.root_ref):
+        raise PhysicsError(f"{P.name}: landing seam after sequence frame {a}: the directions of L in the body "
+                           f"frames of the two seam poses (frames {int(src[a])} and {g}) are opposite; no "
+                           f"swing arc blends them. Choose another landing (a different number of flips or k).")
     # each frame's rotation about L (copies j*phi, landing extra, spread join correction), on the left
     if KERNELS:
         turn_roots_nb(rot, seq.extra, P.axis)
     else:
-        rot[:, 0] = qmul(axis_quat(P.axis, seq.extra), rot[:, 0])
+        rot[:, 0] = quat_multiply(axis_quat(P.axis, seq.extra), rot[:, 0])
     q_land = None
     if not _whole_turns(seq.extra_total):
         # an extra rotation that is not whole turns (e.g. a twist jump turned further): the ground
@@ -528,7 +501,7 @@ def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None 
     if KERNELS:
         rot_out, unit = slerp_gather_nb(rot, i0, al)
     else:
-        rot_out, unit = slerp_rows(rot[i0], rot[i0 + 1], al), False
+        rot_out, unit = slerp(rot[i0], rot[i0 + 1], al[:, None], nlerp_below=0.1), False
     t3 = time.perf_counter()
     timings["retime"] = t3 - t2
     # ------------------------------------------------------------- reposition
@@ -700,7 +673,7 @@ def _seam_speeds(P: PreparedFlip, seq: Sequence, rot: np.ndarray, w: int, hi_u: 
         L0 = P.L_magnitude
         lev_l, lev_r = float(L0[f]), float(L0[g])
         mid = float(np.sqrt(lev_l * lev_r))
-        if KERNELS and SEAM_NB:                                     # compiled, the same steps as below
+        if KERNELS:                                                 # compiled, the same steps as below
             E = P.momentum_evaluator
             ax_unit, L_ang = _landing_speed_constants(P)
             speed[lo + 1:hi - 1] = _landing_speed_nb(
@@ -713,7 +686,7 @@ def _seam_speeds(P: PreparedFlip, seq: Sequence, rot: np.ndarray, w: int, hi_u: 
         src = seq.frames[idx]
         left = idx <= a
         # the original's L at the frames shown, turned with them about L, its level blended across the seam
-        ref = qapply(axis_quat(P.axis, seq.extra[idx]), np.asarray(P.momentum.angular)[src])
+        ref = quat_apply(axis_quat(P.axis, seq.extra[idx]), np.asarray(P.momentum.angular)[src])
         if lev_l > 0 and lev_r > 0:
             ref *= (np.where(left, mid / lev_l, mid / lev_r) ** ramp(np.abs(idx - a), w))[:, None]
         speed[idx] = seam_speed(L_new, ref)
@@ -762,32 +735,6 @@ def _fresh_motion(template: Motion, root_positions: np.ndarray, rotations: np.nd
     normalised every rotation and reported it finite and non-zero. The result equals the checked
     construction (tested)."""
     return template.replace_trusted(root_positions, rotations, source)
-
-
-def _landing_seam_numpy(P: PreparedFlip, rot: np.ndarray, src: np.ndarray, a: int, g: int, la: int, rb: int,
-                        w: int) -> None:
-    """The landing seam f -> g+1 in place on ``rot`` (numpy; the compiled :func:`landing_seam_nb`
-    does the same): half the mismatch on each side with the raised-cosine ramp (section 5.4.2.2),
-    the root's part perpendicular to L only (eq. 5.14)."""
-    blk = rot[la:rb]
-    idx = np.arange(la, rb)
-    left = idx <= a
-    wts = ramp(np.abs(idx - a), w)
-    ql, qr = rot[a], P.rotations[g]
-    sgn = np.where(np.einsum("ji,ji->j", ql, qr) < 0.0, -1.0, 1.0)[:, None]
-    mid = ql + sgn * qr
-    mid /= np.linalg.norm(mid, axis=-1, keepdims=True)       # slerp at 1/2
-    off_l, off_r = qmul(qconj(ql), mid), qmul(qconj(qr), mid)
-    bl, br = qapply(qconj(rot[a, 0]), P.axis), P.bdir[g]
-    bm = bl + br
-    bm /= np.linalg.norm(bm)
-    arc_l, arc_r = shortest_arc(bl, bm), shortest_arc(br, bm)
-    offs = np.where(left[:, None, None], off_l[None], off_r[None])
-    blk[:, 1:] = qmul(blk[:, 1:], qpow(offs[:, 1:], wts[:, None]))
-    bb = qapply(qconj(blk[:, 0]), P.axis)
-    arcs = np.where(left[:, None], arc_l[None], arc_r[None])
-    blk[:, 0] = compose_root(P.theta[src[la:rb]], qapply(qpow(arcs, wts), bb), P.axis, P.root_ref)
-
 
 
 def _whole_turns(angle: float) -> bool:

@@ -19,7 +19,7 @@ import numpy as np
 
 from ..body.model import BodyModel
 from ..core.motion import Motion
-from ..core.rotations import make_continuous
+from ..core.rotations import make_continuous, quat_apply, quat_multiply
 from ..errors import PhysicsError
 from .looping import SelfLoop, find_self_loop
 from .mass import FlightFit, MassEstimate, diagnose_gravity, estimate_masses, fit_ballistic
@@ -219,7 +219,6 @@ class PreparedFlip:
         the seam like the poses (:func:`~mocomp.flips.seamtime.reference_levels`)."""
         key = ("loop_seam_L", int(window))
         if key not in self._cache:
-            from ._quat import qapply, qmul
             from .seamtime import reference_levels
             from .similarity import axis_quat
             from .smoothing import ramp
@@ -229,7 +228,7 @@ class PreparedFlip:
             q_phi = axis_quat(self.axis, self.loop.phi)
             R = np.concatenate([self.rotations[n - 3 - w:n - 1 - w], left_blk, right_blk,
                                 self.rotations[m + w + 1:m + w + 3]])
-            R[w + 3:, 0] = qmul(q_phi, R[w + 3:, 0])
+            R[w + 3:, 0] = quat_multiply(q_phi, R[w + 3:, 0])
             L_new = self.momentum_evaluator.angular(R, self.fps)
             L0 = self.L_magnitude
             Lv = np.asarray(self.momentum.angular)
@@ -238,7 +237,7 @@ class PreparedFlip:
             fl = reference_levels(np.ones(w + 2), L0[n], mid, ramp(np.arange(w + 2, 0, -1), w))
             fr = reference_levels(np.ones(w + 2), L0[m], mid, ramp(np.arange(0, w + 2), w))
             L_ref = np.concatenate([Lv[src_l] * fl[:, None],
-                                    qapply(np.broadcast_to(q_phi, (w + 2, 4)), Lv[src_r]) * fr[:, None]])
+                                    quat_apply(np.broadcast_to(q_phi, (w + 2, 4)), Lv[src_r]) * fr[:, None]])
             self._cache[key] = (L_new, L_ref)
         return self._cache[key]
 

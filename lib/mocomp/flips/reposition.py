@@ -30,6 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..body.model import BodyModel
+from ..core.rotations import quat_apply, quat_multiply
 
 __all__ = ["ComEvaluator", "FlightTrajectory", "flight_trajectory", "landing_offset", "event_velocity",
            "EVENT_HALF_WIDTH_S"]
@@ -125,34 +126,17 @@ class ComEvaluator:
         return self.relative_numpy(rotations)
 
     def relative_numpy(self, rotations: np.ndarray) -> np.ndarray:
-        """The vectorised numpy version of :meth:`relative` (reference; same result)."""
+        """The vectorised numpy version of :meth:`relative` (the fallback without numba; same result
+        to rounding): the needed joints' world orientations level by level with core's
+        :func:`~mocomp.core.rotations.quat_multiply`, each constant ``u_j`` rotated by its joint's
+        (:func:`~mocomp.core.rotations.quat_apply`) and summed."""
         q = np.asarray(rotations, dtype=float)
-        T = q.shape[0]
-        # component-major (n, 4, T) so each operation runs on contiguous frame vectors
-        L = np.ascontiguousarray(np.transpose(q[:, self.joints], (1, 2, 0)))
+        L = np.ascontiguousarray(np.swapaxes(q[:, self.joints], 0, 1))     # (n, T, 4) joint-major
         G = np.empty_like(L)
         G[0] = L[0]
         for blk, pidx in self._levels:
-            a = G[pidx]
-            b = L[blk]
-            ax, ay, az, aw = a[:, 0], a[:, 1], a[:, 2], a[:, 3]
-            bx, by, bz, bw = b[:, 0], b[:, 1], b[:, 2], b[:, 3]
-            g = G[blk]
-            g[:, 0] = aw * bx + ax * bw + ay * bz - az * by
-            g[:, 1] = aw * by - ax * bz + ay * bw + az * bx
-            g[:, 2] = aw * bz + ax * by - ay * bx + az * bw
-            g[:, 3] = aw * bw - ax * bx - ay * by - az * bz
-        # rotate each constant u_j by G_j: v' = v + w t + u x t, t = 2 u x v
-        ux, uy, uz, w = G[:, 0], G[:, 1], G[:, 2], G[:, 3]
-        vx, vy, vz = (self.u[:, i:i + 1] for i in range(3))
-        tx = 2.0 * (uy * vz - uz * vy)
-        ty = 2.0 * (uz * vx - ux * vz)
-        tz = 2.0 * (ux * vy - uy * vx)
-        out = np.empty((T, 3))
-        out[:, 0] = (vx + w * tx + uy * tz - uz * ty).sum(axis=0)
-        out[:, 1] = (vy + w * ty + uz * tx - ux * tz).sum(axis=0)
-        out[:, 2] = (vz + w * tz + ux * ty - uy * tx).sum(axis=0)
-        return out
+            G[blk] = quat_multiply(G[pidx], L[blk])
+        return quat_apply(G, self.u[:, None, :]).sum(axis=0)
 
     def __call__(self, root_positions: np.ndarray, rotations: np.ndarray) -> np.ndarray:
         """``(T, 3)`` world COM."""

@@ -48,30 +48,13 @@ import math
 import numpy as np
 
 from ..body.model import BodyModel
+from ..core._compiled import centroid, fk_pose, njit, qdelta, qrot, spin
 
 __all__ = ["AngularMomentumEvaluator", "seam_speed", "reference_levels", "warp_time", "warped_positions",
            "SPEED_BOUNDS"]
 
 #: playback-speed range of the non-uniform retiming (section 5.4.1: 1/2 <= n <= 2)
 SPEED_BOUNDS = (0.5, 2.0)
-
-try:
-    import numba
-
-    _NUMBA = True
-except Exception:  # pragma: no cover
-    _NUMBA = False
-
-
-def _log_np(q: np.ndarray) -> np.ndarray:
-    """Rotation vectors of unit quaternions ``(..., 4)`` (short way)."""
-    q = np.where(q[..., 3:4] < 0.0, -q, q)
-    v = q[..., :3]
-    vn = np.sqrt(np.einsum("...i,...i->...", v, v))
-    ang = 2.0 * np.arctan2(vn, q[..., 3])
-    scale = np.where(vn > 1e-12, ang / np.where(vn > 1e-12, vn, 1.0), 2.0)
-    return v * scale[..., None]
-
 
 class AngularMomentumEvaluator:
     """``L`` about the whole-body COM (eq. 5.5) of a short block of frames, from local
@@ -99,197 +82,117 @@ class AngularMomentumEvaluator:
         q = np.ascontiguousarray(rotations, dtype=np.float64)
         if q.shape[0] < 3:
             raise ValueError("angular momentum by central differences needs at least 3 frames")
-        if _NUMBA:
-            if not q.flags.writeable:
-                q = q.copy()
-            return _angular_nb(q, self.parents, self.offsets, self.seg_joint, self.local_coms, self.masses,
-                               self.inertias, float(fps), np.empty((q.shape[0] - 2, 3)))
-        return self.angular_numpy(q, fps)
+        if not q.flags.writeable:
+            q = q.copy()
+        return _angular_nb(q, self.parents, self.offsets, self.seg_joint, self.local_coms, self.masses,
+                           self.inertias, float(fps), np.empty((q.shape[0] - 2, 3)))
 
     def magnitude(self, rotations: np.ndarray, fps: float) -> np.ndarray:
         """``(n - 2,)`` ``|L|`` at the interior frames."""
         L = self.angular(rotations, fps)
         return np.sqrt(np.einsum("ti,ti->t", L, L))
 
-    def angular_numpy(self, rotations: np.ndarray, fps: float) -> np.ndarray:
-        """The numpy version of :meth:`angular` (reference; same result)."""
-        from ._quat import cross, qapply, qconj, qmul
-
-        q = np.asarray(rotations, dtype=float)
-        n, J, _ = q.shape
-        G = np.empty_like(q)
-        P = np.zeros((n, J, 3))
-        G[:, 0] = q[:, 0]
-        for j in range(1, J):
-            p = self.parents[j]
-            G[:, j] = qmul(G[:, p], q[:, j])
-            P[:, j] = P[:, p] + qapply(G[:, p], np.broadcast_to(self.offsets[j], (n, 3)))
-        R = G[:, self.seg_joint]
-        c = P[:, self.seg_joint] + qapply(R, np.broadcast_to(self.local_coms, R.shape[:-1] + (3,)))
-        w = 0.5 * fps * (_log_np(qmul(R[2:], qconj(R[1:-1]))) + _log_np(qmul(R[1:-1], qconj(R[:-2]))))
-        v = 0.5 * fps * (c[2:] - c[:-2])
-        ci = c[1:-1]
-        Ri = R[1:-1]
-        com = np.einsum("s,tsk->tk", self.masses, ci) / self.total_mass
-        wb = qapply(qconj(Ri), w)
-        Iw = qapply(Ri, np.einsum("sij,tsj->tsi", self.inertias, wb))
-        return Iw.sum(axis=1) + np.einsum("s,tsk->tk", self.masses, cross(ci - com[:, None], v))
-
-
-if _NUMBA:
-    @numba.njit(cache=True, nogil=True)
-    def _angular_nb(q, parents, offsets, seg_joint, local_coms, masses, inertias, fps, out):
-        n, J, _ = q.shape
-        S = seg_joint.shape[0]
-        G = np.empty((J, 4))
-        P = np.empty((J, 3))
-        R = np.empty((n, S, 4))
-        C = np.empty((n, S, 3))
-        for t in range(n):
-            G[0, 0], G[0, 1], G[0, 2], G[0, 3] = q[t, 0, 0], q[t, 0, 1], q[t, 0, 2], q[t, 0, 3]
-            P[0, 0] = 0.0
-            P[0, 1] = 0.0
-            P[0, 2] = 0.0
-            for j in range(1, J):
-                p = parents[j]
-                ax, ay, az, aw = G[p, 0], G[p, 1], G[p, 2], G[p, 3]
-                bx, by, bz, bw = q[t, j, 0], q[t, j, 1], q[t, j, 2], q[t, j, 3]
-                G[j, 0] = aw * bx + ax * bw + ay * bz - az * by
-                G[j, 1] = aw * by - ax * bz + ay * bw + az * bx
-                G[j, 2] = aw * bz + ax * by - ay * bx + az * bw
-                G[j, 3] = aw * bw - ax * bx - ay * by - az * bz
-                vx, vy, vz = offsets[j, 0], offsets[j, 1], offsets[j, 2]
-                tx = 2.0 * (ay * vz - az * vy)
-                ty = 2.0 * (az * vx - ax * vz)
-                tz = 2.0 * (ax * vy - ay * vx)
-                P[j, 0] = P[p, 0] + vx + aw * tx + ay * tz - az * ty
-                P[j, 1] = P[p, 1] + vy + aw * ty + az * tx - ax * tz
-                P[j, 2] = P[p, 2] + vz + aw * tz + ax * ty - ay * tx
-            for s in range(S):
-                j = seg_joint[s]
-                x, y, z, w = G[j, 0], G[j, 1], G[j, 2], G[j, 3]
-                R[t, s, 0], R[t, s, 1], R[t, s, 2], R[t, s, 3] = x, y, z, w
-                vx, vy, vz = local_coms[s, 0], local_coms[s, 1], local_coms[s, 2]
-                tx = 2.0 * (y * vz - z * vy)
-                ty = 2.0 * (z * vx - x * vz)
-                tz = 2.0 * (x * vy - y * vx)
-                C[t, s, 0] = P[j, 0] + vx + w * tx + y * tz - z * ty
-                C[t, s, 1] = P[j, 1] + vy + w * ty + z * tx - x * tz
-                C[t, s, 2] = P[j, 2] + vz + w * tz + x * ty - y * tx
-        M = 0.0
+@njit
+def _angular_nb(q, parents, offsets, seg_joint, local_coms, masses, inertias, fps, out):
+    """:meth:`AngularMomentumEvaluator.angular` into ``out (n-2, 3)``: forward kinematics per frame
+    (core's :func:`~mocomp.core._compiled.fk_pose`, root at the origin), segment COMs and
+    orientations, then eq. 5.5 with central differences at frames ``1 .. n-2``. Compiled with
+    numba; without it, the same code runs as Python (the blocks are a few dozen frames)."""
+    n, J, _ = q.shape
+    S = seg_joint.shape[0]
+    G = np.empty((J, 4))
+    P = np.empty((J, 3))
+    R = np.empty((n, S, 4))
+    C = np.empty((n, S, 3))
+    for t in range(n):
+        fk_pose(parents, offsets, q, t, 0.0, 0.0, 0.0, G, P)
         for s in range(S):
-            M += masses[s]
-        h = 0.5 * fps
-        for t in range(1, n - 1):
-            cx = 0.0
-            cy = 0.0
-            cz = 0.0
-            for s in range(S):
-                cx += masses[s] * C[t, s, 0]
-                cy += masses[s] * C[t, s, 1]
-                cz += masses[s] * C[t, s, 2]
-            cx /= M
-            cy /= M
-            cz /= M
-            Lx = 0.0
-            Ly = 0.0
-            Lz = 0.0
-            for s in range(S):
-                # world angular velocity: mean of the two one-step rotation vectors
-                wx = 0.0
-                wy = 0.0
-                wz = 0.0
-                for a, b in ((t, t + 1), (t - 1, t)):
-                    # d = R_b R_a^-1
-                    bx, by, bz, bw = R[b, s, 0], R[b, s, 1], R[b, s, 2], R[b, s, 3]
-                    ax, ay, az, aw = -R[a, s, 0], -R[a, s, 1], -R[a, s, 2], R[a, s, 3]
-                    dx = bw * ax + bx * aw + by * az - bz * ay
-                    dy = bw * ay - bx * az + by * aw + bz * ax
-                    dz = bw * az + bx * ay - by * ax + bz * aw
-                    dw = bw * aw - bx * ax - by * ay - bz * az
-                    if dw < 0.0:
-                        dx, dy, dz, dw = -dx, -dy, -dz, -dw
-                    vn = math.sqrt(dx * dx + dy * dy + dz * dz)
-                    sc = 2.0 * math.atan2(vn, dw) / vn if vn > 1e-12 else 2.0
-                    wx += dx * sc
-                    wy += dy * sc
-                    wz += dz * sc
-                wx *= h
-                wy *= h
-                wz *= h
-                # R I R^T w: to the body frame, times I, back
-                x, y, z, w = R[t, s, 0], R[t, s, 1], R[t, s, 2], R[t, s, 3]
-                tx = 2.0 * (-y * wz + z * wy)
-                ty = 2.0 * (-z * wx + x * wz)
-                tz = 2.0 * (-x * wy + y * wx)
-                bx = wx + w * tx - y * tz + z * ty
-                by = wy + w * ty - z * tx + x * tz
-                bz = wz + w * tz - x * ty + y * tx
-                ix = inertias[s, 0, 0] * bx + inertias[s, 0, 1] * by + inertias[s, 0, 2] * bz
-                iy = inertias[s, 1, 0] * bx + inertias[s, 1, 1] * by + inertias[s, 1, 2] * bz
-                iz = inertias[s, 2, 0] * bx + inertias[s, 2, 1] * by + inertias[s, 2, 2] * bz
-                tx = 2.0 * (y * iz - z * iy)
-                ty = 2.0 * (z * ix - x * iz)
-                tz = 2.0 * (x * iy - y * ix)
-                Lx += ix + w * tx + y * tz - z * ty
-                Ly += iy + w * ty + z * tx - x * tz
-                Lz += iz + w * tz + x * ty - y * tx
-                # m (c - COM) x v
-                m = masses[s]
-                rx, ry, rz = C[t, s, 0] - cx, C[t, s, 1] - cy, C[t, s, 2] - cz
-                vx = h * (C[t + 1, s, 0] - C[t - 1, s, 0])
-                vy = h * (C[t + 1, s, 1] - C[t - 1, s, 1])
-                vz = h * (C[t + 1, s, 2] - C[t - 1, s, 2])
-                Lx += m * (ry * vz - rz * vy)
-                Ly += m * (rz * vx - rx * vz)
-                Lz += m * (rx * vy - ry * vx)
-            out[t - 1, 0] = Lx
-            out[t - 1, 1] = Ly
-            out[t - 1, 2] = Lz
-        return out
+            j = seg_joint[s]
+            x, y, z, w = G[j, 0], G[j, 1], G[j, 2], G[j, 3]
+            R[t, s, 0], R[t, s, 1], R[t, s, 2], R[t, s, 3] = x, y, z, w
+            dx, dy, dz = qrot(x, y, z, w, local_coms[s, 0], local_coms[s, 1], local_coms[s, 2])
+            C[t, s, 0] = P[j, 0] + dx
+            C[t, s, 1] = P[j, 1] + dy
+            C[t, s, 2] = P[j, 2] + dz
+    M = 0.0
+    for s in range(S):
+        M += masses[s]
+    h = 0.5 * fps
+    for t in range(1, n - 1):
+        cx, cy, cz = centroid(masses, C, t, M)
+        Lx = 0.0
+        Ly = 0.0
+        Lz = 0.0
+        for s in range(S):
+            # world angular velocity: mean of the two one-step rotation vectors Log(R_b R_a^-1)
+            wx = 0.0
+            wy = 0.0
+            wz = 0.0
+            for a, b in ((t, t + 1), (t - 1, t)):
+                lx, ly, lz = qdelta(R, a, b, s)
+                wx += lx
+                wy += ly
+                wz += lz
+            wx *= h
+            wy *= h
+            wz *= h
+            # R I R^T w: to the body frame, times I, back
+            ex, ey, ez = spin(R[t, s, 0], R[t, s, 1], R[t, s, 2], R[t, s, 3], inertias, s, wx, wy, wz)
+            Lx += ex
+            Ly += ey
+            Lz += ez
+            # m (c - COM) x v
+            m = masses[s]
+            rx, ry, rz = C[t, s, 0] - cx, C[t, s, 1] - cy, C[t, s, 2] - cz
+            vx = h * (C[t + 1, s, 0] - C[t - 1, s, 0])
+            vy = h * (C[t + 1, s, 1] - C[t - 1, s, 1])
+            vz = h * (C[t + 1, s, 2] - C[t - 1, s, 2])
+            Lx += m * (ry * vz - rz * vy)
+            Ly += m * (rz * vx - rx * vz)
+            Lz += m * (rx * vy - ry * vx)
+        out[t - 1, 0] = Lx
+        out[t - 1, 1] = Ly
+        out[t - 1, 2] = Lz
+    return out
 
 
-if _NUMBA:
-    @numba.njit(cache=True, nogil=True)
-    def _landing_speed_nb(rot, lo, hi, parents, offsets, seg_joint, local_coms, masses, inertias, fps, frames,
-                          extra, axis, Lv, a, w, lev_l, lev_r, mid, lo_b, hi_b):
-        """Eq. 5.22 speeds of the landing seam's sequence frames ``lo+1 .. hi-2`` (see
-        :func:`mocomp.flips.multiflip._seam_speeds`, whose numpy version this mirrors): ``L`` of the
-        smoothed frames ``rot[lo:hi]`` (:func:`_angular_nb`), the original's ``L`` at the source
-        frames turned with them about the unit ``axis``, its level blended across the seam after
-        frame ``a`` with the pose ramp, and :func:`seam_speed`'s least-squares speed, clipped."""
-        n = hi - lo
-        L_new = _angular_nb(rot[lo:hi], parents, offsets, seg_joint, local_coms, masses, inertias, fps,
-                            np.empty((n - 2, 3)))
-        blend = lev_l > 0 and lev_r > 0
-        out = np.empty(n - 2)
-        ax, ay, az = axis[0], axis[1], axis[2]
-        for k in range(n - 2):
-            i = lo + 1 + k
-            h = 0.5 * extra[i]
-            s_ = math.sin(h)
-            c = math.cos(h)
-            ux, uy, uz = s_ * ax, s_ * ay, s_ * az
-            f = frames[i]
-            vx, vy, vz = Lv[f, 0], Lv[f, 1], Lv[f, 2]
-            tx, ty, tz = 2.0 * (uy * vz - uz * vy), 2.0 * (uz * vx - ux * vz), 2.0 * (ux * vy - uy * vx)
-            rx = vx + c * tx + (uy * tz - uz * ty)
-            ry = vy + c * ty + (uz * tx - ux * tz)
-            rz = vz + c * tz + (ux * ty - uy * tx)
-            if blend:
-                d = abs(i - a) / (w + 1.0)
-                wt = 0.5 * (1.0 + math.cos(math.pi * min(max(d, 0.0), 1.0)))
-                sc = (mid / lev_l if i <= a else mid / lev_r) ** wt
-                rx, ry, rz = rx * sc, ry * sc, rz * sc
-            nx, ny, nz = L_new[k, 0], L_new[k, 1], L_new[k, 2]
-            nn = nx * nx + ny * ny + nz * nz
-            num = nx * rx + ny * ry + nz * rz
-            ref2 = rx * rx + ry * ry + rz * rz
-            sp = num / max(nn, 1e-300)
-            if nn <= 1e-18 * max(ref2, 1e-24):
-                sp = hi_b
-            out[k] = min(max(sp, lo_b), hi_b)
-        return out
+@njit
+def _landing_speed_nb(rot, lo, hi, parents, offsets, seg_joint, local_coms, masses, inertias, fps, frames,
+                      extra, axis, Lv, a, w, lev_l, lev_r, mid, lo_b, hi_b):
+    """Eq. 5.22 speeds of the landing seam's sequence frames ``lo+1 .. hi-2`` (see
+    :func:`mocomp.flips.multiflip._seam_speeds`, whose numpy version this mirrors): ``L`` of the
+    smoothed frames ``rot[lo:hi]`` (:func:`_angular_nb`), the original's ``L`` at the source
+    frames turned with them about the unit ``axis``, its level blended across the seam after
+    frame ``a`` with the pose ramp, and :func:`seam_speed`'s least-squares speed, clipped."""
+    n = hi - lo
+    L_new = _angular_nb(rot[lo:hi], parents, offsets, seg_joint, local_coms, masses, inertias, fps,
+                        np.empty((n - 2, 3)))
+    blend = lev_l > 0 and lev_r > 0
+    out = np.empty(n - 2)
+    ax, ay, az = axis[0], axis[1], axis[2]
+    for k in range(n - 2):
+        i = lo + 1 + k
+        h = 0.5 * extra[i]
+        s_ = math.sin(h)
+        c = math.cos(h)
+        ux, uy, uz = s_ * ax, s_ * ay, s_ * az
+        f = frames[i]
+        vx, vy, vz = Lv[f, 0], Lv[f, 1], Lv[f, 2]
+        rx, ry, rz = qrot(ux, uy, uz, c, vx, vy, vz)
+        if blend:
+            d = abs(i - a) / (w + 1.0)
+            wt = 0.5 * (1.0 + math.cos(math.pi * min(max(d, 0.0), 1.0)))
+            sc = (mid / lev_l if i <= a else mid / lev_r) ** wt
+            rx, ry, rz = rx * sc, ry * sc, rz * sc
+        nx, ny, nz = L_new[k, 0], L_new[k, 1], L_new[k, 2]
+        nn = nx * nx + ny * ny + nz * nz
+        num = nx * rx + ny * ry + nz * rz
+        ref2 = rx * rx + ry * ry + rz * rz
+        sp = num / max(nn, 1e-300)
+        if nn <= 1e-18 * max(ref2, 1e-24):
+            sp = hi_b
+        out[k] = min(max(sp, lo_b), hi_b)
+    return out
 
 
 def seam_speed(L_new: np.ndarray, L_ref: np.ndarray, bounds: tuple[float, float] = SPEED_BOUNDS) -> np.ndarray:

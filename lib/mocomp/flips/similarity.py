@@ -177,9 +177,7 @@ def alignment_angle(q_r1: np.ndarray, q_r2: np.ndarray, axis: np.ndarray) -> np.
     The projection of ``q_r2 q_r1^-1`` on the plane perpendicular to ``axis`` (its
     twist about ``axis``), wrapped to ``(-pi, pi]``. Broadcasts over leading axes.
     """
-    from ._quat import qconj, qmul
-
-    rel = qmul(np.asarray(q_r2, dtype=float), qconj(np.asarray(q_r1, dtype=float)))
+    rel = quat_multiply(np.asarray(q_r2, dtype=float), quat_inverse(np.asarray(q_r1, dtype=float)))
     phi = twist_angle(rel, axis)
     return (phi + np.pi) % (2 * np.pi) - np.pi
 
@@ -196,18 +194,16 @@ def frame_distance(rot1: np.ndarray, rot2: np.ndarray, axis: np.ndarray, weights
     (``(..., J, 3)`` rad/s: world frame for the root, parent frame for joints)
     add ``velocity_weight * (w_r |R_phi w_r1 - w_r2| + sum_i w_i |w_i1 - w_i2|)``.
     """
-    from ._quat import qangle, qconj, qmul
-
     rot1 = np.asarray(rot1, dtype=float)
     rot2 = np.asarray(rot2, dtype=float)
     if phi is None:
         phi = alignment_angle(rot1[..., 0, :], rot2[..., 0, :], axis)
     q_phi = axis_quat(axis, phi)
-    aligned = qmul(q_phi, rot1[..., 0, :])
-    d_root = qangle(qmul(rot2[..., 0, :], qconj(aligned)))
+    aligned = quat_multiply(q_phi, rot1[..., 0, :])
+    d_root = quat_angle(quat_multiply(rot2[..., 0, :], quat_inverse(aligned)))
     w = weights.joints
     nz = np.flatnonzero(w)
-    d_joint = qangle(qmul(rot2[..., nz, :], qconj(rot1[..., nz, :])))
+    d_joint = quat_angle(quat_multiply(rot2[..., nz, :], quat_inverse(rot1[..., nz, :])))
     D = weights.root * d_root + d_joint @ w[nz]
     if weights.velocity_weight > 0:
         if omega1 is None or omega2 is None:

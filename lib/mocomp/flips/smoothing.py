@@ -27,8 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.motion import slerp
-from ..core.rotations import quat_apply, quat_inverse, quat_multiply
+from ..core.rotations import quat_apply, quat_inverse, quat_multiply, shortest_arc, slerp
 from .similarity import axis_quat, twist_angle
 
 __all__ = ["root_reference", "split_root", "compose_root", "shortest_arc", "ramp", "SeamSide", "seam_corrections",
@@ -69,44 +68,16 @@ def split_root(q: np.ndarray, axis: np.ndarray, ref: np.ndarray | None = None,
     return theta, b
 
 
-def shortest_arc(u: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Quaternions of the shortest rotations taking unit vectors ``u`` to ``v`` (broadcasting).
-
-    Undefined for exactly opposite vectors; those get a rotation by pi about an
-    axis perpendicular to ``u`` (a deterministic choice).
-    """
-    u = np.asarray(u, dtype=float)
-    v = np.asarray(v, dtype=float)
-    from ._quat import cross
-
-    u, v = np.broadcast_arrays(u, v)
-    q = np.empty(u.shape[:-1] + (4,))
-    q[..., :3] = cross(u, v)
-    q[..., 3] = 1.0 + np.sum(u * v, axis=-1)
-    n = np.linalg.norm(q, axis=-1)
-    bad = n < 1e-9
-    if np.any(bad):
-        ub = u[bad]
-        alt = np.where(np.abs(ub[:, :1]) < 0.9, np.array([[1.0, 0, 0]]), np.array([[0, 1.0, 0]]))
-        perp = np.cross(ub, alt)
-        perp /= np.linalg.norm(perp, axis=-1, keepdims=True)
-        q[bad] = np.concatenate([perp, np.zeros((perp.shape[0], 1))], axis=-1)
-        n = np.where(bad, 1.0, n)
-    return q / n[..., None]
-
-
 def compose_root(theta: np.ndarray, b: np.ndarray, axis: np.ndarray, ref: np.ndarray | None = None) -> np.ndarray:
     """Inverse of :func:`split_root`: ``q = q_L(theta) q_P q_0`` with ``q_P`` the shortest
     arc from ``q_0 b`` to ``axis``."""
-    from ._quat import qapply, qmul
-
     a = np.asarray(axis, dtype=float)
     a = a / np.linalg.norm(a)
     b = np.asarray(b, dtype=float)
     b = b / np.linalg.norm(b, axis=-1, keepdims=True)
     if ref is None:
-        return qmul(axis_quat(a, theta), shortest_arc(b, a))
-    return qmul(qmul(axis_quat(a, theta), shortest_arc(qapply(np.asarray(ref, float), b), a)), ref)
+        return quat_multiply(axis_quat(a, theta), shortest_arc(b, a))
+    return quat_multiply(quat_multiply(axis_quat(a, theta), shortest_arc(quat_apply(np.asarray(ref, float), b), a)), ref)
 
 
 def ramp(d: np.ndarray, window: int) -> np.ndarray:

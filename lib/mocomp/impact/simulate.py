@@ -40,7 +40,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.motion import Motion, slerp
-from .convert import frames_to_motion, motion_state, qpos_to_pose, to_wxyz
+from ..core.rotations import quat_angle, quat_inverse, quat_log, quat_multiply
+from .convert import frames_to_motion, motion_state, qpos_to_pose, to_wxyz, to_xyzw
 from .scene import FRICTION_ACTIVE, FRICTION_NAIVE, ImpactError, Scene
 
 __all__ = ["ServoGains", "FirstContact", "PassResult", "find_first_contact", "simulate", "clip_targets",
@@ -276,18 +277,10 @@ class _Servo:
 
         q = data.qpos[self.qidx]
         q = q / np.sqrt(np.einsum("ij,ij->i", q, q))[:, None]
-        # e = log(q^-1 q_d): conj(q) * qd, scalar-first; cross product written out (cheaper than np.cross)
-        w1, x1, y1, z1 = q[:, 0], -q[:, 1], -q[:, 2], -q[:, 3]
-        w2, x2, y2, z2 = q_des_wxyz[:, 0], q_des_wxyz[:, 1], q_des_wxyz[:, 2], q_des_wxyz[:, 3]
-        w = w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2
-        v = np.stack([w1 * x2 + w2 * x1 + y1 * z2 - z1 * y2,
-                      w1 * y2 + w2 * y1 + z1 * x2 - x1 * z2,
-                      w1 * z2 + w2 * z1 + x1 * y2 - y1 * x2], axis=1)
-        sgn = np.where(w < 0, -1.0, 1.0)
-        w, v = w * sgn, v * sgn[:, None]
-        s = np.sqrt(np.einsum("ij,ij->i", v, v))
-        ang = 2.0 * np.arctan2(s, w)
-        e = v * np.where(s > 1e-12, ang / np.maximum(s, 1e-12), 2.0)[:, None]
+        # e = log(q^-1 q_d), the short way (core's quaternion kernel, scalar-last)
+        d = quat_multiply(quat_inverse(to_xyzw(q)), to_xyzw(q_des_wxyz))
+        e = quat_log(d)
+        ang = quat_angle(d)
         mujoco.mj_fullM(model, data, self.M)
         I = self.M[self.blk]
         # the damping term -I k_v omega theta_dot goes to MuJoCo's joint damping (diagonal of I),

@@ -29,8 +29,11 @@ so it gives the same bits (tested), in one pass over the frames.
 
 Numba is a project dependency; the kernels are compiled once per machine and
 cached on disk (``cache=True``); the module is imported on the first read, so
-``import mocomp.io`` does not pay numba's import. ``AVAILABLE`` is False when numba
-cannot be imported and the reader then uses the numpy code only.
+``import mocomp.io`` does not pay numba's import. ``AVAILABLE`` (from
+:mod:`mocomp.core._compiled`, the project's one switch) is False when numba cannot be
+imported or ``MOCOMP_NO_NUMBA`` is set, and the reader then uses the numpy code only.
+The Euler conversion is a sparse product program (zero components skipped, to keep the
+numpy version's bits), not general quaternion algebra, so it does not use core's ``qmul``.
 """
 from __future__ import annotations
 
@@ -38,12 +41,7 @@ import math
 
 import numpy as np
 
-try:
-    import numba
-
-    AVAILABLE = True
-except Exception:  # pragma: no cover - numba is a dependency; keep the reader working without it
-    AVAILABLE = False
+from ..core._compiled import AVAILABLE, njit
 
 __all__ = ["AVAILABLE", "parse_table", "OK", "euler_program", "euler_to_quat_nb"]
 
@@ -54,7 +52,7 @@ _P10 = np.array([10.0 ** k for k in range(23)])
 _TWO53 = 2 ** 53
 
 if AVAILABLE:
-    @numba.njit(cache=True, nogil=True)
+    @njit
     def parse_table(buf, start, out, slow):
         """Fill ``out`` (``(n_rows, n_cols)`` float64) with the numbers in ``buf[start:]``
         (``uint8``). Returns ``(status, n_slow)``: status :data:`OK` (0) when the block
@@ -225,7 +223,7 @@ def euler_program(seq: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndar
 
 
 if AVAILABLE:
-    @numba.njit(cache=True, nogil=True)
+    @njit
     def euler_to_quat_nb(data, cols, axes, steps, n_steps, present, out):
         """``out[t, j]`` = the quaternion of the intrinsic Euler rotation whose angles
         (degrees) are ``data[t, cols[j, s]]`` about axes ``axes[j, s]``, for every frame

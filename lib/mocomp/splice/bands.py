@@ -57,9 +57,9 @@ import re
 from dataclasses import dataclass, field
 from typing import Iterable, Sequence
 
-import numba
 import numpy as np
 
+from ..core._compiled import njit
 from ..errors import AlignmentError
 
 __all__ = [
@@ -286,7 +286,7 @@ class Band:
         return f"Band({self.kind}, {self.n}x{self.m}, {self.cells} cells ({100 * self.fill:.1f}%){w}{p})"
 
 
-@numba.njit(cache=True, nogil=True)
+@njit
 def _prune_kernel(lo, hi, m, raw_lo, raw_hi, lo_p, hi_p):  # pragma: no cover - compiled
     """Clip ``lo, hi`` to the matrix into ``raw_lo, raw_hi`` and prune them into
     ``lo_p, hi_p`` (see :func:`_prune`). Returns ``(code, row)``: 0 fine, 1 an
@@ -365,7 +365,7 @@ def full_band(n: int, m: int) -> Band:
     return Band(int(n), int(m), np.zeros(n, dtype=np.int64), np.full(n, m - 1, dtype=np.int64), kind="full")
 
 
-@numba.njit(cache=True, nogil=True)
+@njit
 def _segment_rows(m, x0, y0, x1, y1, rho, jmin, jmax, lo, hi):  # pragma: no cover - compiled
     """Intersect rows ``x0..x1`` of ``lo, hi`` with the segment (x0,y0)-(x1,y1)'s
     band (eq. 6.4, clipped as eq. 6.5): ``|j - c_i| <= rho`` with

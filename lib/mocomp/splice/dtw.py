@@ -21,10 +21,10 @@ import time
 from dataclasses import dataclass, field
 from typing import Callable
 
-import numba
 import numpy as np
 from scipy.spatial.distance import cdist
 
+from ..core._compiled import njit
 from ..errors import AlignmentError
 from .bands import Band, _as_band
 
@@ -34,7 +34,7 @@ __all__ = ["DTWResult", "dtw", "dtw_band_costs", "band_costs", "feature_band_cos
 STEP_START, STEP_DIAGONAL, STEP_HORIZONTAL, STEP_VERTICAL, STEP_NONE = 0, 1, 2, 3, -1
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@njit(inline="always")
 def _row_general(c, g, st, gamma, off, lo, hi, i, l, w):  # pragma: no cover - compiled
     """One row of any shape (rows of custom, unpruned bands)."""
     inf = np.inf
@@ -59,7 +59,7 @@ def _row_general(c, g, st, gamma, off, lo, hi, i, l, w):  # pragma: no cover - c
         st[0] = 0
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@njit(inline="always")
 def _row_monotone(c, g, st, gp, l, w, lp, wp):  # pragma: no cover - compiled
     """One row ``i > 0`` whose previous row ``gp`` spans columns ``lp..hp``
     with ``lp <= l <= hp + 1 <= h + 1`` (every pruned band): the row split
@@ -111,7 +111,7 @@ def _row_monotone(c, g, st, gp, l, w, lp, wp):  # pragma: no cover - compiled
             ss[u] = np.int8(2) if left < inf else np.int8(-1)
 
 
-@numba.njit(cache=True, nogil=True)
+@njit
 def _accumulate(cost, lo, hi, off, gamma, step):  # pragma: no cover - compiled
     """Eq. 6.1-6.2 on the band cells, row by row, and the step into each cell.
 
@@ -144,7 +144,7 @@ def _accumulate(cost, lo, hi, off, gamma, step):  # pragma: no cover - compiled
             _row_general(c, g, st, gamma, off, lo, hi, i, l, w)
 
 
-@numba.njit(cache=True, nogil=True)
+@njit
 def _backtrack(lo, off, step, n, m):  # pragma: no cover - compiled
     out = np.empty((n + m - 1, 2), dtype=np.int64)
     i = n - 1
@@ -169,7 +169,7 @@ def _backtrack(lo, off, step, n, m):  # pragma: no cover - compiled
     return out[:K][::-1].copy()
 
 
-@numba.njit(cache=True, nogil=True)
+@njit
 def _sqeuclidean_band(lo, hi, off, x, yT, out):  # pragma: no cover - compiled
     """Squared Euclidean distances of the band cells; ``yT`` is the second
     sequence transposed, ``(d, m)`` C-contiguous, so the inner loops run over

@@ -17,10 +17,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 from functools import lru_cache
 
-import numba
 import numpy as np
 from scipy.signal import savgol_coeffs
 
+from ..core._compiled import njit
 from ..errors import AlignmentError
 from .bands import Band
 from .markers import HandMarkers, require_frames
@@ -291,7 +291,7 @@ def rotate_vertical(v: np.ndarray, theta: np.ndarray) -> np.ndarray:
     return np.stack([c * x + s * z, v[..., 1], -s * x + c * z], axis=-1)
 
 
-@numba.njit(cache=True, nogil=True, fastmath=True)
+@njit(fastmath=True)
 def _theta_kernel(lo, hi, off, bx, bz, hx, hz, cs, sn):  # pragma: no cover - compiled
     L = bx.shape[1]
     for i in range(lo.shape[0]):
@@ -311,13 +311,13 @@ def _theta_kernel(lo, hi, off, bx, bz, hx, hz, cs, sn):  # pragma: no cover - co
                 sn[k] = 0.0
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@njit(inline="always")
 def _sgn(x, eps):  # pragma: no cover - compiled
     # branch-free: signs of real motion data are unpredictable for a branch predictor
     return np.int64(x >= eps) - np.int64(x <= -eps)
 
 
-@numba.njit(cache=True, nogil=True)
+@njit
 def _sign_kernel(lo, hi, off, sv, sa, vh, ah, eps_v, eps_a, cs, sn, out):  # pragma: no cover - compiled
     n = lo.shape[0]
     M = sv.shape[1]
@@ -354,7 +354,7 @@ def _sign_kernel(lo, hi, off, sv, sa, vh, ah, eps_v, eps_a, cs, sn, out):  # pra
             out[k] = tot
 
 
-@numba.njit(cache=True, nogil=True)
+@njit
 def _value_kernel(lo, hi, off, vb, ab, vh, ah, tau2, cs, sn, out):  # pragma: no cover - compiled
     n = lo.shape[0]
     M = vb.shape[1]
@@ -380,7 +380,7 @@ def _value_kernel(lo, hi, off, vb, ab, vh, ah, tau2, cs, sn, out):  # pragma: no
             out[k] = tot
 
 
-@numba.njit(cache=True, nogil=True)
+@njit
 def _angle_kernel(lo, hi, off, fb, hb, fh, hh, out):  # pragma: no cover - compiled
     n = lo.shape[0]
     # fb, fh: unit forearm vectors

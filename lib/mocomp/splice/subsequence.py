@@ -31,9 +31,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 
+from ..core._compiled import njit
 from ..errors import AlignmentError
 
 __all__ = ["SubsequenceResult", "subsequence_dtw"]
@@ -75,7 +75,7 @@ class SubsequenceResult:
                 "cost": float(self.cost), "cost_per_hand_frame": float(self.normalized_cost)}
 
 
-@numba.njit(cache=True, nogil=True)
+@njit
 def _subsequence_kernel(C, G, step):  # pragma: no cover - compiled
     """The recurrence of the module docstring: ``G (m, n)`` cumulative costs and
     ``step (m, n)`` body frames moved back (0, 1, 2; the first minimum in that order)."""

@@ -38,9 +38,9 @@ it.
 """
 from __future__ import annotations
 
-import numba
 import numpy as np
 
+from ..core._compiled import njit
 from ..errors import AlignmentError
 from .dtw import DTWResult, _accumulate
 
@@ -67,7 +67,7 @@ def through_costs(result: DTWResult) -> np.ndarray:
     return result.cumulative + g[::-1] - c
 
 
-@numba.njit(cache=True, nogil=True)
+@njit
 def _tube_kernel(lo, hi, off, through, limit, out_lo, out_hi):  # pragma: no cover - compiled
     for i in range(lo.shape[0]):
         a = -1
@@ -102,7 +102,7 @@ def near_optimal_tube(result: DTWResult, tolerance: float = 0.0, *, absolute: fl
     return lo, hi
 
 
-@numba.njit(cache=True, nogil=True)
+@njit
 def _taut(lo, hi, y0, y1, out):  # pragma: no cover - compiled
     n = lo.shape[0]
     ax = 0

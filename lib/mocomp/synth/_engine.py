@@ -24,7 +24,7 @@ from scipy.optimize import root as sp_root, root_scalar
 
 from ..body.model import BodyModel
 from ..core.motion import Motion, SourceInfo
-from ..core.rotations import make_continuous
+from ..core.rotations import make_continuous, quat_inverse, quat_multiply
 from ..core.skeleton import Skeleton
 from ..dynamics.momentum import MotionVelocities
 from ..errors import PhysicsError
@@ -101,21 +101,8 @@ class Design:
 
 
 # --------------------------------------------------------------------------- helpers
-def _qmul(a, b):
-    ax, ay, az, aw = np.moveaxis(np.asarray(a, float), -1, 0)
-    bx, by, bz, bw = np.moveaxis(np.asarray(b, float), -1, 0)
-    return np.stack([aw * bx + ax * bw + ay * bz - az * by, aw * by - ax * bz + ay * bw + az * bx,
-                     aw * bz + ax * by - ay * bx + az * bw, aw * bw - ax * bx - ay * by - az * bz], -1)
-
-
-def _qinv(q):
-    q = np.array(q, dtype=float, copy=True)
-    q[..., :3] *= -1
-    return q
-
-
 def _key_quat(axis, key: Key) -> np.ndarray:
-    return _qmul(exp_quat(axis * key.theta), exp_quat(np.asarray(key.tilt, float)))
+    return quat_multiply(exp_quat(axis * key.theta), exp_quat(np.asarray(key.tilt, float)))
 
 
 def _rotvec_from_matrices(R):
@@ -494,10 +481,10 @@ def _skew_np(v):
 def _orientation_piece(t, ta, tb, qa, wa, qb, wb):
     """Orientation on [ta, tb] as ``Exp(r(t)) qb`` with a quintic ``r`` meeting the end
     orientations and world angular velocities (zero chart acceleration at both ends)."""
-    ra = log_quat(_qmul(qa, _qinv(qb)))
+    ra = log_quat(quat_multiply(qa, quat_inverse(qb)))
     va = np.linalg.solve(left_jacobian(ra), wa)
     r, rd, _ = quintic_hermite(t, ta, tb, ra, va, np.zeros(3), np.zeros(3), wb, np.zeros(3))
-    q = _qmul(exp_quat(r), qb)
+    q = quat_multiply(exp_quat(r), qb)
     w = np.einsum("nab,nb->na", left_jacobian(r), rd)
     return q, w
 
@@ -596,7 +583,7 @@ def generate(design: Design, skeleton: Skeleton, body: BodyModel, fps: float = 1
     def residual(L0, dt):
         evals[0] += 1
         qs, _, acc, _, _ = fl.integrate(np.asarray(L0, float), dt)
-        err = log_quat(_qmul(qs[-1], _qinv(q1_target)))
+        err = log_quat(quat_multiply(qs[-1], quat_inverse(q1_target)))
         return err, acc
 
     # initial guess from the mean composite inertia about the axis
@@ -622,7 +609,7 @@ def generate(design: Design, skeleton: Skeleton, body: BodyModel, fps: float = 1
     integration_error = float("nan")
     if check_integration:
         qs2, _, _, _, _ = fl.integrate(L0, dt_f / 2)
-        integration_error = float(np.linalg.norm(log_quat(_qmul(qs2[-1], _qinv(qs[-1])))))
+        integration_error = float(np.linalg.norm(log_quat(quat_multiply(qs2[-1], quat_inverse(qs[-1])))))
 
     # ---- flight frames
     times = np.arange(n_frames) / fps
@@ -819,7 +806,7 @@ def generate(design: Design, skeleton: Skeleton, body: BodyModel, fps: float = 1
     evidence = FlightEvidence(
         rotation_target_deg=math.degrees(theta_target), rotation_deg=math.degrees(acc),
         total_rotation_deg=math.degrees(total), landing_error_rad=float(np.linalg.norm(
-            log_quat(_qmul(qs[-1], _qinv(q1_target))))),
+            log_quat(quat_multiply(qs[-1], quat_inverse(q1_target))))),
         shooting_evaluations=evals[0], substep_dt=dt_f, n_steps=int(n_steps + (last > 0)),
         integration_error_rad=integration_error,
         takeoff={"v_root": v0, "w_root": w0, "heel_rate": float(x0[6]), "knee_rate": knee_rate0,
@@ -924,7 +911,7 @@ def _world_fk(skeleton, p, R, Rloc):
 
 def _accumulated_angle(q, axis) -> float:
     """Rotation about ``axis`` accumulated over a quaternion sequence (world increments)."""
-    d = _qmul(q[1:], _qinv(q[:-1]))
+    d = quat_multiply(q[1:], quat_inverse(q[:-1]))
     d = np.where(d[:, 3:4] < 0, -d, d)
     return float(np.sum(2.0 * np.arctan2(d[:, :3] @ axis, d[:, 3])))
 
@@ -932,6 +919,6 @@ def _accumulated_angle(q, axis) -> float:
 def _twist_angle(q_start, q_end, axis, approx: float) -> float:
     """Angle of the twist part (swing-twist about ``axis``) of ``q_end q_start^-1``,
     on the 2 pi branch nearest ``approx`` (an accumulated count of the turns)."""
-    d = _qmul(np.asarray(q_end, float), _qinv(np.asarray(q_start, float)))
+    d = quat_multiply(np.asarray(q_end, float), quat_inverse(np.asarray(q_start, float)))
     a = 2.0 * math.atan2(float(d[:3] @ axis), float(d[3]))
     return a + 2.0 * math.pi * round((approx - a) / (2.0 * math.pi))

@@ -13,6 +13,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from ..core.rotations import quat_matrix
+
 __all__ = ["exp_quat", "log_quat", "quat_to_matrix", "matrix_to_quat", "right_jacobian", "left_jacobian",
            "skew", "rot_x", "rot_y", "rot_z"]
 
@@ -43,17 +45,9 @@ def log_quat(q: np.ndarray) -> np.ndarray:
     return Rotation.from_quat(q.reshape(-1, 4)).as_rotvec().reshape(shape + (3,))
 
 
-def quat_to_matrix(q: np.ndarray) -> np.ndarray:
-    """``(..., 3, 3)`` rotation matrices of unit quaternions ``(..., 4)`` (scalar-last)."""
-    q = np.asarray(q, dtype=float)
-    x, y, z, w = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
-    xx, yy, zz = x * x, y * y, z * z
-    xy, xz, yz, wx, wy, wz = x * y, x * z, y * z, w * x, w * y, w * z
-    return np.stack([
-        np.stack([1 - 2 * (yy + zz), 2 * (xy - wz), 2 * (xz + wy)], -1),
-        np.stack([2 * (xy + wz), 1 - 2 * (xx + zz), 2 * (yz - wx)], -1),
-        np.stack([2 * (xz - wy), 2 * (yz + wx), 1 - 2 * (xx + yy)], -1),
-    ], -2)
+#: ``(..., 3, 3)`` rotation matrices of unit quaternions ``(..., 4)`` (scalar-last): core's
+#: :func:`~mocomp.core.rotations.quat_matrix`
+quat_to_matrix = quat_matrix
 
 
 def matrix_to_quat(R: np.ndarray) -> np.ndarray:

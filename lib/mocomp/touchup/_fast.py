@@ -4,7 +4,7 @@ On a 100-frame clip a forward kinematics pass in numpy (:func:`mocomp.core.kinem
 is ~1200 array calls over 20-30 joints and costs 1-1.5 ms, the arithmetic a few microseconds; the
 touch-up loop runs 3-4 of them per iteration (the motion for eq. 6-7, the feet and the support
 polygon, its Gaussian-smoothed copy for eq. 4, the results of the footplant steps). Here they run
-compiled (:func:`mocomp.edit._kernels.forward_kinematics`: the same operations in the same order,
+compiled (:func:`mocomp.core._compiled.forward_kinematics`: the same operations in the same order,
 bit-identical results) and fill the motion's FK cache, so that the callees that ask ``motion.fk()``
 (:func:`mocomp.ops.enforce_footplants`, :func:`mocomp.dynamics.com.center_of_mass`) find it done.
 
@@ -14,8 +14,6 @@ sets it to ``False``): every function then runs the numpy code it replaces, whic
 """
 from __future__ import annotations
 
-import os
-
 import numpy as np
 
 from ..audit.zmp import smooth_quaternions_fast
@@ -23,14 +21,14 @@ from ..core.kinematics import forward_kinematics
 from ..core.rotations import quat_apply
 from ..dynamics.derivatives import gaussian_smooth
 
-COMPILED = os.environ.get("MOCOMP_NO_NUMBA", "").strip() in ("", "0")
-if COMPILED:
-    try:
-        from ..edit._kernels import forward_kinematics as fk_nb, motion_fk
-    except Exception:                                   # pragma: no cover - numba missing or broken
-        COMPILED = False
+from ..core import _compiled as _core_compiled
+
+COMPILED = _core_compiled.AVAILABLE                     # the project's one numba switch (MOCOMP_NO_NUMBA)
 if COMPILED:
     import numba
+
+    from ..core._compiled import forward_kinematics as fk_nb
+    from ..core._compiled import qexp, qmul, qrot
 
 __all__ = ["COMPILED", "fk", "SegmentChains", "turn_sets", "gaussian_weights", "polygon_distance_and_target"]
 
@@ -46,9 +44,7 @@ def gaussian_weights(sigma: float, truncate: float = 4.0) -> np.ndarray:
 
 def fk(motion):
     """``motion.fk()``, compiled when :data:`COMPILED` (and then cached on ``motion``)."""
-    if COMPILED:
-        return motion_fk(motion)
-    return motion.fk()
+    return motion.fk()                                  # core's FK: compiled once numba is loaded
 
 
 if COMPILED:
@@ -144,19 +140,11 @@ if COMPILED:
         for f in range(T):
             for s in range(S):
                 j = seg[s]
-                ux = G[f, j, 0]
-                uy = G[f, j, 1]
-                uz = G[f, j, 2]
-                ww = G[f, j, 3]
-                vx = local_coms[s, 0]
-                vy = local_coms[s, 1]
-                vz = local_coms[s, 2]
-                tx = 2.0 * (uy * vz - uz * vy)
-                ty = 2.0 * (uz * vx - ux * vz)
-                tz = 2.0 * (ux * vy - uy * vx)
-                r[f, s, 0] = P[f, j, 0] + (vx + ww * tx + (uy * tz - uz * ty))
-                r[f, s, 1] = P[f, j, 1] + (vy + ww * ty + (uz * tx - ux * tz))
-                r[f, s, 2] = P[f, j, 2] + (vz + ww * tz + (ux * ty - uy * tx))
+                dx, dy, dz = qrot(G[f, j, 0], G[f, j, 1], G[f, j, 2], G[f, j, 3],
+                                  local_coms[s, 0], local_coms[s, 1], local_coms[s, 2])
+                r[f, s, 0] = P[f, j, 0] + dx
+                r[f, s, 1] = P[f, j, 1] + dy
+                r[f, s, 2] = P[f, j, 2] + dz
         v = np.empty_like(r)
         a = np.empty_like(r)
         _central(r, t, v)
@@ -346,28 +334,11 @@ if COMPILED:
         L = np.empty((T, J, 4))
         Gn = np.empty((J, 4))
         for t in range(T):
-            rx = rotvec[t, 0]
-            ry = rotvec[t, 1]
-            rz = rotvec[t, 2]
-            th = np.sqrt(rx * rx + ry * ry + rz * rz)
-            if th > 0.0:
-                s = np.sin(0.5 * th) / th
-            else:
-                s = 0.5
-            qx = rx * s
-            qy = ry * s
-            qz = rz * s
-            qw = np.cos(0.5 * th)
+            qx, qy, qz, qw = qexp(rotvec[t, 0], rotvec[t, 1], rotvec[t, 2])
             for j in range(J):
                 if comp[j] >= 0:
-                    bx = G[t, j, 0]
-                    by = G[t, j, 1]
-                    bz = G[t, j, 2]
-                    bw = G[t, j, 3]
-                    Gn[j, 0] = qw * bx + qx * bw + qy * bz - qz * by
-                    Gn[j, 1] = qw * by - qx * bz + qy * bw + qz * bx
-                    Gn[j, 2] = qw * bz + qx * by - qy * bx + qz * bw
-                    Gn[j, 3] = qw * bw - qx * bx - qy * by - qz * bz
+                    Gn[j, 0], Gn[j, 1], Gn[j, 2], Gn[j, 3] = qmul(qx, qy, qz, qw, G[t, j, 0], G[t, j, 1], G[t, j, 2],
+                                                                  G[t, j, 3])
                 else:
                     for k in range(4):
                         Gn[j, k] = G[t, j, k]
@@ -375,33 +346,19 @@ if COMPILED:
                 out_root[t, k] = P[t, root, k]
             if comp[root] >= 0:                          # the root turned about its component's centre
                 c = comp[root]
-                vx = P[t, root, 0] - C[t, c, 0]
-                vy = P[t, root, 1] - C[t, c, 1]
-                vz = P[t, root, 2] - C[t, c, 2]
-                tx = 2.0 * (qy * vz - qz * vy)
-                ty = 2.0 * (qz * vx - qx * vz)
-                tz = 2.0 * (qx * vy - qy * vx)
-                out_root[t, 0] = C[t, c, 0] + vx + qw * tx + (qy * tz - qz * ty)
-                out_root[t, 1] = C[t, c, 1] + vy + qw * ty + (qz * tx - qx * tz)
-                out_root[t, 2] = C[t, c, 2] + vz + qw * tz + (qx * ty - qy * tx)
+                dx, dy, dz = qrot(qx, qy, qz, qw, P[t, root, 0] - C[t, c, 0], P[t, root, 1] - C[t, c, 1],
+                                  P[t, root, 2] - C[t, c, 2])
+                out_root[t, 0] = C[t, c, 0] + dx
+                out_root[t, 1] = C[t, c, 1] + dy
+                out_root[t, 2] = C[t, c, 2] + dz
             for j in range(J):
                 p = parents[j]
                 if p < 0:
                     for k in range(4):
                         L[t, j, k] = Gn[j, k]
                     continue
-                ax = -Gn[p, 0]
-                ay = -Gn[p, 1]
-                az = -Gn[p, 2]
-                aw = Gn[p, 3]
-                bx = Gn[j, 0]
-                by = Gn[j, 1]
-                bz = Gn[j, 2]
-                bw = Gn[j, 3]
-                L[t, j, 0] = aw * bx + ax * bw + ay * bz - az * by
-                L[t, j, 1] = aw * by - ax * bz + ay * bw + az * bx
-                L[t, j, 2] = aw * bz + ax * by - ay * bx + az * bw
-                L[t, j, 3] = aw * bw - ax * bx - ay * by - az * bz
+                L[t, j, 0], L[t, j, 1], L[t, j, 2], L[t, j, 3] = qmul(-Gn[p, 0], -Gn[p, 1], -Gn[p, 2], Gn[p, 3],
+                                                                      Gn[j, 0], Gn[j, 1], Gn[j, 2], Gn[j, 3])
         return out_root, L
 
 
