@@ -39,7 +39,6 @@ import io
 import json
 import os
 import re
-import shutil
 import signal
 import socket
 import subprocess
@@ -48,45 +47,23 @@ import time
 from pathlib import Path
 
 import pytest
-
-IN_CI = os.environ.get("CI", "").lower() in ("1", "true", "yes")
-CHROMIUM = shutil.which("chromium") or ("/usr/bin/chromium" if os.path.exists("/usr/bin/chromium") else None)
+from _browser import chromium, need
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow, pytest.mark.timeout(420)]
 
 CONTACT = "Dr Test Researcher, test@uni.example"
-CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
-                 "--disable-background-networking", "--disable-component-update", "--disable-sync",
-                 "--no-first-run", "--autoplay-policy=no-user-gesture-required"]
 LEVELS = {("am_abrupt", "increase"): (25, 50), ("takeoff", "increase"): (20,)}
 DESIGN = {"n_repeats": 2, "n_attention": 1, "break_every": 4}
 
 
-def _need(what: str, ok: bool):
-    if ok:
-        return
-    if IN_CI:
-        pytest.fail(f"CI=true but {what} is missing (the browser test must run in CI)")
-    pytest.skip(f"{what} not available")
-
-
 @pytest.fixture(scope="module")
 def browser():
-    _need("Chromium (/usr/bin/chromium; apt-get install chromium)", CHROMIUM is not None)
-    try:
-        from playwright.sync_api import sync_playwright
-    except ImportError:
-        _need("the playwright Python package", False)
     try:
         import voila  # noqa: F401
     except ImportError:
-        _need("voila", False)
-    with sync_playwright() as p:
-        br = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS, timeout=60_000)
-        try:
-            yield br
-        finally:
-            br.close()
+        need("voila", False)
+    with chromium() as br:
+        yield br
 
 
 @pytest.fixture(scope="module")
