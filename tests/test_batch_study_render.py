@@ -5,11 +5,19 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+import imageio.v3 as iio
+import numpy as np
 import pandas as pd
 import pytest
 
 sys.path.insert(0, str(Path(__file__).parent))
 from test_study_render import _spec, toy_example  # noqa: E402,F401 - the fixture is used by name
+
+
+
+def _frames(path: Path) -> np.ndarray:
+    """Every frame of a video, or the one image of a poster/filmstrip, as a uint8 array."""
+    return np.asarray(iio.imread(path, index=None) if path.suffix == ".mp4" else iio.imread(path))
 
 
 @pytest.mark.slow
@@ -22,11 +30,15 @@ def test_stimuli_rendered_on_dask_workers_equal_those_rendered_in_process(tmp_pa
     local = render_stimulus_set(spec, tmp_path / "local", progress=False)
     dask = render_stimulus_set(spec, tmp_path / "dask", progress=False, workers=2)
     assert dask.rendered == local.rendered and len(dask.rendered) == 4
-    a, b = (r.manifest.drop(columns=["render_s"]) for r in (local, dask))
-    pd.testing.assert_frame_equal(a, b)  # same sha256 of every video, same measures
-    for col in ("poster", "filmstrip"):
+    # same stimuli, same measures (to a tolerance: a worker's BLAS threads may change the last bits),
+    # same pictures (pixels within 2 levels; encoded bytes and hashes are not compared)
+    a, b = (r.manifest.drop(columns=["render_s", "sha256"]) for r in (local, dask))
+    pd.testing.assert_frame_equal(a, b, check_exact=False, rtol=1e-9, atol=1e-12)
+    for col in ("file", "poster", "filmstrip"):
         for rel in a[col]:
-            assert (tmp_path / "local" / rel).read_bytes() == (tmp_path / "dask" / rel).read_bytes()
+            fa, fb = _frames(tmp_path / "local" / rel), _frames(tmp_path / "dask" / rel)
+            assert fa.shape == fb.shape, rel
+            assert np.abs(fa.astype(int) - fb.astype(int)).max() <= 2, rel
     # unchanged on the second run, whichever way it runs
     again = render_stimulus_set(spec, tmp_path / "dask", progress=False, workers=2)
     assert again.rendered == [] and len(again.skipped) == 4
