@@ -9,15 +9,11 @@ import pytest
 
 pytest.importorskip("mujoco")
 
+from _cli import exit_code  # noqa: E402
 from mocomp.cli import main  # noqa: E402
 from mocomp.io import read_bvh, write_bvh  # noqa: E402
 
 
-def _rc(argv) -> int:
-    try:
-        return main(argv)
-    except SystemExit as e:
-        return e.code
 
 
 @pytest.fixture(scope="module")
@@ -99,14 +95,14 @@ def test_same_seed_same_output(kicked, clips, cache, tmp_path):
 
 @pytest.mark.parametrize("facing", ["200", "-180.5", "nan"])
 def test_facing_outside_range_is_refused(facing, tmp_path, capsys):
-    rc = _rc(["impact", "--attacker", "a.bvh", "--victim", "v.bvh", "--facing", facing, "-o", str(tmp_path)])
+    rc = exit_code(["impact", "--attacker", "a.bvh", "--victim", "v.bvh", "--facing", facing, "-o", str(tmp_path)])
     assert rc == 2
     err = capsys.readouterr().err
     assert "mocomp impact: error: argument --facing" in err and ("180" in err or "finite" in err)
 
 
 def test_no_contact_says_closest_distance_and_when(clips, cache, tmp_path, capsys):
-    rc = _rc(["impact", "--attacker", clips["kick"], "--victim", clips["idle"], "--contact-body", "right_foot",
+    rc = exit_code(["impact", "--attacker", clips["kick"], "--victim", clips["idle"], "--contact-body", "right_foot",
               "--offset", "4,0", "--library", clips["library"], "--cache", cache, "-o", str(tmp_path / "o")])
     assert rc == 2
     err = capsys.readouterr().err
@@ -117,7 +113,7 @@ def test_no_contact_says_closest_distance_and_when(clips, cache, tmp_path, capsy
 def test_victim_on_the_ground_is_refused(clips, cache, tmp_path, capsys):
     low = tmp_path / "lying.bvh"
     write_bvh(read_bvh(clips["idle"], scale=1.0).translated([0, -0.45, 0]), low)
-    rc = _rc(["impact", "--attacker", clips["kick"], "--victim", str(low), "--contact-body", "right_foot",
+    rc = exit_code(["impact", "--attacker", clips["kick"], "--victim", str(low), "--contact-body", "right_foot",
               "--library", clips["library"], "--cache", cache, "-o", str(tmp_path / "o")])
     assert rc == 2
     assert "already on the ground" in capsys.readouterr().err
@@ -127,7 +123,7 @@ def test_library_without_a_usable_clip_is_refused(clips, cache, tmp_path, capsys
     lib = tmp_path / "lib"
     lib.mkdir()
     (lib / "broken.bvh").write_text("HIERARCHY\nROOT x\n{\n")
-    rc = _rc(["impact", "--attacker", clips["kick"], "--victim", clips["idle"], "--library", str(lib),
+    rc = exit_code(["impact", "--attacker", clips["kick"], "--victim", clips["idle"], "--library", str(lib),
               "--cache", cache, "-o", str(tmp_path / "o")])
     assert rc == 2
     err = capsys.readouterr().err
@@ -135,7 +131,7 @@ def test_library_without_a_usable_clip_is_refused(clips, cache, tmp_path, capsys
 
 
 def test_unknown_contact_body_is_named(clips, cache, tmp_path, capsys):
-    rc = _rc(["impact", "--attacker", clips["kick"], "--victim", clips["idle"], "--contact-body", "fist",
+    rc = exit_code(["impact", "--attacker", clips["kick"], "--victim", clips["idle"], "--contact-body", "fist",
               "--library", clips["library"], "--cache", cache, "-o", str(tmp_path / "o")])
     assert rc == 2
     assert "contact body 'fist'" in capsys.readouterr().err

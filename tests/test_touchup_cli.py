@@ -5,16 +5,12 @@ import json
 import numpy as np
 import pytest
 
+from _cli import exit_code
 from mocomp.cli import main
 from mocomp.io import read_bvh, write_bvh
 from mocomp.ops.synthetic import synthetic_walk
 
 
-def _rc(argv) -> int:
-    try:
-        return main(argv)
-    except SystemExit as e:
-        return e.code
 
 
 @pytest.fixture(scope="module")
@@ -56,7 +52,7 @@ def test_cli_masses_file(walk_file, tmp_path, capsys):
     bad = dict(json.loads(mf.read_text()))
     bad.pop("head")
     mf.write_text(json.dumps(bad))
-    assert _rc(["touchup", str(walk_file), "-o", str(tmp_path / "o.bvh"), "--masses", str(mf)]) == 2
+    assert exit_code(["touchup", str(walk_file), "-o", str(tmp_path / "o.bvh"), "--masses", str(mf)]) == 2
     assert "missing segment(s) head" in capsys.readouterr().err
 
 
@@ -79,7 +75,7 @@ def test_cli_polygon_and_cap(walk_file, tmp_path, capsys):
     (["--contacts", "nope.csv"], "contact file nope.csv does not exist"),
 ])
 def test_cli_errors(walk_file, tmp_path, capsys, args, msg):
-    assert _rc(["touchup", str(walk_file), "-o", str(tmp_path / "o.bvh")] + args) == 2
+    assert exit_code(["touchup", str(walk_file), "-o", str(tmp_path / "o.bvh")] + args) == 2
     err = capsys.readouterr().err
     assert err.startswith("mocomp touchup: error:") and msg in err
 
@@ -87,11 +83,11 @@ def test_cli_errors(walk_file, tmp_path, capsys, args, msg):
 def test_cli_bad_schedule_field_and_contradicting_contacts(walk_file, tmp_path, capsys):
     s = tmp_path / "s.toml"
     s.write_text('[[step]]\nstage = "ground"\ns2 = "upper"\nsigma = -4\n')
-    assert _rc(["touchup", str(walk_file), "-o", str(tmp_path / "o.bvh"), "--schedule", str(s)]) == 2
+    assert exit_code(["touchup", str(walk_file), "-o", str(tmp_path / "o.bvh"), "--schedule", str(s)]) == 2
     assert "step 1: sigma must be 0 or more frames" in capsys.readouterr().err
     c = tmp_path / "c.csv"
     c.write_text("joint,start,stop\nfoot_l,0,91\n")
-    assert _rc(["touchup", str(walk_file), "-o", str(tmp_path / "o.bvh"), "--contacts", str(c)]) == 2
+    assert exit_code(["touchup", str(walk_file), "-o", str(tmp_path / "o.bvh"), "--contacts", str(c)]) == 2
     assert "foot_l is labelled planted on frames 0-90 but moves" in capsys.readouterr().err
 
 
