@@ -16,6 +16,8 @@ Everything in :mod:`mocomp` that runs compiled goes through this module:
   ``(x, y, z, w)`` passed as four floats and returned as tuples.
 * :func:`fk_pose` / :func:`forward_kinematics` -- forward kinematics of one frame / of a clip,
   the compiled backend of :func:`mocomp.core.kinematics.forward_kinematics`.
+* :func:`angular_velocity` -- angular velocities from sampled orientations, the compiled backend
+  of :func:`mocomp.core.kinematics.angular_velocity` (order 2).
 
 Importing this module imports numba (~0.3 s); :mod:`mocomp.core` imports it lazily, on the first
 forward kinematics, so ``import mocomp`` does not pay for it. Compiled code is cached on disk
@@ -29,7 +31,7 @@ import os
 import numpy as np
 
 __all__ = ["AVAILABLE", "DISABLED", "njit", "qmul", "qrot", "qangle", "qlog", "qexp", "qpow", "qmat", "slerp4", "qdelta", "centroid", "world_inertia", "spin", "fk_pose",
-           "forward_kinematics"]
+           "forward_kinematics", "angular_velocity"]
 
 #: numba switched off by the environment (``MOCOMP_NO_NUMBA=1``): the numpy reference runs everywhere
 DISABLED = os.environ.get("MOCOMP_NO_NUMBA", "").strip() not in ("", "0")
@@ -177,7 +179,7 @@ def qdelta(Q, a, b, s):
     """``Log(Q[b, s] Q[a, s]^-1)``: the world rotation vector taking orientation ``a`` of segment
     (or joint) ``s`` to orientation ``b`` (``Q (T, S, 4)``), the short way; a finite-difference
     angular velocity is this over the time between them (as
-    :func:`mocomp.dynamics.derivatives.angular_velocity`)."""
+    :func:`mocomp.core.kinematics.angular_velocity`)."""
     x, y, z, w = qmul(Q[b, s, 0], Q[b, s, 1], Q[b, s, 2], Q[b, s, 3], -Q[a, s, 0], -Q[a, s, 1], -Q[a, s, 2], Q[a, s, 3])
     return qlog(x, y, z, w)
 
@@ -260,3 +262,39 @@ def forward_kinematics(parents, offsets, root_positions, rotations):
         fk_pose(parents, offsets, rotations, f, root_positions[f, 0], root_positions[f, 1], root_positions[f, 2],
                 G[f], P[f])
     return P, G
+
+
+
+# ------------------------------------------------------------------ velocities
+@njit
+def angular_velocity(q, t, body):
+    """``(T, K, 3)`` angular velocities of orientations ``q (T, K, 4)`` at times ``t (T,)``: the
+    order-2 formula of :func:`mocomp.core.kinematics.angular_velocity` (one-sided steps at the ends,
+    the non-uniform central blend ``(h1 r_{i,i+1}/h2 + h2 r_{i-1,i}/h1) / (h1 + h2)`` inside), with
+    ``r = Log(q_b q_a^-1)`` (world axes) or ``Log(q_a^-1 q_b)`` (``body``: the earlier orientation's
+    own axes), in numpy's order of operations."""
+    T, K = q.shape[0], q.shape[1]
+    out = np.empty((T, K, 3))
+    prev = np.empty(3)
+    for k in range(K):
+        for i in range(T - 1):
+            ax, ay, az, aw = q[i, k, 0], q[i, k, 1], q[i, k, 2], q[i, k, 3]
+            bx, by, bz, bw = q[i + 1, k, 0], q[i + 1, k, 1], q[i + 1, k, 2], q[i + 1, k, 3]
+            if body:
+                x, y, z, w = qmul(-ax, -ay, -az, aw, bx, by, bz, bw)
+            else:
+                x, y, z, w = qmul(bx, by, bz, bw, -ax, -ay, -az, aw)
+            r0, r1, r2 = qlog(x, y, z, w)
+            h2 = t[i + 1] - t[i]
+            s0, s1, s2 = r0 / h2, r1 / h2, r2 / h2
+            if i == 0:
+                out[0, k, 0], out[0, k, 1], out[0, k, 2] = s0, s1, s2
+            else:
+                h1 = t[i] - t[i - 1]
+                hs = h1 + h2
+                out[i, k, 0] = (h1 * s0 + h2 * prev[0]) / hs
+                out[i, k, 1] = (h1 * s1 + h2 * prev[1]) / hs
+                out[i, k, 2] = (h1 * s2 + h2 * prev[2]) / hs
+            prev[0], prev[1], prev[2] = s0, s1, s2
+        out[T - 1, k, 0], out[T - 1, k, 1], out[T - 1, k, 2] = prev[0], prev[1], prev[2]
+    return out

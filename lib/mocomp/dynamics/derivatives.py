@@ -4,14 +4,18 @@ The papers differentiate capture data numerically and smooth first (the touch-up
 paper: "a gaussian filter of width 5 ... and then used finite differences").
 Here derivatives are second-order central differences on the given frame times
 (non-uniform spacing allowed, :func:`numpy.gradient`), one-sided at the ends.
+Angular velocities of orientations are :func:`mocomp.core.kinematics.angular_velocity`
+(re-exported here as ``angular_velocity``).
 """
 from __future__ import annotations
 
 import numpy as np
 from scipy.ndimage import gaussian_filter1d
-from scipy.spatial.transform import Rotation
 
-from ..core.rotations import make_continuous, quat_inverse, quat_multiply
+# frame-time validation and angular velocities are core's (one implementation for every package);
+# re-exported here, where they have always been importable from
+from ..core.kinematics import _uniform_step, angular_velocity, frame_times
+from ..core.rotations import make_continuous
 
 __all__ = [
     "central_difference",
@@ -22,28 +26,6 @@ __all__ = [
     "smooth_motion",
     "frame_times",
 ]
-
-
-def frame_times(times, n: int) -> np.ndarray:
-    """Validate ``times`` ``(n,)`` strictly increasing (or a scalar frame rate, fps) -> ``(n,)`` seconds."""
-    t = np.asarray(times, dtype=float)
-    if t.ndim == 0:
-        if not (np.isfinite(t) and t > 0):
-            raise ValueError(f"a scalar 'times' is a frame rate and must be positive, got {times!r}")
-        return np.arange(n) / float(t)
-    if t.shape != (n,):
-        raise ValueError(f"times must have shape ({n},), got {t.shape}")
-    if n > 1 and not np.all(np.diff(t) > 0):
-        k = int(np.argmin(np.diff(t)))
-        raise ValueError(f"frame times must increase strictly; times[{k}]={t[k]!r} >= times[{k + 1}]={t[k + 1]!r}")
-    return t
-
-
-def _uniform_step(t: np.ndarray) -> float:
-    h = np.diff(t)
-    if not np.allclose(h, h[0], rtol=1e-9, atol=0):
-        raise ValueError("order=4 differences need uniformly spaced frame times")
-    return float(h[0])
 
 
 def central_difference(x, times, edge_order: int = 1, order: int = 2) -> np.ndarray:
@@ -79,53 +61,6 @@ def second_difference(x, times, edge_order: int = 1) -> np.ndarray:
     """``d^2 x / d t^2`` along axis 0 (central difference of the central difference;
     for uniform spacing ``(x_{i+2} - 2 x_i + x_{i-2}) / 4h^2`` in the interior)."""
     return central_difference(central_difference(x, times, edge_order), times, edge_order)
-
-
-def _rotvec_between(q_from, q_to) -> np.ndarray:
-    """World-frame rotation vector of ``q_to * q_from^-1`` (..., 3)."""
-    d = quat_multiply(q_to, quat_inverse(q_from))
-    shape = d.shape[:-1]
-    return Rotation.from_quat(d.reshape(-1, 4)).as_rotvec().reshape(shape + (3,))
-
-
-def angular_velocity(quats, times, order: int = 2) -> np.ndarray:
-    """World-frame angular velocity ``(T, ..., 3)`` rad/s of orientations ``quats`` ``(T, ..., 4)``.
-
-    ``quats`` map body to world (scipy scalar-last). Interior frames blend the
-    backward and forward rotation vectors with the weights of the non-uniform
-    central difference::
-
-        w_i = h1/(h1+h2) * log(q_{i+1} q_i^-1)/h2 + h2/(h1+h2) * log(q_i q_{i-1}^-1)/h1
-
-    which is exact for a constant angular velocity and second-order accurate
-    otherwise; the ends use the one-sided rotation vector. ``order=4`` (uniform
-    spacing) replaces frames 2..T-3 by the Richardson combination of the central
-    rotation vectors over 2h and 4h, ``(8 log(q_{i+1} q_{i-1}^-1) - log(q_{i+2} q_{i-2}^-1)) / 12h``
-    (also exact for a constant rate). Sign flips of the quaternions do not matter
-    (the rotation vector takes the short way).
-    """
-    q = np.asarray(quats, dtype=float)
-    T = q.shape[0]
-    t = frame_times(times, T)
-    if T < 2:
-        raise ValueError("an angular velocity needs at least 2 frames")
-    if order not in (2, 4):
-        raise ValueError(f"order must be 2 or 4, got {order!r}")
-    h = np.diff(t).reshape((-1,) + (1,) * (q.ndim - 1))
-    step = _rotvec_between(q[:-1], q[1:]) / h  # (T-1, ..., 3): rate over [t_i, t_{i+1}]
-    out = np.empty(q.shape[:-1] + (3,))
-    out[0] = step[0]
-    out[-1] = step[-1]
-    if T > 2:
-        h1 = h[:-1]
-        h2 = h[1:]
-        out[1:-1] = (h1 * step[1:] + h2 * step[:-1]) / (h1 + h2)
-    if order == 4 and T >= 5:
-        hu = _uniform_step(t)
-        r1 = _rotvec_between(q[1:-3], q[3:-1])
-        r2 = _rotvec_between(q[:-4], q[4:])
-        out[2:-2] = (8 * r1 - r2) / (12 * hu)
-    return out
 
 
 def gaussian_smooth(x, sigma: float, axis: int = 0) -> np.ndarray:

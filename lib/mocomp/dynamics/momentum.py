@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.kinematics import point_velocities, propagate_velocities, world_angular_velocities
 from ..core.rotations import quat_apply, quat_inverse
 from ..errors import MotionFormatError
 from .com import check_compatible
@@ -96,9 +97,9 @@ class MotionVelocities:
         """``(T, J, 3)`` rad/s world angular velocity of every joint frame of ``motion``."""
         self.check_fits(motion)
         _, G = motion.fk()
-        wl = quat_apply(G, self.joint_angular_velocities)
         # w_j = w_root + sum of G_k w_k over the joints k on the path root -> j (k != root)
-        return self.root_angular_velocity[:, None] + (_path_matrix(motion.skeleton) @ wl)
+        return world_angular_velocities(motion.skeleton.parents, G, self.root_angular_velocity,
+                                        self.joint_angular_velocities)
 
 
 @dataclass(frozen=True, eq=False)
@@ -169,37 +170,20 @@ def world_inertias(body, rotations) -> np.ndarray:
     return np.einsum("tsij,sjk,tslk->tsil", R, body.inertias, R, optimize=True)
 
 
-def _path_matrix(skeleton) -> np.ndarray:
-    """``(J, J)`` 0/1: ``A[j, k] = 1`` when joint ``k != 0`` lies on the path from the root to
-    ``j`` (``j`` included), so a quantity summed along the tree is one matrix product."""
-    par = skeleton.parents
-    J = skeleton.n_joints
-    A = np.zeros((J, J))
-    for j in range(1, J):
-        A[j] = A[par[j]]
-        A[j, j] = 1.0
-    return A
-
-
 def joint_velocities(motion, omega_joints=None, order: int = 2, root_velocity=None):
     """Rigid-body velocities of every joint origin ``(T, J, 3)`` and world angular velocities ``(T, J, 3)``.
 
     The root's linear velocity is ``root_velocity`` or else the central difference
     of its positions; angular velocities are ``omega_joints`` (world) or else
-    :func:`angular_velocity` of the global joint rotations; child origins follow
-    ``v_j = v_parent + w_parent x (P_j - P_parent)``.
+    :func:`~mocomp.core.kinematics.angular_velocity` of the global joint rotations; child
+    origins follow ``v_j = v_parent + w_parent x (P_j - P_parent)``
+    (:func:`~mocomp.core.kinematics.propagate_velocities`).
     """
     P, G = motion.fk()
     t = motion.times
     w = angular_velocity(G, t, order=order) if omega_joints is None else omega_joints
     v0 = central_difference(motion.root_positions, t, order=order) if root_velocity is None else root_velocity
-    par = np.asarray(motion.skeleton.parents).copy()
-    par[0] = 0
-    # v_j = v_parent + w_parent x (P_j - P_parent), summed along the path root -> j at once
-    step = np.cross(w[:, par], P - P[:, par])
-    step[:, 0] = 0.0
-    v = np.asarray(v0)[:, None] + (_path_matrix(motion.skeleton) @ step)
-    return v, w
+    return propagate_velocities(motion.skeleton.parents, P, w, v0), w
 
 
 def momentum(body, motion, smooth_sigma: float | None = None, velocity="finite_difference",
@@ -259,7 +243,7 @@ def momentum(body, motion, smooth_sigma: float | None = None, velocity="finite_d
     else:
         vj, wj = joint_velocities(m_in, order=order)
         omega = wj[:, j]
-        vel = vj[:, j] + np.cross(omega, pos - P[:, j])
+        vel = point_velocities(vj[:, j], omega, P[:, j], pos)
     return assemble_momentum(body, t, pos, rot, vel, omega, smooth_sigma=smooth_sigma, velocity_mode=velocity,
                              order=order)
 
@@ -275,7 +259,7 @@ def _momentum_given_numpy(body, motion, velocity: MotionVelocities) -> MomentumR
     vj, wj = joint_velocities(motion, omega_joints=velocity.world_angular_velocities(motion),
                               root_velocity=velocity.root_velocity)
     omega = wj[:, j]
-    vel = vj[:, j] + np.cross(omega, pos - P[:, j])
+    vel = point_velocities(vj[:, j], omega, P[:, j], pos)
     return _assemble_numpy(body, motion.times, pos, rot, vel, omega, velocity_mode="given")
 
 
