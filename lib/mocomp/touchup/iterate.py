@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.rotations import quat_apply, quat_exp, quat_multiply
 from ..dynamics.com import center_of_mass
 from ..dynamics.momentum import momentum
 from ..dynamics.constants import G_STANDARD
@@ -26,7 +27,7 @@ from .schedule import schedule_from_spec
 from .stages import Stages, stages
 from .zmp import DEFAULT_SMOOTH_SIGMA, floor_levels, zmp_state
 
-__all__ = ["TouchupResult", "touchup", "NEIGHBOURHOOD_S", "ground_weights", "lift_feet", "resting_levels"]
+__all__ = ["TouchupResult", "touchup", "NEIGHBOURHOOD_S", "MIN_FLIGHT_S", "ground_weights", "lift_feet", "resting_levels"]
 
 #: s: ground frames this close to a flight are adjusted with it (the paper's 15 frames, 1/2 s)
 NEIGHBOURHOOD_S = 0.5
@@ -38,6 +39,10 @@ MIN_RAMP_S = 0.1
 #: ground frames either side of its 34-frame flight had no ground frame adjusted at all (CMU 01_01
 #: path-edited onto an arc: mean ZMP outside 11.1 -> 14.4 cm from the flight steps alone; 9.4 cm now)
 GROUND_FRAMES_MIN_WEIGHT = 0.5
+#: s: the Gaussian standard deviation (one frame at 30 fps) that eases :func:`lift_feet`'s lowering of touching points in and out
+HOLD_SMOOTH_S = 1.0 / 30.0
+#: s: flights shorter than this stay in the ground maps (:func:`ground_weights`; 3 frames at 30 fps)
+MIN_FLIGHT_S = 0.1
 
 
 @dataclass(frozen=True, eq=False)
@@ -76,7 +81,7 @@ def _variation(L: np.ndarray) -> float:
     return float((L.max() - L.min()) / max(L.mean(), 1e-9))
 
 
-def ground_weights(n_frames: int, flights, neighbourhood: int, min_ramp: int = 0) -> np.ndarray:
+def ground_weights(n_frames: int, flights, neighbourhood: int, min_ramp: int = 0, min_flight: int = 0) -> np.ndarray:
     """``(T,)``: the weight of the ground maps per frame (:func:`mocomp.ops.apply_hierarchy`'s
     ``weights``). 0 on a flight and on the frame either side; easing to 1 over the flight's
     neighbourhood (Fig. 4: those ground frames are the flight steps', their take-off push and
@@ -87,9 +92,17 @@ def ground_weights(n_frames: int, flights, neighbourhood: int, min_ramp: int = 0
     ramp is at least ``min_ramp`` frames (touch-up: :data:`MIN_RAMP_S`): cut to a 1-2 frame
     flight's length, the ground maps' weight stepped from 0 to 1 within two frames and the written
     blend's COM velocity jumped 1.8 and 6.1 m/s at the run's take-offs (audit violations the input
-    does not have); with 3 frames (0.1 s at 30 fps) there is none."""
+    does not have); with 3 frames (0.1 s at 30 fps) there is none. Flights shorter than
+    ``min_flight`` frames (touch-up: :data:`MIN_FLIGHT_S`) are not taken out at all: the ground maps
+    (kernels 1/3 s and wider) run smoothly through a run's 1-2 frame flights, whose parabola is
+    then made by the flight steps; faded to 0 and back over 0.1 s around each of them, the
+    blend's lean was switched off and on at every stride, and the angular accelerations that makes
+    put the read-back ZMP 20-290 cm outside next to the flights (walk -> run blend: mean outside
+    8.1 -> 5.1 cm faded, 1.7 cm not)."""
     w = np.ones(n_frames)
     for a, b in flights:
+        if b - a < min_flight:
+            continue
         w[a:b] = 0.0
         n = min(int(neighbourhood), max(b - a, int(min_ramp)))
         for i in range(1, n + 1):                  # the frame next to a flight stays 0 too
@@ -116,30 +129,61 @@ def lift_feet(motion, plants, reference_points: np.ndarray, touching: np.ndarray
     (:func:`mocomp.ops.two_bone_ik`, the foot's orientation kept) on the frames where one of its
     foot points has been pushed down -- below its height in the input (``reference_points``
     ``(T, 4, 3)``) where it touches the ground there (``touching`` ``(T, 4)``), below its resting
-    level elsewhere. The planted points are held by :func:`mocomp.ops.enforce_footplants`; a
+    level elsewhere -- and lowered where a touching point has risen above its input height (a leg
+    with a touching point is held at the input's height; the lifting of a free point below its
+    resting level wins). The planted points are held by :func:`mocomp.ops.enforce_footplants`; a
     touching point that is not planted (a heel rolling in, a foot sliding through a blend window)
     is not, and a lean of the whole body about the ZMP's projection (the lower body in S2) swings
     it through the floor: on the walk -> run blend, 10 cm after the first step's 5 iterations.
     ``rest``: :func:`resting_levels` when the caller has it (fixed for a touch-up run)."""
+    from ..dynamics.derivatives import gaussian_smooth
     from ..ops import two_bone_ik
 
     P, G = fk(motion)
     pts = foot_points(P, G, plants)
     rest = resting_levels(plants, reference_points) if rest is None else rest
-    floor = np.where(touching, reference_points[..., 1], np.minimum(rest[None], reference_points[..., 1]))
-    deficit = np.clip(floor - pts[..., 1], 0.0, None)              # (T, 4) m
+    touching = np.asarray(touching, bool)
+    free = np.minimum(rest[None], reference_points[..., 1]) - pts[..., 1]
+    # a touching point is held at its input height both ways (pulled down as well as up: the support
+    # polygon touch-up balanced is the input's contact region, and a lean that swings the trailing
+    # toe 2 cm up takes it out of the written motion's polygon -- on the walk -> run blend the
+    # read-back ZMP was then 18-31 cm outside on frames touch-up had put inside); a free point only
+    # pushed down is raised
+    held = np.where(touching, reference_points[..., 1] - pts[..., 1], -np.inf)
+    up = np.where(free > 0, free, -np.inf)
     rot = None
     lifted = {}
     for leg in plants.legs:
         ks = [plants.effectors.index(e) for e in (f"foot_{leg.side}", f"toe_{leg.side}")]
-        dy = deficit[:, ks].max(axis=1)
-        f = np.flatnonzero(dy > tol)
+        dh, du = held[:, ks].max(axis=1), up[:, ks].max(axis=1)    # (T,) m; -inf: nothing to hold
+        # the lowering eased in and out (Gaussian, HOLD_SMOOTH_S): a leg pulled down on the frames a
+        # point touches and let go on the next jumped the written COM's velocity by 0.7 m/s
+        down = gaussian_smooth(np.where(np.isfinite(dh), np.minimum(dh, 0.0), 0.0), HOLD_SMOOTH_S * motion.fps)
+        dy = np.maximum(np.maximum(down, np.where(dh > 0, dh, -np.inf)), du)
+        dy = np.where(np.isfinite(dy), dy, down)
+        # both points touching: the ankle point to its input height and the foot pitched about it
+        # so that the toe is at its input height too (a lean turns the foot with the lower body:
+        # heel down, toe up, and the toe left the written motion's contact region)
+        both = touching[:, ks].all(axis=1)
+        dy = np.where(both, held[:, ks[0]], dy)
+        need = np.where(both, held[:, ks[1]] - dy, 0.0)            # the toe's height still to go
+        f = np.flatnonzero((np.abs(dy) > tol) | (np.abs(need) > tol))
         if not f.size:
             continue
         rot = np.array(motion.rotations) if rot is None else rot
         a = leg.chain[2]
-        tgt = P[f, a] + np.column_stack([np.zeros(f.size), dy[f], np.zeros(f.size)])
-        r, _ = two_bone_ik(P[f], G[f], rot[f], motion.skeleton.parents, leg.chain, tgt)
+        A = pts[f, ks[0]]
+        v = pts[f, ks[1]] - A                                       # ankle point -> toe tip
+        h = np.linalg.norm(v[:, [0, 2]], axis=1)
+        n = np.linalg.norm(v, axis=1)
+        beta = np.arctan2(v[:, 1], h)
+        phi = np.arcsin(np.clip((v[:, 1] + need[f]) / np.maximum(n, 1e-9), -1.0, 1.0)) - beta
+        axis = np.column_stack([-v[:, 2], np.zeros(f.size), v[:, 0]]) / np.maximum(h, 1e-9)[:, None]
+        q = quat_exp(axis * phi[:, None])                           # v_h x up: pitch up for phi > 0
+        end = quat_multiply(q, G[f, a])
+        A_new = A + np.column_stack([np.zeros(f.size), dy[f], np.zeros(f.size)])
+        tgt = A_new - quat_apply(q, A - P[f, a])                    # the ankle joint under the turned foot
+        r, _ = two_bone_ik(P[f], G[f], rot[f], motion.skeleton.parents, leg.chain, tgt, end_rotation=end)
         rot[f] = r
         lifted[leg.side] = f.tolist()
     if rot is None:
@@ -195,7 +239,7 @@ def touchup(motion, body=None, schedule=None, *, contacts=None, iterations: int 
     flights = st.flight_runs
     T = motion.n_frames
 
-    ground_w = ground_weights(T, flights, nb, int(round(MIN_RAMP_S * motion.fps)))
+    ground_w = ground_weights(T, flights, nb, int(round(MIN_RAMP_S * motion.fps)), int(round(MIN_FLIGHT_S * motion.fps)))
     in_air = np.zeros(T)
     for a, b in flights:                           # with the frame either side (a detector one frame off)
         in_air[max(a - 1, 0):b + 1] = 1.0
