@@ -110,7 +110,8 @@ class ComAudit:
     noise: m/s, ``1.4826 median |jump|``.
     total_mass: kg (momentum jump = ``total_mass x jump``).
     events: take-off and landing jumps (:class:`EventJump`), in time order.
-    max_jump, max_frame: largest jump outside landing windows and its frame (``None`` if none).
+    max_jump, max_frame: largest jump outside landing windows (and outside declared external-force
+        frames with their fit window) and its frame (``None`` if none).
     """
 
     window: int
@@ -127,7 +128,12 @@ class ComAudit:
     max_frame: int | None
 
 
-def com_audit(com: np.ndarray, fps: float, total_mass: float, phases, thresholds) -> tuple[ComAudit, list]:
+def com_audit(com: np.ndarray, fps: float, total_mass: float, phases, thresholds,
+              forced: np.ndarray | None = None) -> tuple[ComAudit, list]:
+    """The COM velocity jumps (module docstring) and their findings. ``forced``: ``(T,)`` bool, frames
+    under a declared external force (:mod:`mocomp.audit.force`); jumps within the fit window of them
+    are left out of ``max_jump`` and of the take-off / landing events (their findings are marked
+    expected by :func:`mocomp.audit.audit`)."""
     T = com.shape[0]
     w = thresholds.jump_frames(fps)
     jump, vl, vr = velocity_jumps(com, fps, w)
@@ -143,13 +149,18 @@ def com_audit(com: np.ndarray, fps: float, total_mass: float, phases, thresholds
         if b is not None:
             near_landing[max(0, b - ew - w):min(T, b + ew + w + 1)] = True
     thr[near_landing] = land_thr
+    free = ok.copy()
+    if forced is not None and forced.any():
+        from .force import dilate
+
+        free &= ~dilate(forced, w)
     events = []
     for k, ((a, b), ta, lb) in enumerate(zip(phases.flights, phases.takeoffs, phases.landings)):
         for kind, f in (("take-off", ta), ("landing", lb)):
             if f is None:
                 continue
             lo, hi = max(0, f - ew - w), min(T, f + ew + w + 1)
-            seg = np.where(ok[lo:hi], mag[lo:hi], -1.0)
+            seg = np.where(free[lo:hi], mag[lo:hi], -1.0)
             if seg.max() < 0:
                 events.append(EventJump(kind, k, int(f), None, float("nan"), float("nan"), float("nan"),
                                         float("nan"), float(thr[f])))
@@ -158,7 +169,7 @@ def com_audit(com: np.ndarray, fps: float, total_mass: float, phases, thresholds
             events.append(EventJump(kind, k, int(f), i, float(mag[i]), float(total_mass * mag[i]), float(vl[i, 1]),
                                     float(vr[i, 1]), float(thr[i])))
     events.sort(key=lambda e: e.event_frame)
-    away = ok & ~near_landing
+    away = free & ~near_landing
     if away.any():
         mf = int(np.flatnonzero(away)[np.argmax(mag[away])])
         mj = float(mag[mf])

@@ -9,7 +9,7 @@ from ..dynamics.contacts import label_intervals
 
 __all__ = ["Finding", "runs_above"]
 
-SEVERITIES = ("violation", "advisory")
+SEVERITIES = ("violation", "advisory", "expected")
 
 
 @dataclass(frozen=True)
@@ -21,9 +21,11 @@ class Finding:
     check: what was measured: ``"floor_penetration"``, ``"foot_slide"``, ``"hand_slide"``,
         ``"com_velocity_jump"``, ``"gravity"``, ``"L_direction"``, ``"L_magnitude"``,
         ``"zmp_outside"``, ``"bone_length"``, ``"joint_speed"``, ``"root_speed"``,
-        ``"point_speed"``.
-    severity: ``"violation"`` (the motion breaks physics or kinematic sanity) or
-        ``"advisory"`` (a model-dependent measure: ZMP, hand slide).
+        ``"point_speed"``, ``"pose_jump"`` (against the input).
+    severity: ``"violation"`` (the motion breaks physics or kinematic sanity),
+        ``"advisory"`` (a model-dependent measure: ZMP, hand slide) or ``"expected"`` (it lies
+        in frames the caller declared under an external force, :mod:`mocomp.audit.force`:
+        expected there, not judged; neither a violation nor an advisory).
     frames: half-open ``(start, stop)`` motion frame range the finding covers.
     peak_frame: the frame of the largest value.
     size: the largest value, in ``unit``.
@@ -54,6 +56,10 @@ class Finding:
     @property
     def is_violation(self) -> bool:
         return self.severity == "violation"
+
+    @property
+    def is_expected(self) -> bool:
+        return self.severity == "expected"
 
     def frames_text(self) -> str:
         a, b = self.frames

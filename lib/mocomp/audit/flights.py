@@ -21,6 +21,13 @@ magnitude of L): *direction spread*, the largest angle between ``L(t)`` and the
 mean ``L`` over the flight, and *magnitude variation*, the largest
 ``| |L(t)| - mean |L| | / mean |L|``. Neither is judged when ``mean |L|`` is
 below ``L_min`` (a straight jump has no meaningful L direction).
+
+**Kinds of airborne run.** ``"free"``: judged on all its frames. ``"spurious"``: shorter than
+``min_airborne_frames`` frames or ``min_airborne_time`` (a contact-detector flicker; see
+:class:`~mocomp.audit.AuditThresholds`): listed, never measured, never paired in comparisons.
+``"forced"``: some of its frames lie under a declared external force (:mod:`mocomp.audit.force`):
+the fit and the L measures use only its longest free part (``judged_frames``), or none when that is
+shorter than ``min_flight_frames``.
 """
 from __future__ import annotations
 
@@ -30,6 +37,7 @@ from functools import lru_cache
 import numpy as np
 from scipy import stats
 
+from ..dynamics.contacts import label_intervals
 from ..dynamics.derivatives import angular_velocity, central_difference
 from ..dynamics.momentum import assemble_momentum, momentum
 from .findings import Finding
@@ -118,6 +126,11 @@ class FlightAudit:
     L_mean: ``(3,)`` kg m^2/s; L_direction: rad; L_magnitude: relative; L_abs: mean |L|.
     L_judged: mean |L| >= ``L_min``.
     horizontal_rms: m, RMS residual of the linear fits of x and z.
+    kind: ``"free"``, ``"forced"`` (some frames under a declared external force) or ``"spurious"``
+        (too short to be a flight; see the module docstring).
+    forced_frames: how many of its frames are under the declared external force.
+    judged_frames: half-open ``(start, stop)`` the fit and L measures were taken on (``frames`` for a
+        free flight, the longest free part of a forced one), ``None`` when not measured.
     """
 
     index: int
@@ -134,6 +147,14 @@ class FlightAudit:
     L_abs: float
     L_judged: bool
     horizontal_rms: float
+    kind: str = "free"
+    forced_frames: int = 0
+    judged_frames: tuple[int, int] | None = None
+
+    @property
+    def is_flight(self) -> bool:
+        """Not spurious: a flight for the ballistic / L measures and for pairing in comparisons."""
+        return self.kind != "spurious"
 
     def to_dict(self) -> dict:
         f = self.fit
@@ -148,6 +169,8 @@ class FlightAudit:
             "L_mean": None if self.L_mean is None else [float(v) for v in self.L_mean],
             "L_direction_rad": self.L_direction, "L_magnitude_rel": self.L_magnitude, "L_abs_mean": self.L_abs,
             "L_judged": self.L_judged, "horizontal_rms_m": self.horizontal_rms,
+            "kind": self.kind, "forced_frames": self.forced_frames,
+            "judged_frames": None if self.judged_frames is None else list(self.judged_frames),
         }
 
 
@@ -161,59 +184,77 @@ def flight_L(body, times, seg_pos, seg_rot) -> np.ndarray:
 
 
 def flight_audits(body, motion, com: np.ndarray, phases, thresholds, seg_pos=None,
-                  seg_rot=None) -> tuple[tuple[FlightAudit, ...], list]:
+                  seg_rot=None, forced: np.ndarray | None = None) -> tuple[tuple[FlightAudit, ...], list]:
+    """Per airborne run of ``phases.flights``, a :class:`FlightAudit`, and the gravity / L findings.
+    ``forced``: ``(T,)`` bool, frames under a declared external force (see the module docstring)."""
     t = motion.times
     out, findings = [], []
     nan = float("nan")
     for k, (a, b) in enumerate(phases.flights):
         n = b - a
-        if n < thresholds.min_flight_frames:
+        nf = int(forced[a:b].sum()) if forced is not None else 0
+        if thresholds.spurious_flight(n, motion.fps):
+            kind, judged = "spurious", None
+        elif nf:
+            kind = "forced"
+            free = label_intervals(~forced[a:b])
+            judged = None
+            if free:
+                s0, s1 = max(free, key=lambda r: (r[1] - r[0], r[0]))
+                if s1 - s0 >= thresholds.min_flight_frames:
+                    judged = (a + s0, a + s1)
+        else:
+            kind, judged = "free", ((a, b) if n >= thresholds.min_flight_frames else None)
+        if judged is None:
             out.append(FlightAudit(k, (a, b), n / motion.fps, None, None, nan, nan, nan, None, nan, nan, nan, False,
-                                   nan))
+                                   nan, kind, nf, None))
             continue
-        fit = fit_ballistic(t[a:b], com[a:b, 1], thresholds.confidence)
-        tau0 = t[a] - fit.t_mid
+        fa_, fb_ = judged
+        nj = fb_ - fa_
+        tt, cy = t[fa_:fb_], com[fa_:fb_]
+        fit = fit_ballistic(tt, cy[:, 1], thresholds.confidence)
+        tau0 = tt[0] - fit.t_mid
         vy = 2 * fit.coef[0] * tau0 + fit.coef[1]
-        hx = np.polyfit(t[a:b], com[a:b, 0], 1)
-        hz = np.polyfit(t[a:b], com[a:b, 2], 1)
-        hres = np.concatenate([com[a:b, 0] - np.polyval(hx, t[a:b]), com[a:b, 2] - np.polyval(hz, t[a:b])])
+        hx = np.polyfit(tt, cy[:, 0], 1)
+        hz = np.polyfit(tt, cy[:, 2], 1)
+        hres = np.concatenate([cy[:, 0] - np.polyval(hx, tt), cy[:, 2] - np.polyval(hz, tt)])
         v0 = np.array([hx[0], vy, hz[0]])
         angle = float(np.arctan2(np.hypot(v0[0], v0[2]), v0[1]))
         c2, c1, c0 = fit.coef
         y0 = c2 * tau0 ** 2 + c1 * tau0 + c0
-        apex = c0 - c1 ** 2 / (4 * c2) if c2 < 0 else float(np.max(com[a:b, 1]))
+        apex = c0 - c1 ** 2 / (4 * c2) if c2 < 0 else float(np.max(cy[:, 1]))
         if seg_pos is None:
-            Lf = momentum(body, motion[a:b]).angular
+            Lf = momentum(body, motion[fa_:fb_]).angular
         else:
-            Lf = flight_L(body, t[a:b], seg_pos[a:b], seg_rot[a:b])
-        L = Lf[1:-1] if n >= 5 else Lf
+            Lf = flight_L(body, tt, seg_pos[fa_:fb_], seg_rot[fa_:fb_])
+        L = Lf[1:-1] if nj >= 5 else Lf
         spread, var, Labs, Lm = L_spread(L)
-        judged = Labs >= thresholds.L_min
+        judged_L = Labs >= thresholds.L_min
         fa = FlightAudit(k, (a, b), n / motion.fps, fit, v0, angle, float(np.linalg.norm(v0)), float(apex - y0), Lm,
-                         spread, var, Labs, bool(judged), float(np.sqrt(np.mean(hres ** 2))))
+                         spread, var, Labs, bool(judged_L), float(np.sqrt(np.mean(hres ** 2))), kind, nf, judged)
         out.append(fa)
-        where = f"flight {k + 1}"
+        where = f"flight {k + 1}" if kind == "free" else f"flight {k + 1} (free part, frames {fa_}-{fb_ - 1})"
         tol = thresholds.g_tolerance
         if not (fit.g_low - tol <= G_STANDARD <= fit.g_high + tol):
             dist = max(fit.g_low - tol - G_STANDARD, G_STANDARD - fit.g_high - tol)
             findings.append(Finding(
-                "gravity", "violation", (a, b), (a + b) // 2, fit.g, tol, "g_tolerance", "m/s^2", where,
+                "gravity", "violation", (fa_, fb_), (fa_ + fb_) // 2, fit.g, tol, "g_tolerance", "m/s^2", where,
                 f"COM falls with g = {fit.g:.2f} m/s^2 ({thresholds.confidence:.0%} interval {fit.g_low:.2f}-"
                 f"{fit.g_high:.2f}; 9.81 lies {dist:.2f} beyond it plus the {tol:g} m/s^2 tolerance); residual "
                 f"{fit.rms * 1000:.1f} mm free, {fit.rms_standard * 1000:.1f} mm with g = 9.81"))
-        if judged:
-            off = a + 1 if n >= 5 else a
+        if judged_L:
+            off = fa_ + 1 if nj >= 5 else fa_
             nL = np.linalg.norm(L, axis=1)
             ang = np.arctan2(np.linalg.norm(np.cross(L, Lm), axis=1), L @ Lm)
             if spread > thresholds.L_direction:
                 findings.append(Finding(
-                    "L_direction", "violation", (a, b), off + int(np.argmax(ang)), spread, thresholds.L_direction,
+                    "L_direction", "violation", (fa_, fb_), off + int(np.argmax(ang)), spread, thresholds.L_direction,
                     "L_direction", "rad", where,
                     f"L direction strays {np.degrees(spread):.1f} deg from its mean (|L| {Labs:.1f} kg m^2/s); "
                     f"limit {np.degrees(thresholds.L_direction):.1f} deg"))
             if var > thresholds.L_magnitude:
                 findings.append(Finding(
-                    "L_magnitude", "violation", (a, b), off + int(np.argmax(np.abs(nL - Labs))), var,
+                    "L_magnitude", "violation", (fa_, fb_), off + int(np.argmax(np.abs(nL - Labs))), var,
                     thresholds.L_magnitude, "L_magnitude", "relative", where,
                     f"|L| varies by {var:.1%} of its mean {Labs:.1f} kg m^2/s; limit {thresholds.L_magnitude:.0%}"))
     return tuple(out), findings

@@ -15,7 +15,7 @@ A finding between frames ``i`` and ``i+1`` covers frames ``(i, i+2)`` (half-open
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -69,7 +69,8 @@ def step_rates_reference(motion) -> np.ndarray:
 @dataclass(frozen=True)
 class KinematicsAudit:
     """Largest values over the clip: ``bone_length`` m (with its joint), ``joint_speed`` rad/s (with its
-    joint and step frame), ``root_speed`` and ``point_speed`` m/s (with their step frames)."""
+    joint and step frame), ``root_speed`` and ``point_speed`` m/s (with their step frames); ``rates``:
+    the ``(T-1, J)`` joint rates of :func:`step_rates` (not in ``to_dict``)."""
 
     bone_length: float
     bone_joint: str
@@ -80,9 +81,10 @@ class KinematicsAudit:
     root_speed_frame: int
     point_speed: float
     point_speed_frame: int
+    rates: np.ndarray | None = field(default=None, repr=False, compare=False)   # (T-1, J) rad/s, step_rates
 
     def to_dict(self) -> dict:
-        return dict(self.__dict__)
+        return {k: v for k, v in self.__dict__.items() if k != "rates"}
 
 
 def inert_joints(body) -> np.ndarray:
@@ -109,7 +111,7 @@ def kinematics_audit(motion, thresholds, body=None) -> tuple[KinematicsAudit, li
     rate, root, pts = step_rates(motion)
     jr_f, jr_j = np.unravel_index(int(np.argmax(rate)), rate.shape)
     k = KinematicsAudit(float(dev.max()), names[jb], float(rate[jr_f, jr_j]), names[jr_j], int(jr_f),
-                        float(root.max()), int(np.argmax(root)), float(pts.max()), int(np.argmax(pts)))
+                        float(root.max()), int(np.argmax(root)), float(pts.max()), int(np.argmax(pts)), rate)
     bl = dev.max(axis=1)
     for a, b, p in runs_above(bl, thresholds.bone_length):
         j = int(np.argmax(dev[p]))

@@ -2,11 +2,13 @@
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from .findings import Finding
+from .pairing import FlightPairing, pair_flights
 from .thresholds import G_STANDARD, AuditThresholds
 
 __all__ = ["AuditReport", "AuditComparison", "Measure"]
@@ -55,6 +57,11 @@ class AuditReport:
     comparison: :class:`AuditComparison` against the ``against`` motion, or ``None``.
     against: the :class:`AuditReport` of the ``against`` motion, or ``None``.
     seconds: wall time of the audit.
+    external_force: ``(T,)`` bool mask of the frames the caller declared under an external force
+        (``audit(..., external_force_frames=...)``, :mod:`mocomp.audit.force`), or ``None``.
+    pose_jumps: :class:`~mocomp.audit.posejump.PoseJumpAudit` (per-joint rotation rate against the
+        ``against`` motion's on corresponding frames), or ``None`` without ``against`` or when the
+        two skeletons share too few joints.
     """
 
     name: str
@@ -76,6 +83,8 @@ class AuditReport:
     against: "AuditReport | None" = None
     seconds: float = 0.0
     times: np.ndarray = field(default=None, repr=False)
+    external_force: np.ndarray | None = field(default=None, repr=False)
+    pose_jumps: object = None
 
     # ---------------------------------------------------------------- verdict
     @property
@@ -84,7 +93,13 @@ class AuditReport:
 
     @property
     def advisories(self) -> tuple[Finding, ...]:
-        return tuple(f for f in self.findings if not f.is_violation)
+        return tuple(f for f in self.findings if f.severity == "advisory")
+
+    @property
+    def expected(self) -> tuple[Finding, ...]:
+        """Findings in frames declared under an external force (severity ``"expected"``): reported,
+        not judged (:mod:`mocomp.audit.force`)."""
+        return tuple(f for f in self.findings if f.severity == "expected")
 
     @property
     def verdict(self) -> str:
@@ -148,6 +163,12 @@ class AuditReport:
                     self.kinematics.root_speed, WORSE_FRACTION * th.root_speed),
             Measure("max_point_speed", "max joint speed between frames", "m/s", self.kinematics.point_speed,
                     self.kinematics.point_speed, WORSE_FRACTION * th.point_speed),
+        ]
+        if self.pose_jumps is not None:
+            pj = self.pose_jumps
+            out.append(Measure("max_joint_speed_excess", "max joint rotation rate above the input's own (pose jump)",
+                               "rad/s", pj.max_excess, max(pj.max_excess, 0.0), th.pose_jump_excess))
+        out += [
             Measure("violations", "violations", "count", float(len(self.violations)), float(len(self.violations)),
                     0.5),
         ]
@@ -166,7 +187,7 @@ class AuditReport:
         d = {
             "name": self.name, "n_frames": self.n_frames, "fps": self.fps, "total_mass_kg": self.total_mass,
             "body": self.body, "verdict": self.verdict, "violations": len(self.violations),
-            "advisories": len(self.advisories), "seconds": self.seconds,
+            "advisories": len(self.advisories), "expected": len(self.expected), "seconds": self.seconds,
             "thresholds": self.thresholds.to_dict(),
             "floor": {"y_m": self.penetration.floor_y, "source": self.penetration.floor_source},
             "phases": {"flights": [list(f) for f in ph.flights], "ground": [list(g) for g in ph.ground],
@@ -183,6 +204,12 @@ class AuditReport:
             "kinematics": self.kinematics.to_dict(),
             "findings": [f.to_dict() for f in self.findings],
         }
+        if self.external_force is not None:
+            from ..dynamics.contacts import label_intervals
+
+            d["external_force"] = {"frames": [list(r) for r in label_intervals(self.external_force)]}
+        if self.pose_jumps is not None:
+            d["pose_jumps"] = self.pose_jumps.to_dict()
         if self.comparison is not None:
             d["comparison"] = self.comparison.to_dict()
         return _json_safe(d)
@@ -195,16 +222,35 @@ class AuditReport:
              f"floor y = {self.penetration.floor_y:.3f} m ({self.penetration.floor_source})",
              f"phases: {len(ph.ground)} ground stage(s), {len(ph.flights)} flight(s)"
              + ("".join(f"; flight {i + 1} frames {a}-{b - 1}" for i, (a, b) in enumerate(ph.flights[:6])))]
+        if self.external_force is not None:
+            from .force import ranges_text
+
+            L.append(f"external force declared on frames {ranges_text(self.external_force) or '(none)'}: airborne "
+                     f"frames there are forced, not free flight; findings of force-dependent checks there are "
+                     f"expected, not judged")
         for m in self.measures():
             if m.key.startswith("flight") or m.key == "violations":
                 continue
             L.append(f"  {m.label}: {_fmt(m.value, m.unit)}")
         for f in self.flights:
-            if f.fit is None:
-                L.append(f"  flight {f.index + 1} (frames {f.frames[0]}-{f.frames[1] - 1}): {f.frames[1] - f.frames[0]}"
-                         f" frames, too short for a ballistic fit")
+            kind = getattr(f, "kind", "free")
+            n = f.frames[1] - f.frames[0]
+            if kind == "spurious":
+                L.append(f"  flight {f.index + 1} (frames {f.frames[0]}-{f.frames[1] - 1}): {n} frame(s) airborne, "
+                         f"shorter than {self.thresholds.min_airborne_frames} frames or "
+                         f"{self.thresholds.min_airborne_time * 1000:g} ms: spurious, not measured as a flight")
                 continue
-            L.append(f"  flight {f.index + 1} (frames {f.frames[0]}-{f.frames[1] - 1}, {f.duration:.3f} s): "
+            forced = ""
+            if kind == "forced":
+                jf = f.judged_frames
+                forced = (f"; under external force on {f.forced_frames} of its {n} frames, "
+                          + (f"judged on its free part, frames {jf[0]}-{jf[1] - 1}" if jf else "no free part long "
+                             "enough to judge"))
+            if f.fit is None:
+                L.append(f"  flight {f.index + 1} (frames {f.frames[0]}-{f.frames[1] - 1}): {n}"
+                         f" frames, " + ("too short for a ballistic fit" if kind != "forced" else "not judged") + forced)
+                continue
+            L.append(f"  flight {f.index + 1} (frames {f.frames[0]}-{f.frames[1] - 1}, {f.duration:.3f} s{forced}): "
                      f"g = {f.fit.g:.2f} m/s^2 [{f.fit.g_low:.2f}, {f.fit.g_high:.2f}], residual "
                      f"{f.fit.rms * 1000:.1f} mm (g = 9.81: {f.fit.rms_standard * 1000:.1f} mm), take-off "
                      f"{f.takeoff_speed:.2f} m/s at {np.degrees(f.takeoff_angle):.1f} deg from vertical, COM rise "
@@ -214,20 +260,27 @@ class AuditReport:
             if e.frame is not None:
                 L.append(f"  {e.kind} of flight {e.flight + 1} (frame {e.event_frame}): largest COM jump "
                          f"{e.jump:.2f} m/s at frame {e.frame} (vertical {e.vy_before:+.2f} -> {e.vy_after:+.2f} m/s)")
+        if self.pose_jumps is not None:
+            L.append("  " + self.pose_jumps.summary())
         fl = list(self.findings)
         if fl:
-            L.append(f"findings ({len(self.violations)} violation(s), {len(self.advisories)} advisory):")
+            L.append(f"findings ({len(self.violations)} violation(s), {len(self.advisories)} advisory"
+                     + (f", {len(self.expected)} expected under external force" if self.expected else "") + "):")
             L += ["  " + f.line() for f in fl[:max_findings]]
             if len(fl) > max_findings:
                 L.append(f"  ... {len(fl) - max_findings} more (see the JSON report)")
         if self.comparison is not None:
             L += self.comparison.summary_lines()
         L.append(f"verdict: {self.verdict.upper()} ({len(self.violations)} violation(s), "
-                 f"{len(self.advisories)} advisory finding(s))")
+                 f"{len(self.advisories)} advisory finding(s)"
+                 + (f", {len(self.expected)} expected under external force" if self.expected else "") + ")")
         return L
 
     def compare(self, other: "AuditReport") -> "AuditComparison":
         return AuditComparison.of(self, other)
+
+
+_FLIGHT_KEY = re.compile(r"^flight(\d+)_(.+)$")
 
 
 def _fmt(v: float, unit: str) -> str:
@@ -267,8 +320,18 @@ class AuditComparison:
 
     ``rows``: ``(key, label, unit, this, other, worse)``; ``worse`` is True when this motion's
     badness exceeds the other's by more than the measure's tolerance (a quarter of the threshold
-    it is judged against). Per-flight measures are paired by flight index; a measure only one
-    motion has is listed with NaN for the other.
+    it is judged against). A measure only one motion has is listed with NaN for the other.
+
+    Per-flight measures are paired by :func:`~mocomp.audit.pairing.pair_flights` (``flight_pairing``):
+    by order or by time overlap, spurious airborne runs left out, not by index. The row
+    ``flight{i}_X`` holds this motion's flight ``i`` and its partner's value (the label names the
+    partner when its number differs); a flight of the other motion with no partner is listed as
+    ``against_flight{j}_X`` with NaN for this motion.
+
+    ``max_joint_speed_excess`` (present when this report has ``pose_jumps``) is measured against the
+    other motion itself, so its ``against`` value is NaN; it is worse when above ``pose_jump_excess``
+    and the frames were matched by seconds or by a given map (not when normalised by the durations:
+    a retimed output's frame map is only a guess).
     """
 
     this_name: str
@@ -276,22 +339,54 @@ class AuditComparison:
     rows: tuple[tuple[str, str, str, float, float, bool], ...]
     this_verdict: str
     other_verdict: str
+    flight_pairing: FlightPairing | None = None
 
     @classmethod
     def of(cls, this: AuditReport, other: AuditReport) -> "AuditComparison":
         a = {m.key: m for m in this.measures()}
         b = {m.key: m for m in other.measures()}
-        keys = list(a) + [k for k in b if k not in a]
+        pairing = pair_flights(this, other)
+        used_b = set()
         rows = []
-        for k in keys:
-            ma, mb = a.get(k), b.get(k)
+
+        def row(k, label, ma, mb):
             m = ma or mb
             va = ma.value if ma else math.nan
             vb = mb.value if mb else math.nan
             worse = bool(ma and mb and math.isfinite(ma.badness) and math.isfinite(mb.badness)
                          and ma.badness - mb.badness > m.tolerance)
-            rows.append((k, m.label, m.unit, va, vb, worse))
-        return cls(this.name, other.name, tuple(rows), this.verdict, other.verdict)
+            rows.append((k, label, m.unit, va, vb, worse))
+
+        for k, ma in a.items():
+            fm = _FLIGHT_KEY.match(k)
+            if fm:
+                i, suffix = int(fm.group(1)), fm.group(2)
+                j = pairing.other_of(i - 1)
+                kb = None if j is None else f"flight{j + 1}_{suffix}"
+                mb = b.get(kb) if kb else None
+                if kb:
+                    used_b.add(kb)
+                label = ma.label + ("" if j is None or j + 1 == i else f" (against: flight {j + 1})")
+                row(k, label, ma, mb)
+            elif k == "max_joint_speed_excess":
+                trusted = getattr(this.pose_jumps, "mapping", "") in ("seconds", "given")
+                rows.append((k, ma.label + ("" if trusted else " (frames matched by normalised time: indicative)"),
+                             ma.unit, ma.value, math.nan,
+                             bool(trusted and math.isfinite(ma.value) and ma.value > ma.tolerance)))
+            else:
+                mb = b.get(k)
+                used_b.add(k)
+                row(k, ma.label, ma, mb)
+        for k, mb in b.items():
+            if k in used_b or k in a:
+                continue
+            fm = _FLIGHT_KEY.match(k)
+            if fm:
+                row(f"against_{k}", f"against flight {fm.group(1)} (no partner): "
+                    + mb.label.split(": ", 1)[-1], None, mb)
+            else:
+                row(k, mb.label, None, mb)
+        return cls(this.name, other.name, tuple(rows), this.verdict, other.verdict, pairing)
 
     @property
     def worse(self) -> tuple[str, ...]:
@@ -301,6 +396,7 @@ class AuditComparison:
     def to_dict(self) -> dict:
         return _json_safe({"this": self.this_name, "against": self.other_name, "this_verdict": self.this_verdict,
                            "against_verdict": self.other_verdict, "worse": list(self.worse),
+                           "flight_pairing": None if self.flight_pairing is None else self.flight_pairing.to_dict(),
                            "rows": [{"key": k, "label": lab, "unit": u, "this": va, "against": vb, "worse": w}
                                     for k, lab, u, va, vb, w in self.rows]})
 
@@ -309,6 +405,8 @@ class AuditComparison:
         L = [f"comparison: {self.this_name} (verdict {self.this_verdict}) against {self.other_name} "
              f"(verdict {self.other_verdict})",
              f"  {'measure'.ljust(wa)}  {'this':>12}  {'against':>12}"]
+        if self.flight_pairing is not None and (self.flight_pairing.pairs or self.flight_pairing.unpaired_other):
+            L.insert(1, "  " + self.flight_pairing.text())
         for k, lab, u, va, vb, w in self.rows:
             L.append(f"  {lab.ljust(wa)}  {_fmt(va, u):>12}  {_fmt(vb, u):>12}{'  WORSE' if w else ''}")
         L.append(f"  worse than the original on {len(self.worse)} measure(s)"

@@ -13,7 +13,9 @@ from ..errors import MotionFormatError
 from .com import com_audit
 from .contacts import body_points, body_support, contact_audits, floor_level, lowest_points, penetration, phases_of
 from .flights import flight_audits
-from .kinematics import kinematics_audit
+from .force import FORCE_CHECKS, dilate, forced_mask, ranges_text
+from .kinematics import inert_joints, kinematics_audit
+from .posejump import pose_jump_audit
 from .report import AuditReport
 from .thresholds import AuditThresholds
 from .zmp import zmp_audit
@@ -70,7 +72,9 @@ def _body_text(body) -> str:
 
 
 def audit(motion, body=None, *, thresholds: AuditThresholds = AuditThresholds(), against=None,
-          name: str | None = None, against_name: str | None = None, against_body=None) -> AuditReport:
+          name: str | None = None, against_name: str | None = None, against_body=None,
+          external_force_frames=None, against_external_force_frames=None,
+          against_frame_map=None) -> AuditReport:
     """Measure the physical validity of ``motion`` from its frames alone.
 
     Parameters
@@ -85,6 +89,20 @@ def audit(motion, body=None, *, thresholds: AuditThresholds = AuditThresholds(),
         measured with ``against``'s body (``default_body(motion, like=against)``: a DeepMimic
         clip's own character, which its BVH output no longer names).
     name, against_name: labels for the reports.
+    external_force_frames: frames of ``motion`` under an external force (a hit, a push): a ``slice``,
+        a ``(T,)`` bool mask, frame indices, ``(start, stop)`` pairs or ``"A:B"`` strings
+        (:func:`mocomp.audit.force.forced_mask`). Airborne runs with such frames are ``"forced"``
+        flights, judged (ballistic fit, L) only on their longest free part; findings of the
+        force-dependent checks (:data:`mocomp.audit.force.FORCE_CHECKS`) touching those frames get
+        severity ``"expected"`` (reported in ``report.expected``, not violations). The mask is
+        ``report.external_force``.
+    against_external_force_frames: the same for the ``against`` motion.
+    against_frame_map: ``(T,)`` fractional frame of ``against`` for each frame of ``motion``, for the
+        pose-jump check (:mod:`mocomp.audit.posejump`; default: matched by time, normalised by the
+        durations when they differ). With ``against`` on joints of the same names, the report's
+        ``pose_jumps`` compares every joint's rotation rate with the input's own around the
+        corresponding frames; joints turning more than ``pose_jump_excess`` faster are ``pose_jump``
+        findings, and ``measures()`` gains ``max_joint_speed_excess``.
 
     Measures (see each module): phases and contacts, floor penetration and foot slide
     (:mod:`~mocomp.audit.contacts`), COM velocity / linear momentum jumps
@@ -103,6 +121,7 @@ def audit(motion, body=None, *, thresholds: AuditThresholds = AuditThresholds(),
     check_compatible(body, motion)
     if not body.total_mass > 0:
         raise MotionFormatError(f"{label}: the body model has no mass")
+    forced = forced_mask(external_force_frames, motion.n_frames, str(label))
     contacts = detect_contacts(motion)
     pts = body_points(motion)
     low, low_i, names = lowest_points(motion, pts)
@@ -117,19 +136,45 @@ def audit(motion, body=None, *, thresholds: AuditThresholds = AuditThresholds(),
     findings += f
     cons, f = contact_audits(contacts, pen.depth, thresholds)
     findings += f
-    ca, f = com_audit(com, motion.fps, body.total_mass, phases, thresholds)
+    ca, f = com_audit(com, motion.fps, body.total_mass, phases, thresholds, forced)
     findings += f
-    fl, f = flight_audits(body, motion, com, phases, thresholds, seg_pos, seg_rot)
+    fl, f = flight_audits(body, motion, com, phases, thresholds, seg_pos, seg_rot, forced)
     findings += f
     za, f = zmp_audit(body, motion, contacts, floor_y, phases, thresholds)
     findings += f
     ka, f = kinematics_audit(motion, thresholds, body)
     findings += f
+    other = pj = None
+    if against is not None:
+        other = audit(against, against_body, thresholds=thresholds, name=against_name or "original",
+                      external_force_frames=against_external_force_frames)
+        pj, f = pose_jump_audit(motion, against, thresholds, ka.rates, other.kinematics.rates, against_frame_map,
+                                inert_joints(body), str(label))
+        findings += f
+    elif against_frame_map is not None:
+        raise ValueError("against_frame_map needs against=")
+    if forced is not None:
+        findings = _expected_under_force(findings, forced, ca.window)
     findings.sort(key=lambda x: (x.frames[0], x.check))
     rep = AuditReport(str(label), motion.n_frames, float(motion.fps), float(body.total_mass), _body_text(body),
                       thresholds, phases, tuple(contacts.notes), pen, cons, ca, fl, za, ka, tuple(findings),
-                      times=motion.times)
-    if against is not None:
-        other = audit(against, against_body, thresholds=thresholds, name=against_name or "original")
+                      times=motion.times, external_force=forced, pose_jumps=pj)
+    if other is not None:
         rep = dataclasses.replace(rep, comparison=rep.compare(other), against=other)
     return dataclasses.replace(rep, seconds=time.perf_counter() - t0)
+
+
+def _expected_under_force(findings, forced: np.ndarray, window: int) -> list:
+    """Findings of :data:`~mocomp.audit.force.FORCE_CHECKS` touching a forced frame (a COM jump: within
+    its fit ``window``) become severity ``"expected"``; the others are kept as they are."""
+    near = {0: forced, window: dilate(forced, window)}
+    out = []
+    for f in findings:
+        if f.check in FORCE_CHECKS:
+            m = near[window if f.check == "com_velocity_jump" else 0]
+            a, b = f.frames
+            if m[a:max(b, a + 1)].any():
+                f = dataclasses.replace(f, severity="expected", message=f.message + " -- expected under the declared "
+                                        f"external force (frames {ranges_text(forced)}), not judged")
+        out.append(f)
+    return out

@@ -70,6 +70,12 @@ class AuditThresholds:
         the floor and slower than the contact detector's speed threshold rest on the floor (a knee,
         a hip, a foot on its side), so they are not flight either.
     min_flight_frames: (default 5, at least 4) shortest airborne run that gets a ballistic fit.
+    min_airborne_frames: (default 3) and min_airborne_time: s (default 0.03). An airborne run
+        shorter than ``min_airborne_frames`` frames *or* than ``min_airborne_time`` is *spurious*
+        (a contact-detector flicker: CMU 90_08 has a one-frame "flight" at frame 0): it stays in
+        the phases and in ``report.flights`` (``kind == "spurious"``), but it gets no ballistic or
+        L measure and is never paired with a flight of the other motion in ``--against``
+        comparisons. A real running flight lasts ~0.1 s (12 frames at 120 Hz, 3 at 30 Hz).
     g_tolerance: m/s^2 (default 1.0). The fitted g is a violation when 9.81 lies outside its
         95 % t-interval widened by this on both sides.
     confidence: (default 0.95) level of that interval.
@@ -102,6 +108,25 @@ class AuditThresholds:
         rotation moves no mass of the body model (e.g. CMU's thumbs) is advisory.
     root_speed: m/s (default 12). Root travel between two frames.
     point_speed: m/s (default 25). Any joint's travel between two frames.
+
+    Against the input (``audit(..., against=input)``, same joint names)
+    --------------------------------------------------------------------
+    pose_jump_excess: rad/s (default 20). A *pose jump*: a joint of the audited motion turns faster
+        between two frames than the input's same joint anywhere in the neighbourhood of the
+        corresponding input frames (see :mod:`mocomp.audit.posejump`), by more than this. A
+        30-degree jump of one joint in one frame is 31 rad/s at 60 Hz and 63 rad/s at 120 Hz;
+        the leg IK of footplant enforcement on real walks turns joints up to ~5-8 rad/s faster than
+        the input (measured on the project's outputs: see the module).
+    pose_jump_ratio: (default 0.5). And by more than this fraction of the input's own rate there
+        (a fast input swing played a little faster is not a jump).
+    pose_jump_window: s (default 0.05). Half-width of the input neighbourhood whose largest rate is
+        the reference (an input glitch of 375 rad/s raises the reference only near itself).
+    pose_jump_is_violation: (default False) pose-jump findings are advisory: the check compares with
+        the input, and a method may legitimately move a joint faster than the input did (a spliced
+        hand, a simulated response to a hit, a flip retimed non-uniformly whose frame map the audit
+        can only guess). Set it (``--threshold pose_jump_is_violation=true``) where the output should
+        follow its input's timing, e.g. footplant enforcement. ``measures()`` has
+        ``max_joint_speed_excess`` either way.
     """
 
     penetration: float = 0.02
@@ -116,6 +141,8 @@ class AuditThresholds:
     flight_com_height: float = 0.45
     support_clearance: float = 0.08
     min_flight_frames: int = 5
+    min_airborne_frames: int = 3
+    min_airborne_time: float = 0.03
     g_tolerance: float = 1.0
     confidence: float = 0.95
     L_direction: float = math.radians(5.0)
@@ -129,6 +156,10 @@ class AuditThresholds:
     joint_speed: float = 60.0
     root_speed: float = 12.0
     point_speed: float = 25.0
+    pose_jump_excess: float = 20.0
+    pose_jump_ratio: float = 0.5
+    pose_jump_window: float = 0.05
+    pose_jump_is_violation: bool = False
 
     def __post_init__(self):
         for f in fields(self):
@@ -137,15 +168,17 @@ class AuditThresholds:
                 if v is not None and not (isinstance(v, (int, float)) and math.isfinite(v)):
                     raise AuditConfigError(f"threshold floor_y must be a finite height (m) or None, got {v!r}")
                 continue
-            if f.name == "zmp_is_violation":
+            if f.name in ("zmp_is_violation", "pose_jump_is_violation"):
                 if not isinstance(v, bool):
-                    raise AuditConfigError(f"threshold zmp_is_violation must be True or False, got {v!r}")
+                    raise AuditConfigError(f"threshold {f.name} must be True or False, got {v!r}")
                 continue
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
                 raise AuditConfigError(f"threshold {f.name} must be a finite number, got {v!r}")
-            if f.name in ("jump_window", "min_flight_frames"):
+            if f.name in ("jump_window", "min_flight_frames", "min_airborne_frames"):
                 if f.name == "jump_window":
                     bad, lo = int(v) != v or v < 0 or v == 1, "0 (automatic) or >= 2"
+                elif f.name == "min_airborne_frames":
+                    bad, lo = int(v) != v or v < 1, ">= 1"
                 else:
                     bad, lo = int(v) != v or v < 4, ">= 4"
                 if bad:
@@ -154,7 +187,7 @@ class AuditThresholds:
             elif f.name == "confidence":
                 if not 0 < v < 1:
                     raise AuditConfigError(f"threshold confidence must lie strictly between 0 and 1, got {v!r}")
-            elif f.name in ("g_tolerance", "zmp_smooth_sigma"):
+            elif f.name in ("g_tolerance", "zmp_smooth_sigma", "pose_jump_ratio", "min_airborne_time"):
                 if v < 0:
                     raise AuditConfigError(f"threshold {f.name} must be >= 0, got {v!r}")
             elif not v > 0:
@@ -174,10 +207,10 @@ class AuditThresholds:
                 raise AuditConfigError(f"threshold {item!r} is not NAME=VALUE")
             if name not in names:
                 raise AuditConfigError(f"unknown threshold {name!r}; known: {', '.join(names)}")
-            if name == "zmp_is_violation":
+            if name in ("zmp_is_violation", "pose_jump_is_violation"):
                 low = text.lower()
                 if low not in ("true", "false", "1", "0", "yes", "no"):
-                    raise AuditConfigError(f"threshold zmp_is_violation must be true or false, got {text!r}")
+                    raise AuditConfigError(f"threshold {name} must be true or false, got {text!r}")
                 changes[name] = low in ("true", "1", "yes")
             elif name == "floor_y" and text.lower() in ("none", "auto", ""):
                 changes[name] = None
@@ -194,3 +227,7 @@ class AuditThresholds:
     def jump_frames(self, fps: float) -> int:
         """Frames per one-sided fit: ``jump_window`` or ``max(2, round(0.03 s x fps))``."""
         return self.jump_window if self.jump_window else max(2, int(round(0.03 * fps)))
+
+    def spurious_flight(self, n_frames: int, fps: float) -> bool:
+        """An airborne run of ``n_frames`` frames at ``fps`` is spurious (see ``min_airborne_frames``)."""
+        return n_frames < self.min_airborne_frames or n_frames / fps < self.min_airborne_time - 1e-12

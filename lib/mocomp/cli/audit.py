@@ -23,7 +23,10 @@ def register(sub) -> None:
                     "bone lengths, joint rotation rates and jumps between frames. Each finding states its "
                     "frames, size and the threshold it exceeds (defaults: mocomp.audit.AuditThresholds; change "
                     "them with --threshold NAME=VALUE). With --against the same measures of the original are "
-                    "shown beside the audited motion's, flagged where it is worse.")
+                    "shown beside the audited motion's, flagged where it is worse (flights paired by time, "
+                    "spurious one- or two-frame airborne runs left out), and each joint's rotation rate is "
+                    "compared with the original's own on the corresponding frames (pose jumps). "
+                    "--external-force A:B declares frames under an external force (a hit).")
     add_load_args(p)
     p.add_argument("--against", metavar="ORIGINAL",
                    help="the motion this one was made from (file or name, loaded with the same options): each "
@@ -35,6 +38,11 @@ def register(sub) -> None:
     p.add_argument("--threshold", action="append", default=[], metavar="NAME=VALUE",
                    help="change one threshold of mocomp.audit.AuditThresholds (repeatable), e.g. "
                         "--threshold penetration=0.03 --threshold floor_y=0.0")
+    p.add_argument("--external-force", action="append", default=[], metavar="A:B",
+                   help="frames A to B-1 of the audited motion are under an external force (a hit, a push; "
+                        "repeatable, or A:B,C:D): airborne frames there are 'forced', not free flight, so they are "
+                        "not judged against ballistic gravity or L conservation, and findings of the force-dependent "
+                        "checks there are reported as expected, not as violations")
     p.add_argument("--max-findings", type=int_in(0), default=20, metavar="N",
                    help="findings listed in the summary (all are in the JSON report; default 20)")
     p.add_argument("--strict", action="store_true", help="exit with status 1 when the verdict is fail")
@@ -46,7 +54,10 @@ def run(args) -> int:
     from ..audit import AuditThresholds, audit
     from ._common import check_output_path, load_from_args
 
+    from ..audit.force import parse_frame_ranges
+
     th = AuditThresholds.from_strings(args.threshold)
+    forced = parse_frame_ranges(args.external_force) or None
     report_path = check_output_path(Path(args.report), "report") if args.report else None
     plot_path = None
     if args.plot:
@@ -57,7 +68,8 @@ def run(args) -> int:
     other = None
     if args.against is not None:
         other = datasets.load(args.against, fps=args.fps, scale=args.scale, raw=args.raw)
-    rep = audit(m, thresholds=th, against=other, name=str(args.motion), against_name=args.against)
+    rep = audit(m, thresholds=th, against=other, name=str(args.motion), against_name=args.against,
+                external_force_frames=forced)
     print("\n".join(rep.summary_lines(max_findings=args.max_findings)))
     if report_path is not None:
         report_path.write_text(json.dumps(rep.to_dict(), indent=2) + "\n")
