@@ -111,3 +111,30 @@ def test_concat_single_strikes_cut_from_takes(tmp_path, capsys, real_data_dir):
     assert "B: " in text and "strike 1 of 2: frames 5-42, hand_r" in text
     assert "C: " in text and "frames 5-59" in text
     assert len(json.loads(rep.read_text())["joints"]) == 2
+
+
+def test_concat_summary_reports_measured_feet_and_labels_planned(tmp_path, capsys):
+    """The summary's foot slide is what mocomp.audit measures on the file written, read back (the
+    planned one, ops.enforce_footplants on its own plants, is labelled planned): the printed and
+    reported values equal an audit of the file run here."""
+    from mocomp import datasets
+    from mocomp.audit import audit
+    from mocomp.ops.evidence import foot_slide
+
+    out, rep = tmp_path / "o.bvh", tmp_path / "r.json"
+    assert main(["concat", "backflip", "backflip", "-o", str(out), "--report", str(rep)]) == 0
+    text = capsys.readouterr().out
+    assert "planned feet (ops.enforce_footplants" in text and "\n  feet: largest slide" not in text
+    line = next(s for s in text.splitlines() if s.startswith("measured on "))
+    d = json.loads(rep.read_text())
+    m = d["measured"]
+    flip = datasets.load("backflip")
+    ref = audit(read_bvh(out, scale=1.0), against=flip)
+    assert m["max_foot_slide_m"] == pytest.approx(foot_slide(ref), abs=1e-9)
+    assert m["inputs_max_foot_slide_m"][0] == pytest.approx(foot_slide(audit(flip)), abs=1e-9)
+    assert m["max_penetration_m"] == pytest.approx(ref.measure("max_penetration_m"), abs=1e-9)
+    assert f"largest foot slide within the contacts it finds {m['max_foot_slide_m'] * 100:.2f} cm" in line
+    (j,) = m["joints"]
+    assert j["output_window"] == d["joints"][0]["time_scaling"]["output_window"]
+    assert j["max_foot_slide_m"] <= m["max_foot_slide_m"]
+    assert text.strip().splitlines()[-1].startswith("audit: ")

@@ -60,9 +60,10 @@ def register(sub) -> None:
                     "and blending centre f_T minimise F = F_dm + F_inertia + F_time (eq. 3-7) over the blendable "
                     "periods; the motions are blended linearly (eq. 8, slerp) over a window traced from f_T, the "
                     "blended period re-timed (eq. 9) and the supporting feet held (mocomp.ops). With more than two "
-                    "motions each joint is chosen by its own rule. The printed values are the method's planned "
-                    "ones; the summary ends with the verdict of mocomp.audit on the frames written, against the "
-                    "inputs.")
+                    "motions each joint is chosen by its own rule. The per-joint values are the method's planned "
+                    "ones (labelled planned); the summary ends with what mocomp.audit measured on the file written, "
+                    "read back (foot slide and floor penetration beside the inputs' own, per joint over its blended "
+                    "period) and its verdict against the inputs.")
     p.add_argument("motions", nargs="+", metavar="MOTION",
                    help="two or more motions (files or clip names), in order; FILE@K takes the K-th single strike "
                         "(punch, kick, slash; 1-based) found in a clip holding several (by the speed peaks of the hands "
@@ -136,7 +137,9 @@ def _print_joint(k: int, na: str, nb: str, r) -> None:
           f"({w['frames']} frames); eq. 9 scale s = {ts['s']:.3f} -> {ts['window_frames_after']} frames")
     if r.footplants is not None:
         fp = r.footplants
-        print(f"  feet: largest slide within plants {fp.slide_before.max() * 100:.2f} -> {fp.slide_after.max() * 100:.2f} cm")
+        print(f"  planned feet (ops.enforce_footplants, on the plants it held): largest slide within them "
+              f"{fp.slide_before.max() * 100:.2f} -> {fp.slide_after.max() * 100:.2f} cm (measured values: after the "
+              "file is written)")
     for n in r.notes:
         print(f"  note: {n}")
 
@@ -278,14 +281,58 @@ def run(args) -> int:
     if args.plot:
         _plot(args.plot, list(zip(names, motions)), offsets, acc, track, base)
         print(f"wrote {args.plot}")
+    result = None if args.no_audit else audit_output(out, motions[0], input_name=names[0],
+                                                      other_inputs=tuple(zip(names[1:], motions[1:])))
+    measured = None
+    if result is not None:
+        measured = measured_feet(result.report, [result.report.against, *result.others], joints)
+        _print_measured(out, names, measured)
     if args.report:
         rep = {"inputs": names, "joints": [r.to_dict() for r in joints],
                "output": {"frames": acc.n_frames, "fps": acc.fps, "duration_s": acc.n_frames / acc.fps,
                           "inputs_back_to_back_s": total_in}}
         if comparison is not None:
             rep["baseline"] = comparison
+        if measured is not None:
+            rep["measured"] = measured
         Path(args.report).write_text(json.dumps(rep, indent=1, default=float) + "\n")
-    result = None if args.no_audit else audit_output(out, motions[0], input_name=names[0],
-                                                      other_inputs=tuple(zip(names[1:], motions[1:])))
     finish_audit(args, "concat", result, args.report)
     return 0
+
+
+def measured_feet(report, input_reports, joints) -> dict:
+    """What :func:`mocomp.audit.audit` measured on the file written (``report``) against the inputs'
+    own audits: the largest foot slide within the contacts it detects (overall and, per joint, over
+    the contacts that overlap the joint's blended period in the output), the deepest floor
+    penetration; ``joints``: the :class:`~mocomp.concat.ConcatResult` of each joint (their output
+    windows are frames of the final output: a later joint only changes frames after its own window)."""
+    from ..ops.evidence import foot_slide
+
+    feet = [c for c in report.contacts if not c.effector.startswith("hand")]
+    per = []
+    for r in joints:
+        u0, u1 = r.output_window
+        near = [c for c in feet if c.frames[0] <= u1 and c.frames[1] > u0]
+        worst = max(near, key=lambda c: c.slide, default=None)
+        per.append({"output_window": [int(u0), int(u1)], "contacts": len(near),
+                    "max_foot_slide_m": 0.0 if worst is None else float(worst.slide),
+                    "where": None if worst is None else {"effector": worst.effector, "frames": list(worst.frames)}})
+    return {"measured_on": "the BVH file written, read back (mocomp.audit)",
+            "max_foot_slide_m": foot_slide(report), "inputs_max_foot_slide_m": [foot_slide(x) for x in input_reports],
+            "max_penetration_m": float(report.measure("max_penetration_m")),
+            "inputs_max_penetration_m": [float(x.measure("max_penetration_m")) for x in input_reports],
+            "joints": per}
+
+
+def _print_measured(out, names, m: dict) -> None:
+    ins = ", ".join(f"{Path(n).name} {v * 100:.2f}" for n, v in zip(names, m["inputs_max_foot_slide_m"]))
+    pen = ", ".join(f"{v * 100:.2f}" for v in m["inputs_max_penetration_m"])
+    print(f"measured on {out} read back (mocomp.audit): largest foot slide within the contacts it finds "
+          f"{m['max_foot_slide_m'] * 100:.2f} cm (inputs' own: {ins} cm); deepest floor penetration "
+          f"{m['max_penetration_m'] * 100:.2f} cm (inputs: {pen} cm)")
+    for k, j in enumerate(m["joints"]):
+        w = j["where"]
+        print(f"  joint {k + 1}: contacts over the blended period (output frames {j['output_window'][0]}-"
+              f"{j['output_window'][1]}): " + ("none" if w is None else
+              f"{j['contacts']}, largest slide {j['max_foot_slide_m'] * 100:.2f} cm ({w['effector']} frames "
+              f"{w['frames'][0]}-{w['frames'][1] - 1})"))

@@ -398,6 +398,25 @@ def concatenate(a: Motion, b: Motion, *, rule: str = "auto", **kw) -> ConcatResu
                                notes=r.notes + (f"auto rule: {_other(chosen)} rejected, {chosen} used",))
 
 
+def _edge_hint(p1: Phases, p2: Phases) -> str:
+    """A note for a rejection when a detected main phase runs to its clip's edge (a loopable clip, as
+    DeepMimic's are: the largest |L| may be the turn back to the loop's start, not the action)."""
+    out = []
+    for name, p in (("A", p1), ("B", p2)):
+        if p.given:
+            continue
+        if p.main[1] >= p.n_frames and p.main[0] > 0:
+            out.append(f"{name}'s main phase {p.main[0]}-{p.main[1]} (peak |L| at frame {p.t_m}) runs to the end of "
+                       f"its {p.n_frames} frames (no posterior phase)")
+        elif p.main[0] == 0 and p.main[1] < p.n_frames:
+            out.append(f"{name}'s main phase {p.main[0]}-{p.main[1]} (peak |L| at frame {p.t_m}) starts at the clip's "
+                       "first frame (no preparatory phase)")
+    if not out:
+        return ""
+    return ("; " + "; ".join(out) + ": if that is not the action (a loopable clip's return), give the main phase by "
+            "hand (borders, --phases)")
+
+
 def _other(rule: str) -> str:
     return "reverse" if rule == "forward" else "forward"
 
@@ -458,8 +477,17 @@ def _concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bo
     check_same_skeleton(a, b)
     notes = []
     if abs(a.fps - b.fps) > 1e-6 * a.fps:
+        ratio, fps_b = a.fps / b.fps, b.fps
         b = b.resample(a.fps)
         notes.append(f"B resampled to A's {a.fps:g} fps")
+        # B's frames given by hand count B's own frames: the same instants in the resampled B
+        if borders_b is not None:
+            g0, g1 = (int(x) for x in borders_b)
+            borders_b = (int(round(g0 * ratio)), min(max(int(round(g1 * ratio)), int(round(g0 * ratio)) + 1), b.n_frames))
+            notes.append(f"B's main-phase borders {g0},{g1} (at {fps_b:g} fps) are frames {borders_b[0]},{borders_b[1]} "
+                         f"at {a.fps:g} fps")
+        if t_m_b is not None:
+            t_m_b = min(int(round(int(t_m_b) * ratio)), b.n_frames - 1)
     from ..audit import default_body
 
     body_a = default_body(a) if body_a is None else body_a
@@ -530,7 +558,7 @@ def _concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bo
             raise _rejected(f"after the eq. 2 alignment (B turned by {np.degrees(yaw):+.1f} deg) the bodies face "
                             f"different ways at their main phases (A frame {p1.t_m}, B frame {p2.t_m}): their "
                             f"ground-projected facings differ by {np.degrees(facing):.1f} deg, more than "
-                            f"{np.degrees(max_facing):.0f} deg", choice.rule)
+                            f"{np.degrees(max_facing):.0f} deg" + _edge_hint(p1, p2), choice.rule)
     elif facing_at != "f_T":
         raise ValueError(f"facing_at must be t_m or f_T, got {facing_at!r}")
     best, failed = None, []
