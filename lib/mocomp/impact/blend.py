@@ -34,7 +34,8 @@ from scipy.ndimage import gaussian_filter1d, maximum_filter1d
 from ..core.motion import Motion, slerp
 from ..core.rotations import quat_angle, quat_inverse, quat_multiply
 
-__all__ = ["BlendOutcome", "final_blend", "correction", "floor_lift", "plant_feet", "frame_steps"]
+__all__ = ["BlendOutcome", "final_blend", "correction", "floor_lift", "plant_feet", "frame_steps",
+           "limit_plant_steps"]
 
 
 @dataclass(frozen=True)
@@ -70,17 +71,24 @@ def correction(sim: Motion, clip: Motion) -> dict:
             "max_correction_deg": float(applied.max())}
 
 
-def final_blend(sim: Motion, clip: Motion, root: str = "interpolate") -> BlendOutcome:
+def final_blend(sim: Motion, clip: Motion, root: str = "interpolate", weights: str = "linear") -> BlendOutcome:
     """Blend the simulated segment ``sim`` onto ``clip`` (the found clip aligned on the same frames),
     see the module docstring. Ends exactly on ``clip``'s last frame. ``root``: ``"interpolate"``
-    (``s_i + w_i (c_i - s_i)``, default) or ``"end_error"`` (``s_i + w_i (c_n - s_n)``)."""
+    (``s_i + w_i (c_i - s_i)``, default) or ``"end_error"`` (``s_i + w_i (c_n - s_n)``).
+    ``weights``: ``"linear"`` (the paper's ``w_i = i / n``) or ``"smoothstep"`` (``3x^2 - 2x^3`` of
+    ``i / n``: the error rate is zero at both seams, so the blend leaves the simulation and enters
+    the clip with their own velocities -- at the cost of 1.5x the linear rate mid-segment)."""
     if root not in ("interpolate", "end_error"):
         raise ValueError(f"root must be 'interpolate' or 'end_error', got {root!r}")
+    if weights not in ("linear", "smoothstep"):
+        raise ValueError(f"weights must be 'linear' or 'smoothstep', got {weights!r}")
     if sim.n_frames != clip.n_frames or sim.skeleton.names != clip.skeleton.names:
         raise ValueError(f"final_blend: the segment ({sim.n_frames} frames) and the clip ({clip.n_frames} frames) "
                          "must cover the same frames on the same skeleton")
     n = sim.n_frames - 1
     w = np.arange(sim.n_frames) / max(n, 1)
+    if weights == "smoothstep":
+        w = w * w * (3.0 - 2.0 * w)
     target = clip.root_positions if root == "interpolate" else clip.root_positions[-1]
     root_out = sim.root_positions + w[:, None] * (target - (sim.root_positions if root == "interpolate"
                                                            else sim.root_positions[-1]))
@@ -143,3 +151,68 @@ def plant_feet(motion: Motion, fade: float | None = None):
 
     blend = None if fade is None else max(1, int(round(fade * motion.fps)))
     return enforce_footplants(motion, audit=False, blend=blend)
+
+
+def limit_plant_steps(before: Motion, after: Motion, plants, max_step: float, *, iterations: int = 14):
+    """``(motion, frames_limited)``: ``after`` (``before`` with its feet planted, :func:`plant_feet`)
+    with the plants' leg corrections slowed down outside the planted frames, so that no leg joint
+    turns further in one frame than ``max(its own step in before, max_step)`` (rad).
+
+    The plants change the hip, knee and ankle rotations of a leg (``after = before * c``, ``c`` the
+    local correction) and fade that correction in and out over a fixed time (ops' 0.1 s); a plant
+    that starts right after the re-entry seam, where the blended segment's foot is far from the
+    clip's, turned the ankle up to 38 deg in a frame (the found clip's own largest step: 15.6 deg).
+    Here the correction of each leg joint is rate-limited outside its leg's planted frames, in a
+    forward and a backward pass: where a frame's output step exceeds the limit, its correction is
+    moved along the arc toward the neighbour's (which gives exactly the input's own step) as far as
+    the limit allows (bisection on the arc). Planted frames keep their correction exactly, so the
+    plants stay held; only the fades get longer where they were too fast.
+    ``plants``: the :class:`~mocomp.ops.plants.FootPlants` the correction enforced."""
+    from ..core.rotations import slerp as _slerp
+
+    qb = np.asarray(before.rotations, float)
+    qa = np.asarray(after.rotations, float)
+    T, J = qb.shape[:2]
+    c = quat_multiply(quat_inverse(qb), qa)
+    planted = np.ones((T, J), bool)                      # joints no plant moves are never touched
+    names = tuple(plants.effectors)
+    for leg in plants.legs:
+        cols = [names.index(e) for e in (f"foot_{leg.side}", f"toe_{leg.side}") if e in names]
+        held = plants.labels[:, cols].any(axis=1) if cols else np.zeros(T, bool)
+        for j in leg.chain:
+            planted[:, j] = held
+    own = np.zeros((T, J))
+    own[1:] = quat_angle(quat_multiply(quat_inverse(qb[:-1]), qb[1:]))
+    touched = np.zeros(T, bool)
+
+    def gap(m, cm, k, ck, idx):                          # angle between frame m's and frame k's output
+        return quat_angle(quat_multiply(quat_inverse(quat_multiply(qb[m, idx], cm)), quat_multiply(qb[k, idx], ck)))
+
+    allj = np.arange(J)
+
+    def sweep(order, nb):
+        for k in order:
+            m = nb(k)
+            free = ~planted[k]
+            if not free.any():
+                continue
+            lim = np.maximum(own[max(k, m)], max_step) + 1e-9
+            over = free & (gap(m, c[m], k, c[k], allj) > lim)
+            if not over.any():
+                continue
+            idx = np.nonzero(over)[0]
+            lo, hi = np.zeros(len(idx)), np.ones(len(idx))   # t: 0 = the neighbour's correction, 1 = own
+            for _ in range(iterations):
+                t = 0.5 * (lo + hi)
+                ok = gap(m, c[m, idx], k, _slerp(c[m, idx], c[k, idx], t), idx) <= lim[idx]
+                lo = np.where(ok, t, lo)
+                hi = np.where(ok, hi, t)
+            c[k, idx] = _slerp(c[m, idx], c[k, idx], lo)
+            touched[k] = True
+
+    sweep(range(1, T), lambda k: k - 1)
+    sweep(range(T - 2, -1, -1), lambda k: k + 1)
+    if not touched.any():
+        return after, 0
+    rot = quat_multiply(qb, c)
+    return after.replace(rotations=rot), int(touched.sum())

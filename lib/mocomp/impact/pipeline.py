@@ -23,7 +23,8 @@ on it):
    (:func:`mocomp.ops.enforce_footplants`), and a second lift for what the plants' levels sank
    (vertical only, so the plants stay put in the ground plane);
 8. the **attacker**: its clip, the simulated contact for a few frames, a blend back
-   (:mod:`~mocomp.impact.attacker`).
+   (:mod:`~mocomp.impact.attacker`), its root pushed out of the victim's body where the blend back
+   would step through it (:func:`~mocomp.impact.attacker.separate`).
 
 The physics of the output is judged by :mod:`mocomp.audit` on the written frames (the CLI); the
 result carries the planned numbers (labelled so) and the continuity measured on its own frames.
@@ -61,6 +62,15 @@ class ImpactConfig:
     control has time to act) to ``window[1]``; the transition ends at the best window's first frame,
     where eq. A.1 weighs the match most. ``"window_end"``: one query window over the whole search
     window, the transition ending at its last frame (weighted 0 by eq. A.1).
+    max_contact, max_impulse: s, N s: the strike ends (the attacker's striking bodies stop touching the
+    victim) once its contact has lasted 0.25 s (App. A's longest push of the search window) or its
+    impulse reached 60 N s (a strong kick: the ASE kick on the standing victim gives 52 N s), in
+    both passes; None: no limit (a clip ending inside the victim then pushes for a second, 840 N s).
+    separate: keep the attacker's body out of the victim's after the strike
+    (:func:`~mocomp.impact.attacker.separate`).
+    blend_weights: the final blend's weights (:func:`~mocomp.impact.blend.final_blend`): ``"linear"``
+    (the paper's), ``"smoothstep"``, or ``"auto"`` (default: linear unless the linear blend's step into
+    the re-entry frame exceeds the found clip's own largest frame-to-frame step, then smoothstep).
     """
 
     window: tuple[float, float] = (0.1, 1.0)
@@ -82,6 +92,10 @@ class ImpactConfig:
     match_window: float = 0.4
     min_active: float = 0.2
     start_step: int = 1
+    blend_weights: str = "auto"
+    separate: bool = True
+    max_contact: float | None = 0.25
+    max_impulse: float | None = 60.0
 
     def __post_init__(self):
         a, b = self.window
@@ -90,10 +104,16 @@ class ImpactConfig:
         lo, hi = self.delay_range
         if not (0 <= lo <= hi):
             raise ValueError(f"delay_range must satisfy 0 <= low <= high, got {self.delay_range}")
+        if self.blend_weights not in ("auto", "linear", "smoothstep"):
+            raise ValueError(f"blend_weights must be 'auto', 'linear' or 'smoothstep', got {self.blend_weights!r}")
         if self.reentry not in ("match_start", "window_end"):
             raise ValueError(f"reentry must be 'match_start' or 'window_end', got {self.reentry!r}")
         if not (0 < self.match_window < b):
             raise ValueError(f"match_window must lie in (0, {b}) s, got {self.match_window}")
+        for name in ("max_contact", "max_impulse"):
+            v = getattr(self, name)
+            if v is not None and not (np.isfinite(v) and v > 0):
+                raise ValueError(f"{name} must be a positive number or None, got {v!r}")
         if self.delay is not None and not (0 <= self.delay < b):
             raise ValueError(f"delay must lie in [0, {b}) s, got {self.delay}")
 
@@ -152,6 +172,7 @@ class ImpactResult:
             "contact_pairs": [list(p) for p in self.naive.pairs],
             "contact_end_s": self.naive.contact_end,
             "impulse_Ns": self.naive.impulse.tolist(), "impulse_norm_Ns": float(np.linalg.norm(self.naive.impulse)),
+            "strike_end": self.naive.strike_end,
             "search": self.search.to_dict(),
             "pruning": {**{k: self.search.stats.get(k) for k in ("windows_compared", "windows_exhaustive",
                                                                   "unique_windows")},
@@ -208,7 +229,7 @@ def impact_response(attacker: Motion, victim: Motion, index, scenario: Scenario 
     (:func:`load_library`); ``library_motions``: its clips as motions (for the joint limits; read
     from the index when None)."""
     from .attacker import attacker_response
-    from .blend import final_blend, floor_lift, frame_steps, plant_feet
+    from .blend import final_blend, floor_lift, frame_steps, limit_plant_steps, plant_feet
     from .scene import build_scene, place_victim
     from .search import search
     from .simulate import ServoGains, blend_targets, clip_targets, find_first_contact, naive_targets, simulate
@@ -241,7 +262,8 @@ def impact_response(attacker: Motion, victim: Motion, index, scenario: Scenario 
 
     t, c = time.perf_counter(), time.process_time()
     naive = simulate(scene, att, placed, t0, t_naive_end, victim_targets=naive_targets(placed, t0, t_naive_end),
-                     friction=config.friction_naive, gains=gains)
+                     friction=config.friction_naive, gains=gains, max_contact=config.max_contact,
+                     max_impulse=config.max_impulse)
     timings["naive_simulation"], cpu["naive_simulation"] = time.perf_counter() - t, time.process_time() - c
     if naive.impact_time is None:
         raise ImpactError(f"the kinematic pass found contact at frame {fc.frame} ({fc.time:.3f} s), but the "
@@ -307,7 +329,7 @@ def impact_response(attacker: Motion, victim: Motion, index, scenario: Scenario 
     timings["targets"], cpu["targets"] = time.perf_counter() - t, time.process_time() - c
     t, c = time.perf_counter(), time.process_time()
     active = simulate(scene, att, placed, t0, t_re, victim_targets=targets, friction=config.friction_active,
-                      gains=gains)
+                      gains=gains, max_contact=config.max_contact, max_impulse=config.max_impulse)
     timings["active_simulation"], cpu["active_simulation"] = time.perf_counter() - t, time.process_time() - c
 
     t, c = time.perf_counter(), time.process_time()
@@ -325,7 +347,17 @@ def impact_response(attacker: Motion, victim: Motion, index, scenario: Scenario 
         found_a = clip_a.sample(np.clip(tc, 0.0, clip_a.duration), fps=fps)
     else:
         clip_a, found_a = clip, found_seg
-    ba = final_blend(seg, found_a)
+    ba = final_blend(seg, found_a, weights="linear" if config.blend_weights == "auto" else config.blend_weights)
+    blend_weights = "linear" if config.blend_weights == "auto" else config.blend_weights
+    if config.blend_weights == "auto":
+        # the paper's linear weights, unless their error rate steps past the found clip's own largest
+        # step at a seam: then the eased weights, which enter the clip with its own velocity
+        cs = clip_a.resample(fps) if abs(clip_a.fps - fps) > 1e-6 else clip_a
+        cr, cq = frame_steps(cs)
+        dr_, dq_ = frame_steps(ba.motion)             # the last one is the step into the re-entry frame
+        if dq_[-1] > cq.max() + 1e-9 or dr_[-1] > cr.max() + 1e-9:
+            ba = final_blend(seg, found_a, weights="smoothstep")
+            blend_weights = "smoothstep"
     bn = final_blend(naive.victim.slice(0, n_seg), found_seg) if config.compare_naive else None
     clip = clip_a
     # the output: the victim clip up to the rewind frame, the blended segment, the found clip after
@@ -339,7 +371,7 @@ def impact_response(attacker: Motion, victim: Motion, index, scenario: Scenario 
     timings["final_blend"], cpu["final_blend"] = time.perf_counter() - t, time.process_time() - c
 
     t, c = time.perf_counter(), time.process_time()
-    evidence = {"search": search_stats}
+    evidence = {"search": search_stats, "blend_weights": blend_weights}
     re_frame = fc.rewind_frame + reentry
     clip_steps = clip.resample(fps) if abs(clip.fps - fps) > 1e-6 else clip     # steps compared at one rate
     evidence["continuity"] = _continuity(out, clip_steps, re_frame, fc.rewind_frame, frame_steps)
@@ -354,10 +386,12 @@ def impact_response(attacker: Motion, victim: Motion, index, scenario: Scenario 
 
         try:
             fp = plant_feet(out)
-            out = fp.motion
+            cq_max = float(frame_steps(clip_steps)[1].max())
+            out, limited = limit_plant_steps(out, fp.motion, fp.plants, cq_max)
             evidence["footplant"] = {"plants": {e: len(v) for e, v in fp.plants.intervals.items()}
                                      if hasattr(fp.plants, "intervals") else None,
-                                     "max_miss_m": float(fp.max_miss), "changed_frames": int(fp.changed_frames)}
+                                     "max_miss_m": float(fp.max_miss), "changed_frames": int(fp.changed_frames),
+                                     "frames_fade_slowed": limited}
         except NoContactError as e:                   # no plant at all (a victim airborne throughout)
             evidence["footplant"] = {"skipped": str(e)}
     if config.lift:
@@ -381,6 +415,13 @@ def impact_response(attacker: Motion, victim: Motion, index, scenario: Scenario 
         att_out, alift = floor_lift(att_out, _floor_level(att.slice(0, max(fc.rewind_frame + 1, 2))),
                                     tolerance=0.002)
         evidence["attacker"].update(frames_lifted=int((alift > 0).sum()), max_lift_m=float(alift.max()))
+    if config.separate:
+        # after the strike the attacker blends back to its clip, which knows nothing of the victim's
+        # reaction: its body is kept out of the victim's (root pushed horizontally, smoothly)
+        from .attacker import separate
+
+        att_out, sep = separate(att_out, out, start=fc.rewind_frame + ar.follow_frames)
+        evidence["attacker"]["separation"] = sep
     timings["attacker"], cpu["attacker"] = time.perf_counter() - t, time.process_time() - c
     frames = {"rewind": fc.rewind_frame, "first_contact": fc.frame,
               "impact": fc.rewind_frame + int(round((t_imp - t0) * fps)),

@@ -42,7 +42,9 @@ import numpy as np
 from ..core.motion import Motion, slerp
 from ..core.rotations import quat_angle, quat_inverse, quat_log, quat_multiply
 from .convert import frames_to_motion, motion_state, qpos_to_pose, to_wxyz, to_xyzw
-from .scene import FRICTION_ACTIVE, FRICTION_NAIVE, ImpactError, Scene
+from .scene import _ATT, _ATT_PASSIVE, FRICTION_ACTIVE, FRICTION_NAIVE, ImpactError, Scene
+
+_ATT_BITS = _ATT | _ATT_PASSIVE
 
 __all__ = ["ServoGains", "FirstContact", "PassResult", "find_first_contact", "simulate", "clip_targets",
            "blend_targets", "ease_in_out", "on_ground", "naive_targets", "FRICTION_NAIVE", "FRICTION_ACTIVE"]
@@ -94,7 +96,8 @@ class PassResult:
     ``(3,)`` world, the contact impulse on the victim from the attacker; pairs: body pairs that
     touched (attacker body, victim body); penetration_m: deepest floor contact MuJoCo resolved
     for the victim; warnings: MuJoCo warning kind -> count; tracking_error_rad ``(n,)``: mean
-    joint-angle error of the victim's servos per recorded frame; steps; seconds.
+    joint-angle error of the victim's servos per recorded frame; steps; seconds; strike_end: when and
+    by which limit the strike was ended (:func:`simulate` ``max_contact``/``max_impulse``), or None.
     """
 
     t0: float
@@ -112,6 +115,7 @@ class PassResult:
     steps: int
     seconds: float
     notes: tuple[str, ...] = field(default=())
+    strike_end: dict | None = None
 
     def to_dict(self) -> dict:
         return {"t0_s": self.t0, "frames": self.victim.n_frames, "friction": self.friction,
@@ -121,7 +125,7 @@ class PassResult:
                 "mujoco_warnings": self.warnings,
                 "tracking_error_deg": {"mean": float(np.degrees(self.tracking_error_rad.mean())),
                                        "max": float(np.degrees(self.tracking_error_rad.max()))},
-                "steps": self.steps, "seconds": self.seconds}
+                "steps": self.steps, "seconds": self.seconds, "strike_end": self.strike_end}
 
 
 def ease_in_out(x) -> np.ndarray:
@@ -292,7 +296,8 @@ class _Servo:
 
 def simulate(scene: Scene, attacker: Motion, victim: Motion, t0: float, t_end: float, *,
              victim_targets: np.ndarray, friction: float, gains: ServoGains = ServoGains(),
-             start_state: tuple[np.ndarray, np.ndarray] | None = None) -> PassResult:
+             start_state: tuple[np.ndarray, np.ndarray] | None = None, max_contact: float | None = None,
+             max_impulse: float | None = None) -> PassResult:
     """One pass from clip time ``t0`` to ``t_end`` (s), see the module docstring.
 
     attacker, victim: the clips on the same timeline and frame rate (the attacker sampled on the
@@ -301,6 +306,12 @@ def simulate(scene: Scene, attacker: Motion, victim: Motion, t0: float, t_end: f
     friction: the floor's sliding friction. start_state: ``(qpos, qvel)`` to start from (default:
     both clips' state at ``t0``, velocities by forward difference over one frame).
     The step is the scene's, rounded so that a whole number of steps fills a capture frame.
+    max_contact (s), max_impulse (N s): the strike ends -- the attacker's striking bodies stop colliding
+    with the victim for the rest of the pass -- once the contact has lasted ``max_contact`` since the
+    impact or its impulse on the victim reaches ``max_impulse`` (None: never). A strike is brief: a
+    clip whose striking limb stays where the victim's body is (a counter attack ending inside it)
+    would otherwise push for a second (840 N s), the attacker's root weld driving it through.
+    The cut is reported in ``notes`` and :attr:`PassResult.strike_end`.
     """
     import mujoco
 
@@ -353,6 +364,7 @@ def simulate(scene: Scene, attacker: Motion, victim: Motion, t0: float, t_end: f
     frc = np.zeros(6)
     nsteps = 0
     ang_err_v = 0.0
+    cut = None
     for k in range(K):
         v_roots[k], v_rots[k] = qpos_to_pose(data.qpos, lv)
         a_roots[k], a_rots[k] = qpos_to_pose(data.qpos, la)
@@ -378,7 +390,7 @@ def simulate(scene: Scene, attacker: Motion, victim: Motion, t0: float, t_end: f
                 sa = strike[gg[:, 0]] & vic[gg[:, 1]]
                 sb = strike[gg[:, 1]] & vic[gg[:, 0]]
                 idx = np.nonzero((sa | sb) & (dd <= 0))[0]
-                if len(idx):
+                if len(idx) and not cut:
                     t_now = t0 + (k + (s + 1) / sub) / fps
                     if impact is None:
                         impact = t_now
@@ -389,15 +401,26 @@ def simulate(scene: Scene, attacker: Motion, victim: Motion, t0: float, t_end: f
                         mujoco.mj_contactForce(model, data, int(i), frc)
                         fw = np.asarray(data.contact.frame[i]).reshape(3, 3).T @ frc[:3]   # on geom2's body
                         impulse += (fw if sa[i] else -fw) * ce * h
+                    why = ("duration" if max_contact is not None and t_now - impact >= max_contact else
+                           "impulse" if max_impulse is not None and np.linalg.norm(impulse) >= max_impulse else None)
+                    if why is not None:
+                        # the strike is over: the victim's geoms stop accepting the attacker's
+                        model.geom_conaffinity[lv.geom_ids] = model.geom_conaffinity[lv.geom_ids] & ~_ATT_BITS
+                        cut = (t_now, why)
         track[k] = ang_err_v
         if not np.all(np.isfinite(data.qpos)):
             raise ImpactError(f"the simulation became unstable at {t0 + k / fps:.3f} s (non-finite state); "
                               f"MuJoCo warnings: {_warnings(data)}")
     vm = frames_to_motion(victim.skeleton, fps, v_roots, v_rots, like=victim, note=f"impact simulation (friction {friction})")
     am = frames_to_motion(attacker.skeleton, fps, a_roots, a_rots, like=attacker, note="impact simulation (attacker)")
+    notes = (f"{fine} steps of {h * 1000:.4f} ms per capture frame, servos every {ce} steps",)
+    if cut is not None:
+        notes += (f"strike ended at {cut[0]:.4f} s ({cut[0] - impact:.3f} s after the impact) by its {cut[1]} limit "
+                  f"(max_contact {max_contact} s, max_impulse {max_impulse} N s): impulse {np.linalg.norm(impulse):.1f} N s",)
     return PassResult(t0, fps, vm, am, float(friction), impact, contact_end, impulse,
                       tuple(sorted(pairs)), pen, _warnings(data), track, nsteps, time.perf_counter() - t_start,
-                      (f"{fine} steps of {h * 1000:.4f} ms per capture frame, servos every {ce} steps",))
+                      notes, None if cut is None else {"time_s": cut[0], "after_impact_s": cut[0] - impact,
+                                                       "limit": cut[1]})
 
 
 def _warnings(data) -> dict:

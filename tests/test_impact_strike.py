@@ -1,0 +1,214 @@
+"""Issue 18 leftovers: the strike limit (a hit, not a push), the attacker kept out of the victim's body,
+the eased final blend at the re-entry and the plants' fades slowed near it."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mocomp.core.rotations import quat_angle, quat_inverse, quat_multiply
+from mocomp.impact.attacker import body_gap, segment_distances, separate
+from mocomp.impact.blend import final_blend, frame_steps, limit_plant_steps
+from mocomp.ops.synthetic import synthetic_walk
+
+
+@pytest.fixture(scope="module")
+def walk():
+    return synthetic_walk(duration=2.0, fps=30.0).motion
+
+
+# ------------------------------------------------------------------ geometry
+def test_segment_distances_known_answers():
+    a0 = np.array([[0.0, 0, 0], [0, 0, 0], [0, 0, 0], [0, 0, 0]])
+    a1 = np.array([[1.0, 0, 0], [1, 0, 0], [1, 0, 0], [1, 0, 0]])
+    b0 = np.array([[0.5, 1, -1], [2, 0, 0], [0.3, 0.2, 0], [-1, 3, 0]])   # crossing above, collinear, parallel, end
+    b1 = np.array([[0.5, 1, 1], [3, 0, 0], [0.8, 0.2, 0], [-1, 4, 0]])
+    d, pa, pb = segment_distances(a0, a1, b0, b1)
+    np.testing.assert_allclose(d, [1.0, 1.0, 0.2, np.hypot(1, 3)], atol=1e-12)
+    np.testing.assert_allclose(pa[0], [0.5, 0, 0], atol=1e-12)
+    np.testing.assert_allclose(pb[0], [0.5, 1, 0], atol=1e-12)
+    np.testing.assert_allclose(np.linalg.norm(pa - pb, axis=1), d, atol=1e-12)
+
+
+def _walk_through(walk, lateral=0.3):
+    """A victim standing (the walk's frame 0 held) 1 m ahead of the same walker's start, ``lateral`` m beside its path."""
+    from mocomp.core.motion import concatenate
+
+    stand = concatenate([walk.slice(0, 1)] * walk.n_frames)
+    d = walk.root_positions[-1] - walk.root_positions[0]
+    d[1] = 0.0
+    ahead = d / np.linalg.norm(d)
+    side = np.cross(ahead, [0.0, 1.0, 0.0])
+    return stand.translated(ahead * 1.0 + side * lateral)
+
+
+def test_separate_keeps_a_walker_out_of_a_standing_body(walk):
+    victim = _walk_through(walk)
+    g0, _ = body_gap(walk, victim)
+    assert g0.min() < -0.05                                   # the walker brushes through the standing body
+    start = 5
+    out, ev = separate(walk, victim, start=start)
+    g, _ = body_gap(out, victim)
+    assert g[start:].min() >= -0.005 - 1e-9                   # tolerance 5 mm
+    assert ev["min_gap_after_m"] >= -0.005 - 1e-9 and ev["min_gap_before_m"] == pytest.approx(g0[start:].min())
+    shift = out.root_positions - walk.root_positions
+    assert np.allclose(shift[:, 1], 0.0)                      # horizontal only
+    np.testing.assert_allclose(out.rotations, walk.rotations)  # the pose is kept
+    # smooth: the push changes by at most a few cm per frame, and it points away from the victim
+    assert np.linalg.norm(np.diff(shift, axis=0), axis=1).max() < 0.08      # measured 6.6 cm
+    k = int(np.argmax(np.linalg.norm(shift, axis=1)))
+    away = walk.root_positions[k] - victim.root_positions[k]
+    assert shift[k] @ away > 0 or np.linalg.norm(away[[0, 2]]) < 1e-6
+
+
+def test_separate_leaves_apart_bodies_alone(walk):
+    victim = _walk_through(walk).translated([0.0, 0.0, 3.0])
+    out, ev = separate(walk, victim, start=0)
+    assert ev["frames_shifted"] == 0 and ev["iterations"] == 0
+    np.testing.assert_allclose(out.root_positions, walk.root_positions)
+
+
+# ------------------------------------------------------------------ the final blend's weights
+def test_smoothstep_blend_enters_the_clip_with_its_own_velocity(walk):
+    n = 20
+    clip = walk.slice(0, n)
+    sim = clip.replace(root_positions=clip.root_positions + np.array([0.3, 0.0, -0.2]))
+    lin = final_blend(sim, clip).motion
+    eased = final_blend(sim, clip, weights="smoothstep").motion
+    for m in (lin, eased):                                    # both start on the simulation, end on the clip
+        np.testing.assert_allclose(m.root_positions[0], sim.root_positions[0], atol=1e-12)
+        np.testing.assert_allclose(m.root_positions[-1], clip.root_positions[-1], atol=1e-12)
+    v_clip = clip.root_positions[-1] - clip.root_positions[-2]
+    v_lin = lin.root_positions[-1] - lin.root_positions[-2]
+    v_eased = eased.root_positions[-1] - eased.root_positions[-2]
+    err = np.linalg.norm([0.3, 0.0, -0.2])
+    # linear: the clip's step plus the error rate err / n; eased: within (1 - w(n-1)) err = err * 3/n^2 of it
+    assert np.linalg.norm(v_lin - v_clip) == pytest.approx(err / (n - 1), rel=1e-9)
+    assert np.linalg.norm(v_eased - v_clip) < err * 3.0 / (n - 1) ** 2 + 1e-12
+    with pytest.raises(ValueError, match="weights"):
+        final_blend(sim, clip, weights="cubic")
+
+
+# ------------------------------------------------------------------ the plants' fades near a seam
+def test_limit_plant_steps_slows_fast_fades_and_keeps_planted_frames(walk):
+    from mocomp.ops import enforce_footplants
+    from scipy.spatial.transform import Rotation
+
+    fp = enforce_footplants(walk, audit=False)
+    plants = fp.plants
+    # a correction of 40 deg on the left knee that appears within one frame just before a left plant
+    leg = [lg for lg in plants.legs if lg.side == "l"][0]
+    knee = leg.chain[1]
+    held = plants.labels[:, [plants.effectors.index("foot_l"), plants.effectors.index("toe_l")]].any(axis=1)
+    starts = np.nonzero(held[1:] & ~held[:-1])[0] + 1
+    s = int(starts[starts > 6][0])
+    after = np.array(walk.rotations)
+    c = Rotation.from_rotvec([np.radians(40.0), 0, 0]).as_quat()
+    after[s - 1:, knee] = quat_multiply(after[s - 1:, knee], c)
+    stepped = walk.replace(rotations=after)
+    limit = np.radians(8.0)
+    out, n = limit_plant_steps(walk, stepped, plants, limit)
+    assert n > 0
+    own = np.zeros(walk.n_frames)
+    own[1:] = quat_angle(quat_multiply(quat_inverse(walk.rotations[:-1, knee]), walk.rotations[1:, knee]))
+    got = quat_angle(quat_multiply(quat_inverse(out.rotations[:-1, knee]), out.rotations[1:, knee]))
+    assert np.all(got <= np.maximum(own[1:], limit) + 1e-6)
+    # planted frames keep the correction exactly; other joints untouched
+    dot = np.abs(np.sum(out.rotations[held, knee] * stepped.rotations[held, knee], axis=-1))
+    assert np.all(dot > 1 - 1e-12)
+    other = [j for j in range(walk.skeleton.n_joints) if j not in leg.chain]
+    np.testing.assert_allclose(out.rotations[:, other], stepped.rotations[:, other])
+    # nothing to limit: the same object back
+    same, n0 = limit_plant_steps(walk, walk, plants, limit)
+    assert n0 == 0 and same is walk
+
+
+# ------------------------------------------------------------------ real clips
+pytest.importorskip("mujoco")
+
+
+@pytest.fixture(scope="module")
+def ase(real_data_dir, tmp_path_factory):
+    from mocomp.impact.pipeline import load_library
+    from mocomp.io import load
+
+    d = real_data_dir
+    clips = {"idle": load(d / "idle" / "ase_rl_Idle_Ready.derived.bvh"),
+             "run": load(d / "runs" / "ase_rl_RunForward.derived.bvh"),
+             "counter": load(d / "attacks" / "ase_rl_Counter_Atk01.derived.bvh"),
+             "charge": load(d / "attacks" / "ase_rl_Atk_ShieldCharge.derived.bvh")}
+    index = load_library(d / "reactions", clips["idle"].skeleton, cache_dir=tmp_path_factory.mktemp("idx"))
+    return clips, index, [index.motion(c.path) for c in index.clips]
+
+
+@pytest.fixture(scope="module")
+def counter(ase, tmp_path_factory):
+    """The counter attack on the standing victim, written and read back."""
+    from mocomp.impact.pipeline import ImpactConfig, impact_response
+    from mocomp.impact.scene import Scenario
+    from mocomp.io import read_bvh, write_bvh
+
+    clips, index, lib = ase
+    r = impact_response(clips["counter"], clips["idle"], index, Scenario(0.0), ImpactConfig(seed=0), library_motions=lib)
+    d = tmp_path_factory.mktemp("counter")
+    write_bvh(r.victim, d / "v.bvh")
+    write_bvh(r.attacker, d / "a.bvh")
+    return r, read_bvh(d / "v.bvh", scale=1.0), read_bvh(d / "a.bvh", scale=1.0)
+
+
+def test_counter_attack_is_a_strike_not_a_push(ase, counter):
+    """Measured 2026-12-02: without the limit the counter's arm stays inside the victim and pushes for
+    1.03 s (838 N s); with it the strike ends at 60 N s after 0.15 s."""
+    from mocomp.impact.scene import Scenario, build_scene, default_impact_body, place_victim
+    from mocomp.impact.simulate import find_first_contact, naive_targets, simulate
+
+    r, _, _ = counter
+    fps = r.victim.fps
+    assert r.naive.strike_end is not None and r.naive.strike_end["limit"] in ("impulse", "duration")
+    assert np.linalg.norm(r.naive.impulse) <= 60.0 * 1.15          # one servo update of overshoot at most
+    assert r.naive.contact_end - r.naive.impact_time <= 0.25 + 1.0 / fps
+    assert np.linalg.norm(r.naive.impulse) > 10.0                   # still a hit
+    # the same burst without the limit: a sustained push, an order of magnitude more impulse
+    clips, _, _ = ase
+    a, v = clips["counter"], clips["idle"]
+    pv = place_victim(a, v, Scenario(0.0))
+    aa = a.sample(np.clip(np.arange(max(pv.n_frames, int(a.duration * fps) + 1)) / fps, 0, a.duration), fps=fps)
+    sc = build_scene(a.skeleton, v.skeleton, attacker_body=default_impact_body(a), victim_body=default_impact_body(v),
+                     attacker_motions=[a], victim_motions=[v])
+    fc = find_first_contact(sc, aa.slice(0, pv.n_frames), pv)
+    t0 = fc.rewind_frame / fps
+    t1 = fc.time + 1.0
+    free = simulate(sc, aa, pv, t0, t1, victim_targets=naive_targets(pv, t0, t1), friction=1.0)
+    assert free.strike_end is None
+    assert np.linalg.norm(free.impulse) > 5 * np.linalg.norm(r.naive.impulse)
+    assert free.contact_end - free.impact_time > 0.5
+
+
+def test_attacker_does_not_step_through_the_victim_after_the_strike(counter):
+    """On the written files: from the end of the attacker's follow, no body capsule of the attacker
+    inside the victim's by more than 1 cm (measured before the separation: 9.7 cm; after: 0.5 cm)."""
+    r, v, a = counter
+    start = r.frames["rewind"] + r.evidence["attacker"]["follow_frames"]
+    g, _ = body_gap(a, v)
+    assert g[start:].min() >= -0.01
+    sep = r.evidence["attacker"]["separation"]
+    assert sep["min_gap_after_m"] >= -0.01 and sep["max_shift_step_m"] < 0.1
+
+
+def test_run_into_a_shield_charge_reenters_continuously(ase, tmp_path):
+    """The running victim hit by the shield charge re-entered with a joint step 0.7 deg above the found
+    clip's own largest (linear blend weights); the eased weights bring it under, measured on the
+    written file."""
+    from mocomp.impact.pipeline import ImpactConfig, impact_response
+    from mocomp.impact.scene import Scenario
+    from mocomp.io import read_bvh, write_bvh
+
+    clips, index, lib = ase
+    r = impact_response(clips["charge"], clips["run"], index, Scenario(0.0), ImpactConfig(seed=0), library_motions=lib)
+    write_bvh(r.victim, tmp_path / "v.bvh")
+    v = read_bvh(tmp_path / "v.bvh", scale=1.0)
+    c = r.evidence["continuity_final"]
+    re = r.frames["reentry"]
+    dr, dq = frame_steps(v)
+    assert np.degrees(dq[re - 1:re + 1].max()) <= c["clip_max_joint_step_deg"] + 0.05   # BVH print precision
+    assert dr[re - 1:re + 1].max() <= c["clip_max_root_step_m"] + 1e-4
+    assert r.evidence["blend_weights"] in ("linear", "smoothstep")
