@@ -20,7 +20,7 @@ from mocomp.core.motion import slerp
 from mocomp.core.rotations import quat_apply, quat_multiply
 from mocomp.edit import apply_preset, restore_momentum, seams
 from mocomp.edit import smooth_direction as sd
-from mocomp.ops.ik import descends, leg_chains, run_starts, two_bone_ik
+from mocomp.ops.ik import descends, leg_chains, two_bone_ik
 from mocomp.flips.reposition import ComEvaluator
 from mocomp.synth.flights import backflip, sideflip
 
@@ -77,14 +77,14 @@ def _plant_feet_reference(motion, start, weights, chains, tol=1e-3):
     rot = np.array(motion.rotations)
     P, G = motion.fk()
     solves = 0
-    starts = run_starts(np.asarray(weights) >= 0.5)
+    # the horizontal targets by ops.ik's rule (anchors held by the weight, continuous at release)
+    from mocomp.ops.ik import plant_targets
+
+    hor = plant_targets(P[start:, [c[2] for c in chains]][..., [0, 2]], np.asarray(weights))
     for c, chain in enumerate(chains):
         a = chain[2]
         tgt = np.array(P[start:, a])
-        on = starts[:, c] >= 0
-        plant = tgt[np.maximum(starts[:, c], 0)][:, [0, 2]]
-        blend = np.where(on, weights[:, c], 0.0)[:, None]
-        tgt[:, [0, 2]] += blend * (plant - tgt[:, [0, 2]])
+        tgt[:, [0, 2]] = hor[:, c]
         idx = np.flatnonzero(np.linalg.norm(tgt - P[start:, a], axis=1) > tol)
         if idx.size:
             f = start + idx

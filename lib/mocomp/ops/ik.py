@@ -26,7 +26,7 @@ from ..core.motion import Motion
 from ..core.rotations import quat_apply, quat_inverse, quat_multiply
 
 __all__ = ["two_bone_ik", "hinge_axis", "leg_chains", "plant_feet", "plant_rotations", "run_starts", "descends",
-           "arc_quaternions", "axis_angle_quaternions", "REACH_MARGIN"]
+           "arc_quaternions", "axis_angle_quaternions", "REACH_MARGIN", "plant_targets"]
 
 #: m: a target is reached with the limb at most this much shorter than fully straight (or this much
 #: longer than fully folded); a straight knee has no bending plane, so it is never quite reached.
@@ -215,17 +215,60 @@ def plant_feet(motion: Motion, start: int, weights: np.ndarray, chains, tol: flo
     """Hold each leg's ankle still while its contact weight is high, from frame ``start`` on
     (the flight edits' planting, :mod:`mocomp.edit.seams`).
 
-    ``weights (n, C)`` in [0, 1] per frame (``n = T - start``) and chain. A contact starts when
-    the weight rises to 0.5; from then until it falls below 0.5 the ankle's target is its
-    horizontal position at that start (its height stays the frame's own), blended with the
-    unplanted position by the weight. Frames where the ankle is within ``tol`` m of its target
-    are left alone. The chains must be disjoint (two legs). Returns the motion and the number
-    of IK solves. :func:`mocomp.ops.enforce_footplants` is the general footplant enforcement.
+    ``weights (n, C)`` in [0, 1] per frame (``n = T - start``) and chain. A contact is a run of frames
+    with weight >= 0.5; its anchor is the ankle's horizontal position on the run's first frame. The
+    ankle's horizontal target is its own position moved toward the anchor by the weight,
+    ``p + w (anchor - p)`` (its height stays the frame's own), on the run and on the frames of weight
+    above 0 next to it, so the hold comes and goes with the weight: a continuous weight gives a
+    continuous pose, with no step where the weight crosses 0.5 (see :func:`plant_targets`). Frames
+    where the ankle is within ``tol`` m of its target are left alone. The chains must be disjoint
+    (two legs). Returns the motion and the number of IK solves.
+    :func:`mocomp.ops.enforce_footplants` is the general footplant enforcement.
     """
     sk = motion.skeleton
     P, G = forward_kinematics(sk.parents, sk.offsets, motion.root_positions[start:], motion.rotations[start:])
     rot, solves = plant_rotations(sk.parents, motion.rotations, P, G, start, weights, chains, tol)
     return motion.replace(rotations=rot), solves
+
+
+def plant_targets(pos: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """``(n, C, 2)`` horizontal ankle targets of :func:`plant_feet` from the ankles' horizontal
+    positions ``pos (n, C, 2)`` and the contact weights ``(n, C)``.
+
+    Each run of weight >= 0.5 anchors the ankle at its position on the run's first frame. A frame of
+    weight above 0 that is not in a run but in the same stretch of positive weight as one takes the
+    nearest run's anchor (before the first run, after the last one); between two runs of one such
+    stretch (the weight dips without reaching 0) the anchor moves from the earlier run's to the later
+    one's, linearly in frames, so that nothing jumps where the later run begins. The target is
+    ``pos + w (anchor - pos)``: where the weight is continuous, so is the target (the former rule,
+    the anchor weighted only while ``w >= 0.5`` and dropped below, let go of a planted foot in one
+    frame: half its correction at once)."""
+    pos = np.asarray(pos, dtype=float)
+    w = np.clip(np.asarray(weights, dtype=float), 0.0, 1.0)
+    n = w.shape[0]
+    t = np.arange(n)[:, None]
+    on = w >= 0.5
+    pos_ = w > 0
+    seg = np.cumsum(np.vstack([pos_[:1], pos_[1:] & ~pos_[:-1]]), axis=0) * pos_      # positive-weight stretch id
+    starts = run_starts(on)
+    first = on & (starts == t)
+    # the last run start at or before each frame, the last on-frame at or before, the next run start after
+    prev_s = np.maximum.accumulate(np.where(first, t, -1), axis=0)
+    prev_on = np.maximum.accumulate(np.where(on, t, -1), axis=0)
+    next_s = np.minimum.accumulate(np.where(first, t, n)[::-1], axis=0)[::-1]
+    cols = np.arange(w.shape[1])[None]
+    same = lambda f, ok: ok & (seg[np.clip(f, 0, n - 1), cols] == seg) & pos_       # noqa: E731
+    has_p = same(prev_s, prev_s >= 0)
+    has_n = same(next_s, next_s < n)
+    a_p = pos[np.clip(prev_s, 0, n - 1), cols]
+    a_n = pos[np.clip(next_s, 0, n - 1), cols]
+    # in a dip between two runs: the fraction of the way from the earlier run's last frame to the later's first
+    gap = np.maximum(next_s - prev_on, 1)
+    s = np.where(has_p & has_n & ~on, (t - prev_on) / gap, 0.0)
+    s = np.where(has_p, s, 1.0)
+    anchor = a_p + s[..., None] * (a_n - a_p)
+    anchor = np.where((has_p | has_n)[..., None], anchor, pos)
+    return pos + w[..., None] * (anchor - pos)
 
 
 def plant_rotations(parents, rotations, P, G, start, weights, chains, tol=1e-3) -> tuple[np.ndarray, int]:
@@ -238,18 +281,18 @@ def plant_rotations(parents, rotations, P, G, start, weights, chains, tol=1e-3) 
     rot = np.array(rotations)
     solves = 0
     weights = np.asarray(weights, dtype=float)
-    starts = run_starts(weights >= 0.5)
+    if weights.shape != (P.shape[0], len(chains)):
+        raise ValueError(f"plant weights: expected shape {(P.shape[0], len(chains))} (frames from {start} x legs), "
+                         f"got {weights.shape}")
+    ank = [c[2] for c in chains]
+    hor = plant_targets(P[:, ank][..., [0, 2]], weights)
     for c, chain in enumerate(chains):
         a = chain[2]
         tgt = np.array(P[:, a])
-        on = starts[:, c] >= 0
-        plant = tgt[np.maximum(starts[:, c], 0)][:, [0, 2]]
-        blend = np.where(on, weights[:, c], 0.0)[:, None]
-        tgt[:, [0, 2]] += blend * (plant - tgt[:, [0, 2]])
+        tgt[:, [0, 2]] = hor[:, c]
         idx = np.flatnonzero(np.linalg.norm(tgt - P[:, a], axis=1) > tol)
         if idx.size:
             f = start + idx
             rot[f], _ = two_bone_ik(P[idx], G[idx], rot[f], parents, chain, tgt[idx])
             solves += idx.size
     return rot, solves
-
