@@ -113,3 +113,32 @@ def test_real_jump_flight(real_data_dir):
     out = cur.replace(root_positions=adj.root_positions, rotations=adj.rotations)
     for a, b in fl:
         assert com_residual(center_of_mass(body, out), a, b, m.fps) < 1e-6
+
+
+def test_ballistic_completion_puts_the_com_on_the_parabola_and_leaves_ground_frames(hop):
+    """The unsmoothed root translation after the flight steps (sec. 3.4.2, S1 empty): every
+    flight's COM on the g parabola through its end points to rounding, the end frames and the
+    ground frames untouched, the angular momentum about the COM unchanged (a translation)."""
+    from mocomp.dynamics.momentum import momentum
+    from mocomp.touchup.iterate import ballistic_completion
+
+    m, body, fl = hop
+    (a, b), = fl
+    bent = m.root_positions.copy()
+    bent[a:b, 1] += 0.05 * np.sin(np.linspace(0, np.pi, b - a))         # 5 cm off any parabola
+    m2 = m.replace(root_positions=bent)
+    c2 = center_of_mass(body, m2)
+    assert com_residual(c2, a, b, m.fps) > 0.01
+    out, shift = ballistic_completion(body, m2, fl)
+    c = center_of_mass(body, out)
+    # the walk's level COM is g T^2 / 8 above the parabola mid-flight (T = 0.48 s: 0.28 m), plus the bump
+    T = (b - 1 - a) / m.fps
+    assert com_residual(c, a, b, m.fps) < 1e-9 and 0.01 < shift < G_STANDARD * T ** 2 / 8 + 0.06
+    ground = np.ones(m.n_frames, bool)
+    ground[a + 1:b - 1] = False
+    np.testing.assert_allclose(out.root_positions[ground], m2.root_positions[ground], rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(out.rotations, m2.rotations)
+    L0, L1 = momentum(body, m2).angular, momentum(body, out).angular
+    np.testing.assert_allclose(L1[a + 2:b - 2], L0[a + 2:b - 2], atol=1e-9)
+    same, s0 = ballistic_completion(body, m2, [])
+    assert same is m2 and s0 == 0.0
