@@ -20,6 +20,15 @@ goal is met or missed by up to ~2x with the load). Where the time goes without t
 angular velocities), the foot-plant detection of both inputs (~11 ms each, for the double-support
 truncation and the plants), eq. 9's track of the window (~3 ms), the rest (alignment, timing, blend)
 a few ms.
+
+Re-measured 2026-12-02 16:00 after the one-kernel merge (issue 14), at load 4: timing search 1.5 ms,
+concatenate 9.7 ms without the feet held, 15.6 ms with them (stop 23 noted 113 ms at load 10). Then, in
+mocomp.concat, A/B alternated in one process at load 8-9 (min of 12-15): the body model kept between
+calls (``phases.body_of``: a DeepMimic clip's character file was parsed on every call, ~7 ms) -- DeepMimic
+side flip x2 24.8 -> 11.3 ms, spin kick + kick 21.4 -> 11.0, SIE punches 25.5 -> 20.3; a motion chained
+with itself gets one eq. 1 track and one plant detection -- synthetic back flip x2 43.3 -> 29.8 ms.
+Where the time goes now (synthetic back flip, two copies): the footplant enforcement ~40 % (its contact
+re-detection and IK), three contact detections, three eq. 1 tracks, the rest a few ms.
 """
 from __future__ import annotations
 
@@ -66,8 +75,11 @@ def run(quick: bool) -> list[dict]:
         concatenate(m, m, plant=False)
         t_c, r = best_of(lambda mm: concatenate(mm, mm, plant=False), max(3, repeat // 3), lambda: m.replace())
         t_cp, _ = best_of(lambda mm: concatenate(mm, mm), max(2, repeat // 6), lambda: m.replace())
+        t_c2, _ = best_of(lambda ab: concatenate(*ab), max(2, repeat // 6), lambda: (m.replace(), m.replace()))
     rows.append(result(f"concatenate 2 x {m.n_frames}f backflips (no feet held)", t_c, goal="ours_s <= 0.05",
                        note=f"synthetic backflip; T={r.T}, window {r.window}, s={r.scale:.2f}"))
     rows.append(result("concatenate, feet held (ops.enforce_footplants)", t_cp, goal="ours_s <= 0.05",
-                       note="synthetic backflip"))
+                       note="synthetic backflip chained with itself (one eq. 1 track, one plant detection)"))
+    rows.append(result("concatenate, feet held, A and B two copies", t_c2, goal="ours_s <= 0.05",
+                       note="as above with B a separate Motion: both tracks and both plant detections computed"))
     return rows

@@ -174,3 +174,27 @@ def test_on_facing_constrain_is_eq2_within_the_limit(flip):
     grid = y_h + np.radians(np.arange(-45.0, 45.01, 0.1))
     vals = [L1 @ quat_apply(yaw_quaternion(g), L2) for g in grid]
     assert r.eq2_value >= max(vals) - 1e-6 * abs(max(vals))
+
+
+def test_a_motion_chained_with_itself_equals_two_copies(flip):
+    """The shortcut for ``concatenate(m, m)`` (one eq. 1 track, one plant detection) changes nothing:
+    the same result as with B a separate copy of the motion."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        r1, r2 = concatenate(flip, flip), concatenate(flip, flip.replace())
+    assert (r1.T, r1.f_T, r1.window, r1.output_window) == (r2.T, r2.f_T, r2.window, r2.output_window)
+    np.testing.assert_allclose(r1.motion.root_positions, r2.motion.root_positions, atol=1e-12)
+    np.testing.assert_allclose(r1.motion.rotations, r2.motion.rotations, atol=1e-12)
+
+
+def test_body_model_kept_between_calls_is_the_audit_default():
+    from mocomp.audit import default_body
+    from mocomp.concat.phases import body_of
+
+    m = datasets.load("backflip")
+    b1, b2 = body_of(m), body_of(m.replace())
+    assert b1 is b2                                   # same skeleton and source: parsed once
+    np.testing.assert_allclose(np.asarray(b1.masses), np.asarray(default_body(m).masses), rtol=1e-12)
+    other = datasets.load("sideflip")
+    if other.skeleton.names != m.skeleton.names or not np.array_equal(other.skeleton.offsets, m.skeleton.offsets):
+        assert body_of(other) is not b1

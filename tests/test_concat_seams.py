@@ -114,3 +114,18 @@ def test_cartwheels_cut_whole_keep_their_turning_direction(real_data_dir):
     Lb = momentum_track(mg.motion).magnitude[p1.t_m:r.phases[1].t_m + mg.transition.i - mg.transition.j + 1]
     assert Lb.min() < 0.15 * r.L_reference
     assert r.motion.n_frames < mg.motion.n_frames
+
+
+def test_deepmimic_body_kept_between_calls_is_the_character(real_data_dir):
+    """A DeepMimic clip's body model comes from its character file (the audit's default): kept between
+    concatenations, it is the same model, and a clip with another character is not served it."""
+    from mocomp.audit import default_body
+    from mocomp.concat.phases import body_of
+
+    a = _load(real_data_dir, "flips/deepmimic_sideflip.txt")
+    b = _load(real_data_dir, "flips/deepmimic_backflip.txt")
+    assert body_of(a) is body_of(a.replace())
+    np.testing.assert_allclose(np.asarray(body_of(a).masses), np.asarray(default_body(a).masses), rtol=1e-12)
+    np.testing.assert_allclose(np.asarray(body_of(b).masses), np.asarray(default_body(b).masses), rtol=1e-12)
+    bvh = _load(real_data_dir, "flips/cmu_90_08_sideflip.bvh", fps=60)
+    assert body_of(bvh) is not body_of(a)

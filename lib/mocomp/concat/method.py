@@ -43,11 +43,11 @@ from ..core.motion import Motion, slerp
 from ..ops import GroundTransform, enforce_footplants, foot_plants, headings, reference_points
 from ..core.rotations import quat_apply
 from ..ops.align import yaw_quaternion
-from .phases import MIN_MAIN_LEVEL, ConcatError, MomentumTrack, Phases, find_phases, momentum_track
+from .phases import MIN_MAIN_LEVEL, ConcatError, body_of, MomentumTrack, Phases, find_phases, momentum_track
 from .rules import RuleChoice, alignment_yaw, blendable_periods, choose_rule, support_truncate
 from .timing import TimingTable, optimal_timing
 
-__all__ = ["ConcatResult", "concatenate", "linear_blend", "warp_positions", "RAMP_SECONDS", "com_continuity", "BaselineResult", "motion_graph_concatenate", "check_same_skeleton", "MAX_FACING", "WINDOW_FRACTION", "F_FRACTION"]
+__all__ = ["ConcatResult", "concatenate", "body_of", "linear_blend", "warp_positions", "RAMP_SECONDS", "com_continuity", "BaselineResult", "motion_graph_concatenate", "check_same_skeleton", "MAX_FACING", "WINDOW_FRACTION", "F_FRACTION"]
 
 #: rad, the largest difference of the ground-projected facing of the two bodies at f_T
 MAX_FACING = np.pi / 4
@@ -476,9 +476,11 @@ def _concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bo
     t0 = time.perf_counter()
     check_same_skeleton(a, b)
     notes = []
+    same = b is a                      # a motion chained with itself: its track and plants are computed once
     if abs(a.fps - b.fps) > 1e-6 * a.fps:
         ratio, fps_b = a.fps / b.fps, b.fps
         b = b.resample(a.fps)
+        same = False
         notes.append(f"B resampled to A's {a.fps:g} fps")
         # B's frames given by hand count B's own frames: the same instants in the resampled B
         if borders_b is not None:
@@ -488,12 +490,10 @@ def _concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bo
                          f"at {a.fps:g} fps")
         if t_m_b is not None:
             t_m_b = min(int(round(int(t_m_b) * ratio)), b.n_frames - 1)
-    from ..audit import default_body
-
-    body_a = default_body(a) if body_a is None else body_a
+    body_a = body_of(a) if body_a is None else body_a
     body_b = body_a if body_b is None else body_b          # same skeleton: one body model
     t1 = momentum_track(a, body_a, kind=kind)
-    t2 = momentum_track(b, body_b, kind=kind)
+    t2 = t1 if same and body_b is body_a else momentum_track(b, body_b, kind=kind)
     p1 = find_phases(t1, t_m_a, borders_a, min_level=min_level, name="A")
     p2 = find_phases(t2, t_m_b, borders_b, min_level=min_level, name="B")
     choice = choose_rule(a, t1, p1, b, t2, p2, rule)
@@ -544,7 +544,7 @@ def _concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bo
     max_F = (F_FRACTION * L_peak) ** 2 if max_F is None else float(max_F)
     thr = (WINDOW_FRACTION * L_ref) ** 2 if window_threshold is None else float(window_threshold)
     la = foot_plants(a, require=False).labels
-    lb = foot_plants(b, require=False).labels
+    lb = la if same else foot_plants(b, require=False).labels
     gap = int(np.ceil(min_peak_gap * 0.5 * ((p1.main[1] - p1.main[0]) + (p2.main[1] - p2.main[0]))))
     min_T = p1.t_m - p2.t_m + gap
     # the facing check (pi/4): with facing_at="t_m" part of the alignment (the two bodies at their

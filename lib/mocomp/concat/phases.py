@@ -27,7 +27,7 @@ import numpy as np
 
 from ..errors import MocompError
 
-__all__ = ["LEVEL_FRACTION", "ConcatError", "MomentumTrack", "Phases", "momentum_track", "find_phases", "L_KINDS", "MIN_MAIN_LEVEL"]
+__all__ = ["body_of", "LEVEL_FRACTION", "ConcatError", "MomentumTrack", "Phases", "momentum_track", "find_phases", "L_KINDS", "MIN_MAIN_LEVEL"]
 
 L_KINDS = ("paper", "full")
 #: kg m^2/s: a motion whose |L| never exceeds this has no main phase (a person standing, shifting
@@ -79,15 +79,37 @@ class MomentumTrack:
         return MomentumTrack(quat_apply(q, self.L), quat_apply(q, self.arms), self.masses, self.fps, self.kind)
 
 
+#: the body models :func:`body_of` keeps (a chain or a benchmark concatenates the same skeleton again)
+_BODIES: dict = {}
+_BODIES_MAX = 8
+
+
+def body_of(motion):
+    """:func:`mocomp.audit.default_body` of ``motion``, kept for the next call with the same skeleton and
+    source notes (all it depends on: a DeepMimic clip's character file, named in the loader's notes, is
+    parsed once, ~7 ms, instead of on every concatenation). The model is shared: read it, do not change it."""
+    from ..audit import default_body
+
+    sk, src = motion.skeleton, motion.source
+    key = (getattr(src, "format", None), tuple(getattr(src, "notes", ()) or ()), tuple(sk.names),
+           np.asarray(sk.parents).tobytes(), np.asarray(sk.offsets, dtype=float).tobytes())
+    body = _BODIES.get(key)
+    if body is None:
+        body = default_body(motion)
+        if len(_BODIES) >= _BODIES_MAX:
+            _BODIES.pop(next(iter(_BODIES)))
+        _BODIES[key] = body
+    return body
+
+
 def momentum_track(motion, body=None, *, kind: str = "paper", smooth_seconds: float | None = SMOOTH_SECONDS
                    ) -> MomentumTrack:
     """Eq. 1 over every frame of ``motion`` (body model: ``body`` or :func:`mocomp.audit.default_body`)."""
-    from ..audit import default_body
     from ..dynamics import momentum
 
     if kind not in L_KINDS:
         raise ValueError(f"kind must be one of {', '.join(L_KINDS)}, got {kind!r}")
-    body = default_body(motion) if body is None else body
+    body = body_of(motion) if body is None else body
     sigma = smooth_seconds * motion.fps if smooth_seconds else None
     r = momentum(body, motion, smooth_sigma=sigma if sigma and sigma >= 0.5 else None)
     arms = r.segment_positions - r.com[:, None]
