@@ -135,3 +135,15 @@ def test_unknown_contact_body_is_named(clips, cache, tmp_path, capsys):
               "--library", clips["library"], "--cache", cache, "-o", str(tmp_path / "o")])
     assert rc == 2
     assert "contact body 'fist'" in capsys.readouterr().err
+
+
+def test_strike_frames_declared_as_external_force_in_the_audit(kicked):
+    """The strike's frames go to the audit as under external force: no gravity / L finding touching them
+    is a violation (they are 'expected'), and the strike ends within its limits."""
+    _, _, rep, _ = kicked
+    a, b = rep["frames"]["external_force"]
+    assert rep["frames"]["rewind"] <= a < b <= rep["frames"]["reentry"] + 1
+    assert rep["impulse_norm_Ns"] <= 60.0 * 1.15
+    for f in rep["audit"]["victim"]["findings"]:
+        if f["check"] in ("gravity", "L_direction", "L_magnitude") and f["frames"][0] < b and f["frames"][1] > a:
+            assert f["severity"] != "violation", f

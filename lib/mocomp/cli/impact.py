@@ -136,8 +136,11 @@ def run(args) -> int:
     results = {}
     if not args.no_audit:
         placed_input = victim
-        results["victim"] = audit_output(vpath, placed_input, input_name=str(args.victim))
-        results["attacker"] = audit_output(apath, attacker, input_name=str(args.attacker))
+        # the strike's frames are declared as under external force: the audit labels the gravity and
+        # angular-momentum findings there "expected" instead of violations
+        ext = [tuple(r.frames["external_force"])]
+        results["victim"] = audit_output(vpath, placed_input, input_name=str(args.victim), external_force_frames=ext)
+        results["attacker"] = audit_output(apath, attacker, input_name=str(args.attacker), external_force_frames=ext)
     if args.report:
         d["outputs"] = {"victim": str(vpath), "attacker": str(apath)}
         d["audit"] = {k: v.to_dict() for k, v in results.items()} if results else None

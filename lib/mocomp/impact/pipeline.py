@@ -428,6 +428,9 @@ def impact_response(attacker: Motion, victim: Motion, index, scenario: Scenario 
               "window_start": fc.rewind_frame + start, "window_stop": fc.rewind_frame + stop,
               "reentry": re_frame, "found_clip_frame_at_reentry": int(round(tc[-1] * clip.fps)),
               "output_frames": out.n_frames}
+    # the frames the strike's force acts on both characters (half-open; for the audit's external_force_frames)
+    c_end = naive.contact_end if active.contact_end is None else max(naive.contact_end, active.contact_end)
+    frames["external_force"] = [frames["impact"], fc.rewind_frame + int(np.ceil((c_end - t0) * fps - 1e-9)) + 1]
     notes = scene.notes + naive.notes
     return ImpactResult(out, att_out, scenario, fc, naive, active, res, found_a, ba, bn, frames, delay,
                         timings, evidence, notes, cpu)
