@@ -91,3 +91,69 @@ def test_deepmimic_character_masses_load_into_body_model(real_data_dir):
 
     pairs = {tuple(sorted(given.segment_names[i] for i in g)) for g in symmetric_groups(given) if len(g) == 2}
     assert ("left_hip", "right_hip") in pairs and ("left_wrist", "right_wrist") in pairs and len(pairs) == 6
+
+
+def _oracle_landmark(sk, spec, landmarks, rest, depth=0):
+    """The landmark resolution asking the skeleton for every name (Skeleton.find, a scan of its end
+    sites), as mapping did before it built its name lookups once: the oracle for those lookups."""
+    rec = lambda s: _oracle_landmark(sk, s, landmarks, rest, depth + 1)  # noqa: E731
+    if isinstance(spec, str):
+        if spec.endswith("/end"):
+            j = sk.find(spec[:-4])
+            ends = [e for e in sk.end_sites if j is not None and e.parent == j]
+            p = rest[j] + ends[0].offset if ends else None
+        elif sk.find(spec) is not None:
+            p = rest[sk.find(spec)]
+        else:
+            ends = [e for e in sk.end_sites if e.name == spec]
+            p = rest[ends[0].parent] + ends[0].offset if ends else None
+        if p is None and spec in landmarks and landmarks[spec] != spec:
+            p = rec(landmarks[spec])
+        return p
+    if spec[0] == "first":
+        return next((p for p in map(rec, spec[1:]) if p is not None), None)
+    if spec[0] == "offset":
+        return None if sk.find(spec[1]) is None else rest[sk.find(spec[1])] + np.asarray(spec[2], dtype=float)
+    a, b = rec(spec[1]), rec(spec[2])
+    if a is None or b is None:
+        return None
+    return 0.5 * (a + b) if spec[0] == "mid" else (a + spec[3] * (b - a) if spec[0] == "lerp" else b + spec[3] * (b - a))
+
+
+@pytest.mark.realdata
+def test_landmarks_and_carriers_equal_the_per_name_lookup_on_every_clip(real_data_dir):
+    """Every landmark of every convention, on every real clip's skeleton: the mapping's one-time
+    name lookups give the same point (or the same None) as asking the skeleton name by name; the
+    resolved carriers are the joints the skeleton finds by name; the toe effector rides on the foot
+    carrier's descendant nearest the toe tip (found with Skeleton.chain)."""
+    from mocomp.body.mapping import CONVENTIONS, resolve_landmark, resolve_mapping
+    from mocomp.dynamics.contacts import default_effectors
+
+    seen = set()
+    checked = 0
+    for path in MOTION_FILES:
+        sk = _load(path).skeleton
+        key = (sk.names, sk.offsets.tobytes(), tuple(e.name for e in sk.end_sites))
+        if key in seen:
+            continue
+        seen.add(key)
+        rest = sk.rest_positions()
+        for conv in CONVENTIONS.values():
+            for lm, spec in conv.landmarks.items():
+                want = _oracle_landmark(sk, spec, conv.landmarks, rest)
+                got = resolve_landmark(sk, spec, conv.landmarks)
+                assert (got is None) == (want is None), (path.name, conv.name, lm)
+                if got is not None:
+                    np.testing.assert_array_equal(got, want)
+                    checked += 1
+        rm = resolve_mapping(sk)
+        assert [sk.names[j] for j in rm.carriers] == [rm.convention.carriers[s] for s in rm.segments]
+        eff = default_effectors(sk)
+        for side in ("l", "r"):
+            foot = int(rm.carriers[rm.segments.index(f"foot_{side}")])
+            tip = _oracle_landmark(sk, rm.convention.landmarks[f"TTIP_{side}"], rm.convention.landmarks, rest)
+            desc = [c for c in range(sk.n_joints) if foot in sk.chain(c)]
+            j = min(desc, key=lambda c: np.linalg.norm(rest[c] - tip))
+            assert eff[f"toe_{side}"][0] == j
+            np.testing.assert_allclose(eff[f"toe_{side}"][1], tip - rest[j], atol=0)
+    assert len(seen) >= 8 and checked > 500

@@ -276,22 +276,37 @@ CONVENTIONS["sfu"] = CONVENTIONS.pop("sfu")
 
 
 # ------------------------------------------------------------------ resolving
-def _joint_or_end(skeleton: Skeleton, rest: np.ndarray, name: str):
-    if name.endswith("/end"):
-        j = skeleton.find(name[:-4])
-        if j is None:
-            return None
+class _Names:
+    """A skeleton's name -> index lookups, built once per resolution (a few dicts of J entries) so
+    that resolving the ~60 landmarks and 15 carriers of a convention stays in this module instead of
+    asking the skeleton for each name (the same answers as ``Skeleton.find`` / ``in skeleton``):
+    ``joints`` name -> joint index, ``first_end`` joint index -> offset of its first end site,
+    ``ends`` end-site name -> (parent, offset) of the first site of that name, and the rest pose."""
+
+    __slots__ = ("joints", "first_end", "ends", "rest")
+
+    def __init__(self, skeleton: Skeleton, rest: np.ndarray | None = None):
+        self.joints = {n: j for j, n in enumerate(skeleton.names)}
+        self.first_end: dict[int, np.ndarray] = {}
+        self.ends: dict[str, tuple[int, np.ndarray]] = {}
         for e in skeleton.end_sites:
-            if e.parent == j:
-                return rest[j] + e.offset
-        return None
-    j = skeleton.find(name)
+            self.first_end.setdefault(e.parent, e.offset)
+            self.ends.setdefault(e.name, (e.parent, e.offset))
+        self.rest = skeleton.rest_positions() if rest is None else rest
+
+
+def _joint_or_end(names: _Names, name: str):
+    rest = names.rest
+    if name.endswith("/end"):
+        j = names.joints.get(name[:-4])
+        if j is None or j not in names.first_end:
+            return None
+        return rest[j] + names.first_end[j]
+    j = names.joints.get(name)
     if j is not None:
         return rest[j]
-    for e in skeleton.end_sites:
-        if e.name == name:
-            return rest[e.parent] + e.offset
-    return None
+    e = names.ends.get(name)
+    return None if e is None else rest[e[0]] + e[1]
 
 
 def resolve_landmark(skeleton: Skeleton, spec: Landmark, landmarks: dict | None = None,
@@ -299,14 +314,18 @@ def resolve_landmark(skeleton: Skeleton, spec: Landmark, landmarks: dict | None 
     """Rest-pose world position ``(3,)`` of a landmark spec, or ``None`` if it does not resolve.
 
     Strings naming another canonical landmark (``"MIDH"``) are looked up in ``landmarks``.
+    ``rest``: the skeleton's rest positions, when the caller has them already.
     """
+    return _resolve(_Names(skeleton, rest), spec, landmarks or {}, _depth)
+
+
+def _resolve(names: _Names, spec: Landmark, landmarks: dict, _depth: int = 0):
+    """:func:`resolve_landmark` on a skeleton's prebuilt lookups."""
     if _depth > 20:
         raise ValueError(f"landmark spec nests too deeply (cycle?): {spec!r}")
-    rest = skeleton.rest_positions() if rest is None else rest
-    landmarks = landmarks or {}
-    rec = lambda s: resolve_landmark(skeleton, s, landmarks, rest, _depth + 1)  # noqa: E731
+    rec = lambda s: _resolve(names, s, landmarks, _depth + 1)  # noqa: E731
     if isinstance(spec, str):
-        p = _joint_or_end(skeleton, rest, spec)
+        p = _joint_or_end(names, spec)
         if p is None and spec in landmarks and landmarks[spec] != spec:
             p = rec(landmarks[spec])
         return p
@@ -320,8 +339,8 @@ def resolve_landmark(skeleton: Skeleton, spec: Landmark, landmarks: dict | None 
                 return p
         return None
     if op == "offset":
-        j = skeleton.find(spec[1])
-        return None if j is None else rest[j] + np.asarray(spec[2], dtype=float)
+        j = names.joints.get(spec[1])
+        return None if j is None else names.rest[j] + np.asarray(spec[2], dtype=float)
     if op in ("mid", "lerp", "extend"):
         a, b = rec(spec[1]), rec(spec[2])
         if a is None or b is None:
@@ -343,9 +362,11 @@ def _referenced_names(spec) -> list[str]:
     return []
 
 
-def _score(skeleton: Skeleton, m: SegmentMap) -> float:
+def _score(skeleton: Skeleton | _Names, m: SegmentMap) -> float:
+    """Fraction of ``m``'s carrier joints present in the skeleton."""
+    joints = skeleton.joints if isinstance(skeleton, _Names) else set(skeleton.names)
     carriers = list(m.carriers.values())
-    hits = sum(1 for c in carriers if c in skeleton)
+    hits = sum(1 for c in carriers if c in joints)
     return hits / max(1, len(carriers))
 
 
@@ -355,18 +376,22 @@ def detect_convention(skeleton: Skeleton) -> SegmentMap:
 
     Raises :class:`~mocomp.errors.MotionFormatError` listing the joint names when none fits.
     """
+    return _detect(skeleton, _Names(skeleton))
+
+
+def _detect(skeleton: Skeleton, names: _Names) -> SegmentMap:
     errors = []
     for m in CONVENTIONS.values():
-        if _score(skeleton, m) < 1.0:
+        if _score(names, m) < 1.0:
             continue
         try:
-            resolve_mapping(skeleton, m)
+            _apply(skeleton, names, m)
             return m
         except MotionFormatError as e:
             errors.append(str(e))
-    best = max(CONVENTIONS.values(), key=lambda m: _score(skeleton, m))
+    best = max(CONVENTIONS.values(), key=lambda m: _score(names, m))
     raise MotionFormatError(
-        f"no body-segment mapping fits this skeleton (best: {best.name!r}, {_score(skeleton, best):.0%} of its "
+        f"no body-segment mapping fits this skeleton (best: {best.name!r}, {_score(names, best):.0%} of its "
         f"carrier joints present{'; ' + errors[0] if errors else ''}); joints: {list(skeleton.names)}. "
         "Pass mapping=... to BodyModel.from_skeleton (see mocomp.body.mapping)")
 
@@ -394,9 +419,13 @@ class ResolvedMapping:
 
 def resolve_mapping(skeleton: Skeleton, mapping: SegmentMap | dict | str | None = None) -> ResolvedMapping:
     """Apply a mapping (``None``: detect; a convention name; a :class:`SegmentMap`; or a dict
-    override ``{"landmarks": {...}, "carriers": {...}}`` on top of the detected convention)."""
+    override ``{"landmarks": {...}, "carriers": {...}}`` on top of the detected convention).
+
+    The skeleton's names are looked up once (:class:`_Names`) for the detection and the
+    resolution together."""
+    names = _Names(skeleton)
     if mapping is None:
-        m = detect_convention(skeleton)
+        m = _detect(skeleton, names)
     elif isinstance(mapping, str):
         if mapping not in CONVENTIONS:
             raise ValueError(f"unknown mapping convention {mapping!r}; choose one of {sorted(CONVENTIONS)}")
@@ -405,11 +434,15 @@ def resolve_mapping(skeleton: Skeleton, mapping: SegmentMap | dict | str | None 
         m = mapping
     elif isinstance(mapping, dict):
         base = mapping.get("base")
-        m0 = CONVENTIONS[base] if base else detect_convention_lenient(skeleton)
+        m0 = CONVENTIONS[base] if base else max(CONVENTIONS.values(), key=lambda c: _score(names, c))
         m = m0.updated({k: v for k, v in mapping.items() if k != "base"})
     else:
         raise TypeError(f"mapping must be None, a convention name, a SegmentMap or a dict, got {type(mapping).__name__}")
-    rest = skeleton.rest_positions()
+    return _apply(skeleton, names, m)
+
+
+def _apply(skeleton: Skeleton, names: _Names, m: SegmentMap) -> ResolvedMapping:
+    """Resolve every segment's carrier and landmarks of ``m`` on the skeleton's lookups."""
     segs = sided_segments()
     carriers, prox, dist = [], [], []
     for seg in segs:
@@ -419,14 +452,14 @@ def resolve_mapping(skeleton: Skeleton, mapping: SegmentMap | dict | str | None 
         c = m.carriers.get(seg)
         if c is None:
             raise MotionFormatError(f"mapping {m.name!r} gives no carrier joint for segment {seg!r}")
-        j = skeleton.find(c)
+        j = names.joints.get(c)
         if j is None:
             raise MotionFormatError(f"mapping {m.name!r}: carrier joint {c!r} of segment {seg!r} is not in the skeleton")
         pts = []
         for lm in (p_name + suffix, d_name + suffix):
             if lm not in m.landmarks:
                 raise MotionFormatError(f"mapping {m.name!r} does not place landmark {lm!r} (segment {seg!r})")
-            p = resolve_landmark(skeleton, m.landmarks[lm], m.landmarks, rest)
+            p = _resolve(names, m.landmarks[lm], m.landmarks)
             if p is None:
                 raise MotionFormatError(
                     f"mapping {m.name!r}: landmark {lm!r} = {m.landmarks[lm]!r} does not resolve on this skeleton "
@@ -438,7 +471,7 @@ def resolve_mapping(skeleton: Skeleton, mapping: SegmentMap | dict | str | None 
         prox.append(pts[0])
         dist.append(pts[1])
     used = set(carriers)
-    massless = tuple(n for j, n in enumerate(skeleton.names) if j not in used)
+    massless = tuple(n for n, j in names.joints.items() if j not in used)
     return ResolvedMapping(m, tuple(segs), np.array(carriers), np.array(prox), np.array(dist), massless)
 
 

@@ -141,6 +141,7 @@ def default_effectors(skeleton) -> dict[str, tuple[int, np.ndarray]]:
     rm = resolve_mapping(skeleton)
     rest = skeleton.rest_positions()
     lm = rm.convention.landmarks
+    parents = skeleton.parents
     out = {}
     for kind, seg_kind, landmark in (("foot", "foot", "AJC"), ("toe", "foot", "TTIP"), ("hand", "hand", "MET3")):
         for side in ("l", "r"):
@@ -148,8 +149,13 @@ def default_effectors(skeleton) -> dict[str, tuple[int, np.ndarray]]:
             j = int(rm.carriers[k])
             p = resolve_landmark(skeleton, lm[f"{landmark}_{side}"], lm, rest)
             if kind == "toe":
-                desc = [c for c in range(skeleton.n_joints) if j in skeleton.chain(c)]
-                j = min(desc, key=lambda c: np.linalg.norm(rest[c] - p))
+                # j and its descendants (parents precede children: one pass over the parent array)
+                below = np.zeros(len(parents), dtype=bool)
+                below[j] = True
+                for c in range(j + 1, len(parents)):
+                    below[c] = below[parents[c]]
+                desc = np.flatnonzero(below)
+                j = int(desc[np.argmin(np.linalg.norm(rest[desc] - p, axis=1))])
             out[f"{kind}_{side}"] = (j, p - rest[j])
     return out
 
