@@ -51,8 +51,10 @@ def cases(data: Path | None):
     for x in ex + real[:1]:
         out.append(("flips --flips 2 --k-ratio 0.7 --takeoff repair",
                     ["flips", x, "--flips", "2", "--k-ratio", "0.7", "--takeoff", "repair"], ""))
-    out.append(("flips --flips 2 --k-ratio 0.7", ["flips", "backflip", "--flips", "2", "--k-ratio", "0.7"],
-                "the paper's 0.7 k* take-off jump (--k-ratio 0.7 without --takeoff repair)"))
+    out.append(("flips --flips 2 --k-ratio 0.7 --takeoff as-is",
+                ["flips", "backflip", "--flips", "2", "--k-ratio", "0.7", "--takeoff", "as-is"],
+                "the paper's 0.7 k* take-off jump (--k-ratio 0.7 --takeoff as-is)"))
+    out.append(("flips --flips 2 --k-ratio 0.7", ["flips", "backflip", "--flips", "2", "--k-ratio", "0.7"], ""))
     for preset in ("straight-legs", "arms-twist", "arms-out"):
         for x in ex + real + (["88_01"] if data is not None else []):
             if x.endswith("cmu_88_01_backflip.bvh"):

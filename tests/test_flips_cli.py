@@ -17,7 +17,7 @@ def test_cli_double_flip_writes_bvh_and_report(tmp_path, capsys):
     d = json.loads(rep.read_text())
     assert d["flips"] == 2 and abs(d["achieved_rotation"] - 720) < 10
     assert d["k"] == pytest.approx(d["k_star"])          # the default since issue #13: k = k*
-    assert d["gravity"] == 9.81 and d["gravity_source"] == "standard" and d["takeoff"] == "as-is"
+    assert d["gravity"] == 9.81 and d["gravity_source"] == "standard" and d["takeoff"] == "smooth"
     assert m.fps == pytest.approx(120.0) and m.n_frames > 250
 
 
@@ -171,7 +171,7 @@ def test_flips_k07_output_is_audited_worse_than_input(tmp_path, capsys):
     """Planted case: k = 0.7 k* keeps the flight's duration while the take-off is retimed, so the COM
     velocity jumps at take-off (the model's own note says +104%); the audit of the written frames
     must find it, the input (the exact synthetic single flip) has no violation."""
-    out, d, cap = _audit_run(tmp_path, capsys, "--k-ratio", "0.7")
+    out, d, cap = _audit_run(tmp_path, capsys, "--k-ratio", "0.7", "--takeoff", "as-is")
     last = cap.out.strip().splitlines()[-1]
     assert last.startswith("audit: FAIL, ") and "input: PASS, 0 violation(s)" in last
     assert "new or worse: com_velocity_jump" in last

@@ -30,12 +30,17 @@ def register(subparsers) -> None:
                    help="change of the landing level in metres (negative = land lower)")
     p.add_argument("--takeoff-height-change", type=finite_float, default=0.0, metavar="DY0",
                    help="change of the take-off level in metres (positive = take off from higher up; App. B)")
-    p.add_argument("--takeoff", choices=("as-is", "repair"), default="as-is",
-                   help="as-is (default): the paper's method. repair (beyond the paper): reshape the last ground "
-                        "frames before take-off and the first after landing (root displacement map, feet held by the "
-                        "leg IK, vertical ground force within 0.1-8 body weights, knees no tighter than the clip's "
-                        "tuck) so the centre of mass reaches the new flight's velocity without a jump; refused with "
-                        "the frames and the force needed when the stance cannot do it")
+    p.add_argument("--takeoff", choices=("smooth", "as-is", "repair"), default="smooth",
+                   help="smooth (default, beyond the paper): the flight is played k times faster, so its stances would "
+                        "push and land with k^2 times the captured acceleration; the frames next to the take-off and "
+                        "the landing keep the captured acceleration and the rest is made up by a longer push and a "
+                        "deeper give (root displacement map, feet held by the leg IK, ground force bounded), kept only "
+                        "where the measured velocity jump falls. as-is: the paper's method (the stances retimed as "
+                        "they are). repair (beyond the paper): also remove a k != k* take-off jump: reshape the last "
+                        "ground frames before take-off and the first after landing (root displacement map, feet held "
+                        "by the leg IK, vertical ground force within 0.1-8 body weights, knees no tighter than the "
+                        "clip's tuck) so the centre of mass reaches the new flight's velocity without a jump; refused "
+                        "with the frames and the force needed when the stance cannot do it")
     p.add_argument("--landing", choices=("auto", "as-is"), default="auto",
                    help="auto (default, beyond the paper): when the input flight is not ballistic (a DeepMimic "
                         "clip's take-off velocity differs from its ballistic fit's), the landing stance is decelerated "

@@ -545,13 +545,17 @@ def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None 
     timings["assemble"] = t5 - t4
     flight_out = (f0, f1)
     repairs: tuple = ()
+    if landing not in ("auto", "as-is"):
+        raise ValueError(f"landing must be 'auto' or 'as-is', got {landing!r}")
     if takeoff == "repair":
         new, repairs = _repair(P, seq, new, traj, kk, tau, u_to, u_land, v_to, v_ld, q_land, g_used, repair_options)
         timings["repair"] = time.perf_counter() - t5
-    if landing not in ("auto", "as-is"):
-        raise ValueError(f"landing must be 'auto' or 'as-is', got {landing!r}")
     landing_info = None
-    if landing == "auto" and takeoff != "repair" and not _ballistic(P, v_to, g_used):
+    smoothed: tuple = ()
+    if takeoff == "smooth":
+        new, smoothed = _smooth(P, seq, new, traj, kk, tau, u_to, u_land, q_land, g_used, landing == "auto")
+        timings["stances"] = time.perf_counter() - t5
+    elif landing == "auto" and takeoff != "repair" and not _ballistic(P, v_to, g_used):
         t6 = time.perf_counter()
         new, landing_info = _match_landing(P, new, traj, kk, u_land, g_used)
         timings["landing"] = time.perf_counter() - t6
@@ -561,7 +565,7 @@ def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None 
                                 extra_rotation, W_to, speed, tau, w, h0, upright_tilt,
                                 gravity_info=(g_used, g_source, fit.gravity), takeoff=takeoff, repairs=repairs,
                                 takeoff_velocity=takeoff_velocity, v_to=v_to, v_ld=v_ld, W_land=W_land, q_land=q_land,
-                                u_to=u_to, landing_info=landing_info)
+                                u_to=u_to, landing_info=landing_info, smoothed=smoothed)
     return MultiFlipResult(motion=new, original=P.motion, prepared=P, sequence=seq, plan=plan, trajectory=traj,
                            seq_positions=tau, flight=flight_out, report=report, timings=timings, momentum=mom,
                            seq_times=tw, takeoff_time=W_to, speed=speed, repairs=repairs, warp=warp,
@@ -611,6 +615,44 @@ def event_jumps(traj: FlightTrajectory, k: float, v_to: np.ndarray, v_ld: np.nda
     if q_land is not None:
         ground = quat_apply(q_land, ground)
     return up, v_end - ground
+
+
+def _stances(P, seq, tau):
+    """``(before, after)``: the output frames of the stance before the take-off and after the landing,
+    bounded by the clip's other flights (``tau``: the sequence position of every output frame)."""
+    src = seq.frames[np.clip(np.rint(tau).astype(int), 0, seq.n_frames - 1)]
+    s, e = P.flight
+    others = [(int(f.start), int(f.stop)) for f in P.detection.flights if (int(f.start), int(f.stop)) != (s, e)]
+    prev_end = max([b for a, b in others if b <= s], default=0)
+    next_start = min([a for a, b in others if a >= e], default=P.motion.n_frames)
+    before = np.flatnonzero((tau < seq.takeoff) & (src >= prev_end))
+    after = np.flatnonzero((tau > seq.landing) & (src < next_start))
+    return before, after
+
+
+def _smooth(P, seq, new, traj, kk, tau, u_to, u_land, q_land, g, land: bool):
+    """``takeoff="smooth"`` (default; beyond the paper): :func:`~mocomp.flips.takeoff.smooth_stance` on the
+    stance before the take-off and, with ``land``, after the landing: the frames next to the event
+    get the captured push's (impact's) acceleration instead of ``k^2`` times it, the velocity that
+    leaves out made up by a longer push (a deeper give); at the landing the stance also takes the
+    part of the arrival velocity the input's own impact does not remove (the flight arrives ``k``
+    times faster; a non-ballistic input's parabola arrives with yet another velocity). Returns
+    ``(motion, infos)``."""
+    from .takeoff import LANDING_MAX_FORCE, _event_jump, smooth_stance
+
+    before, after = _stances(P, seq, tau)
+    s, e = P.flight
+    infos = []
+    if before.size >= 4:
+        new, info = smooth_stance(new, P.com_eval, "take-off", float(u_to), (int(before[0]), int(before[-1]) + 1),
+                                  g=g, body=P.body, target_jump=_event_jump(P.com, P.fps, s - 0.5))
+        infos.append(info)
+    if land and after.size >= 4:
+        new, info = smooth_stance(new, P.com_eval, "landing", float(u_land), (int(after[0]), int(after[-1]) + 1),
+                                  g=g, body=P.body, max_force=LANDING_MAX_FORCE,
+                                  target_jump=_event_jump(P.com, P.fps, e - 0.5))
+        infos.append(info)
+    return new, tuple(infos)
 
 
 def _repair(P, seq, new, traj, kk, tau, u_to, u_land, v_to, v_ld, q_land, g, options):
@@ -761,7 +803,7 @@ def _evaluate(P: PreparedFlip, seq: Sequence, plan: RetimePlan, traj: FlightTraj
               W_to: float | None = None, speeds: np.ndarray | None = None, tau: np.ndarray | None = None,
               window: int | None = None, takeoff_height_change: float = 0.0, upright_tilt: float = 0.0, *,
               gravity_info=None, takeoff: str = "as-is", repairs=(), takeoff_velocity: str = "fit", v_to=None,
-              v_ld=None, W_land=None, q_land=None, u_to=None, landing_info=None):
+              v_ld=None, W_land=None, q_land=None, u_to=None, landing_info=None, smoothed=()):
     from ..dynamics import momentum as compute_momentum
 
     t = time.perf_counter()
@@ -823,6 +865,16 @@ def _evaluate(P: PreparedFlip, seq: Sequence, plan: RetimePlan, traj: FlightTraj
                      f"vertical ground force {r['min_force']:.2f}-{r['peak_force']:.2f} body weights")
     elif landing_info is not None and landing_info.get("note"):
         notes.append(landing_info["note"])
+    for sm in smoothed:
+        r = sm.get("repair")
+        if r is not None:
+            notes.append(f"{sm['event']} stance smoothed (takeoff='smooth', --takeoff smooth; beyond the paper): "
+                         f"largest COM velocity jump near it {sm['jump_before']:.2f} -> {sm['jump_after']:.2f} m/s "
+                         f"(the input's own {sm['target']:.2f}) by a longer push / softer give over output frames "
+                         f"{r['frames'][0]}-{r['frames'][1] - 1}: crouch up to {100 * -r['dip']:.1f} cm deeper, root "
+                         f"moved up to {100 * r['horizontal']:.1f} cm horizontally, vertical ground force "
+                         f"{r['min_force']:.2f}-{r['peak_force']:.2f} body weights, feet held within "
+                         f"{1000 * r['ik_miss']:.1f} mm")
     for r in repairs:
         if np.isfinite(r.zmp_outside_after) and r.zmp_outside_after > max(r.zmp_outside_before, 0.0) + 0.02:
             notes.append(f"the {r.event} repair moves the ZMP up to {100 * r.zmp_outside_after:.1f} cm outside the "

@@ -62,17 +62,21 @@ from ..core.motion import Motion
 from ..errors import PhysicsError
 
 __all__ = ["StanceRepair", "StanceRepairError", "repair_stance", "stance_displacement", "TAKEOFF_CHOICES",
+           "stance_window", "smooth_stance", "captured_acceleration", "MATCH_S", "MATCH_TOL", "SMOOTH_MARGINS",
            "MAX_FORCE", "MIN_FORCE", "MIN_FORCE_FALLBACK", "MAX_WINDOW_S", "JERK_WEIGHT", "DEGREE", "KNOT_SPACING_S", "ACC_SMOOTH_S",
            "IK_TOLERANCE", "AIRBORNE_CLEARANCE", "KNEE_MARGIN", "KNEE_MIN"]
 
 #: the values of ``multiflip(..., takeoff=...)`` / ``--takeoff``
-TAKEOFF_CHOICES = ("as-is", "repair")
+TAKEOFF_CHOICES = ("smooth", "as-is", "repair")
 #: body weights: the largest vertical ground reaction the repaired stance may need (or the stance's own
 #: peak where that is higher). Standing take-offs of back somersaults peak at 3-6 body weights, running
 #: ones (round-off, back handspring) at 8-13; the real CMU 88_01 flip's own push, smoothed over 20 ms,
 #: peaks at 6.0 and the synthetic back flip's at 6.8. ``k = 0.7 k*`` asks for about twice the take-off
 #: speed, so the bound is that of a running take-off.
 MAX_FORCE = 8.0
+#: body weights: the same bound at a landing (:func:`mocomp.edit.landing.match_landing_velocity`'s
+#: :data:`~mocomp.edit.landing.LANDING_MAX_FORCE`: drop landings of gymnasts peak at 4-11 body weights)
+LANDING_MAX_FORCE = 12.0
 #: body weights: the smallest vertical ground reaction the repaired stance may have (the ground cannot
 #: pull). Near zero the ZMP of eq. 4 is the ratio of two small numbers and runs far outside the support
 #: polygon (synthetic side flip at 0.7 k*: 0.49 m before the repair, 2.87 m after with a 0.1 floor,
@@ -205,19 +209,25 @@ def _lsi(A: np.ndarray, b: np.ndarray, G: np.ndarray, h: np.ndarray):
 
 def stance_displacement(tau: np.ndarray, slope: float, D: float, lower=None, upper=None, *,
                         jerk_weight: float = JERK_WEIGHT, spacing: float = KNOT_SPACING_S, samples: int = 241,
-                        d_lower=None, d_upper=None):
+                        d_lower=None, d_upper=None, lin_rows=None):
     """One component of the displacement map, as a function of the time ``tau`` (s) from the
     event into the stance: ``d(0) = 0``, ``dd/dtau(0) = slope``, ``d = d' = d'' = 0`` at
     ``tau = D``, minimising ``J(d)`` (module docstring) with ``lower <= d''(tau) <= upper`` and
-    ``d_lower <= d(tau) <= d_upper`` at the times ``tau`` (arrays like ``tau`` or ``None``). Returns ``(d(tau), d''(tau), ok)``: ``ok`` is
-    ``False`` when no map within the bounds exists (the least-violating one is returned)."""
+    ``d_lower <= d(tau) <= d_upper`` at the times ``tau`` (arrays like ``tau`` or ``None``). ``lin_rows``:
+    ``(M, lo, hi)``, further linear bounds ``lo <= M d(tau) <= hi`` (``M`` of shape ``(m, len(tau))``:
+    e.g. the audit's velocity-jump filters over the frames). ``slope=None`` leaves ``d'(0)`` free.
+    Returns ``(d(tau), d''(tau), ok)``: ``ok`` is ``False`` when no map within the bounds exists (the
+    least-violating one is returned)."""
 
     tau = np.asarray(tau, dtype=float)
     kn = _knots(D, spacing)
     K = kn.size - DEGREE - 1
     c_fixed = np.zeros(K)
-    c_fixed[1] = slope * kn[DEGREE + 1] / DEGREE        # d'(0) = p (c1 - c0) / t_{p+1}
-    free = np.arange(2, K - 3)                          # c0 = 0; the last three 0 (d, d', d'' at D)
+    if slope is None:
+        free = np.arange(1, K - 3)                      # c0 = 0 (d(0) = 0); the last three 0 (d, d', d'' at D)
+    else:
+        c_fixed[1] = slope * kn[DEGREE + 1] / DEGREE    # d'(0) = p (c1 - c0) / t_{p+1}
+        free = np.arange(2, K - 3)
     q = np.linspace(0.0, D, samples)
     B0, B3 = _basis(q, kn), _basis(q, kn, 3)
     # J = mean (B0 c)^2 + lambda D^6 mean (B3 c)^2, c = c_fixed + E x
@@ -232,7 +242,10 @@ def stance_displacement(tau: np.ndarray, slope: float, D: float, lower=None, upp
     ok = True
     rows = []
     Bd = _basis(tau, kn)
-    for M_, lo, hi in ((B2, lower, upper), (Bd, d_lower, d_upper)):
+    cons_list = [(B2, lower, upper), (Bd, d_lower, d_upper)]
+    if lin_rows is not None:
+        cons_list.append((np.asarray(lin_rows[0], dtype=float) @ Bd, lin_rows[1], lin_rows[2]))
+    for M_, lo, hi in cons_list:
         g0 = M_ @ c_fixed
         if lo is not None:
             rows.append((M_[:, free], g0 - np.asarray(lo, dtype=float)))
@@ -252,7 +265,10 @@ def stance_displacement(tau: np.ndarray, slope: float, D: float, lower=None, upp
     c = c_fixed.copy()
     c[free] = x
     d, a = Bd @ c, B2 @ c
-    for v, lo, hi in ((a, lower, upper), (d, d_lower, d_upper)):   # judged in m/s^2 and m, not scaled rows
+    checks = [(a, lower, upper), (d, d_lower, d_upper)]
+    if lin_rows is not None:
+        checks.append((np.asarray(lin_rows[0], dtype=float) @ d, lin_rows[1], lin_rows[2]))
+    for v, lo, hi in checks:   # judged in m/s^2, m and m/s, not scaled rows
         if lo is not None:
             lo = np.asarray(lo, dtype=float)
             ok &= bool(np.all(v >= lo - 1e-6 * (1.0 + np.abs(np.where(np.isfinite(lo), lo, 0.0)))))
@@ -284,23 +300,43 @@ def _needed_force(tau, slope, D, a_own, g, min_force, max_force, d_lo=None, d_hi
 
 
 def _solve_map(tau, sign, dv, D, lo_acc, hi_acc, d_lo, d_hi, jerk_weight, frames, fps, event, a_own, g, min_force,
-               max_force, fine):
+               max_force, fine, acc_match=None, acc_tol: float = 0.0, explain: bool = True, jump=None,
+               free_slope: bool = False):
     """The three components of the displacement map (vertical: force bounds on the grid ``fine``,
-    leg-room bounds on the frames ``tau``). Returns ``(disp (n, 3), acc (len(fine), 3))``."""
+    leg-room bounds on the frames ``tau``; ``acc_match (n, 3)``: the extra acceleration ``d''`` the
+    frames ``tau`` must get, within ``acc_tol`` m/s^2, NaN where free). Returns ``(disp (n, 3),
+    acc (len(fine), 3))``."""
     disp = np.zeros((frames.size, 3))
     acc = np.zeros((fine.size, 3))
     both = np.concatenate([tau, fine])
     n = tau.size
     inf = np.full(fine.size, np.inf)
     for c in range(3):
-        if abs(dv[c]) < 1e-9:
+        m_lo, m_hi = np.full(n, -np.inf), np.full(n, np.inf)
+        if acc_match is not None:
+            am = np.asarray(acc_match, dtype=float)[:, c]
+            fin = np.isfinite(am)
+            m_lo[fin], m_hi[fin] = am[fin] - acc_tol, am[fin] + acc_tol
+        matched = acc_match is not None and bool(np.any(np.isfinite(m_lo)))
+        rows = None
+        if jump is not None:
+            Mj = np.asarray(jump[0], dtype=float)
+            rows = (np.c_[Mj, np.zeros((Mj.shape[0], fine.size))], np.asarray(jump[1], dtype=float)[:, c],
+                    np.asarray(jump[2], dtype=float)[:, c])
+        if abs(dv[c]) < 1e-9 and not matched and rows is None:
             continue
+        slope = None if free_slope else sign * dv[c]
         if c == 1:
-            d, a, ok = stance_displacement(both, sign * dv[c], D, np.r_[np.full(n, -np.inf), lo_acc],
-                                           np.r_[np.full(n, np.inf), hi_acc], jerk_weight=jerk_weight,
-                                           d_lower=np.r_[-d_lo, -inf], d_upper=np.r_[d_hi, inf])
+            d, a, ok = stance_displacement(both, slope, D, np.r_[m_lo, lo_acc],
+                                           np.r_[m_hi, hi_acc], jerk_weight=jerk_weight,
+                                           d_lower=np.r_[-d_lo, -inf], d_upper=np.r_[d_hi, inf], lin_rows=rows)
+        elif matched or rows is not None:
+            d, a, ok = stance_displacement(both, slope, D, np.r_[m_lo, -inf], np.r_[m_hi, inf],
+                                           jerk_weight=jerk_weight, lin_rows=rows)
         else:
-            d, a, ok = stance_displacement(both, sign * dv[c], D, jerk_weight=jerk_weight)
+            d, a, ok = stance_displacement(both, slope, D, jerk_weight=jerk_weight)
+        if not ok and not explain:
+            raise StanceRepairError(f"the {event} cannot be reshaped within the force bounds and the legs' room")
         if not ok:
             need = _needed_force(both, sign * dv[1], D, np.r_[np.zeros(n), a_own], g, min_force, max_force,
                                  np.r_[-d_lo, -inf], np.r_[d_hi, inf], n)
@@ -319,10 +355,24 @@ def _solve_map(tau, sign, dv, D, lo_acc, hi_acc, d_lo, d_hi, jerk_weight, frames
     return disp, acc
 
 
+def stance_window(event: str, event_frame: float, stance, fps: float, max_window: float = MAX_WINDOW_S):
+    """``(frames, tau, sign)``: the output frames of the stance ``[start, stop)`` next to the event at
+    the fractional output frame ``event_frame`` that a displacement map may use (at most
+    ``max_window`` s), their time from the event (s, positive into the stance) and the sign of
+    ``dd/dtau`` for a velocity added at the event (``-1`` before a take-off, ``+1`` after a landing)."""
+    s0, s1 = int(stance[0]), int(stance[1])
+    if event == "take-off":
+        frames = np.arange(max(s0, int(math.ceil(event_frame - max_window * fps))), min(s1, int(math.ceil(event_frame))))
+        return frames, (event_frame - frames) / fps, -1.0
+    frames = np.arange(max(s0, int(math.floor(event_frame)) + 1), min(s1, int(math.floor(event_frame + max_window * fps)) + 1))
+    return frames, (frames - event_frame) / fps, 1.0
+
+
 def repair_stance(motion: Motion, com_fn, event: str, event_frame: float, dv, stance: tuple[int, int], *,
                   g: float, max_force: float = MAX_FORCE, min_force: float = MIN_FORCE,
                   max_window: float = MAX_WINDOW_S, jerk_weight: float = JERK_WEIGHT, body=None,
-                  measure_zmp: bool = True) -> tuple[Motion, StanceRepair]:
+                  measure_zmp: bool = True, acc_match=None, acc_tol: float = 0.0,
+                  explain: bool = True, jump=None, free_slope: bool = False) -> tuple[Motion, StanceRepair]:
     """Add the velocity ``dv`` ``(3,)`` m/s to the stance next to an event, smoothly (module docstring).
 
     Parameters
@@ -338,6 +388,14 @@ def repair_stance(motion: Motion, com_fn, event: str, event_frame: float, dv, st
     g: m/s^2, the gravity of the force bounds; max_force, min_force: body weights.
     body: the :class:`~mocomp.body.BodyModel` for the ZMP measurement (``measure_zmp``).
 
+    jump: ``(M, lo, hi)``: linear bounds ``lo <= M d <= hi`` (``lo``, ``hi`` of shape ``(m, 3)``, per
+        component) on the displacement of the window frames (``M (m, n)``; :func:`smooth_stance` bounds
+        the audit's velocity jumps with them); free_slope: leave ``d'`` at the event free.
+    acc_match: ``(n, 3)`` m/s^2 on the window frames (:func:`stance_window`, in its order), the extra
+        COM acceleration ``d''`` each frame must get within ``acc_tol`` (NaN: free); used by
+        :func:`smooth_stance` to give the frames next to the event the captured push's or impact's
+        acceleration.
+
     Raises :class:`StanceRepairError` when no map within the force bounds exists in the stance or
     the legs cannot keep the feet planted.
     """
@@ -347,15 +405,9 @@ def repair_stance(motion: Motion, com_fn, event: str, event_frame: float, dv, st
         raise ValueError(f"need 0 <= min_force < 1 < max_force (body weights), got {min_force!r}, {max_force!r}")
     fps = float(motion.fps)
     dv = np.asarray(dv, dtype=float).reshape(3)
-    s0, s1 = int(stance[0]), int(stance[1])
-    if event == "take-off":
-        frames = np.arange(max(s0, int(math.ceil(event_frame - max_window * fps))), min(s1, int(math.ceil(event_frame))))
-        tau = (event_frame - frames) / fps
-        sign = -1.0
-    else:
-        frames = np.arange(max(s0, int(math.floor(event_frame)) + 1), min(s1, int(math.floor(event_frame + max_window * fps)) + 1))
-        tau = (frames - event_frame) / fps
-        sign = 1.0
+    frames, tau, sign = stance_window(event, event_frame, stance, fps, max_window)
+    if acc_match is not None and np.shape(acc_match) != (frames.size, 3):
+        raise ValueError(f"acc_match must be ({frames.size}, 3) (the window frames), got {np.shape(acc_match)}")
     if frames.size < 4:
         raise StanceRepairError(
             f"the {event} stance has {frames.size} output frame(s) next to the event (frame {event_frame:.1f}): too short "
@@ -377,6 +429,13 @@ def repair_stance(motion: Motion, com_fn, event: str, event_frame: float, dv, st
     fine = np.linspace(0.0, D, 2 * frames.size + 1)[1:]
     a_fine = np.interp(fine, tau[order], a_own[order])
     hi_fine = g * (max_force - 1.0) - a_fine
+    # frames whose acceleration is matched to the captured one carry no force bound of their own (the
+    # captured push ends, and its impact begins, outside the bounds: the feet leave or strike the floor)
+    free_fine = None
+    if acc_match is not None:
+        am = np.all(np.isfinite(np.asarray(acc_match, dtype=float)), axis=1)
+        if am.any():
+            free_fine = fine <= float(np.max(tau[am])) + 0.5 / fps
     gain = 1.0
     # the least vertical force: min_force, and only where the stance cannot do it so, MIN_FORCE_FALLBACK
     floors = (float(min_force),) + ((MIN_FORCE_FALLBACK,) if min_force > MIN_FORCE_FALLBACK else ())
@@ -384,8 +443,12 @@ def repair_stance(motion: Motion, com_fn, event: str, event_frame: float, dv, st
         for i, floor in enumerate(floors):
             lo_fine = g * (floor - 1.0) - a_fine
             try:
-                disp, acc = _solve_map(tau, sign, dv, D, lo_fine, hi_fine, down / gain, up / gain, jerk_weight,
-                                       frames, fps, event, a_fine, g, floor, max_force, fine)
+                if free_fine is not None:
+                    lo_fine = np.where(free_fine, -np.inf, lo_fine)
+                disp, acc = _solve_map(tau, sign, dv, D, lo_fine, np.where(free_fine, np.inf, hi_fine)
+                                       if free_fine is not None else hi_fine, down / gain, up / gain, jerk_weight,
+                                       frames, fps, event, a_fine, g, floor, max_force, fine, acc_match, acc_tol,
+                                       explain, jump, free_slope)
                 break
             except StanceRepairError:
                 if i == len(floors) - 1:
@@ -410,6 +473,160 @@ def repair_stance(motion: Motion, com_fn, event: str, event_frame: float, dv, st
                        peak_extra_acceleration=float(np.max(np.linalg.norm(acc, axis=1))), ik_miss=float(miss),
                        zmp_outside_before=zb, zmp_outside_after=za)
     return new, rep
+
+
+#: s: the stretch of the stance next to a take-off or a landing that :func:`smooth_stance` plays with the
+#: captured COM acceleration: the audit's event window (0.05 s) plus two of its one-sided fits (0.03 s
+#: each), so every velocity-jump fit the audit makes around the event sees the captured push or impact
+MATCH_S = 0.12
+#: m/s^2: how closely :func:`smooth_stance` matches the captured acceleration there
+MATCH_TOL = 1.0
+#: s: half-width of the local quadratic (Savitzky-Golay) fits of the stance's COM velocity and
+#: acceleration in :func:`captured_acceleration` (the audit's one-sided fit length)
+FIT_HALF_S = 0.03
+#: m/s: the margins over the input's own event jump :func:`smooth_stance` tries in turn (the audit calls
+#: an output worse than its input beyond a quarter of its 0.5 m/s threshold, 0.125)
+SMOOTH_MARGINS = (0.0, 0.05, 0.1, 0.2)
+
+
+def captured_acceleration(com: np.ndarray, fps: float, rate: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(a_out, a_captured)``, each ``(n, 3)`` m/s^2: the COM acceleration of a stretch of ground frames
+    ``com (n, 3)`` played at the rate ``rate (n,)`` (source seconds per output second), and the acceleration
+    the same frames have as captured (rate 1). Output frame ``u`` shows source time ``s(u)``, so with
+    ``r = ds/du`` the output's COM velocity is ``r v`` and its acceleration ``r^2 a + r' v``: ``a =
+    (a_out - r' v_out / r) / r^2``. Velocity and acceleration are local quadratic least-squares fits
+    (Savitzky-Golay) over :data:`FIT_HALF_S` each side, one-sided at the stretch's ends (a take-off or
+    landing's ground side only, as the audit's one-sided fits)."""
+    from scipy.signal import savgol_filter
+
+    c = np.asarray(com, dtype=float)
+    n = c.shape[0]
+    r = np.asarray(rate, dtype=float)
+    if r.shape != (n,) or not np.all(r > 0):
+        raise ValueError(f"rate must be ({n},) positive, got shape {r.shape}")
+    h = max(2, int(round(FIT_HALF_S * fps)))
+    L = min(2 * h + 1, n if n % 2 else n - 1)
+    if L < 3:
+        return np.zeros_like(c), np.zeros_like(c)
+    dt = 1.0 / float(fps)
+    v = savgol_filter(c, L, 2, deriv=1, delta=dt, axis=0, mode="interp")
+    a = savgol_filter(c, L, 2, deriv=2, delta=dt, axis=0, mode="interp")
+    rdot = np.gradient(r, dt) if n > 1 else np.zeros(n)
+    cap = (a - (rdot / r)[:, None] * v) / (r * r)[:, None]
+    return a, cap
+
+
+def _event_jump(com: np.ndarray, fps: float, event_frame: float) -> float:
+    """The audit's largest COM velocity jump (m/s, :func:`mocomp.audit.com.velocity_jumps`) within its
+    event window of the fractional output frame ``event_frame``."""
+    from ..audit.com import velocity_jumps
+    from ..audit.thresholds import AuditThresholds
+
+    th = AuditThresholds()
+    w = th.jump_frames(fps)
+    ew = max(1, int(math.ceil(th.event_window * fps - 1e-9)))
+    f = int(round(event_frame))
+    lo, hi = max(0, f - ew - w), min(com.shape[0], f + ew + w + 1)
+    if hi - lo < 1:
+        return float("nan")
+    j, _, _ = velocity_jumps(com[max(0, lo - w):min(com.shape[0], hi + w)], fps, w)
+    m = np.linalg.norm(j, axis=1)[lo - max(0, lo - w):hi - max(0, lo - w)]
+    m = m[np.isfinite(m)]
+    return float(m.max()) if m.size else float("nan")
+
+
+def _jump_rows(com: np.ndarray, fps: float, event_frame: float, frames: np.ndarray):
+    """``(M, J0)``: the audit's COM velocity jumps (:func:`mocomp.audit.com.velocity_jumps`: right minus
+    left one-sided quadratic-fit velocity) at every frame whose fits reach the event window of the
+    fractional frame ``event_frame`` and a frame of ``frames``, as ``J0 (m, 3)`` (now) plus ``M (m, n) @
+    d`` for a displacement ``d (n, 3)`` of ``frames``."""
+    from ..audit.com import endpoint_derivative_weights
+    from ..audit.thresholds import AuditThresholds
+
+    th = AuditThresholds()
+    w = th.jump_frames(fps)
+    ew = max(1, int(math.ceil(th.event_window * fps - 1e-9)))
+    T = com.shape[0]
+    wr, wl = endpoint_derivative_weights(w, 1.0 / fps)
+    lo = max(w, int(math.floor(event_frame)) - ew - 2 * w)
+    hi = min(T - w - 1, int(math.ceil(event_frame)) + ew + 2 * w)
+    pos = {int(f): k for k, f in enumerate(frames)}
+    M, J0 = [], []
+    for i in range(lo, hi + 1):
+        row = np.zeros(frames.size)
+        for j in range(w + 1):
+            if i + j in pos:
+                row[pos[i + j]] += wr[j]
+            if i - w + j in pos:
+                row[pos[i - w + j]] -= wl[j]
+        if not np.any(row):
+            continue
+        M.append(row)
+        J0.append(wr @ com[i:i + w + 1] - wl @ com[i - w:i + 1])
+    if not M:
+        return np.zeros((0, frames.size)), np.zeros((0, 3))
+    return np.asarray(M), np.asarray(J0)
+
+
+def smooth_stance(motion: Motion, com_fn, event: str, event_frame: float, stance, *, g: float, target_jump: float,
+                  margins=SMOOTH_MARGINS, max_force: float = MAX_FORCE, min_force: float = MIN_FORCE,
+                  max_window: float = MAX_WINDOW_S, body=None) -> tuple[Motion, dict]:
+    """A longer push and a softer landing where a retiming made them harder (issue #13, beyond the paper).
+
+    A flight retimed by ``k`` (App. B) leaves and arrives ``k`` times faster, and the stance next to
+    it is played at rate ``k`` there (:class:`~mocomp.flips.retime.TimeWarp`), so the push's COM
+    acceleration is ``k^2`` and its jerk ``k^3`` the captured ones, and the landing's impact ``k``
+    times harder: measured from the frames, the COM velocity no longer joins the flight's smoothly
+    (the audit's one-sided velocity fits, :mod:`mocomp.audit.com`: synthetic back flip at ``k* =
+    1.40``, 0.22 -> 0.47 m/s at take-off, 0.66 -> 0.83 at landing). Here the stance next to the event
+    gets a root displacement map ``d`` (:func:`repair_stance`: the jerk-regularised least-displacement
+    map, ``d(event) = 0`` so the flight is met where it starts, the vertical ground force between
+    ``min_force`` and ``max_force`` body weights, the feet held by leg IK within the knee limits)
+    whose COM makes every velocity jump the audit measures within its event window at most
+    ``target_jump`` (the input's own at that event) plus a margin, each component within its share
+    (:func:`_jump_rows`: the jumps are linear in ``d``): the push starts earlier and lasts longer
+    instead of ending harder, the landing gives way over more frames.
+
+    The margins ``margins`` (m/s) are tried in turn until a map exists; the map is kept only if it
+    lowers the largest jump measured on the COM of the frames in the event window
+    (:func:`_event_jump`). Returns ``(motion, info)``: ``info`` has ``event``, ``jump_before``,
+    ``jump_after`` (m/s), ``target`` (m/s), ``margin`` (``None``: unchanged), ``repair``
+    (:meth:`StanceRepair.to_dict` or ``None``) and ``error``.
+    """
+    fps = float(motion.fps)
+    frames, tau, _ = stance_window(event, event_frame, stance, fps, max_window)
+    info = {"event": event, "jump_before": float("nan"), "jump_after": float("nan"), "target": float(target_jump),
+            "margin": None, "repair": None, "error": None}
+    if frames.size < 4 or not np.isfinite(target_jump):
+        info["error"] = f"the {event} stance has only {frames.size} frame(s) next to the event"
+        return motion, info
+    root = np.asarray(motion.root_positions, dtype=float)
+    rot = np.asarray(motion.rotations, dtype=float)
+    com = com_fn(root, rot)
+    before = _event_jump(com, fps, event_frame)
+    info["jump_before"] = info["jump_after"] = before
+    if not np.isfinite(before) or before <= target_jump:
+        return motion, info
+    M, J0 = _jump_rows(com, fps, event_frame, frames)
+    if not M.shape[0]:
+        return motion, info
+    share = np.sqrt(np.sum(J0 * J0, axis=0) / max(float(np.sum(J0 * J0)), 1e-12))
+    share = np.maximum(share, 0.1)
+    share /= np.linalg.norm(share)
+    for margin in margins:
+        b = (float(target_jump) + float(margin)) * share
+        try:
+            new, rep = repair_stance(motion, com_fn, event, float(event_frame), np.zeros(3), stance, g=g,
+                                     max_force=max_force, min_force=min_force, max_window=max_window, body=body,
+                                     measure_zmp=False, explain=False, jump=(M, -b - J0, b - J0), free_slope=True)
+        except StanceRepairError as e:
+            info["error"] = info["error"] or str(e)
+            continue
+        after = _event_jump(com_fn(np.asarray(new.root_positions), np.asarray(new.rotations)), fps, event_frame)
+        if np.isfinite(after) and after < before - 1e-3:
+            info.update(jump_after=after, margin=float(margin), repair=rep.to_dict())
+            return new, info
+    return motion, info
 
 
 #: rad: how much tighter than the performer's own tightest knee fold in the clip a repair may fold a
