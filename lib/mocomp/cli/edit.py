@@ -96,6 +96,12 @@ def register(subparsers) -> None:
                         "from the arrival velocity, feet held by leg IK, when they differ by more than 0.3 m/s "
                         "beyond the input's own landing), repair (whenever they differ) or as-is (the paper's "
                         "section 5.5.3: the stance retimed and moved rigidly, which leaves the COM velocity jump)")
+    p.add_argument("--stances", choices=("smooth", "as-is"), default="smooth",
+                   help="smooth (default, beyond the paper): the retimed flight leaves and arrives k times faster, "
+                        "so the stance next to it would push and land harder than captured; the stance before the "
+                        "take-off and after the landing get a longer push and a softer give instead (root "
+                        "displacement map, feet held by leg IK, ground force bounded), kept only where the measured "
+                        "COM velocity jump falls; as-is: the paper's (the stances retimed as they are)")
     p.add_argument("--estimate-masses", action="store_true",
                    help="estimate the mass distribution from the flight (eq. 5.1-5.2) instead of the table prior")
     p.add_argument("--force", action="store_true",
@@ -121,7 +127,8 @@ def run(args: argparse.Namespace) -> int:
     edited, plan = apply_preset(P.motion, P.flight, args.preset, up_side=args.up_side)
     res = restore_momentum(body, P.motion, edited, P.flight, k_ratio=args.k_ratio, k=args.k,
                            reference=args.reference, method=args.method, takeoff_height=args.takeoff_height,
-                           gravity=args.gravity, landing_velocity=args.landing)
+                           gravity=args.gravity, landing_velocity=args.landing,
+                           stances=args.stances)
     from ..edit.pipeline import MAX_STANDING_TILT
 
     refuse = res.landing_tilt_deg > MAX_STANDING_TILT and not args.force

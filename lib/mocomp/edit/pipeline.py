@@ -361,7 +361,8 @@ def restore_momentum(body, original: Motion, edited: Motion, flight, *, k_ratio:
                      clearance: float = 0.0, gravity="standard", takeoff_velocity: str = "auto", oversample: int = 8,
                      tol: float = 1e-7, fit: FlightFit | None = None, polish: bool = True,
                      upright: bool = True, recover_s: float = 0.3,
-                     auto_tol: float = AUTO_REFERENCE_TOL, landing_velocity: str = "auto") -> RestoreResult:
+                     auto_tol: float = AUTO_REFERENCE_TOL, landing_velocity: str = "auto",
+                     stances: str = "smooth") -> RestoreResult:
     """Restore momentum conservation of an in-flight edit (section 5.5, all three steps).
 
     Parameters
@@ -436,6 +437,10 @@ def restore_momentum(body, original: Motion, edited: Motion, flight, *, k_ratio:
         (``k`` times its velocity change there), feet held by leg IK, ground force
         bounded; a stance that cannot take it is left as is with a note. ``"repair"``: whenever
         they differ.
+    stances: ``"smooth"`` (default, beyond the paper): the stance before the take-off and after the
+        landing get a longer push and a softer give where the retiming by ``k`` made the COM velocity's
+        join with the flight rougher than the input's (:func:`mocomp.flips.takeoff.smooth_stance`);
+        ``"as-is"``: the paper's.
     """
     t_all = time.perf_counter()
     if k is None and k_ratio is None:
@@ -484,7 +489,44 @@ def restore_momentum(body, original: Motion, edited: Motion, flight, *, k_ratio:
                        gravity=gravity, takeoff_velocity=takeoff_velocity, polish=polish, notes=notes,
                        edit_frames=edit_frames, com_eval=ce,
                        t_start=t_all, upright_ref=edited if upright else None,
-                       recover_s=recover_s, landing_velocity=landing_velocity)
+                       recover_s=recover_s, landing_velocity=landing_velocity, stances=stances)
+
+
+def _smooth_stances(final: Motion, ce, lin, mg, original: Motion, original_flight, b_detected: int):
+    """:func:`mocomp.flips.takeoff.smooth_stance` on the output's stance before the take-off and after the
+    landing (bounded by the clip's other flights, which keep their timing): the audit's COM velocity
+    jumps near each event brought within the input's own there (``original`` over ``original_flight``).
+    Step 3 plays the flight ``k`` times faster and eases the stances back to the captured rate
+    (:class:`~mocomp.flips.retime.TimeWarp`), so the push ends with ``k^2`` times its captured
+    acceleration and the landing's impact is ``k`` times harder; the map makes the push longer and
+    the give deeper instead. Returns ``(motion, infos)``."""
+    from ..flips.takeoff import LANDING_MAX_FORCE, _event_jump, smooth_stance
+    from .linear import _neighbour_flights
+
+    fps = final.fps
+    comO = ce(original.root_positions, original.rotations)
+    a0, b0 = int(original_flight[0]), int(original_flight[1])
+    lo, hi = _neighbour_flights(mg.motion, ce, int(mg.flight[0]), int(mg.flight[1]))
+    src = np.asarray(lin.source_times, dtype=float) * fps          # mg frames shown by each output frame
+    tj = lin.trajectory
+    ev_to = lin.takeoff_time * fps
+    ev_ld = (lin.takeoff_time + tj.T_new) * fps
+    n = final.n_frames
+    fr = np.arange(n)
+    before = fr[(fr < ev_to) & (src >= lo)]
+    after = fr[(fr > ev_ld) & (src <= hi)]
+    infos = []
+    g = lin.gravity
+    if before.size >= 4:
+        final, info = smooth_stance(final, ce, "take-off", float(ev_to), (int(before[0]), int(before[-1]) + 1), g=g,
+                                    target_jump=_event_jump(comO, original.fps, a0 - 0.5))
+        infos.append(info)
+    if after.size >= 4:
+        final, info = smooth_stance(final, ce, "landing", float(ev_ld), (int(after[0]), int(after[-1]) + 1), g=g,
+                                    max_force=LANDING_MAX_FORCE,
+                                    target_jump=_event_jump(comO, original.fps, b0 - 0.5))
+        infos.append(info)
+    return final, tuple(infos)
 
 
 def three_steps(body, edited: Motion, flight, L_const, fit: FlightFit, *, original: Motion,
@@ -495,7 +537,7 @@ def three_steps(body, edited: Motion, flight, L_const, fit: FlightFit, *, origin
                 edit_frames=None, com_eval=None, t_start=None, direction: bool = True,
                 upright_ref: Motion | None = None, upright_pre=None, recover_s: float = 0.3,
                 landing_floor: float | None = None, settle: bool = True,
-                landing_velocity: str = "auto") -> RestoreResult:
+                landing_velocity: str = "auto", stances: str = "smooth") -> RestoreResult:
     """Steps 1-3 (and the final direction sweep) on ``edited``'s flight with the constant target
     ``L_const`` (or, with ``reference="original"``, ``original``'s per-frame ``L_orig`` on the same
     frames); ``fit`` gives the take-off velocity for step 3 (and its gravity with ``gravity="clip"``). The ``original`` stage of
@@ -515,7 +557,10 @@ def three_steps(body, edited: Motion, flight, L_const, fit: FlightFit, *, origin
     touchdown on get the intended landing's clearance above the floor (root height, leg IK,
     levelled planted feet). :attr:`RestoreResult.landing` measures the result; a landing that
     does not rest within 1 cm of the floor gets a note. ``landing_velocity`` (see
-    :func:`restore_momentum`) then matches the landing stance to the flight's arrival velocity. Used by :func:`restore_momentum`,
+    :func:`restore_momentum`) then matches the landing stance to the flight's arrival velocity.
+    ``stances="smooth"`` (default; ``"as-is"``: the paper's) then gives the stances next to the take-off and
+    the landing a longer push and a softer give where the retiming made the COM velocity's join with
+    the flight rougher than the input's (:func:`_smooth_stances`). Used by :func:`restore_momentum`,
     :func:`mocomp.edit.join.join_flights` and :func:`mocomp.edit.twist.twist_jump`."""
     t_all = time.perf_counter() if t_start is None else t_start
     if k is None and k_ratio is None:
@@ -726,6 +771,22 @@ def three_steps(body, edited: Motion, flight, L_const, fit: FlightFit, *, origin
         elif arrival_info["note"]:
             notes.append(arrival_info["note"])
         timings["arrival"] = time.perf_counter() - tr
+    stance_info = ()
+    if stances == "smooth":
+        tr = time.perf_counter()
+        final, stance_info = _smooth_stances(final, ce, lin, mg, original, original_flight, b_detected)
+        timings["stances"] = time.perf_counter() - tr
+        for sm in stance_info:
+            r = sm.get("repair")
+            if r is not None:
+                notes.append(f"{sm['event']} stance smoothed (stances='smooth'; beyond the paper): largest COM velocity "
+                             f"jump near it {sm['jump_before']:.2f} -> {sm['jump_after']:.2f} m/s (the input's own "
+                             f"{sm['target']:.2f}) by a longer push / softer give over output frames "
+                             f"{r['frames'][0]}-{r['frames'][1] - 1}: crouch up to {100 * -r['dip']:.1f} cm deeper, "
+                             f"vertical ground force {r['min_force']:.2f}-{r['peak_force']:.2f} body weights, feet held "
+                             f"within {1000 * r['ik_miss']:.1f} mm")
+    elif stances != "as-is":
+        raise ValueError(f"stances must be 'smooth' or 'as-is', got {stances!r}")
     if land_ref is not None and td_out < final.n_frames:
         from .landing import check_landing
 
