@@ -398,19 +398,20 @@ def concatenate(a: Motion, b: Motion, *, rule: str = "auto", **kw) -> ConcatResu
                                notes=r.notes + (f"auto rule: {_other(chosen)} rejected, {chosen} used",))
 
 
-def _edge_hint(p1: Phases, p2: Phases) -> str:
+def _edge_hint(p1: Phases, p2: Phases, b_fps: float | None = None) -> str:
     """A note for a rejection when a detected main phase runs to its clip's edge (a loopable clip, as
     DeepMimic's are: the largest |L| may be the turn back to the loop's start, not the action)."""
     out = []
     for name, p in (("A", p1), ("B", p2)):
         if p.given:
             continue
+        at = f" at {b_fps:g} fps (B resampled)" if name == "B" and b_fps else ""
         if p.main[1] >= p.n_frames and p.main[0] > 0:
             out.append(f"{name}'s main phase {p.main[0]}-{p.main[1]} (peak |L| at frame {p.t_m}) runs to the end of "
-                       f"its {p.n_frames} frames (no posterior phase)")
+                       f"its {p.n_frames} frames{at} (no posterior phase)")
         elif p.main[0] == 0 and p.main[1] < p.n_frames:
             out.append(f"{name}'s main phase {p.main[0]}-{p.main[1]} (peak |L| at frame {p.t_m}) starts at the clip's "
-                       "first frame (no preparatory phase)")
+                       f"first frame{at} (no preparatory phase)")
     if not out:
         return ""
     return ("; " + "; ".join(out) + ": if that is not the action (a loopable clip's return), give the main phase by "
@@ -477,10 +478,11 @@ def _concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bo
     check_same_skeleton(a, b)
     notes = []
     same = b is a                      # a motion chained with itself: its track and plants are computed once
+    b_fps = None                       # B's new frame rate when it is resampled to A's
     if abs(a.fps - b.fps) > 1e-6 * a.fps:
         ratio, fps_b = a.fps / b.fps, b.fps
         b = b.resample(a.fps)
-        same = False
+        same, b_fps = False, float(a.fps)
         notes.append(f"B resampled to A's {a.fps:g} fps")
         # B's frames given by hand count B's own frames: the same instants in the resampled B
         if borders_b is not None:
@@ -558,7 +560,7 @@ def _concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bo
             raise _rejected(f"after the eq. 2 alignment (B turned by {np.degrees(yaw):+.1f} deg) the bodies face "
                             f"different ways at their main phases (A frame {p1.t_m}, B frame {p2.t_m}): their "
                             f"ground-projected facings differ by {np.degrees(facing):.1f} deg, more than "
-                            f"{np.degrees(max_facing):.0f} deg" + _edge_hint(p1, p2), choice.rule)
+                            f"{np.degrees(max_facing):.0f} deg" + _edge_hint(p1, p2, b_fps), choice.rule)
     elif facing_at != "f_T":
         raise ValueError(f"facing_at must be t_m or f_T, got {facing_at!r}")
     best, failed = None, []
