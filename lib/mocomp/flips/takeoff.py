@@ -399,6 +399,36 @@ def repair_stance(motion: Motion, com_fn, event: str, event_frame: float, dv, st
     Raises :class:`StanceRepairError` when no map within the force bounds exists in the stance or
     the legs cannot keep the feet planted.
     """
+    with _one_blas_thread():
+        return _repair_stance(motion, com_fn, event, event_frame, dv, stance, g=g, max_force=max_force,
+                              min_force=min_force, max_window=max_window, jerk_weight=jerk_weight, body=body,
+                              measure_zmp=measure_zmp, acc_match=acc_match, acc_tol=acc_tol, explain=explain,
+                              jump=jump, free_slope=free_slope)
+
+
+_BLAS = None
+
+
+def _one_blas_thread():
+    """A context with the BLAS on one thread: the map's least-squares problems are small (a few hundred
+    rows, ~35 unknowns), and a threaded BLAS on a loaded machine made each solve ~20x slower (145 ms
+    against 7.6 ms per :func:`stance_displacement` at load 7 on 2 cores)."""
+    global _BLAS
+    try:
+        if _BLAS is None:
+            from threadpoolctl import ThreadpoolController
+
+            _BLAS = ThreadpoolController()
+        return _BLAS.limit(limits=1, user_api="blas")
+    except Exception:  # noqa: BLE001 - no control over the BLAS: run as is
+        import contextlib
+
+        return contextlib.nullcontext()
+
+
+def _repair_stance(motion: Motion, com_fn, event: str, event_frame: float, dv, stance: tuple[int, int], *,
+                   g: float, max_force: float, min_force: float, max_window: float, jerk_weight: float, body,
+                   measure_zmp: bool, acc_match, acc_tol: float, explain: bool, jump, free_slope: bool):
     if event not in ("take-off", "landing"):
         raise ValueError(f"event must be 'take-off' or 'landing', got {event!r}")
     if not (np.isfinite(max_force) and np.isfinite(min_force) and 0.0 <= min_force < 1.0 < max_force):
