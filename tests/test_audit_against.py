@@ -304,3 +304,22 @@ def test_pose_jumps_of_a_uniformly_retimed_copy_are_matched_by_normalised_time(w
     assert given.pose_jumps.mapping == "given" and given.pose_jumps.n_jumps == 0
     with pytest.raises(MotionFormatError, match="against_frame_map"):
         audit(fast, against=src[:600], against_frame_map=m[:-1])
+
+
+def test_places_translate_to_the_inputs_flight_numbering(bf):
+    """A command matches its output's violations with its input's by check and place
+    (``mocomp.cli._common.new_violations``): the places are renamed through the pairing."""
+    m = bf.motion
+    rep = audit(_lift_first_frame(m), bf.body, against=m)
+    cmp = rep.comparison
+    assert cmp.place_in_other("take-off of flight 2") == "take-off of flight 1"
+    assert cmp.place_in_other("flight 2") == "flight 1"
+    assert cmp.place_in_other("landing of flight 1") == "landing of flight 1 (no partner)"
+    assert cmp.place_in_other("toe_l") == "toe_l"
+    from mocomp.cli._common import new_violations
+
+    pushed, (p, q) = _pushed(bf)
+    out = audit(_lift_first_frame(pushed), bf.body, against=pushed)
+    # the push's L violations are the input's own, at its flight 1 = the output's flight 2
+    assert {f.check for f in out.violations} >= {"L_direction", "L_magnitude"}
+    assert not [f for f, _ in new_violations(out) if f.check.startswith("L_")]

@@ -233,13 +233,14 @@ def flight_audits(body, motion, com: np.ndarray, phases, thresholds, seg_pos=Non
         fa = FlightAudit(k, (a, b), n / motion.fps, fit, v0, angle, float(np.linalg.norm(v0)), float(apex - y0), Lm,
                          spread, var, Labs, bool(judged_L), float(np.sqrt(np.mean(hres ** 2))), kind, nf, judged)
         out.append(fa)
-        where = f"flight {k + 1}" if kind == "free" else f"flight {k + 1} (free part, frames {fa_}-{fb_ - 1})"
+        where = f"flight {k + 1}"
+        part = "" if kind == "free" else f"on its free part (frames {fa_}-{fb_ - 1}, outside the declared external force): "
         tol = thresholds.g_tolerance
         if not (fit.g_low - tol <= G_STANDARD <= fit.g_high + tol):
             dist = max(fit.g_low - tol - G_STANDARD, G_STANDARD - fit.g_high - tol)
             findings.append(Finding(
                 "gravity", "violation", (fa_, fb_), (fa_ + fb_) // 2, fit.g, tol, "g_tolerance", "m/s^2", where,
-                f"COM falls with g = {fit.g:.2f} m/s^2 ({thresholds.confidence:.0%} interval {fit.g_low:.2f}-"
+                f"{part}COM falls with g = {fit.g:.2f} m/s^2 ({thresholds.confidence:.0%} interval {fit.g_low:.2f}-"
                 f"{fit.g_high:.2f}; 9.81 lies {dist:.2f} beyond it plus the {tol:g} m/s^2 tolerance); residual "
                 f"{fit.rms * 1000:.1f} mm free, {fit.rms_standard * 1000:.1f} mm with g = 9.81"))
         if judged_L:
@@ -250,11 +251,11 @@ def flight_audits(body, motion, com: np.ndarray, phases, thresholds, seg_pos=Non
                 findings.append(Finding(
                     "L_direction", "violation", (fa_, fb_), off + int(np.argmax(ang)), spread, thresholds.L_direction,
                     "L_direction", "rad", where,
-                    f"L direction strays {np.degrees(spread):.1f} deg from its mean (|L| {Labs:.1f} kg m^2/s); "
+                    f"{part}L direction strays {np.degrees(spread):.1f} deg from its mean (|L| {Labs:.1f} kg m^2/s); "
                     f"limit {np.degrees(thresholds.L_direction):.1f} deg"))
             if var > thresholds.L_magnitude:
                 findings.append(Finding(
                     "L_magnitude", "violation", (fa_, fb_), off + int(np.argmax(np.abs(nL - Labs))), var,
                     thresholds.L_magnitude, "L_magnitude", "relative", where,
-                    f"|L| varies by {var:.1%} of its mean {Labs:.1f} kg m^2/s; limit {thresholds.L_magnitude:.0%}"))
+                    f"{part}|L| varies by {var:.1%} of its mean {Labs:.1f} kg m^2/s; limit {thresholds.L_magnitude:.0%}"))
     return tuple(out), findings

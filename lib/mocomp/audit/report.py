@@ -238,7 +238,8 @@ class AuditReport:
             if kind == "spurious":
                 L.append(f"  flight {f.index + 1} (frames {f.frames[0]}-{f.frames[1] - 1}): {n} frame(s) airborne, "
                          f"shorter than {self.thresholds.min_airborne_frames} frames or "
-                         f"{self.thresholds.min_airborne_time * 1000:g} ms: spurious, not measured as a flight")
+                         f"{self.thresholds.min_airborne_time * 1000:g} ms: spurious (a contact flicker or a very short "
+                         f"airborne run), not measured or paired as a flight")
                 continue
             forced = ""
             if kind == "forced":
@@ -281,6 +282,7 @@ class AuditReport:
 
 
 _FLIGHT_KEY = re.compile(r"^flight(\d+)_(.+)$")
+_FLIGHT_PLACE = re.compile(r"\bflight (\d+)\b")
 
 
 def _fmt(v: float, unit: str) -> str:
@@ -387,6 +389,21 @@ class AuditComparison:
             else:
                 row(k, mb.label, None, mb)
         return cls(this.name, other.name, tuple(rows), this.verdict, other.verdict, pairing)
+
+    def place_in_other(self, where: str) -> str:
+        """A finding's place (``Finding.where``) of this motion in the other motion's flight numbering:
+        ``"take-off of flight 2"`` -> ``"take-off of flight 3"`` when this motion's flight 2 is paired
+        with the other's flight 3 (:attr:`flight_pairing`); a flight without a partner becomes
+        ``"flight 2 (no partner)"``; places that name no flight are returned as they are. Use it to
+        match a finding with the other motion's findings by check and place."""
+        if self.flight_pairing is None:
+            return where
+
+        def sub(m):
+            j = self.flight_pairing.other_of(int(m.group(1)) - 1)
+            return f"flight {m.group(1)} (no partner)" if j is None else f"flight {j + 1}"
+
+        return _FLIGHT_PLACE.sub(sub, where)
 
     @property
     def worse(self) -> tuple[str, ...]:

@@ -272,9 +272,11 @@ def new_violations(report, inputs=()) -> tuple[tuple[object, object], ...]:
             k = (f.check, f.where)
             if k not in best or f.size > best[k].size:
                 best[k] = f
+    cmp = report.comparison
     out = []
     for f in report.violations:
-        m = best.get((f.check, f.where))
+        # the input's flight numbering (flights paired by time, not index: mocomp.audit.pairing)
+        m = best.get((f.check, cmp.place_in_other(f.where) if cmp is not None else f.where))
         if m is None or f.size - m.size > WORSE_FRACTION * f.threshold:
             out.append((f, m))
     return tuple(out)
