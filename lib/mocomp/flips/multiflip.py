@@ -552,13 +552,14 @@ def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None 
         timings["repair"] = time.perf_counter() - t5
     landing_info = None
     smoothed: tuple = ()
-    if takeoff == "smooth":
-        new, smoothed = _smooth(P, seq, new, traj, kk, tau, u_to, u_land, q_land, g_used, landing == "auto")
-        timings["stances"] = time.perf_counter() - t5
-    elif landing == "auto" and takeoff != "repair" and not _ballistic(P, v_to, g_used):
+    if landing == "auto" and takeoff != "repair" and not _ballistic(P, v_to, g_used):
         t6 = time.perf_counter()
         new, landing_info = _match_landing(P, new, traj, kk, u_land, g_used)
         timings["landing"] = time.perf_counter() - t6
+    if takeoff == "smooth":
+        t6 = time.perf_counter()
+        new, smoothed = _smooth(P, seq, new, traj, kk, tau, u_to, u_land, q_land, g_used, landing == "auto")
+        timings["stances"] = time.perf_counter() - t6
     report, mom = None, None
     if evaluate:
         report, mom = _evaluate(P, seq, plan, traj, new, flight_out, timings, height_change, dy, flips,
