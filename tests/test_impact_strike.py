@@ -212,3 +212,47 @@ def test_run_into_a_shield_charge_reenters_continuously(ase, tmp_path):
     assert np.degrees(dq[re - 1:re + 1].max()) <= c["clip_max_joint_step_deg"] + 0.05   # BVH print precision
     assert dr[re - 1:re + 1].max() <= c["clip_max_root_step_m"] + 1e-4
     assert r.evidence["blend_weights"] in ("linear", "smoothstep")
+
+
+# ------------------------------------------------------------------ long attack clips
+def test_strike_window_finds_the_fastest_swing_relative_to_the_root(walk):
+    """A 6 s walk with one fast arm swing (90 deg in 2 frames) at a known frame: the window is around it,
+    however fast the walk itself carries the arm."""
+    from scipy.spatial.transform import Rotation
+
+    from mocomp.core.motion import concatenate
+    from mocomp.impact.scene import strike_window
+
+    long = concatenate([walk] * 3)
+    sk = long.skeleton
+    arm = next(j for j, n in enumerate(sk.names) if "arm" in n.lower() and len(sk.children(j)) > 0)
+    rot = np.array(long.rotations)
+    k0 = 100
+    for i, a in enumerate((45.0, 90.0)):
+        rot[k0 + i:, arm] = quat_multiply(long.rotations[k0 + i:, arm],
+                                          Rotation.from_rotvec([0, 0, np.radians(a)]).as_quat())
+    swung = long.replace(rotations=rot)
+    a, b, peak = strike_window(swung, lead=1.0, tail=1.5)
+    assert k0 - 1 <= peak <= k0 + 1
+    assert a == peak - 30 and b == peak + 46
+    assert strike_window(swung, lead=10.0, tail=10.0)[:2] == (0, swung.n_frames)   # clipped to the clip
+
+
+def test_long_bandai_slash_places_itself(real_data_dir, ase):
+    """The 16 s Bandai take (walking about, three slashes) needed --offset: the strike window is found
+    and the victim placed without it."""
+    from mocomp.impact.pipeline import ImpactConfig, impact_response
+    from mocomp.impact.scene import Scenario
+    from mocomp.io import load
+
+    clips, index, lib = ase
+    a = load(real_data_dir / "attacks" / "bandai1_slash_normal_002.bvh")
+    assert a.duration > 10
+    r = impact_response(a, clips["idle"], index, Scenario(0.0), ImpactConfig(seed=0), library_motions=lib)
+    w = r.evidence["attack_window"]
+    assert w is not None and w["stop"] - w["start"] <= round(5.0 * a.fps) + 1 and w["start"] <= w["strike_frame"] < w["stop"]
+    assert r.naive.impact_time is not None and np.linalg.norm(r.naive.impulse) > 5.0
+    # the contact comes with the strike: within 0.5 s of the fastest swing (the window's own timeline)
+    t_strike = (w["strike_frame"] - w["start"]) / a.fps
+    assert abs(r.naive.impact_time - t_strike) < 0.5
+    assert r.attacker.n_frames <= w["stop"] - w["start"] + 2

@@ -32,12 +32,12 @@ result carries the planned numbers (labelled so) and the continuity measured on 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from ..core.motion import Motion, concatenate
-from .scene import FRICTION_ACTIVE, FRICTION_NAIVE, ImpactError, Scenario
+from .scene import FRICTION_ACTIVE, FRICTION_NAIVE, ImpactError, Scenario, TouchAtStartError
 
 __all__ = ["ImpactConfig", "ImpactResult", "impact_response", "load_library"]
 
@@ -66,6 +66,13 @@ class ImpactConfig:
     victim) once its contact has lasted 0.25 s (App. A's longest push of the search window) or its
     impulse reached 60 N s (a strong kick: the ASE kick on the standing victim gives 52 N s), in
     both passes; None: no limit (a clip ending inside the victim then pushes for a second, 840 N s).
+    max_attack, strike_lead: s: an attack clip longer than ``max_attack`` (a 13 s take) is cut to
+    its strike window (:func:`~mocomp.impact.scene.strike_window`: ``strike_lead`` s before its fastest
+    strike, the rest of ``max_attack`` after it) before the placement; the outputs are on that
+    window's timeline (``evidence["attack_window"]`` gives its frames in the clip). None: never cut.
+    min_overlap: m: with the default placement (no ``Scenario.offset``), when the characters touch at
+    the first frame the victim is placed 10 cm farther (the scenario's overlap less 0.1 m) until they
+    do not, down to this overlap (``evidence["placement"]``).
     separate: keep the attacker's body out of the victim's after the strike
     (:func:`~mocomp.impact.attacker.separate`).
     blend_weights: the final blend's weights (:func:`~mocomp.impact.blend.final_blend`): ``"linear"``
@@ -93,6 +100,9 @@ class ImpactConfig:
     min_active: float = 0.2
     start_step: int = 1
     blend_weights: str = "auto"
+    max_attack: float | None = 5.0
+    min_overlap: float = -0.35
+    strike_lead: float = 1.5
     separate: bool = True
     max_contact: float | None = 0.25
     max_impulse: float | None = 60.0
@@ -104,6 +114,8 @@ class ImpactConfig:
         lo, hi = self.delay_range
         if not (0 <= lo <= hi):
             raise ValueError(f"delay_range must satisfy 0 <= low <= high, got {self.delay_range}")
+        if self.max_attack is not None and not (self.max_attack > self.strike_lead > 0):
+            raise ValueError(f"need max_attack > strike_lead > 0 s, got {self.max_attack!r}, {self.strike_lead!r}")
         if self.blend_weights not in ("auto", "linear", "smoothstep"):
             raise ValueError(f"blend_weights must be 'auto', 'linear' or 'smoothstep', got {self.blend_weights!r}")
         if self.reentry not in ("match_start", "window_end"):
@@ -240,6 +252,15 @@ def impact_response(attacker: Motion, victim: Motion, index, scenario: Scenario 
         raise ImpactError("the library index was built for another skeleton than the victim's")
     gains = config.gains if config.gains is not None else ServoGains()
     fps = victim.fps
+    attack_window = None
+    if config.max_attack is not None and attacker.duration > config.max_attack:
+        # a long take (walking about, several strikes): the window around its fastest strike is the attack
+        from .scene import strike_window
+
+        a_, b_, peak_ = strike_window(attacker, scenario.contact_body, lead=config.strike_lead,
+                                      tail=config.max_attack - config.strike_lead)
+        attack_window = {"start": a_, "stop": b_, "strike_frame": peak_, "clip_frames": attacker.n_frames}
+        attacker = attacker.slice(a_, b_)
     placed = place_victim(attacker, victim, scenario)
     need = int(np.ceil((config.window[1] + 0.5) * fps))
     # the attack on the victim's frames, long enough to be looked up during the burst
@@ -253,8 +274,20 @@ def impact_response(attacker: Motion, victim: Motion, index, scenario: Scenario 
     timings["setup"], cpu["setup"] = time.perf_counter() - t, time.process_time() - c
 
     t, c = time.perf_counter(), time.process_time()
-    vk = placed.slice(0, min(placed.n_frames, att.n_frames))
-    fc = find_first_contact(scene, att.slice(0, vk.n_frames), vk)
+    placement = {"overlap_m": scenario.overlap if scenario.offset is None else None, "tries": 1}
+    while True:
+        vk = placed.slice(0, min(placed.n_frames, att.n_frames))
+        try:
+            fc = find_first_contact(scene, att.slice(0, vk.n_frames), vk)
+            break
+        except TouchAtStartError:
+            # the default placement (the strike's reach minus the overlap) can put a short strike's
+            # victim inside the attacker's guard (a sword slash reaching 0.73 m): back off 10 cm at a time
+            if scenario.offset is not None or placement["overlap_m"] - 0.1 < config.min_overlap - 1e-9:
+                raise
+            placement["overlap_m"] = round(placement["overlap_m"] - 0.1, 6)
+            placement["tries"] += 1
+            placed = place_victim(attacker, victim, replace(scenario, overlap=placement["overlap_m"]))
     timings["first_contact"], cpu["first_contact"] = time.perf_counter() - t, time.process_time() - c
     # the victim clip held at its end beyond, so the burst has targets
     t0 = fc.rewind_frame / fps
@@ -371,7 +404,8 @@ def impact_response(attacker: Motion, victim: Motion, index, scenario: Scenario 
     timings["final_blend"], cpu["final_blend"] = time.perf_counter() - t, time.process_time() - c
 
     t, c = time.perf_counter(), time.process_time()
-    evidence = {"search": search_stats, "blend_weights": blend_weights}
+    evidence = {"search": search_stats, "blend_weights": blend_weights, "attack_window": attack_window,
+                "placement": placement}
     re_frame = fc.rewind_frame + reentry
     clip_steps = clip.resample(fps) if abs(clip.fps - fps) > 1e-6 else clip     # steps compared at one rate
     evidence["continuity"] = _continuity(out, clip_steps, re_frame, fc.rewind_frame, frame_steps)
@@ -420,7 +454,27 @@ def impact_response(attacker: Motion, victim: Motion, index, scenario: Scenario 
         # reaction: its body is kept out of the victim's (root pushed horizontally, smoothly)
         from .attacker import separate
 
-        att_out, sep = separate(att_out, out, start=fc.rewind_frame + ar.follow_frames)
+        held, sep = separate(att_out, out, start=fc.rewind_frame + ar.follow_frames)
+        if sep["frames_shifted"] and config.plant:
+            # the push slides the feet: the plants of the unpushed attacker are held on the pushed one
+            from ..ops import NoContactError, enforce_footplants
+            from ..ops.plants import foot_plants
+
+            try:
+                held = enforce_footplants(held, plants=foot_plants(att_out), audit=False).motion
+                sep["feet_planted"] = True
+            except NoContactError:
+                sep["feet_planted"] = False
+        if sep["frames_shifted"] and config.lift:     # the plants' support level, as for the victim
+            held, alift2 = floor_lift(held, _floor_level(att.slice(0, max(fc.rewind_frame + 1, 2))), tolerance=0.002)
+            sep["lifted_after_plants_m"] = float(alift2.max())
+        if sep["frames_shifted"]:
+            from .attacker import body_gap
+
+            g_, _ = body_gap(held, out)
+            s0 = fc.rewind_frame + ar.follow_frames
+            sep["min_gap_final_m"] = float(g_[s0:].min()) if g_.size > s0 else None
+        att_out = held
         evidence["attacker"]["separation"] = sep
     timings["attacker"], cpu["attacker"] = time.perf_counter() - t, time.process_time() - c
     frames = {"rewind": fc.rewind_frame, "first_contact": fc.frame,

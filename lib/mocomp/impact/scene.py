@@ -41,8 +41,8 @@ from ..core.motion import Motion
 from ..core.rotations import quat_angle
 from ..errors import MocompError
 
-__all__ = ["ImpactError", "Scenario", "CharacterLayout", "Scene", "build_scene", "place_victim", "joint_limits",
-           "strike_direction", "strike_joints", "default_impact_body", "STEP", "FRICTION_NAIVE", "FRICTION_ACTIVE", "TORSIONAL_FRICTION"]
+__all__ = ["ImpactError", "TouchAtStartError", "Scenario", "CharacterLayout", "Scene", "build_scene", "place_victim", "joint_limits",
+           "strike_direction", "strike_joints", "strike_window", "default_impact_body", "STEP", "FRICTION_NAIVE", "FRICTION_ACTIVE", "TORSIONAL_FRICTION"]
 
 #: simulation step, s (App. A)
 STEP = 0.0005
@@ -61,6 +61,10 @@ _ATT, _VIC, _FLOOR, _ATT_PASSIVE = 1, 2, 4, 8
 
 class ImpactError(MocompError, ValueError):
     """An impact scenario cannot be simulated (no contact, victim on the ground, bad placement...)."""
+
+
+class TouchAtStartError(ImpactError):
+    """The characters already touch at the first frame (the victim placed too close)."""
 
 
 @dataclass(frozen=True)
@@ -260,6 +264,29 @@ def strike_direction(attacker: Motion, contact_body: str | None) -> tuple[np.nda
     if reach < 1e-6:
         raise ImpactError("the attacker's contact body never leaves its root's vertical: no strike direction")
     return d[k, j] / reach, reach, int(k)
+
+
+def strike_window(attacker: Motion, contact_body: str | None = None, *, lead: float = 1.5,
+                  tail: float = 1.5) -> tuple[int, int, int]:
+    """``(start, stop, peak)`` frames of the strike in a long attack clip (a 13 s Bandai take holds
+    walking about and three slashes): ``peak`` is the frame where the striking joints (``contact_body``
+    and the joints it carries; every joint when None) move fastest *relative to the root* (the
+    strike, not the walk), and the window runs from ``lead`` s before it to ``tail`` s after it
+    (clipped to the clip). :func:`mocomp.impact.pipeline.impact_response` plays that window as the
+    attack when the clip is longer than ``ImpactConfig.max_attack``, so the placement
+    (:func:`place_victim`: the strike's reach and direction from the window's first frame) and the
+    victim's timeline fit the strike."""
+    if attacker.n_frames < 3:
+        raise ImpactError(f"the attack clip has {attacker.n_frames} frame(s): no strike to find")
+    P = attacker.positions
+    sub = sorted(strike_joints(attacker.skeleton, contact_body)) if contact_body is not None else \
+        list(range(1, attacker.skeleton.n_joints))
+    rel = P[:, sub] - attacker.root_positions[:, None]
+    speed = np.linalg.norm(np.diff(rel, axis=0), axis=-1).max(axis=1) * attacker.fps     # (T-1,) m/s
+    peak = int(np.argmax(speed)) + 1
+    a = max(0, peak - int(round(lead * attacker.fps)))
+    b = min(attacker.n_frames, peak + int(round(tail * attacker.fps)) + 1)
+    return a, b, peak
 
 
 def place_victim(attacker: Motion, victim: Motion, scenario: Scenario) -> Motion:

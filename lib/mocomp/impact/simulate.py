@@ -42,7 +42,7 @@ import numpy as np
 from ..core.motion import Motion, slerp
 from ..core.rotations import quat_angle, quat_inverse, quat_log, quat_multiply
 from .convert import frames_to_motion, motion_state, qpos_to_pose, to_wxyz, to_xyzw
-from .scene import _ATT, _ATT_PASSIVE, FRICTION_ACTIVE, FRICTION_NAIVE, ImpactError, Scene
+from .scene import _ATT, _ATT_PASSIVE, FRICTION_ACTIVE, FRICTION_NAIVE, ImpactError, Scene, TouchAtStartError
 
 _ATT_BITS = _ATT | _ATT_PASSIVE
 
@@ -241,7 +241,7 @@ def find_first_contact(scene: Scene, attacker: Motion, victim: Motion) -> FirstC
         idx, pairs = _pairs(model, data, strike, vic)
         if len(idx):
             if k == 0:
-                raise ImpactError(
+                raise TouchAtStartError(
                     f"the characters already touch at the first frame ({', '.join(sorted({'-'.join(p) for p in pairs}))}): "
                     "place the victim farther away (--offset)")
             lying, h, thr = on_ground(victim, k)

@@ -45,7 +45,8 @@ def impact_filmstrip(victim, attacker, frames: dict | None = None, n_poses: int 
         axs = np.atleast_1d(axs)
     else:
         axs = ax_row
-    allx = np.concatenate([victim.positions[ks] @ axis, attacker.positions[np.minimum(ks, attacker.n_frames - 1)] @ axis])
+    allx = np.concatenate([(victim.positions[ks] @ axis).ravel(),            # the two skeletons may differ
+                           (attacker.positions[np.minimum(ks, attacker.n_frames - 1)] @ axis).ravel()])
     xmid = float(np.median(allx))
     labels = {v: k for k, v in (frames or {}).items() if k in ("impact", "window_start", "reentry")}
     for a, k in zip(axs, ks):
