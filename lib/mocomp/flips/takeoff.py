@@ -566,10 +566,10 @@ def _event_jump(com: np.ndarray, fps: float, event_frame: float) -> float:
 
 
 def _jump_rows(com: np.ndarray, fps: float, event_frame: float, frames: np.ndarray):
-    """``(M, J0)``: the audit's COM velocity jumps (:func:`mocomp.audit.com.velocity_jumps`: right minus
+    """``(M, J0, at)``: the audit's COM velocity jumps (:func:`mocomp.audit.com.velocity_jumps`: right minus
     left one-sided quadratic-fit velocity) at every frame whose fits reach the event window of the
-    fractional frame ``event_frame`` and a frame of ``frames``, as ``J0 (m, 3)`` (now) plus ``M (m, n) @
-    d`` for a displacement ``d (n, 3)`` of ``frames``."""
+    fractional frame ``event_frame`` and a frame of ``frames`` (``at (m,)``, the frames), as ``J0 (m, 3)``
+    (now) plus ``M (m, n) @ d`` for a displacement ``d (n, 3)`` of ``frames``."""
     from ..audit.com import endpoint_derivative_weights
     from ..audit.thresholds import AuditThresholds
 
@@ -581,7 +581,7 @@ def _jump_rows(com: np.ndarray, fps: float, event_frame: float, frames: np.ndarr
     lo = max(w, int(math.floor(event_frame)) - ew - 2 * w)
     hi = min(T - w - 1, int(math.ceil(event_frame)) + ew + 2 * w)
     pos = {int(f): k for k, f in enumerate(frames)}
-    M, J0 = [], []
+    M, J0, at = [], [], []
     for i in range(lo, hi + 1):
         row = np.zeros(frames.size)
         for j in range(w + 1):
@@ -593,9 +593,10 @@ def _jump_rows(com: np.ndarray, fps: float, event_frame: float, frames: np.ndarr
             continue
         M.append(row)
         J0.append(wr @ com[i:i + w + 1] - wl @ com[i - w:i + 1])
+        at.append(i)
     if not M:
-        return np.zeros((0, frames.size)), np.zeros((0, 3))
-    return np.asarray(M), np.asarray(J0)
+        return np.zeros((0, frames.size)), np.zeros((0, 3)), np.zeros(0, int)
+    return np.asarray(M), np.asarray(J0), np.asarray(at)
 
 
 def smooth_stance(motion: Motion, com_fn, event: str, event_frame: float, stance, *, g: float, target_jump: float,
@@ -637,7 +638,7 @@ def smooth_stance(motion: Motion, com_fn, event: str, event_frame: float, stance
     info["jump_before"] = info["jump_after"] = before
     if not np.isfinite(before) or before <= target_jump:
         return motion, info
-    M, J0 = _jump_rows(com, fps, event_frame, frames)
+    M, J0, _ = _jump_rows(com, fps, event_frame, frames)
     if not M.shape[0]:
         return motion, info
     share = np.sqrt(np.sum(J0 * J0, axis=0) / max(float(np.sum(J0 * J0)), 1e-12))
