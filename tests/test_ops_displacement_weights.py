@@ -4,24 +4,48 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from mocomp.ops import DisplacementMap, HierarchyStep, apply_hierarchy
-from mocomp.ops.displacement import _exp, _log
+from mocomp.ops import DisplacementMap, HierarchyStep, apply_displacement, apply_hierarchy
 from mocomp.ops.synthetic import synthetic_walk
 
 
-def test_log_exp_equal_scipy():
-    r = Rotation.random(5000, random_state=3)
-    q = r.as_quat()
-    q[::3] *= -1                                       # either sign of a quaternion: one rotation
-    np.testing.assert_allclose(_log(q), Rotation.from_quat(q).as_rotvec(), atol=1e-12)
-    v = r.as_rotvec()
-    v[:50] *= 1e-9                                     # the small-angle series
-    v[50:60] = 0.0
-    e = _exp(v)
-    ref = Rotation.from_rotvec(v).as_quat()
-    np.testing.assert_allclose(np.abs(np.einsum("nk,nk->n", e, ref)), 1.0, atol=1e-12)
-    np.testing.assert_allclose(_log(e), v, atol=1e-12)
-    assert _log(q.reshape(50, 100, 4)).shape == (50, 100, 3)
+def test_between_and_apply_equal_scipy_rotvecs():
+    """The map between two motions is scipy's rotation vector of ``q_base^-1 q_target`` per joint (core's
+    log map), zero exactly on the joints that do not change; applying it gives the target back."""
+    m = synthetic_walk(duration=0.5, fps=60).motion
+    T, J = m.n_frames, m.skeleton.n_joints
+    rot = np.array(m.rotations)
+    turn = Rotation.random(T * 3, random_state=3).as_quat().reshape(T, 3, 4)
+    turn[::3] *= -1                                    # either sign of a quaternion: one rotation
+    rot[:, [2, 5, 9]] = (Rotation.from_quat(rot[:, [2, 5, 9]].reshape(-1, 4))
+                         * Rotation.from_quat(turn.reshape(-1, 4))).as_quat().reshape(T, 3, 4)
+    other = m.replace(rotations=rot)
+    d = DisplacementMap.between(m, other)
+    ref = (Rotation.from_quat(m.rotations.reshape(-1, 4)).inv()
+           * Rotation.from_quat(rot.reshape(-1, 4))).as_rotvec().reshape(T, J, 3)
+    np.testing.assert_allclose(d.rotations, ref, atol=1e-12)
+    np.testing.assert_array_equal(d.moving_joints(), [2, 5, 9])
+    assert not np.any(d.rotations[:, [0, 1, 3, 4, 6, 7, 8]])
+    back = apply_displacement(m, d)
+    np.testing.assert_allclose(np.abs(np.einsum("tjk,tjk->tj", back.rotations, rot)), 1.0, atol=1e-12)
+    np.testing.assert_array_equal(back.rotations[:, 0], m.rotations[:, 0])     # untouched joints: the same bits
+
+
+def test_gaussian_smoothing_by_fft_equals_scipy():
+    """Long kernels (touch-up's 40-paper-frame maps are 215 taps at 120 Hz) are convolved by FFT: the same
+    numbers as scipy's direct ``gaussian_filter1d`` (mode nearest) to 1e-12, zero columns left zero."""
+    from scipy.ndimage import gaussian_filter1d
+
+    from mocomp.ops.displacement import FFT_TAPS, smooth_offsets
+
+    rng = np.random.default_rng(5)
+    x = np.cumsum(rng.normal(size=(3000, 4, 3)), axis=0)
+    x[:, 1] = 0.0
+    for sigma in (2.0, 26.7, 400.0):
+        got = smooth_offsets(x, sigma)
+        np.testing.assert_allclose(got, gaussian_filter1d(x, sigma, axis=0, mode="nearest"),
+                                   atol=1e-12 * np.abs(x).max())
+        assert not np.any(got[:, 1])
+    assert 2 * int(4.0 * 2.0 + 0.5) + 1 < FFT_TAPS < 2 * int(4.0 * 26.7 + 0.5) + 1     # both paths ran
 
 
 @pytest.fixture(scope="module")
@@ -67,3 +91,25 @@ def test_weight_errors(walk):
         apply_hierarchy(walk, _shift, [HierarchyStep(0, 1.0)], weights=[np.ones(3)])
     with pytest.raises(ValueError, match="per-frame weight"):
         DisplacementMap.zeros(4, 2).weighted(np.array([1.0, np.nan, 1.0, 1.0]))
+
+
+def test_compiled_and_numpy_paths_agree(monkeypatch):
+    """The fused compiled kernels (ops._kernels) and the numpy path agree to rounding (the same operations;
+    the compiled sin/cos/atan2 may differ in the last bit)."""
+    import mocomp.ops.displacement as dm
+    from mocomp.core._compiled import AVAILABLE
+
+    if not AVAILABLE:
+        pytest.skip("numba not available")
+    m = synthetic_walk(duration=0.5, fps=60).motion
+    rng = np.random.default_rng(2)
+    v = np.zeros((m.n_frames, m.skeleton.n_joints, 3))
+    v[:, [1, 4, 7]] = rng.normal(scale=0.4, size=(m.n_frames, 3, 3))
+    d = DisplacementMap(rng.normal(size=(m.n_frames, 3)), v)
+    out = {}
+    for flag in (True, False):
+        monkeypatch.setattr(dm, "USE_COMPILED", flag)
+        moved = apply_displacement(m, d)
+        out[flag] = (moved.rotations, DisplacementMap.between(m, moved).rotations)
+    np.testing.assert_allclose(out[True][0], out[False][0], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(out[True][1], out[False][1], rtol=0, atol=1e-14)
