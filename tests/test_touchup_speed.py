@@ -116,3 +116,20 @@ def test_polygon_distance_and_target_compiled_equal_the_dynamics_functions(monke
     assert (d0 < 0).sum() > 50 and (d0 > 0).sum() > 50 and np.isnan(d0).sum() >= 30   # every case met
     out = d0 > 0
     assert np.abs(t[out] - zmp[out]).max() > 0.05                                    # targets moved
+
+
+def test_running_products_compiled_equal_quat_multiply_frame_by_frame(monkeypatch):
+    """Eq. 9's per-frame turns accumulated from the take-off: the compiled loop against
+    quat_multiply frame by frame, and a known answer (n equal turns about one axis: n times the angle)."""
+    from scipy.spatial.transform import Rotation
+
+    rng = np.random.default_rng(5)
+    inc = Rotation.from_rotvec(rng.normal(scale=0.2, size=(40, 3))).as_quat()
+    acc = _fast.running_products(inc)
+    monkeypatch.setattr(_fast, "COMPILED", False)
+    acc0 = _fast.running_products(inc)
+    assert acc.shape == (41, 4) and np.abs(acc - acc0).max() < 1e-14
+    assert np.array_equal(acc[0], [0.0, 0.0, 0.0, 1.0]) and np.array_equal(_fast.running_products(inc[:0]), acc[:1])
+    monkeypatch.setattr(_fast, "COMPILED", True)
+    same = np.tile(Rotation.from_rotvec([0.0, 0.05, 0.0]).as_quat(), (12, 1))
+    np.testing.assert_allclose(Rotation.from_quat(_fast.running_products(same)[-1]).as_rotvec(), [0.0, 0.6, 0.0], atol=1e-12)

@@ -16,10 +16,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..audit.zmp import smooth_quaternions_fast
-from ..core.kinematics import forward_kinematics
-from ..core.rotations import quat_apply
-from ..dynamics.derivatives import gaussian_smooth
 
 from ..core import _compiled as _core_compiled
 
@@ -30,7 +26,8 @@ if COMPILED:
     from ..core._compiled import forward_kinematics as fk_nb
     from ..core._compiled import qexp, qmul, qrot
 
-__all__ = ["COMPILED", "fk", "SegmentChains", "turn_sets", "gaussian_weights", "polygon_distance_and_target"]
+__all__ = ["COMPILED", "fk", "SegmentChains", "turn_sets", "gaussian_weights", "polygon_distance_and_target",
+           "running_products"]
 
 
 def gaussian_weights(sigma: float, truncate: float = 4.0) -> np.ndarray:
@@ -273,7 +270,9 @@ def polygon_distance_and_target(zmp: np.ndarray, contact_points: np.ndarray, mas
 
 class SegmentChains:
     """The joints on the kinematic chains of ``body``'s segment carriers (fixed for a touch-up
-    run), and :meth:`positions`: :func:`mocomp.audit.zmp.smoothed_segment_positions` on them."""
+    run; the set-up of :func:`mocomp.audit.zmp.smoothed_segment_positions`, kept here once so that
+    the compiled :meth:`positions_and_accelerations` gets its arrays without redoing it per call),
+    and :meth:`positions`, which is the audit's function."""
 
     def __init__(self, body, skeleton):
         need = np.zeros(skeleton.n_joints, bool)
@@ -288,6 +287,7 @@ class SegmentChains:
         self.offsets = np.ascontiguousarray(skeleton.offsets[idx], dtype=float)
         self.seg = remap[np.asarray(body.segment_joint)]
         self.local_coms = np.asarray(body.local_coms, float)
+        self.body = body
 
     def positions_and_accelerations(self, motion, sigma: float | None) -> tuple[np.ndarray, np.ndarray]:
         """``(r, a)`` ``(T, S, 3)`` each: :meth:`positions` and their second central difference on
@@ -308,17 +308,12 @@ class SegmentChains:
                               np.ascontiguousarray(motion.times, dtype=float))
 
     def positions(self, motion, sigma: float | None) -> np.ndarray:
-        """``(T, S, 3)`` m: the segment COMs of ``motion`` Gaussian-smoothed by ``sigma`` frames
-        (:func:`mocomp.audit.zmp.smoothed_segment_positions`, the same arithmetic)."""
-        root = gaussian_smooth(motion.root_positions, sigma, axis=0) if sigma else motion.root_positions
-        rot = smooth_quaternions_fast(motion.rotations[:, self.idx], sigma) if sigma else motion.rotations[:, self.idx]
-        if COMPILED:
-            P, Gr = fk_nb(self.parents, self.offsets, np.ascontiguousarray(root, dtype=float),
-                          np.ascontiguousarray(rot, dtype=float))
-        else:
-            P, Gr = forward_kinematics(self.parents, self.offsets, root, rot)
-        j = self.seg
-        return P[:, j] + quat_apply(Gr[:, j], self.local_coms[None])
+        """``(T, S, 3)`` m: the segment COMs of ``motion`` Gaussian-smoothed by ``sigma`` frames --
+        :func:`mocomp.audit.zmp.smoothed_segment_positions` itself (the reference the compiled
+        :meth:`positions_and_accelerations` is tested against; not a copy of it)."""
+        from ..audit.zmp import smoothed_segment_positions
+
+        return smoothed_segment_positions(self.body, motion, sigma)
 
 
 if COMPILED:
@@ -379,3 +374,32 @@ def turn_sets(P: np.ndarray, G: np.ndarray, sets, rotvec: np.ndarray, centre: np
 
     Pn, Gn = rotate_sets(P, G, sets, Rotation.from_rotvec(rotvec).as_matrix(), centre)
     return Pn[:, root], local_from_global(Gn, sets.parents)
+
+
+if COMPILED:
+    @numba.njit(cache=True, nogil=True)
+    def _running_products_nb(inc):
+        n = inc.shape[0] + 1
+        acc = np.zeros((n, 4))
+        acc[0, 3] = 1.0
+        for i in range(1, n):
+            acc[i, 0], acc[i, 1], acc[i, 2], acc[i, 3] = qmul(inc[i - 1, 0], inc[i - 1, 1], inc[i - 1, 2], inc[i - 1, 3],
+                                                              acc[i - 1, 0], acc[i - 1, 1], acc[i - 1, 2], acc[i - 1, 3])
+        return acc
+
+
+def running_products(inc: np.ndarray) -> np.ndarray:
+    """``(n + 1, 4)``: the identity, then ``inc[i - 1] acc[i - 1]`` for the ``(n, 4)`` per-frame
+    increments ``inc`` (eq. 9's turns accumulated frame by frame from the take-off,
+    :func:`mocomp.touchup.flight.flight_momentum_adjustment`). Compiled: one loop; the numpy path
+    is :func:`mocomp.core.rotations.quat_multiply` frame by frame (the same products)."""
+    inc = np.ascontiguousarray(inc, dtype=float)
+    if COMPILED:
+        return _running_products_nb(inc)
+    from ..core.rotations import quat_multiply
+
+    acc = np.zeros((inc.shape[0] + 1, 4))
+    acc[0, 3] = 1.0
+    for i in range(1, acc.shape[0]):
+        acc[i] = quat_multiply(inc[i - 1], acc[i - 1])
+    return acc

@@ -29,8 +29,7 @@ from scipy.spatial.transform import Rotation
 from ..dynamics.constants import G_STANDARD
 from ..ops import ease
 from .ground import rotation_centres
-from ..core.rotations import quat_multiply
-from ._fast import fk, turn_sets
+from ._fast import fk, running_products, turn_sets
 from .linksets import LinkSets
 
 __all__ = ["ballistic_targets", "FlightAdjustment", "flight_com_adjustment", "com_residual", "angular_momentum",
@@ -69,14 +68,16 @@ def _weights(T: int, flights, nb: int) -> tuple[np.ndarray, np.ndarray]:
     the index of the flight it belongs to (-1: none)."""
     w = np.zeros(T)
     owner = np.full(T, -1)
+    i = np.arange(1, int(nb) + 1)
+    v = ease(1.0 - i / (nb + 1))                     # (nb,) the weights 1..nb frames away
     for k, (a, b) in enumerate(flights):
         w[a:b] = 1.0
         owner[a:b] = k
-        for i in range(1, nb + 1):
-            v = float(ease(np.array([1.0 - i / (nb + 1)]))[0])
-            for f in (a - i, b - 1 + i):
-                if 0 <= f < T and v > w[f]:
-                    w[f], owner[f] = v, k
+        for f in (a - i, b - 1 + i):                 # before the take-off, after the landing
+            ok = (f >= 0) & (f < T)
+            f, vv = f[ok], v[ok]
+            up = vv > w[f]
+            w[f[up]], owner[f[up]] = vv[up], k
     return w, owner
 
 
@@ -198,10 +199,7 @@ def flight_momentum_adjustment(body, motion, sets: LinkSets, flights, *, neighbo
         w_now = np.einsum("tij,tj->ti", Iinv, h_s2[a:b])
         # per-frame increments exp(w* dt) exp(-w dt) at once; their running product frame by frame
         inc = (Rotation.from_rotvec(w_star[1:] * dt) * Rotation.from_rotvec(-w_now[1:] * dt)).as_quat()
-        acc = np.zeros((b - a, 4))
-        acc[0, 3] = 1.0
-        for i in range(1, b - a):
-            acc[i] = quat_multiply(inc[i - 1], acc[i - 1])
+        acc = running_products(inc)
         rot[a:b] = Rotation.from_quat(acc).as_rotvec()
         for f in np.flatnonzero((owner == k) & (w < 1) & (np.arange(T) >= b)):
             rot[f] = rot[b - 1] * w[f]

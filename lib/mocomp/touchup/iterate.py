@@ -170,7 +170,9 @@ def lift_feet(motion, plants, reference_points: np.ndarray, touching: np.ndarray
         dh, du = held[:, ks].max(axis=1), up[:, ks].max(axis=1)    # (T,) m; -inf: nothing to hold
         # the lowering eased in and out (Gaussian, HOLD_SMOOTH_S): a leg pulled down on the frames a
         # point touches and let go on the next jumped the written COM's velocity by 0.7 m/s
-        down = gaussian_smooth(np.where(np.isfinite(dh), np.minimum(dh, 0.0), 0.0), HOLD_SMOOTH_S * motion.fps)
+        down = np.where(np.isfinite(dh), np.minimum(dh, 0.0), 0.0)
+        if (down < -tol).any():
+            down = gaussian_smooth(down, HOLD_SMOOTH_S * motion.fps)
         dy = np.maximum(np.maximum(down, np.where(dh > 0, dh, -np.inf)), du)
         dy = np.where(np.isfinite(dy), dy, down)
         # both points touching: the ankle point to its input height and the foot pitched about it
