@@ -263,7 +263,7 @@ def test_flips_real_clip_worse_takeoff_is_warned(tmp_path, capsys, real_data_dir
     violations per check would call that 'no new violation' (the input has four COM jumps, the output
     one); matched by place, the larger one is reported as worse than the input's."""
     out, rep = tmp_path / "x2.bvh", tmp_path / "r.json"
-    assert main(["flips", "88_01", "-o", str(out), "--report", str(rep), "--k-ratio", "0.7"]) == 0
+    assert main(["flips", "88_01", "-o", str(out), "--report", str(rep), "--k-ratio", "0.7", "--takeoff", "as-is"]) == 0
     cap = capsys.readouterr()
     new = {(f["check"], f["where"]): f for f in json.loads(rep.read_text())["audit"]["new_violations"]}
     jump = new[("com_velocity_jump", "take-off of flight 1")]
