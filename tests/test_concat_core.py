@@ -141,3 +141,22 @@ def test_timing_table_equals_the_papers_brute_force():
     assert tab.T.min() == p1[0] - (p2[1] - 1) and tab.T.max() == p1[1] - 1 - p2[0]
     with pytest.raises(ConcatError, match="no offset T >= 999"):
         timing_table(t1, t2, p1, p2, min_T=999)
+
+
+def test_support_truncation_hand_support_is_not_flight():
+    """A cartwheel: both feet 0-10, hands only 10-20 (inverted), both feet 20-40. Without the hands
+    every frame counts (no foot = flight); with them the inverted frames are support, left out like
+    single support, and the period keeps its longer double-support stretch."""
+    lab = np.zeros((40, 4), bool)
+    lab[:10] = True
+    lab[20:] = True
+    hands = np.zeros((40, 2), bool)
+    hands[10:20, 0] = True
+    hands[12:18, 1] = True
+    assert support_truncate(lab, (5, 32))[0] == (5, 32)
+    (lo, hi), note = support_truncate(lab, (5, 32), hands)
+    assert (lo, hi) == (20, 32) and "hand support" in note
+    assert support_truncate(lab, (5, 16), hands)[0] == (5, 10)
+    # a real flight (no foot, no hand) still counts
+    hands[:] = False
+    assert support_truncate(lab, (5, 32), hands)[0] == (5, 32)

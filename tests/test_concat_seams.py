@@ -98,7 +98,13 @@ def test_cartwheels_cut_whole_keep_their_turning_direction(real_data_dir):
     positive between the two peaks). Cut at +-0.9 s around the inverted moment (stop 23), both
     cartwheels were truncated mid-rotation and the blend turned the body backward (L along that
     direction fell to -63 kg m^2/s). The Motion Graph waits through a quiet stretch, as the performer
-    (who walks between the cartwheels) does; ours does not stop."""
+    (who walks between the cartwheels) does; ours does not stop.
+
+    The blendable periods are truncated to double support with the hands counted as support: the
+    inverted, hand-supported frames counted as flight before, and eq. 3-7 blended the first
+    cartwheel's upright landing with the third's inverted frames: the blended period's |L| peaked at
+    94 kg m^2/s, 2.0x the inputs' main-phase peak (47), and dipped to 0.48 of the main level. Now
+    0.87x and 0.86."""
     cw = _load(real_data_dir, "cartwheels/sfu_0007_Cartwheel001.bvh")
     f = lambda s: int(round(s * cw.fps))                                        # noqa: E731
     c1, c3 = cw[f(2.2):f(4.85)], cw[f(10.9):f(13.8)]
@@ -114,6 +120,17 @@ def test_cartwheels_cut_whole_keep_their_turning_direction(real_data_dir):
     Lb = momentum_track(mg.motion).magnitude[p1.t_m:r.phases[1].t_m + mg.transition.i - mg.transition.j + 1]
     assert Lb.min() < 0.15 * r.L_reference
     assert r.motion.n_frames < mg.motion.n_frames
+    # the blended period stays at the cartwheels' own level (hand support left out of the periods)
+    pk = max(float(t.magnitude[p.main[0]:p.main[1]].max()) for t, p in zip(r.tracks, r.phases))
+    u0, u1 = r.output_window
+    assert momentum_track(r.motion).magnitude[u0:u1 + 1].max() < 1.1 * pk
+    assert np.linalg.norm(L, axis=1).min() > 0.7 * r.L_reference
+    assert "hand support" in r.period_notes[1]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        old = concatenate(c1, c3, hand_support=False, plant=False)
+    u0, u1 = old.output_window
+    assert momentum_track(old.motion).magnitude[u0:u1 + 1].max() > 1.8 * pk
 
 
 def test_deepmimic_body_kept_between_calls_is_the_character(real_data_dir):

@@ -259,6 +259,15 @@ def motion_graph_concatenate(a: Motion, b: Motion, phases: tuple[Phases, Phases]
     return BaselineResult(out, tr, fp, tuple(notes))
 
 
+def _hand_contacts(plants) -> np.ndarray | None:
+    """``(T, k)`` bool: the hands' contacts the detector found with the feet's (``None`` without them)."""
+    c = plants.contacts
+    if c is None:
+        return None
+    cols = [i for i, e in enumerate(c.effectors) if e.startswith("hand")]
+    return np.asarray(c.labels)[:, cols] if cols else None
+
+
 def _blend_labels(la: np.ndarray, lb: np.ndarray, T: int, f_T: int, n: int) -> np.ndarray:
     lab = np.zeros((n, 4), bool)
     k = min(f_T, len(la), n)
@@ -436,7 +445,8 @@ def _concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bo
                 weights=(1.0, 1.0, 1.0), min_peak_gap: float = MIN_PEAK_GAP, time_scale: bool = True,
                 facing_at: str = "t_m",
                 max_scale: float = 4.0, ramp_frames: int | None = 0, com_smooth: bool = True,
-                blend_ease: str = "linear", min_spread: float = 0.5, on_facing: str = "reject") -> ConcatResult:
+                blend_ease: str = "linear", min_spread: float = 0.5, on_facing: str = "reject",
+                hand_support: bool = True) -> ConcatResult:
     """Concatenate ``b`` after ``a`` (see the module docstring).
 
     Parameters
@@ -473,6 +483,10 @@ def _concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bo
     min_peak_gap: offsets with ``T + t_m(B) - t_m(A)`` below this fraction of the mean main-phase
         length are not considered (:data:`MIN_PEAK_GAP`).
     plant: hold the supporting feet on the result.
+    hand_support: in the double-support truncation of the blendable periods, count frames with a hand
+        planted and no foot as support (left out), not as flight (a cartwheel's inverted frames; the
+        paper limits the periods to "double support when both feet are on the ground"); ``False``:
+        every frame without a foot planted counts as flight, as before.
     """
     t0 = time.perf_counter()
     check_same_skeleton(a, b)
@@ -545,8 +559,10 @@ def _concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bo
     L_peak = max(float(t.magnitude[p.main[0]:p.main[1]].max()) for t, p in ((t1, p1), (t2, p2)))
     max_F = (F_FRACTION * L_peak) ** 2 if max_F is None else float(max_F)
     thr = (WINDOW_FRACTION * L_ref) ** 2 if window_threshold is None else float(window_threshold)
-    la = foot_plants(a, require=False).labels
-    lb = la if same else foot_plants(b, require=False).labels
+    fa = foot_plants(a, require=False)
+    fb = fa if same else foot_plants(b, require=False)
+    la, lb = fa.labels, fb.labels
+    hand_a, hand_b = _hand_contacts(fa), _hand_contacts(fb)
     gap = int(np.ceil(min_peak_gap * 0.5 * ((p1.main[1] - p1.main[0]) + (p2.main[1] - p2.main[0]))))
     min_T = p1.t_m - p2.t_m + gap
     # the facing check (pi/4): with facing_at="t_m" part of the alignment (the two bodies at their
@@ -565,8 +581,8 @@ def _concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bo
         raise ValueError(f"facing_at must be t_m or f_T, got {facing_at!r}")
     best, failed = None, []
     for case, pa, pb in blendable_periods(choice.rule, p1, p2):
-        pa2, na = support_truncate(la, pa)
-        pb2, nb = support_truncate(lb, pb)
+        pa2, na = support_truncate(la, pa, hand_a if hand_support else None)
+        pb2, nb = support_truncate(lb, pb, hand_b if hand_support else None)
         try:
             tab = optimal_timing(t1, t2r, pa2, pb2, weights=weights, min_T=min_T)
         except ConcatError as e:

@@ -124,22 +124,30 @@ def blendable_periods(rule: str, p1: Phases, p2: Phases) -> list[tuple[str, tupl
     return out
 
 
-def support_truncate(labels: np.ndarray, period: tuple[int, int]) -> tuple[tuple[int, int], str]:
+def support_truncate(labels: np.ndarray, period: tuple[int, int], hands: np.ndarray | None = None
+                     ) -> tuple[tuple[int, int], str]:
     """Truncate a blendable period to double support where the motion is on the ground: with
     ``labels`` ``(T, 4)`` foot-plant labels (foot_l, toe_l, foot_r, toe_r), the frames allowed are
     those in the air (no foot planted) or on both feet; the period becomes the longest run of
     allowed frames in it. When it has none (on one foot throughout, as in a kick) it is kept whole,
-    with a note."""
+    with a note. ``hands``: ``(T, k)`` bool, hand contacts (the contact detector's ``hand_l``,
+    ``hand_r``): a frame with a hand planted and no foot is hand support (a cartwheel's inverted
+    frames), not flight, and is left out like single support."""
     a, b = period
     lab = np.asarray(labels, dtype=bool)[a:b]
     left, right = lab[:, 0] | lab[:, 1], lab[:, 2] | lab[:, 3]
-    ok = (left & right) | ~(left | right)
+    air = ~(left | right)
+    if hands is not None:
+        air &= ~np.asarray(hands, dtype=bool)[a:b].any(axis=1)
+    ok = (left & right) | air
     if not ok.any():
-        return period, "on one foot throughout: kept whole"
+        return period, "on one foot (or hands) throughout: kept whole"
     if ok.all():
         return period, "airborne or on both feet throughout"
     d = np.diff(np.concatenate([[0], ok.astype(int), [0]]))
     starts, stops = np.flatnonzero(d == 1), np.flatnonzero(d == -1)
     k = int(np.argmax(stops - starts))
     lo, hi = a + int(starts[k]), a + int(stops[k])
-    return (lo, hi), f"truncated to {lo}-{hi} (airborne or double support; single support left out)"
+    return (lo, hi), (f"truncated to {lo}-{hi} (airborne or double support; single support"
+                      + (" and hand support" if hands is not None and np.asarray(hands, dtype=bool)[a:b].any() else "")
+                      + " left out)")
