@@ -7,7 +7,8 @@
 3. eq. 2: B turned about the vertical, in closed form, to align (forward) or oppose (reverse) the
    main phases' mean angular momenta;
 4. the blendable periods of the rule, truncated to double support where the motion is on the
-   ground (:func:`~.rules.support_truncate`, the project's foot-plant detector);
+   ground (:func:`~.rules.support_truncate`, the project's foot-plant detector; frames supported by
+   the hands alone, a cartwheel's inverted ones, are support, not flight);
 5. eq. 3-7: the offset ``T`` and blending centre ``f_T`` (:mod:`.timing`), rejected above ``max_F``;
    the ground-projected facing of the two bodies (root headings, :func:`mocomp.ops.headings`)
    must differ by at most ``max_facing`` (pi/4): at their main phases' reference frames after eq. 2
