@@ -33,6 +33,14 @@ rows after at load 1.2: 33.2 and 38.6 ms median (fastest 23.7 / 25.5 ms). Not re
 report's numbers are unchanged: AuditReport.to_dict() and the ZMP arrays within 3.6e-15 of before
 on five real clips and the six synthetic examples. What is left is mostly outside the audit: the
 contact detector (~6.5 ms incl. the clip's one FK, ~3 ms) and the polygon distance (~2 ms).
+
+Flight pairing, external force and pose jumps (2026-12-02, second pass): the plain audit gains only
+the spurious/forced labelling of flights (no new arrays); ``against=`` gains the per-joint pose-jump
+check (the step rates the kinematics stage already computed, one sliding maximum, one gather).
+Old and new code alternated in one process (CPU time, one BLAS thread, load 7.7-7.8 from other
+sessions): plain 19.3 -> 19.6 ms median CPU (40 pairs), with ``against`` 38.3 -> 39.6 ms (25 pairs).
+run.py's row at that load: 99 ms wall median (fastest 62 ms) for 19.4 ms CPU: the wall time there is
+the host's queue, not the audit; the goal was met at load ~1.5 (24-39 ms, above).
 """
 from __future__ import annotations
 

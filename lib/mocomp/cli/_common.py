@@ -272,7 +272,7 @@ def new_violations(report, inputs=()) -> tuple[tuple[object, object], ...]:
             k = (f.check, f.where)
             if k not in best or f.size > best[k].size:
                 best[k] = f
-    cmp = report.comparison
+    cmp = getattr(report, "comparison", None)
     out = []
     for f in report.violations:
         # the input's flight numbering (flights paired by time, not index: mocomp.audit.pairing)
