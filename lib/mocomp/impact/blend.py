@@ -77,18 +77,22 @@ def final_blend(sim: Motion, clip: Motion, root: str = "interpolate", weights: s
     (``s_i + w_i (c_i - s_i)``, default) or ``"end_error"`` (``s_i + w_i (c_n - s_n)``).
     ``weights``: ``"linear"`` (the paper's ``w_i = i / n``) or ``"smoothstep"`` (``3x^2 - 2x^3`` of
     ``i / n``: the error rate is zero at both seams, so the blend leaves the simulation and enters
-    the clip with their own velocities -- at the cost of 1.5x the linear rate mid-segment)."""
+    the clip with their own velocities -- at the cost of 1.5x the linear rate mid-segment) or
+    ``"smootherstep"`` (``6x^5 - 15x^4 + 10x^3``: also zero acceleration there; the last frame's weight
+    step is ``~10/n^3`` instead of ``3/n^2``, 1.9x the linear rate mid-segment)."""
     if root not in ("interpolate", "end_error"):
         raise ValueError(f"root must be 'interpolate' or 'end_error', got {root!r}")
-    if weights not in ("linear", "smoothstep"):
-        raise ValueError(f"weights must be 'linear' or 'smoothstep', got {weights!r}")
+    if weights not in ("linear", "smoothstep", "smootherstep"):
+        raise ValueError(f"weights must be 'linear', 'smoothstep' or 'smootherstep', got {weights!r}")
     if sim.n_frames != clip.n_frames or sim.skeleton.names != clip.skeleton.names:
         raise ValueError(f"final_blend: the segment ({sim.n_frames} frames) and the clip ({clip.n_frames} frames) "
                          "must cover the same frames on the same skeleton")
     n = sim.n_frames - 1
     w = np.arange(sim.n_frames) / max(n, 1)
-    if weights == "smoothstep":
-        w = w * w * (3.0 - 2.0 * w)
+    if weights != "linear":
+        from ..ops import ease
+
+        w = ease(w, weights)
     target = clip.root_positions if root == "interpolate" else clip.root_positions[-1]
     root_out = sim.root_positions + w[:, None] * (target - (sim.root_positions if root == "interpolate"
                                                            else sim.root_positions[-1]))
@@ -153,7 +157,8 @@ def plant_feet(motion: Motion, fade: float | None = None):
     return enforce_footplants(motion, audit=False, blend=blend)
 
 
-def limit_plant_steps(before: Motion, after: Motion, plants, max_step: float, *, iterations: int = 14):
+def limit_plant_steps(before: Motion, after: Motion, plants, max_step: float, *, iterations: int = 14,
+                      free: np.ndarray | None = None):
     """``(motion, frames_limited)``: ``after`` (``before`` with its feet planted, :func:`plant_feet`)
     with the plants' leg corrections slowed down outside the planted frames, so that no leg joint
     turns further in one frame than ``max(its own step in before, max_step)`` (rad).
@@ -167,7 +172,9 @@ def limit_plant_steps(before: Motion, after: Motion, plants, max_step: float, *,
     moved along the arc toward the neighbour's (which gives exactly the input's own step) as far as
     the limit allows (bisection on the arc). Planted frames keep their correction exactly, so the
     plants stay held; only the fades get longer where they were too fast.
-    ``plants``: the :class:`~mocomp.ops.plants.FootPlants` the correction enforced."""
+    ``plants``: the :class:`~mocomp.ops.plants.FootPlants` the correction enforced. ``free``: ``(T,)``
+    bool, frames where the leg joints are limited even when planted (the plant there gives way to the
+    limit: a foot held by its toe across the re-entry while the blended foot slides under it)."""
     from ..core.rotations import slerp as _slerp
 
     qb = np.asarray(before.rotations, float)
@@ -179,6 +186,8 @@ def limit_plant_steps(before: Motion, after: Motion, plants, max_step: float, *,
     for leg in plants.legs:
         cols = [names.index(e) for e in (f"foot_{leg.side}", f"toe_{leg.side}") if e in names]
         held = plants.labels[:, cols].any(axis=1) if cols else np.zeros(T, bool)
+        if free is not None:
+            held = held & ~np.asarray(free, bool)
         for j in leg.chain:
             planted[:, j] = held
     own = np.zeros((T, J))

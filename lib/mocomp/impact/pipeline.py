@@ -76,8 +76,11 @@ class ImpactConfig:
     separate: keep the attacker's body out of the victim's after the strike
     (:func:`~mocomp.impact.attacker.separate`).
     blend_weights: the final blend's weights (:func:`~mocomp.impact.blend.final_blend`): ``"linear"``
-    (the paper's), ``"smoothstep"``, or ``"auto"`` (default: linear unless the linear blend's step into
-    the re-entry frame exceeds the found clip's own largest frame-to-frame step, then smoothstep).
+    (the paper's), ``"smoothstep"``, ``"smootherstep"``, or ``"auto"`` (default: linear unless the
+    repaired output's step into or out of the re-entry frame exceeds the found clip's own largest
+    frame-to-frame step, then smoothstep, then smootherstep, the first that is continuous or else the
+    smallest step; when the step comes from the plants alone, the leg joints are freed of the plants
+    within a fade of the re-entry and rate-limited there). ``evidence["repairs_tried"]`` lists the tries.
     """
 
     window: tuple[float, float] = (0.1, 1.0)
@@ -116,8 +119,9 @@ class ImpactConfig:
             raise ValueError(f"delay_range must satisfy 0 <= low <= high, got {self.delay_range}")
         if self.max_attack is not None and not (self.max_attack > self.strike_lead > 0):
             raise ValueError(f"need max_attack > strike_lead > 0 s, got {self.max_attack!r}, {self.strike_lead!r}")
-        if self.blend_weights not in ("auto", "linear", "smoothstep"):
-            raise ValueError(f"blend_weights must be 'auto', 'linear' or 'smoothstep', got {self.blend_weights!r}")
+        if self.blend_weights not in ("auto", "linear", "smoothstep", "smootherstep"):
+            raise ValueError(f"blend_weights must be 'auto', 'linear', 'smoothstep' or 'smootherstep', "
+                             f"got {self.blend_weights!r}")
         if self.reentry not in ("match_start", "window_end"):
             raise ValueError(f"reentry must be 'match_start' or 'window_end', got {self.reentry!r}")
         if not (0 < self.match_window < b):
@@ -380,63 +384,91 @@ def impact_response(attacker: Motion, victim: Motion, index, scenario: Scenario 
         found_a = clip_a.sample(np.clip(tc, 0.0, clip_a.duration), fps=fps)
     else:
         clip_a, found_a = clip, found_seg
-    ba = final_blend(seg, found_a, weights="linear" if config.blend_weights == "auto" else config.blend_weights)
-    blend_weights = "linear" if config.blend_weights == "auto" else config.blend_weights
-    if config.blend_weights == "auto":
-        # the paper's linear weights, unless their error rate steps past the found clip's own largest
-        # step at a seam: then the eased weights, which enter the clip with its own velocity
-        cs = clip_a.resample(fps) if abs(clip_a.fps - fps) > 1e-6 else clip_a
-        cr, cq = frame_steps(cs)
-        dr_, dq_ = frame_steps(ba.motion)             # the last one is the step into the re-entry frame
-        if dq_[-1] > cq.max() + 1e-9 or dr_[-1] > cr.max() + 1e-9:
-            ba = final_blend(seg, found_a, weights="smoothstep")
-            blend_weights = "smoothstep"
     bn = final_blend(naive.victim.slice(0, n_seg), found_seg) if config.compare_naive else None
     clip = clip_a
     # the output: the victim clip up to the rewind frame, the blended segment, the found clip after
     before = placed.slice(0, fc.rewind_frame) if fc.rewind_frame > 0 else None
     t_after = res.frame / clip.fps + (np.arange(reentry + 1, 10 ** 6) - start) / fps
     t_after = t_after[t_after <= clip.duration + 1e-9]
-    parts = ([before] if before is not None else []) + [ba.motion.replace(source=placed.source)]
-    if t_after.size:
-        parts.append(clip.sample(t_after, fps=fps).replace(source=placed.source))
-    out = concatenate(parts)
+    after = clip.sample(t_after, fps=fps).replace(source=placed.source) if t_after.size else None
+
+    def assemble(blended):
+        return concatenate(([before] if before is not None else []) + [blended.motion.replace(source=placed.source)]
+                           + ([after] if after is not None else []))
+
+    weights = "linear" if config.blend_weights == "auto" else config.blend_weights
+    ba = final_blend(seg, found_a, weights=weights)
+    out = assemble(ba)
     timings["final_blend"], cpu["final_blend"] = time.perf_counter() - t, time.process_time() - c
 
     t, c = time.perf_counter(), time.process_time()
-    evidence = {"search": search_stats, "blend_weights": blend_weights, "attack_window": attack_window,
-                "placement": placement}
+    evidence = {"search": search_stats, "attack_window": attack_window, "placement": placement}
     re_frame = fc.rewind_frame + reentry
-    clip_steps = clip.resample(fps) if abs(clip.fps - fps) > 1e-6 else clip     # steps compared at one rate
-    evidence["continuity"] = _continuity(out, clip_steps, re_frame, fc.rewind_frame, frame_steps)
+    # the found clip's own steps on the output's sampling grid (its frames after the re-entry are sampled
+    # at the output's rate and phase; another phase gives other largest steps, 0.1 deg apart on a fast get-up)
+    phase = (res.frame / clip.fps - start / fps) % (1.0 / fps)
+    clip_steps = clip.sample(np.arange(phase, clip.duration + 1e-9, 1.0 / fps), fps=fps) \
+        if abs(clip.fps - fps) > 1e-6 or phase > 1e-9 else clip
+    cq_max = float(frame_steps(clip_steps)[1].max())
     floor_y = _floor_level(placed.slice(0, max(fc.rewind_frame + 1, 2)))
-    lift = np.zeros(out.n_frames)
     # the input before the rewind frame is left as it is; the lift eases in over the simulated segment
     lift_kw = dict(tolerance=0.002, start=fc.rewind_frame, ramp_frames=max(reentry, 1))
-    if config.lift:
-        out, lift = floor_lift(out, floor_y, **lift_kw)
-    if config.plant:
-        from ..ops import NoContactError
 
-        try:
-            fp = plant_feet(out)
-            cq_max = float(frame_steps(clip_steps)[1].max())
-            out, limited = limit_plant_steps(out, fp.motion, fp.plants, cq_max)
-            evidence["footplant"] = {"plants": {e: len(v) for e, v in fp.plants.intervals.items()}
-                                     if hasattr(fp.plants, "intervals") else None,
-                                     "max_miss_m": float(fp.max_miss), "changed_frames": int(fp.changed_frames),
-                                     "frames_fade_slowed": limited}
-        except NoContactError as e:                   # no plant at all (a victim airborne throughout)
-            evidence["footplant"] = {"skipped": str(e)}
-    if config.lift:
-        # the plants set planted heights on their support level, which can sink a few mm below the floor
-        # again: a second, vertical-only lift (the plants stay put in the ground plane)
-        out, lift2 = floor_lift(out, floor_y, **lift_kw)
-        lift = lift + lift2
-        evidence["floor_lift"] = {"floor_y_m": floor_y, "frames_lifted": int((lift > 0).sum()),
-                                  "max_lift_m": float(lift.max()), "lift_at_reentry_m": float(lift[re_frame]),
-                                  "after_plants_max_m": float(lift2.max())}
-    evidence["continuity_final"] = _continuity(out, clip_steps, re_frame, fc.rewind_frame, frame_steps)
+    def repair(out, seam_free: bool = False):
+        """The lift, the plants (their fades rate-limited; with ``seam_free`` the leg joints are free of
+        the plants within the plants' fade of the re-entry), the second lift; returns (out, evidence)."""
+        ev = {"continuity": _continuity(out, clip_steps, re_frame, fc.rewind_frame, frame_steps)}
+        lift = np.zeros(out.n_frames)
+        if config.lift:
+            out, lift = floor_lift(out, floor_y, **lift_kw)
+        if config.plant:
+            from ..ops import NoContactError
+
+            try:
+                fp = plant_feet(out)
+                free = None
+                if seam_free:
+                    free = np.zeros(out.n_frames, bool)
+                    free[max(re_frame - fp.blend_frames, 0):re_frame + fp.blend_frames + 1] = True
+                out, limited = limit_plant_steps(out, fp.motion, fp.plants, cq_max, free=free)
+                ev["footplant"] = {"plants": {e: len(v) for e, v in fp.plants.intervals.items()}
+                                   if hasattr(fp.plants, "intervals") else None,
+                                   "max_miss_m": float(fp.max_miss), "changed_frames": int(fp.changed_frames),
+                                   "frames_fade_slowed": limited, "seam_free_frames": int(free.sum()) if seam_free else 0}
+            except NoContactError as e:               # no plant at all (a victim airborne throughout)
+                ev["footplant"] = {"skipped": str(e)}
+        if config.lift:
+            # the plants set planted heights on their support level, which can sink a few mm below the floor
+            # again: a second, vertical-only lift (the plants stay put in the ground plane)
+            out, lift2 = floor_lift(out, floor_y, **lift_kw)
+            lift = lift + lift2
+            ev["floor_lift"] = {"floor_y_m": floor_y, "frames_lifted": int((lift > 0).sum()),
+                                "max_lift_m": float(lift.max()), "lift_at_reentry_m": float(lift[re_frame]),
+                                "after_plants_max_m": float(lift2.max())}
+        ev["continuity_final"] = _continuity(out, clip_steps, re_frame, fc.rewind_frame, frame_steps)
+        return out, ev
+
+    final, ev = repair(out)
+    tried = [weights]
+    for eased in ("smoothstep", "smootherstep"):
+        if config.blend_weights != "auto" or ev["continuity_final"]["continuous"]:
+            break
+        # the paper's linear weights step past the found clip's own largest step at the re-entry: the eased
+        # weights enter the clip with its own velocity (smootherstep: and its acceleration)
+        ba2 = final_blend(seg, found_a, weights=eased)
+        f2, ev2 = repair(assemble(ba2))
+        tried.append(eased)
+        if ev2["continuity_final"]["reentry_joint_step_deg"] < ev["continuity_final"]["reentry_joint_step_deg"]:
+            ba, out, final, ev, weights = ba2, assemble(ba2), f2, ev2, eased
+    if config.plant and not ev["continuity_final"]["continuous"] and ev["continuity"]["continuous"]:
+        # the plants made the step (a foot held by its toe across the seam while the blended foot slides):
+        # the leg joints are freed of the plants around the re-entry, their steps limited there
+        f3, ev3 = repair(out, seam_free=True)
+        tried.append(weights + "+seam_free")
+        if ev3["continuity_final"]["reentry_joint_step_deg"] < ev["continuity_final"]["reentry_joint_step_deg"]:
+            final, ev = f3, ev3
+    out = final
+    evidence.update(ev, blend_weights=weights, repairs_tried=tried)
     timings["repairs"], cpu["repairs"] = time.perf_counter() - t, time.process_time() - c
 
     t, c = time.perf_counter(), time.process_time()
