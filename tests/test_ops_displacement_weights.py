@@ -113,3 +113,20 @@ def test_compiled_and_numpy_paths_agree(monkeypatch):
         out[flag] = (moved.rotations, DisplacementMap.between(m, moved).rotations)
     np.testing.assert_allclose(out[True][0], out[False][0], rtol=0, atol=1e-15)
     np.testing.assert_allclose(out[True][1], out[False][1], rtol=0, atol=1e-14)
+
+
+def test_between_drops_rounding_only_joints_on_both_paths(monkeypatch):
+    """A joint turned by 1e-14 rad (rounding of a local <-> world round trip) gets a zero offset, one turned
+    by 1e-9 rad keeps its offset; ``negligible=0`` keeps both (exact). Same on the compiled and numpy paths."""
+    import mocomp.ops.displacement as dm
+    from mocomp.core.rotations import quat_exp, quat_multiply
+
+    m = synthetic_walk(duration=0.3, fps=60).motion
+    rot = np.array(m.rotations)
+    rot[:, 3] = quat_multiply(rot[:, 3], quat_exp(np.array([1e-14, 0.0, 0.0])))
+    rot[:, 6] = quat_multiply(rot[:, 6], quat_exp(np.array([0.0, 1e-9, 0.0])))
+    other = m.replace_trusted(m.root_positions, rot)          # no renormalisation of the other joints
+    for flag in (True, False):
+        monkeypatch.setattr(dm, "USE_COMPILED", flag)
+        assert list(DisplacementMap.between(m, other).moving_joints()) == [6]
+        assert list(DisplacementMap.between(m, other, negligible=0.0).moving_joints()) == [3, 6]

@@ -15,7 +15,21 @@ import numpy as np
 
 from ..core._compiled import njit, qexp, qlog, qmul
 
-__all__ = ["log_between", "displace"]
+__all__ = ["log_between", "displace", "turned_joints"]
+
+
+@njit
+def _turned(a, b, half2, flags):
+    T, J = a.shape[0], a.shape[1]
+    for t in range(T):
+        for j in range(J):
+            if flags[j] or (a[t, j, 0] == b[t, j, 0] and a[t, j, 1] == b[t, j, 1] and a[t, j, 2] == b[t, j, 2]
+                            and a[t, j, 3] == b[t, j, 3]):
+                continue                 # (equal: exactly no turn; the compiled product may fuse to ~1e-18)
+            x, y, z, w = qmul(-a[t, j, 0], -a[t, j, 1], -a[t, j, 2], a[t, j, 3],
+                              b[t, j, 0], b[t, j, 1], b[t, j, 2], b[t, j, 3])
+            if x * x + y * y + z * z > half2:
+                flags[j] = True
 
 
 @njit
@@ -44,6 +58,17 @@ def _displace(rot, v, cols, out):
             out[t, j, 1] = y
             out[t, j, 2] = z
             out[t, j, 3] = w
+
+
+def turned_joints(a: np.ndarray, b: np.ndarray, negligible: float) -> np.ndarray:
+    """Indices of the joints ``j`` where ``q_b`` differs from ``q_a`` (``(T, J, 4)``) by more than
+    ``negligible`` rad on some frame: the vector part ``u`` of ``q_a^-1 q_b`` has ``|u| = sin(angle / 2)``,
+    so a joint is kept where ``|u| > sin(negligible / 2)`` (any non-zero ``u`` for ``negligible = 0``; an
+    unchanged joint's ``u`` is exactly zero in floating point)."""
+    flags = np.zeros(a.shape[1], dtype=np.bool_)
+    half = np.sin(0.5 * negligible)
+    _turned(np.ascontiguousarray(a, dtype=np.float64), np.ascontiguousarray(b, dtype=np.float64), half * half, flags)
+    return np.flatnonzero(flags)
 
 
 def log_between(a: np.ndarray, b: np.ndarray, cols: np.ndarray) -> np.ndarray:

@@ -205,22 +205,24 @@ class DisplacementMap:
         if joints is not None:
             keep[:] = False
             keep[list(joints)] = True
-        # the joints whose rotations differ (an unchanged joint's offset is exactly zero: q^-1 q has a zero
-        # vector part in floating point too)
-        cols = _joints_where(base.rotations != target.rotations)
-        cols = cols[keep[cols]]
-        if cols.size and _compiled():
-            from ._kernels import log_between
+        # the joints that turn by more than ``negligible`` (an unchanged joint's offset is exactly zero: q^-1 q
+        # has a zero vector part in floating point too)
+        if _compiled():
+            from ._kernels import log_between, turned_joints
 
-            v = log_between(base.rotations, target.rotations, cols)
+            cols = turned_joints(base.rotations, target.rotations, negligible)
+            cols = cols[keep[cols]]
+            v = log_between(base.rotations, target.rotations, cols) if cols.size else np.zeros((base.n_frames, J, 3))
         else:
+            cols = _joints_where(base.rotations != target.rotations)
+            cols = cols[keep[cols]]
             v = np.zeros((base.n_frames, J, 3))
             if cols.size:
                 v[:, cols] = quat_log(quat_multiply(quat_inverse(base.rotations[:, cols]), target.rotations[:, cols]))
-        if negligible > 0 and cols.size:
-            small = cols[np.abs(v[:, cols]).reshape(base.n_frames, -1).max(axis=0).reshape(-1, 3).max(axis=1)
-                         <= negligible]
-            v[:, small] = 0.0
+            if negligible > 0 and cols.size:
+                vc = v[:, cols]
+                small = cols[np.einsum("tjk,tjk->tj", vc, vc).max(axis=0) <= negligible * negligible]
+                v[:, small] = 0.0
         return cls._trusted(target.root_positions - base.root_positions, v)
 
     def smoothed(self, width: float, kernel: str = "gaussian") -> "DisplacementMap":
