@@ -148,14 +148,17 @@ def ground_adjustment(body, motion, sets: LinkSets, state, frames: np.ndarray, *
     frames &= n > 1e-12
     d = np.zeros((T, 3))
     d[frames] = dvec[frames] / n[frames, None]
-    C = rotation_centres(P, sets, None if feet_in_s1 else np.where(frames[:, None], state.target, P[:, 0]))
-    w, moved = segment_offsets(body, P, G, state.r, sets, C)
+    # the centres and offsets on the adjusted frames only (elsewhere the turn is the identity,
+    # whatever its centre): a long clip has most frames inside the polygon
+    f = frames
+    C = np.zeros(P.shape)
+    C[f] = rotation_centres(P[f], sets, None if feet_in_s1 else state.target[f])
+    w, moved = segment_offsets(body, P[f], None, state.r[f], sets, C[f])
     theta = np.zeros(T)
     clamped = np.zeros(T, bool)
     capped = np.zeros(T, bool)
     if frames.any():
-        f = frames
-        a1, a2, a3 = eq6_coefficients(body.masses, state.a[f], w[f], moved, np.einsum("tk,tk->t", state.zmp[f], d[f]),
+        a1, a2, a3 = eq6_coefficients(body.masses, state.a[f], w, moved, np.einsum("tk,tk->t", state.zmp[f], d[f]),
                                       d[f], g)
         th, cl = eq7_angle(a1, a2, a3, np.einsum("tk,tk->t", state.target[f], d[f]))
         theta[f], clamped[f] = th, cl
