@@ -28,15 +28,16 @@ Python glue: about 60 % in ``mocomp.ops``. Synthetic walk, 10,001 frames at 120 
 120 Hz, a direct correlation of radius 640 --, ``apply_displacement`` 11 %), the footplant hold
 12 %, ``zmp_state`` 12 %, ``lift_feet`` 6 %, eq. 6-7 5 %.
 
-Measured (2026-12-02, the paper's 5 + 5 + 2 iterations), CPU best of 5, before -> after the
-compiled paths, alternated A/B runs at load 5-6 on the same ``mocomp.ops`` (outputs within 3e-13,
-same clamped/capped/lifted frames): walk -> jog 98 frames 0.134 -> 0.064 s (paper 0.108); curved
-walk 111 frames 0.127 -> 0.069 s (0.172); uphill 166 frames 0.148 -> 0.076 s (0.211); curved hop 91
-frames at 120 Hz 0.219 -> 0.098 s (0.14). Wall time is 1-3x the CPU time at that load. Cut to 98
-frames the walk -> jog example ends before its blend window (frames 110-130): those 98 frames are
-walk only. The 10 ms goal is still missed by 6-10x (most of what is left is in ``mocomp.ops``, see
-above). Synthetic walk at 120 Hz, ``ground-default``: 1,001 frames 0.80 -> 0.45 s CPU, 10,001 frames
-8.2 -> 5.9 s CPU (0.59 ms per frame, 1.3x the 1,000-frame clip's); the 1 s goal is missed ~6x.
+Later the same day (``mocomp.ops`` made faster by its owner: compiled map kernels, FFT smoothing;
+touch-up: eq. 9's running products compiled, eq. 6-7 on the adjusted frames only), CPU best at load
+7-9: walk -> jog 98 frames 0.038-0.046 s, curved walk 111 frames 0.038-0.047 s, uphill 166 frames
+0.049-0.054 s, curved hop 91 frames 0.061-0.066 s (75-78 ms before touch-up's own two changes);
+synthetic walk 1,001 frames 0.13 s, 10,001 frames 0.92-1.04 s (per frame 1.0x the 1,000-frame
+clip's: linear). The 10,000-frame run: ``ops.enforce_footplants`` ~25 %, eq. 4's inputs
+(``_zmp_inputs_nb``: the Gaussian, the chains' FK, the segment COMs, compiled) ~19 %, the maps'
+``between`` ~16 %, eq. 6-7 ~9 %, ``lift_feet`` ~8 %. The 100-frame clips spend most of their
+40-60 ms in per-call overhead of ~15 small numpy/numba calls per iteration x 12-15 iterations; the
+10 ms goal is still missed ~4-6x.
 """
 from __future__ import annotations
 
