@@ -142,7 +142,8 @@ def run(args) -> int:
     ncp = {k: len(v) for k, v in (r.capped or {}).items() if v}
     print("capped frames (per-frame turn cut to the cap): " + ("; ".join(f"{k}: {n}" for k, n in ncp.items()) if ncp else "none"))
     if r.lifted:
-        print("legs lifted (a touching foot point pushed below its input height): "
+        print("legs held by IK (a touching foot point off its input height, a free one below its resting level, "
+              "a foot point in a flight below its input height): "
               + "; ".join(f"{side}: {len(v)} frame(s)" for side, v in r.lifted.items()))
     P0, G0 = m.fk()
     P1, G1 = r.motion.fk()
