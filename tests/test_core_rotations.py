@@ -192,3 +192,22 @@ def test_make_continuous_removes_sign_flips(rots):
     stacked = np.stack([flipped, flipped], axis=1)  # (T, 2, 4), time on axis 0
     np.testing.assert_allclose(make_continuous(stacked, axis=0)[:, 1], fixed)
     np.testing.assert_allclose(make_continuous(np.swapaxes(stacked, 0, 1), axis=1)[1], fixed)
+
+
+def test_quat_from_matrix_matches_scipy_and_inverts_quat_matrix(rots):
+    """Random rotations plus the branch cases of Shepperd's method (identity, half turns about each
+    axis, where w = 0 and one of x, y, z carries the square root) and a near-half-turn: the same
+    rotation as scipy's from_matrix, w >= 0, unit norm, and quat_matrix of it gives R back."""
+    from mocomp.core.rotations import quat_from_matrix, quat_matrix
+
+    extra = Rotation.from_rotvec([[0, 0, 0], [np.pi, 0, 0], [0, np.pi, 0], [0, 0, np.pi], [2.0, -1.0, 0.5],
+                                  [np.pi - 1e-9, 0, 0], [0, 3.1, 0.2]])
+    R = np.concatenate([rots.as_matrix(), extra.as_matrix()]).reshape(-1, 3, 3)
+    q = quat_from_matrix(R)
+    assert q.shape == (len(R), 4)
+    assert same_rotation(q, Rotation.from_matrix(R).as_quat(), atol=1e-12)
+    assert np.all(q[:, 3] >= 0) and np.allclose(np.linalg.norm(q, axis=1), 1.0, atol=1e-15)
+    np.testing.assert_allclose(quat_matrix(q), R, atol=1e-14)
+    np.testing.assert_allclose(quat_from_matrix(R[None]), q[None], atol=0)
+    with pytest.raises(ValueError, match=r"\(\.\.\., 3, 3\)"):
+        quat_from_matrix(np.eye(4))

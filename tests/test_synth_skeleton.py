@@ -79,7 +79,7 @@ def test_body_model_maps_every_mass_bearing_bone():
     # standing with the arms down, the whole-body COM sits at 55-58 % of stature, as for real adults
     from mocomp.dynamics import center_of_mass
     from mocomp.synth.poses import pose
-    from mocomp.synth._so3 import exp_quat
+    from mocomp.core.rotations import quat_exp as exp_quat
 
     stand = Motion(sk, 120.0, sk.offsets[:1], exp_quat(pose(sk))[None])
     com = center_of_mass(body, stand)[0]

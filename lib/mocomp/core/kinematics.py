@@ -21,7 +21,7 @@ import numpy as np
 
 from .rotations import cross, quat_apply, quat_inverse, quat_log, quat_multiply
 
-__all__ = ["forward_kinematics", "forward_kinematics_numpy", "end_site_positions", "frame_times",
+__all__ = ["forward_kinematics", "forward_kinematics_numpy", "end_site_positions", "load_compiled", "frame_times",
            "angular_velocity", "angular_velocity_numpy", "path_matrix", "propagate_velocities",
            "world_angular_velocities", "point_velocities"]
 
@@ -60,6 +60,20 @@ def forward_kinematics(parents: np.ndarray, offsets: np.ndarray, root_positions:
             return _compiled.forward_kinematics(_ro(parents, np.int64), _ro(offsets), _ro(root_positions),
                                                 _ro(rotations))
     return forward_kinematics_numpy(parents, offsets, root_positions, rotations)
+
+
+def load_compiled() -> bool:
+    """Load the compiled backend (:mod:`mocomp.core._compiled`, which imports numba unless
+    ``MOCOMP_NO_NUMBA`` is set) so that :func:`forward_kinematics` and :func:`angular_velocity` run
+    compiled from now on in this process; returns whether they will (``_compiled.AVAILABLE``).
+
+    For callers that run many forward kinematics of a few poses each -- the synthetic generator's
+    stance solves and shooting call it ~120 times per motion, 100 of them on one pose, where the
+    numpy reference's per-joint array calls cost ~50x a compiled pass -- numba's one-time import
+    (~0.5 s) pays; for a single clip's FK it does not, hence the rule in :func:`forward_kinematics`."""
+    from . import _compiled
+
+    return _compiled.AVAILABLE
 
 
 def _ro(a, dtype=np.float64) -> np.ndarray:

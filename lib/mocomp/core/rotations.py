@@ -39,6 +39,7 @@ __all__ = [
     "quat_exp",
     "quat_pow",
     "quat_matrix",
+    "quat_from_matrix",
     "slerp",
     "cross",
     "shortest_arc",
@@ -212,6 +213,35 @@ def quat_matrix(q: np.ndarray) -> np.ndarray:
     out[..., 2, 1] = 2 * (y * z + x * w)
     out[..., 2, 2] = 1 - 2 * (x * x + y * y)
     return out
+
+
+def quat_from_matrix(R: np.ndarray) -> np.ndarray:
+    """Unit quaternions ``(..., 4)`` (scalar-last, ``w >= 0``) of rotation matrices ``(..., 3, 3)``,
+    the inverse of :func:`quat_matrix`: S. W. Shepperd, "Quaternion from rotation matrix", J. Guidance
+    and Control 1(3), 1978 -- of ``4 w^2 = 1 + tr R`` and ``4 x^2 = 1 + 2 R_00 - tr R`` (and y, z
+    alike) the largest is used for the square root, the other three components follow from the
+    off-diagonal sums/differences (no cancellation); the same as ``Rotation.from_matrix(R).as_quat()``
+    up to sign for orthonormal ``R`` (tested; scipy also orthonormalises a matrix that is not)."""
+    R = np.asarray(R, dtype=float)
+    if R.shape[-2:] != (3, 3):
+        raise ValueError(f"rotation matrices must have shape (..., 3, 3), got {R.shape}")
+    r00, r11, r22 = R[..., 0, 0], R[..., 1, 1], R[..., 2, 2]
+    tr = r00 + r11 + r22
+    # 4 * (x^2, y^2, z^2, w^2): pick the largest per matrix
+    d = np.stack([1.0 + 2.0 * r00 - tr, 1.0 + 2.0 * r11 - tr, 1.0 + 2.0 * r22 - tr, 1.0 + tr], axis=-1)
+    k = np.argmax(d, axis=-1)
+    s21, s12 = R[..., 2, 1], R[..., 1, 2]
+    s02, s20 = R[..., 0, 2], R[..., 2, 0]
+    s10, s01 = R[..., 1, 0], R[..., 0, 1]
+    # 4 x_k q for each choice k: rows are (4xq, 4yq, 4zq, 4wq) without the square-root scale
+    c = np.empty(R.shape[:-2] + (4, 4))
+    c[..., 0, :] = np.stack([d[..., 0], s01 + s10, s02 + s20, s21 - s12], axis=-1)
+    c[..., 1, :] = np.stack([s01 + s10, d[..., 1], s12 + s21, s02 - s20], axis=-1)
+    c[..., 2, :] = np.stack([s02 + s20, s12 + s21, d[..., 2], s10 - s01], axis=-1)
+    c[..., 3, :] = np.stack([s21 - s12, s02 - s20, s10 - s01, d[..., 3]], axis=-1)
+    q = np.take_along_axis(c, k[..., None, None], axis=-2)[..., 0, :]
+    q = q / np.sqrt(np.einsum("...i,...i->...", q, q))[..., None]
+    return np.where(q[..., 3:4] < 0.0, -q, q)
 
 
 def slerp(q0: np.ndarray, q1: np.ndarray, t: np.ndarray, nlerp_below: float | None = None) -> np.ndarray:

@@ -25,6 +25,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..body.model import BodyModel
+from ..core.kinematics import forward_kinematics, propagate_velocities, world_angular_velocities
+from ..core.rotations import quat_from_matrix, quat_matrix
 from ..core.skeleton import Skeleton
 
 __all__ = ["BodyFrame", "body_frame"]
@@ -57,29 +59,36 @@ class BodyFrame:
 
 def body_frame(skeleton: Skeleton, body: BodyModel, R_local: np.ndarray, w_local: np.ndarray | None = None,
                ) -> BodyFrame:
-    """Root-frame kinematics of poses ``R_local (N, J, 3, 3)`` with local angular
-    velocities ``w_local (N, J, 3)`` (each in its own child frame; ``None`` = at rest).
+    """Root-frame kinematics of poses ``R_local`` -- local rotations as matrices ``(N, J, 3, 3)`` or
+    unit quaternions ``(N, J, 4)`` -- with local angular velocities ``w_local (N, J, 3)`` (each in
+    its own child frame; ``None`` = at rest).
 
-    The root's own entries (joint 0) are ignored: the root is the reference frame.
+    The root's own entries (joint 0) are ignored: the root is the reference frame. The kinematics
+    are core's: :func:`~mocomp.core.kinematics.forward_kinematics` (``G_j = G_parent L_j``,
+    ``P_j = P_parent + G_parent offset_j``), :func:`~mocomp.core.kinematics.world_angular_velocities`
+    (``Om_j = Om_parent + G_j w_j``) and :func:`~mocomp.core.kinematics.propagate_velocities`
+    (``V_j = V_parent + Om_parent x (P_j - P_parent)``).
     """
-    N, J = R_local.shape[:2]
+    R_local = np.asarray(R_local, dtype=float)
+    if R_local.ndim == 4 and R_local.shape[-2:] == (3, 3):
+        q_local = quat_from_matrix(R_local)
+    elif R_local.ndim == 3 and R_local.shape[-1] == 4:
+        q_local = np.array(R_local)
+    else:
+        raise ValueError(f"local rotations must have shape (N, J, 3, 3) or (N, J, 4), got {R_local.shape}")
+    N, J = q_local.shape[:2]
     parents = skeleton.parents
-    off = skeleton.offsets
-    G = np.empty((N, J, 3, 3))
-    P = np.empty((N, J, 3))
-    Om = np.zeros((N, J, 3))
-    V = np.zeros((N, J, 3))
-    G[:, 0] = np.eye(3)
-    P[:, 0] = 0.0
+    q_local[:, 0] = (0.0, 0.0, 0.0, 1.0)
+    zero = np.zeros((N, 3))
+    P, Gq = forward_kinematics(parents, skeleton.offsets, zero, q_local)
+    G = quat_matrix(Gq)
     moving = w_local is not None
-    for j in range(1, J):
-        p = parents[j]
-        G[:, j] = G[:, p] @ R_local[:, j]
-        d = G[:, p] @ off[j]
-        P[:, j] = P[:, p] + d
-        if moving:
-            Om[:, j] = Om[:, p] + np.einsum("nab,nb->na", G[:, j], w_local[:, j])
-            V[:, j] = V[:, p] + np.cross(Om[:, p], d)
+    if moving:
+        Om = world_angular_velocities(parents, Gq, zero, w_local)
+        V = propagate_velocities(parents, P, Om, zero)
+    else:
+        Om = np.zeros((N, J, 3))
+        V = np.zeros((N, J, 3))
     sj = body.segment_joint
     m = body.masses
     M = m.sum()

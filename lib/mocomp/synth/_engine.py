@@ -24,12 +24,14 @@ from scipy.optimize import root as sp_root, root_scalar
 
 from ..body.model import BodyModel
 from ..core.motion import Motion, SourceInfo
-from ..core.rotations import make_continuous, quat_inverse, quat_multiply
+from ..core.kinematics import forward_kinematics, load_compiled
+from ..core.rotations import (make_continuous, quat_exp, quat_from_matrix, quat_inverse, quat_log, quat_matrix,
+                              quat_multiply)
 from ..core.skeleton import Skeleton
 from ..dynamics.momentum import MotionVelocities
 from ..errors import PhysicsError
 from ._bodyframe import body_frame
-from ._so3 import exp_quat, log_quat, matrix_to_quat, quat_to_matrix, right_jacobian, left_jacobian
+from ._so3 import right_jacobian, left_jacobian
 from .legs import leg_chain, leg_ik
 from .poses import LEG_POSE_JOINTS
 from .result import FlightEvidence, SynthResult
@@ -102,11 +104,11 @@ class Design:
 
 # --------------------------------------------------------------------------- helpers
 def _key_quat(axis, key: Key) -> np.ndarray:
-    return quat_multiply(exp_quat(axis * key.theta), exp_quat(np.asarray(key.tilt, float)))
+    return quat_multiply(quat_exp(axis * key.theta), quat_exp(np.asarray(key.tilt, float)))
 
 
 def _rotvec_from_matrices(R):
-    return log_quat(matrix_to_quat(R))
+    return quat_log(quat_from_matrix(R))
 
 
 class _Body:
@@ -152,7 +154,7 @@ class _Body:
     def local_matrices(self, upper_rv, leg_R):
         """Full ``(N, J, 3, 3)`` local rotations from upper-body rotation vectors and leg matrices."""
         N = leg_R.shape[0]
-        R = quat_to_matrix(exp_quat(np.broadcast_to(upper_rv, (N, self.J, 3))))
+        R = quat_matrix(quat_exp(np.broadcast_to(upper_rv, (N, self.J, 3))))
         R = np.array(R)
         R[:, self.leg_idx] = leg_R
         R[:, self.fixed] = np.eye(3)
@@ -178,7 +180,7 @@ class _Stance:
 def _feet(B: _Body, origin, yaw):
     """Toe-joint world positions of the two feet placed as in the rest pose, turned by ``yaw``
     about the vertical through ``origin`` (a point on the ground under the pelvis)."""
-    Ry = quat_to_matrix(exp_quat(np.array([0.0, yaw, 0.0])))
+    Ry = quat_matrix(quat_exp(np.array([0.0, yaw, 0.0])))
     out = []
     for t in B.rest_toe:
         local = np.array([t[0], 0.0, t[2]])
@@ -190,7 +192,7 @@ def _feet(B: _Body, origin, yaw):
 
 def _foot_reference(B: _Body, toes, yaw, ball: bool) -> np.ndarray:
     """Horizontal reference point of the feet: the ball of the foot (``ball``) or the mid-foot."""
-    Ry = quat_to_matrix(exp_quat(np.array([0.0, yaw, 0.0])))
+    Ry = quat_matrix(quat_exp(np.array([0.0, yaw, 0.0])))
     pts = []
     for t, ta, aa in zip(toes, B.rest_toe, B.rest_ankle):
         if ball:
@@ -203,7 +205,7 @@ def _foot_reference(B: _Body, toes, yaw, ball: bool) -> np.ndarray:
 
 def _ankle(chain, toe, yaw, heel):
     """Ankle position of a planted foot (see :mod:`mocomp.synth.legs`)."""
-    G_foot = quat_to_matrix(exp_quat(np.array([0.0, yaw, 0.0]))) @ quat_to_matrix(exp_quat(np.array([heel, 0, 0])))
+    G_foot = quat_matrix(quat_exp(np.array([0.0, yaw, 0.0]))) @ quat_matrix(quat_exp(np.array([heel, 0, 0])))
     return np.asarray(toe) - G_foot @ chain.toe_offset
 
 
@@ -211,7 +213,7 @@ def _solve_stance(B: _Body, key: Key, q: np.ndarray, toes, yaw: float, travel_di
                   ball_reference: bool, guess: np.ndarray) -> _Stance:
     """Pelvis position such that the mean knee flexion is ``key.knee`` and the COM's
     horizontal position leads the feet reference point by ``key.lead`` along ``travel_dir``."""
-    R = quat_to_matrix(q)
+    R = quat_matrix(q)
     heel = math.radians(key.heel)
     ref = _foot_reference(B, toes, yaw, ball_reference)
     target = ref + key.lead * travel_dir
@@ -251,7 +253,7 @@ def _leg_rate_jacobian(B: _Body, p, R, toes, yaw, heel, eps: float = 1e-6):
         e[k] = 1.0
         for sgn in (+1, -1):
             P.append(p + sgn * eps * e[:3])
-            Rs.append(quat_to_matrix(exp_quat(sgn * eps * e[3:6])) @ R)
+            Rs.append(quat_matrix(quat_exp(sgn * eps * e[3:6])) @ R)
             betas.append(heel + sgn * eps * e[6])
     betas = np.array(betas)
     legR, knees = B.legs(np.array(P), np.array(Rs), toes, (yaw, yaw), (betas, betas))
@@ -271,7 +273,7 @@ def _leg_rates(B: _Body, root, R, v, w, toes, yaw, beta, beta_dot, eps: float = 
     if N == 0:
         return np.zeros((0, B.leg_idx.size, 3))
     P = np.concatenate([root + eps * v, root - eps * v])
-    Rs = np.concatenate([quat_to_matrix(exp_quat(eps * w)) @ R, quat_to_matrix(exp_quat(-eps * w)) @ R])
+    Rs = np.concatenate([quat_matrix(quat_exp(eps * w)) @ R, quat_matrix(quat_exp(-eps * w)) @ R])
     b = np.concatenate([beta + eps * beta_dot, beta - eps * beta_dot])
     legR, _ = B.legs(P, Rs, toes, (yaw, yaw), (b, b), max_reach=1.0)
     rel = np.swapaxes(legR[N:], -1, -2) @ legR[:N]              # R-^T R+
@@ -405,7 +407,7 @@ class _Flight:
         """Linear map from (root velocity, root angular velocity, heel-rise rate) to
         (COM velocity, L, mean knee rate), with the ball of each foot planted (IK)."""
         B, st = self.B, self.takeoff
-        R0 = quat_to_matrix(st.root_q)
+        R0 = quat_matrix(st.root_q)
         self.K, self.Kknee = _leg_rate_jacobian(B, st.root_pos, R0, st.toes, st.yaw, st.heel)
         phi_up, phidot_up = self.upper_track(self.t0)
         A6, b6 = _momentum_map(B, R0, phi_up[0], phidot_up[0], st.leg_R, self.K)
@@ -437,9 +439,8 @@ class _Flight:
 
     def mass_properties(self, t, x):
         phi, phidot = self.script(t, x)
-        Rloc = quat_to_matrix(exp_quat(phi))
         w = np.einsum("njab,njb->nja", right_jacobian(phi), phidot)
-        bf = body_frame(self.B.sk, self.B.body, Rloc, w)
+        bf = body_frame(self.B.sk, self.B.body, quat_exp(phi), w)
         return bf, phi
 
     def grid(self, dt):
@@ -481,17 +482,23 @@ def _skew_np(v):
 def _orientation_piece(t, ta, tb, qa, wa, qb, wb):
     """Orientation on [ta, tb] as ``Exp(r(t)) qb`` with a quintic ``r`` meeting the end
     orientations and world angular velocities (zero chart acceleration at both ends)."""
-    ra = log_quat(quat_multiply(qa, quat_inverse(qb)))
+    ra = quat_log(quat_multiply(qa, quat_inverse(qb)))
     va = np.linalg.solve(left_jacobian(ra), wa)
     r, rd, _ = quintic_hermite(t, ta, tb, ra, va, np.zeros(3), np.zeros(3), wb, np.zeros(3))
-    q = quat_multiply(exp_quat(r), qb)
+    q = quat_multiply(quat_exp(r), qb)
     w = np.einsum("nab,nb->na", left_jacobian(r), rd)
     return q, w
 
 
 def generate(design: Design, skeleton: Skeleton, body: BodyModel, fps: float = 120.0,
              substep_rate: float = 960.0, check_integration: bool = True) -> SynthResult:
-    """Run the pipeline of the module docstring; see :mod:`mocomp.synth.flights`."""
+    """Run the pipeline of the module docstring; see :mod:`mocomp.synth.flights`.
+
+    The ~120 forward kinematics of a motion (core's, in :func:`._bodyframe.body_frame` and
+    :func:`_world_fk`; 100 of them of one pose, in the stance solves) run compiled when numba is
+    available (:func:`mocomp.core.kinematics.load_compiled`); with ``MOCOMP_NO_NUMBA`` the numpy
+    reference gives the same motion (to rounding), ~1.4x slower."""
+    load_compiled()
     tic = time.perf_counter()
     if not (np.isfinite(fps) and fps > 0):
         raise ValueError(f"fps must be positive, got {fps!r}")
@@ -530,7 +537,7 @@ def generate(design: Design, skeleton: Skeleton, body: BodyModel, fps: float = 1
     land = _solve_stance(B, d.landing_key, _key_quat(axis, d.landing_key), toesL, feet_yaw, travel_dir, False, guessL)
     absorbed = _solve_stance(B, d.absorbed_key, _key_quat(axis, d.absorbed_key), toesL, feet_yaw, travel_dir, False,
                              land.root_pos - [0, 0.2 * H, 0])
-    Ryaw = quat_to_matrix(exp_quat(np.array([0.0, feet_yaw, 0.0])))
+    Ryaw = quat_matrix(quat_exp(np.array([0.0, feet_yaw, 0.0])))
     final = _solve_stance(B, d.final_key, _key_quat(axis, d.final_key), toesL, feet_yaw, travel_dir, False,
                           originL + Ryaw @ (stand.root_pos - origin0))
 
@@ -583,7 +590,7 @@ def generate(design: Design, skeleton: Skeleton, body: BodyModel, fps: float = 1
     def residual(L0, dt):
         evals[0] += 1
         qs, _, acc, _, _ = fl.integrate(np.asarray(L0, float), dt)
-        err = log_quat(quat_multiply(qs[-1], quat_inverse(q1_target)))
+        err = quat_log(quat_multiply(qs[-1], quat_inverse(q1_target)))
         return err, acc
 
     # initial guess from the mean composite inertia about the axis
@@ -609,7 +616,7 @@ def generate(design: Design, skeleton: Skeleton, body: BodyModel, fps: float = 1
     integration_error = float("nan")
     if check_integration:
         qs2, _, _, _, _ = fl.integrate(L0, dt_f / 2)
-        integration_error = float(np.linalg.norm(log_quat(quat_multiply(qs2[-1], quat_inverse(qs[-1])))))
+        integration_error = float(np.linalg.norm(quat_log(quat_multiply(qs2[-1], quat_inverse(qs[-1])))))
 
     # ---- flight frames
     times = np.arange(n_frames) / fps
@@ -619,7 +626,7 @@ def generate(design: Design, skeleton: Skeleton, body: BodyModel, fps: float = 1
     grid_idx = (fi - i0) * k_sub
     q_fl = qs[grid_idx]
     bf_fl, phi_fl = fl.mass_properties(times[fi], x0)
-    R_fl = quat_to_matrix(q_fl)
+    R_fl = quat_matrix(q_fl)
     com_fl = np.stack([np.polyval(parabola[k], times[fi]) for k in range(3)], 1)
     root_fl = com_fl - np.einsum("nab,nb->na", R_fl, bf_fl.C)
     # exact flight rates: the RK4 solution's angular velocity at each frame's orientation, the
@@ -636,14 +643,13 @@ def generate(design: Design, skeleton: Skeleton, body: BodyModel, fps: float = 1
     # designed knee flexion rate; COM velocity and L jump (the impact)
     q1 = qs[-1]
     bf1, phi1 = fl.mass_properties(np.array([t1]), x0)
-    R1 = quat_to_matrix(q1)
+    R1 = quat_matrix(q1)
     w1 = R1 @ oms[-1]
     com1_exact = np.array([np.polyval(parabola[k], t1) for k in range(3)])
     vcom1 = np.array([np.polyval(np.polyder(parabola[k]), t1) for k in range(3)])
     p1 = com1_exact - R1 @ bf1.C[0]
     v1 = vcom1 - np.cross(w1, R1 @ bf1.C[0]) - R1 @ bf1.C_dot[0]
-    Rl1 = quat_to_matrix(exp_quat(phi1[0]))
-    PL, _ = _world_fk(skeleton, p1, R1, Rl1)
+    PL, _ = _world_fk(skeleton, p1, q1, quat_exp(phi1[0]))
     toes1 = tuple(PL[c.toe] for c in B.chains)
     yaw1 = feet_yaw
     heel1 = land.heel
@@ -673,7 +679,7 @@ def generate(design: Design, skeleton: Skeleton, body: BodyModel, fps: float = 1
     # root acceleration just after take-off (for a C2 join), by differentiating the flight solution
     h_ = dt_f
     bf_a, _ = fl.mass_properties(t0 + h_ * np.arange(5), x0)
-    Ra = quat_to_matrix(qs[:5])
+    Ra = quat_matrix(qs[:5])
     pa = np.stack([np.polyval(parabola[k], t0 + h_ * np.arange(5)) for k in range(3)], 1) - np.einsum(
         "nab,nb->na", Ra, bf_a.C)
     acc0 = (35 * pa[0] - 104 * pa[1] + 114 * pa[2] - 56 * pa[3] + 11 * pa[4]) / (12 * h_ * h_)
@@ -711,7 +717,7 @@ def generate(design: Design, skeleton: Skeleton, body: BodyModel, fps: float = 1
         raise PhysicsError("the heel would sink below the floor before take-off; raise the take-off heel angle")
     beta_dot[beta < 0.0] = 0.0
     beta = np.maximum(beta, 0.0)
-    R_pre = quat_to_matrix(q_pre)
+    R_pre = quat_matrix(q_pre)
     legR_pre, _ = B.legs(root_pre, R_pre, toes0, (0.0, 0.0), (beta, beta))
     up_pre, updot_pre = upper_track(tp)
     Rloc_pre = B.local_matrices(up_pre, legR_pre)
@@ -737,7 +743,7 @@ def generate(design: Design, skeleton: Skeleton, body: BodyModel, fps: float = 1
     m3 = tq > t_r
     root_post[m3] = f_root
     q_post[m3] = final.root_q
-    R_post = quat_to_matrix(q_post)
+    R_post = quat_matrix(q_post)
     # heels down from the touchdown angle and rate (monotonic quintic, see the take-off)
     beta_post = np.zeros(fpost.size)
     betadot_post = np.zeros(fpost.size)
@@ -757,13 +763,13 @@ def generate(design: Design, skeleton: Skeleton, body: BodyModel, fps: float = 1
     # ---- assemble
     rot = np.empty((n_frames, B.J, 4))
     rp = np.empty((n_frames, 3))
-    rot[fpre] = matrix_to_quat(Rloc_pre)
+    rot[fpre] = quat_from_matrix(Rloc_pre)
     rot[fpre, 0] = q_pre
     rp[fpre] = root_pre
-    rot[fi] = exp_quat(phi_fl)
+    rot[fi] = quat_exp(phi_fl)
     rot[fi, 0] = q_fl
     rp[fi] = root_fl
-    rot[fpost] = matrix_to_quat(Rloc_post)
+    rot[fpost] = quat_from_matrix(Rloc_post)
     rot[fpost, 0] = q_post
     rp[fpost] = root_post
     rot = make_continuous(rot, axis=0)
@@ -806,7 +812,7 @@ def generate(design: Design, skeleton: Skeleton, body: BodyModel, fps: float = 1
     evidence = FlightEvidence(
         rotation_target_deg=math.degrees(theta_target), rotation_deg=math.degrees(acc),
         total_rotation_deg=math.degrees(total), landing_error_rad=float(np.linalg.norm(
-            log_quat(quat_multiply(qs[-1], quat_inverse(q1_target))))),
+            quat_log(quat_multiply(qs[-1], quat_inverse(q1_target))))),
         shooting_evaluations=evals[0], substep_dt=dt_f, n_steps=int(n_steps + (last > 0)),
         integration_error_rad=integration_error,
         takeoff={"v_root": v0, "w_root": w0, "heel_rate": float(x0[6]), "knee_rate": knee_rate0,
@@ -896,17 +902,14 @@ def _newton(coarse, fine, L, valid=lambda acc: True):
     return L, r, acc
 
 
-def _world_fk(skeleton, p, R, Rloc):
-    """World joint positions and orientations of one pose."""
-    J = skeleton.n_joints
-    P = np.zeros((J, 3))
-    Gm = np.zeros((J, 3, 3))
-    P[0], Gm[0] = p, R
-    for j in range(1, J):
-        pa = skeleton.parents[j]
-        Gm[j] = Gm[pa] @ Rloc[j]
-        P[j] = P[pa] + Gm[pa] @ skeleton.offsets[j]
-    return P, Gm
+def _world_fk(skeleton, p, q, qloc):
+    """World joint positions ``(J, 3)`` and orientations ``(J, 4)`` of one pose: root at ``p`` with
+    orientation ``q``, local rotations ``qloc (J, 4)`` (the root's entry replaced by ``q``);
+    core's :func:`~mocomp.core.kinematics.forward_kinematics`."""
+    rot = np.array(qloc, dtype=float)
+    rot[0] = q
+    P, G = forward_kinematics(skeleton.parents, skeleton.offsets, np.asarray(p, dtype=float)[None], rot[None])
+    return P[0], G[0]
 
 
 def _accumulated_angle(q, axis) -> float:

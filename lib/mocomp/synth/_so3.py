@@ -1,22 +1,20 @@
-"""Rotation-vector calculus used by the generator (vectorised, scalar-last quaternions).
+"""Rotation-vector calculus used by the generator (vectorised, scalar-last quaternions): the
+Jacobians of SO(3) and axis rotations. Exp/Log, products and matrices are core's
+(:mod:`mocomp.core.rotations`: ``quat_exp``, ``quat_log``, ``quat_matrix``, ``quat_from_matrix``).
 
 A joint's local rotation in a scripted phase is ``Exp(phi(t))`` for a smooth
 rotation vector ``phi(t)``; its angular velocity in the child (body) frame is
 ``J_r(phi) phi_dot`` with the right Jacobian of SO(3)
 (``J_r(phi) = I - (1 - cos a)/a^2 [phi]x + (a - sin a)/a^3 [phi]x^2``, ``a = |phi|``),
 and in the parent frame ``J_l(phi) phi_dot`` (``J_l(phi) = J_r(-phi)``).
-These closed forms are checked against finite differences of scipy's
-``Rotation.from_rotvec`` in the tests.
+These closed forms are checked against finite differences of
+:func:`~mocomp.core.rotations.quat_exp` in the tests.
 """
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
-from ..core.rotations import quat_matrix
-
-__all__ = ["exp_quat", "log_quat", "quat_to_matrix", "matrix_to_quat", "right_jacobian", "left_jacobian",
-           "skew", "rot_x", "rot_y", "rot_z"]
+__all__ = ["right_jacobian", "left_jacobian", "skew", "rot_x", "rot_y", "rot_z"]
 
 
 def skew(v: np.ndarray) -> np.ndarray:
@@ -25,36 +23,6 @@ def skew(v: np.ndarray) -> np.ndarray:
     z = np.zeros(v.shape[:-1])
     x, y, w = v[..., 0], v[..., 1], v[..., 2]
     return np.stack([np.stack([z, -w, y], -1), np.stack([w, z, -x], -1), np.stack([-y, x, z], -1)], -2)
-
-
-def exp_quat(phi: np.ndarray) -> np.ndarray:
-    """Unit quaternions (scalar-last) of rotation vectors ``phi (..., 3)``."""
-    phi = np.asarray(phi, dtype=float)
-    a = np.linalg.norm(phi, axis=-1, keepdims=True)
-    half = 0.5 * a
-    small = a < 1e-8
-    # sin(a/2)/a with its Taylor series near 0
-    k = np.where(small, 0.5 - a * a / 48.0, np.sin(half) / np.where(small, 1.0, a))
-    return np.concatenate([phi * k, np.cos(half)], axis=-1)
-
-
-def log_quat(q: np.ndarray) -> np.ndarray:
-    """Rotation vectors (norm <= pi) of unit quaternions ``(..., 4)``."""
-    q = np.asarray(q, dtype=float)
-    shape = q.shape[:-1]
-    return Rotation.from_quat(q.reshape(-1, 4)).as_rotvec().reshape(shape + (3,))
-
-
-#: ``(..., 3, 3)`` rotation matrices of unit quaternions ``(..., 4)`` (scalar-last): core's
-#: :func:`~mocomp.core.rotations.quat_matrix`
-quat_to_matrix = quat_matrix
-
-
-def matrix_to_quat(R: np.ndarray) -> np.ndarray:
-    """Unit quaternions of rotation matrices ``(..., 3, 3)`` (via scipy)."""
-    R = np.asarray(R, dtype=float)
-    shape = R.shape[:-2]
-    return Rotation.from_matrix(R.reshape(-1, 3, 3)).as_quat().reshape(shape + (4,))
 
 
 def _jac_coeffs(a: np.ndarray):

@@ -21,9 +21,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.rotations import quat_matrix
 from ..core.skeleton import Skeleton
 from ..errors import PhysicsError
-from ._so3 import quat_to_matrix, rot_x, rot_y
+from ._so3 import rot_x, rot_y
 from .skeleton import LEG_JOINTS
 
 __all__ = ["LegChain", "LegPose", "leg_chain", "leg_ik"]
@@ -99,8 +100,8 @@ def leg_ik(chain: LegChain, root_pos, root_R, toe_pos, foot_yaw, heel_rise, max_
     toe = np.broadcast_to(np.asarray(toe_pos, dtype=float), (N, 3))
     yaw = np.broadcast_to(np.asarray(foot_yaw, dtype=float), (N,))
     beta = np.broadcast_to(np.asarray(heel_rise, dtype=float), (N,))
-    G_toe = quat_to_matrix(rot_y(yaw))
-    G_foot = G_toe @ quat_to_matrix(rot_x(beta))
+    G_toe = quat_matrix(rot_y(yaw))
+    G_foot = G_toe @ quat_matrix(rot_x(beta))
     A = toe - G_foot @ chain.toe_offset
     H = root_pos + root_R @ chain.hip_offset
     l1, l2 = chain.l_thigh, chain.l_shank
@@ -124,9 +125,9 @@ def leg_ik(chain: LegChain, root_pos, root_R, toe_pos, foot_yaw, heel_rise, max_
     G_thigh = np.stack([xt, yt, zt], axis=-1)
     cos_k = np.clip((l1 * l1 + l2 * l2 - d * d) / (2 * l1 * l2), -1.0, 1.0)
     knee = np.pi - np.arccos(cos_k)
-    R_knee = quat_to_matrix(rot_x(knee))
+    R_knee = quat_matrix(rot_x(knee))
     G_shank = G_thigh @ R_knee
     R_hip = np.swapaxes(root_R, -1, -2) @ G_thigh         # the hip carrier joint stays at identity
     R_ankle = np.swapaxes(G_shank, -1, -2) @ G_foot
-    R_toe = quat_to_matrix(rot_x(-beta))
+    R_toe = quat_matrix(rot_x(-beta))
     return LegPose(np.stack([R_hip, R_knee, R_ankle, R_toe], axis=1), knee, reach, A, H)

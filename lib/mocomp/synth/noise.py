@@ -30,9 +30,8 @@ import numpy as np
 from scipy.ndimage import gaussian_filter1d
 
 from ..core.motion import Motion
-from ..core.rotations import quat_multiply
+from ..core.rotations import quat_exp, quat_multiply
 from ..io.markers import Markers
-from ._so3 import exp_quat
 
 __all__ = ["NoisyMotion", "capture_noise", "position_noise"]
 
@@ -112,7 +111,7 @@ def capture_noise(motion: Motion, *, seed, joint_jitter_deg: float = 0.0, root_j
     if joint_jitter_deg > 0:
         jn[:, sel] = _noise(rng, (T, int(sel.sum()), 3), np.radians(joint_jitter_deg), correlation_frames)
     rn = _noise(rng, (T, 3), root_jitter_m, correlation_frames) if root_jitter_m > 0 else np.zeros((T, 3))
-    rot = quat_multiply(motion.rotations, exp_quat(jn))
+    rot = quat_multiply(motion.rotations, quat_exp(jn))
     out = motion.replace(rotations=rot, root_positions=motion.root_positions + rn)
     notes = []
     if length_scale != 1.0:
