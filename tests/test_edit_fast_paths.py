@@ -146,7 +146,7 @@ def test_upright_recovery_equals_the_reference(name, monkeypatch):
         return seen["out"]
 
     monkeypatch.setattr(seams, "recover_upright", spy)
-    res = restore_momentum(r.body, r.motion, ed, r.flight, L_star=r.L0)
+    res = restore_momentum(r.body, r.motion, ed, r.flight, L_star=r.L0, stances="as-is")
     assert res.foot_slide is not None and res.landing_tilt_deg > 1.0     # the recovery ran
     motion, fg, up_now, secs, _ = seen["args"]
     pivot = seen["kw"]["pivot"]

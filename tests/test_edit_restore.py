@@ -34,7 +34,9 @@ def edited(name, preset):
 def restored(name, preset):
     r = example(name)
     ed, _ = edited(name, preset)
-    return restore_momentum(r.body, r.motion, ed, r.flight, L_star=r.L0)
+    # the paper's three steps (their invariants are tested here); the default stance smoothing beyond
+    # the paper (stances="smooth") has its own tests (tests/test_flips_smooth_stance.py)
+    return restore_momentum(r.body, r.motion, ed, r.flight, L_star=r.L0, stances="as-is")
 
 
 # ------------------------------------------------------------------ the L model
@@ -152,7 +154,7 @@ def test_k_ratio_scales_k_star_and_reports_velocity_jumps():
 # ------------------------------------------------------------ invariants
 def test_unedited_constant_L_flight_needs_no_correction():
     r = example("backflip")
-    res = restore_momentum(r.body, r.motion, r.motion, r.flight, L_star=r.L0)
+    res = restore_momentum(r.body, r.motion, r.motion, r.flight, L_star=r.L0, stances="as-is")
     assert res.edit_frames is None
     assert res.direction.max_rotation_deg < 0.05
     assert res.flight_duration("magnitude") == pytest.approx(res.flight_duration("original"), abs=1.01 / 120)
@@ -438,11 +440,11 @@ def test_measured_velocity_jumps_match_the_frames_and_flag_a_non_ballistic_captu
     assert not any("COM velocity jumps" in n for n in res.notes)
     assert res.linear.takeoff_velocity_source == "fit"             # exact flight: the fit's velocity
     p = prepare_cached("deepmimic_backflip", estimate=False)
-    dm = restore_momentum(p.prior, p.motion, p.motion, p.flight, takeoff_velocity="fit")
+    dm = restore_momentum(p.prior, p.motion, p.motion, p.flight, takeoff_velocity="fit", stances="as-is")
     assert -1.6 < dm.velocity_jumps["takeoff_m_s"][1] < -1.2 and abs(dm.velocity_jumps["takeoff_own_m_s"][1]) < 0.1
     assert any("COM velocity jumps" in n and "ballistic fit" in n for n in dm.notes)
     assert dm.report(curves=False)["velocity_jumps_measured"]["takeoff_m_s"] == dm.velocity_jumps["takeoff_m_s"]
-    auto = restore_momentum(p.prior, p.motion, p.motion, p.flight)
+    auto = restore_momentum(p.prior, p.motion, p.motion, p.flight, stances="as-is")
     assert auto.linear.takeoff_velocity_source == "frames"
     assert auto.linear.takeoff_velocity[1] == pytest.approx(2.1, abs=0.1)
     assert abs(auto.velocity_jumps["takeoff_m_s"][1] / auto.k - auto.velocity_jumps["takeoff_own_m_s"][1]) < 0.2

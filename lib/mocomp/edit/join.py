@@ -631,7 +631,10 @@ def join_flights(takeoff, landing, *, body=None, flights=(None, None), match: st
     res = three_steps(body, joined, fl_joined, LA2, fitA, original=mA2, original_flight=flA2, k=k,
                       k_ratio=k_ratio, takeoff_height=takeoff_height, polish=polish, com_eval=ce,
                       direction=direction_step, upright_ref=joined, upright_pre=q_untilt,
-                      recover_s=recover_s if upright else 0.0, landing_floor=floor_A, gravity=gravity)
+                      recover_s=recover_s if upright else 0.0, landing_floor=floor_A, gravity=gravity,
+                      stances="as-is")   # a join's seams are judged on their own (its take-off and landing
+    # stances come from two clips; the audit refuses most joins anyway): the stance smoothing of edit and
+    # twist is not applied here
     timings["restore"] = time.perf_counter() - t
     out = res.motion
     tilt_land = res.landing_tilt_deg

@@ -500,11 +500,12 @@ def _smooth_stances(final: Motion, ce, lin, mg, original: Motion, original_fligh
     (:class:`~mocomp.flips.retime.TimeWarp`), so the push ends with ``k^2`` times its captured
     acceleration and the landing's impact is ``k`` times harder; the map makes the push longer and
     the give deeper instead. Returns ``(motion, infos)``."""
-    from ..flips.takeoff import LANDING_MAX_FORCE, _event_jump, smooth_stance
+    from ..flips.takeoff import LANDING_MAX_FORCE, _event_jump, audit_com, smooth_stance
     from .linear import _neighbour_flights
 
     fps = final.fps
-    comO = ce(original.root_positions, original.rotations)
+    cs = audit_com(original)                        # the COM the audit measures (the input's body model)
+    comO = cs(original.root_positions, original.rotations)
     a0, b0 = int(original_flight[0]), int(original_flight[1])
     lo, hi = _neighbour_flights(mg.motion, ce, int(mg.flight[0]), int(mg.flight[1]))
     src = np.asarray(lin.source_times, dtype=float) * fps          # mg frames shown by each output frame
@@ -518,11 +519,11 @@ def _smooth_stances(final: Motion, ce, lin, mg, original: Motion, original_fligh
     infos = []
     g = lin.gravity
     if before.size >= 4:
-        final, info = smooth_stance(final, ce, "take-off", float(ev_to), (int(before[0]), int(before[-1]) + 1), g=g,
+        final, info = smooth_stance(final, cs, "take-off", float(ev_to), (int(before[0]), int(before[-1]) + 1), g=g,
                                     target_jump=_event_jump(comO, original.fps, a0 - 0.5))
         infos.append(info)
     if after.size >= 4:
-        final, info = smooth_stance(final, ce, "landing", float(ev_ld), (int(after[0]), int(after[-1]) + 1), g=g,
+        final, info = smooth_stance(final, cs, "landing", float(ev_ld), (int(after[0]), int(after[-1]) + 1), g=g,
                                     max_force=LANDING_MAX_FORCE,
                                     target_jump=_event_jump(comO, original.fps, b0 - 0.5))
         infos.append(info)

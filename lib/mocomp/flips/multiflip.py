@@ -639,19 +639,26 @@ def _smooth(P, seq, new, traj, kk, tau, u_to, u_land, q_land, g, land: bool):
     part of the arrival velocity the input's own impact does not remove (the flight arrives ``k``
     times faster; a non-ballistic input's parabola arrives with yet another velocity). Returns
     ``(motion, infos)``."""
-    from .takeoff import LANDING_MAX_FORCE, _event_jump, smooth_stance
+    from .takeoff import LANDING_MAX_FORCE, _event_jump, audit_com, smooth_stance
 
     before, after = _stances(P, seq, tau)
     s, e = P.flight
+    key = "runtime:audit_com"
+    got = P._cache.get(key)
+    if got is None or got[0] is not P.motion:               # per clip: the audit's body, the input's COM with it
+        ce = audit_com(P.motion)
+        got = (P.motion, ce, ce(np.asarray(P.motion.root_positions), np.asarray(P.motion.rotations)))
+        P._cache[key] = got
+    _, ce, com_in = got
     infos = []
     if before.size >= 4:
-        new, info = smooth_stance(new, P.com_eval, "take-off", float(u_to), (int(before[0]), int(before[-1]) + 1),
-                                  g=g, body=P.body, target_jump=_event_jump(P.com, P.fps, s - 0.5))
+        new, info = smooth_stance(new, ce, "take-off", float(u_to), (int(before[0]), int(before[-1]) + 1),
+                                  g=g, body=P.body, target_jump=_event_jump(com_in, P.fps, s - 0.5))
         infos.append(info)
     if land and after.size >= 4:
-        new, info = smooth_stance(new, P.com_eval, "landing", float(u_land), (int(after[0]), int(after[-1]) + 1),
+        new, info = smooth_stance(new, ce, "landing", float(u_land), (int(after[0]), int(after[-1]) + 1),
                                   g=g, body=P.body, max_force=LANDING_MAX_FORCE,
-                                  target_jump=_event_jump(P.com, P.fps, e - 0.5))
+                                  target_jump=_event_jump(com_in, P.fps, e - 0.5))
         infos.append(info)
     return new, tuple(infos)
 
