@@ -24,8 +24,8 @@ rotations are the mirror images (x -> -x) of left-side ones: rotation vector
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
+from ..core.rotations import euler_to_quat, quat_log
 from ..core.skeleton import Skeleton
 
 __all__ = ["pose", "mirror_rotvec", "LEG_POSE_JOINTS"]
@@ -43,8 +43,9 @@ def mirror_rotvec(v: np.ndarray) -> np.ndarray:
 
 
 def _rv(seq: str, angles_deg) -> np.ndarray:
-    """Rotation vector of extrinsic-free composition ``R_a1 R_a2 ...`` (intrinsic sequence)."""
-    return Rotation.from_euler(seq.upper(), angles_deg, degrees=True).as_rotvec()
+    """Rotation vector of the composition ``R_a1 R_a2 ...`` (intrinsic sequence), with core's
+    :func:`~mocomp.core.rotations.euler_to_quat` and :func:`~mocomp.core.rotations.quat_log`."""
+    return quat_log(euler_to_quat(seq.upper(), np.asarray(angles_deg, dtype=float), degrees=True))
 
 
 def _sides(v):
