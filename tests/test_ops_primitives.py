@@ -449,3 +449,24 @@ def test_a_toe_plant_moves_with_its_heels_plant():
     pts[52:55, 1, 1] = -0.08
     y = plant_targets(pts, dataclasses.replace(plants, labels=lab, levels=np.where(lab, 0.0, np.nan)))[..., 1]
     np.testing.assert_allclose(y[10:30, 1], pts[10:30, 1, 1] - 0.02, atol=1e-12)
+
+
+def test_clocked_ramp_waits_on_a_stopped_step_and_still_ends_on_time():
+    """RampPlan.many with a clock: all ones is the plain ramp; a step of clock 0 leaves the weight where it
+    was across that step, and the fade still reaches 0 within ``width + 1`` steps of the defined frame."""
+    from mocomp.ops.easing import RampPlan, fade_clock
+
+    T, width = 20, 4
+    d = np.zeros((T, 1), bool)
+    d[10:] = True                                   # a plant from frame 10: fade-in over frames 6-9
+    vals = np.ones(T)
+    plain = RampPlan.many(d, width)[0].fill(vals)
+    np.testing.assert_allclose(RampPlan.many(d, width, clock=np.ones(T - 1))[0].fill(vals), plain, atol=1e-15)
+    ck = np.ones(T - 1)
+    ck[7] = 0.0                                     # the step 7 -> 8 stopped
+    w = RampPlan.many(d, width, clock=ck)[0].fill(vals)
+    assert w[7] == w[8] and 0.0 < w[7] < 1.0
+    np.testing.assert_array_equal(w[:6], 0.0)       # nothing before the fade's first frame
+    assert np.all(np.diff(w[5:11]) >= 0)            # still rising to the plant
+    # the clock from rates: 1 below half the limit, 0 at it
+    np.testing.assert_allclose(fade_clock(np.array([0.0, 0.4, 0.75, 1.0, 2.0]), 1.0), [1.0, 1.0, 0.5, 0.0, 0.0])

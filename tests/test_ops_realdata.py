@@ -84,7 +84,7 @@ def test_footplant_on_the_ase_walk_heel_pitch_bounded(tmp_path, monkeypatch):
     changes by 2.1 cm (the toe rolls down after the heel strike, the heel rises before toe-off), which
     two held points can only share: 1.05 cm of slide each (measured with the bound off). With the
     horizontal mismatch kept within 8 mm of its run mean and the rest turned into heel height
-    (bounded_foot_pitch): 14.4 -> 0.68 cm, measured by the audit on the BVH read back."""
+    (bounded_foot_pitch): 14.4 -> 0.68 cm, measured by the audit on the BVH read back. Joint speed: see below."""
     import mocomp.ops.footplant as fp
     from mocomp.io import write_bvh
     from mocomp.io.bvh import read_bvh
@@ -96,7 +96,13 @@ def test_footplant_on_the_ase_walk_heel_pitch_bounded(tmp_path, monkeypatch):
     after = foot_slide(audit(read_bvh(tmp_path / "o.bvh", scale=1.0)))
     before = r.measured_slide()[0]
     assert before > 0.1 and after < 0.0085
-    assert r.joint_speed_after < 1.1 * r.joint_speed_before
+    # no pose discontinuity above the input's own fastest joint (issue 15): the input's fastest joint is the
+    # right foot's slap at touch-down, 8.48 rad/s at frame 94, inside the fade-in of the next plant; the
+    # fade waits through that step (ops.footplant.leg_fade_clocks): 8.47 rad/s; faded uniformly 9.04
+    assert r.joint_speed_after <= r.joint_speed_before + 1e-6
+    monkeypatch.setattr(fp, "FADE_RATE_SLACK", None)
+    assert enforce_footplants(m, audit=False).joint_speed_after > r.joint_speed_before + 0.3
+    monkeypatch.setattr(fp, "FADE_RATE_SLACK", 0.3)
     monkeypatch.setattr(fp, "PITCH_SLACK", None)
     assert enforce_footplants(m).measured_slide()[1] > 0.0101
 

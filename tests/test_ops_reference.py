@@ -17,14 +17,16 @@ from mocomp.ops.synthetic import synthetic_walk
 def _pitch_as_recorded(monkeypatch):
     """The numbers were recorded before the both-planted pitch bound (ops.footplant.PITCH_SLACK) and the
     plants on the points' resting levels (ops.plants.ROBUST_LEVEL) and the extra passes
-    (ops.footplant.EXTRA_PASS_FRACTION), changes of the method measured in test_ops_realdata: they pin
-    the pipeline's arithmetic with all three off."""
+    (ops.footplant.EXTRA_PASS_FRACTION) and the fades slowed where a leg turns fastest
+    (ops.footplant.FADE_RATE_SLACK), changes of the method measured in test_ops_realdata: they pin
+    the pipeline's arithmetic with all four off."""
     import mocomp.ops.footplant as fp
     import mocomp.ops.plants as pl
 
     monkeypatch.setattr(fp, "PITCH_SLACK", None)
     monkeypatch.setattr(pl, "ROBUST_LEVEL", False)
     monkeypatch.setattr(fp, "EXTRA_PASS_FRACTION", np.inf)
+    monkeypatch.setattr(fp, "FADE_RATE_SLACK", None)
 
 REF = {'synthetic': {'slide_after': [0.003562647902692, 0.003562647902691, 0.003562647902691, 0.003562647902691],
                'max_miss': 0.0,

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["ease", "EASE_KINDS", "ramp_fill", "RampPlan"]
+__all__ = ["ease", "EASE_KINDS", "ramp_fill", "RampPlan", "fade_clock"]
 
 EASE_KINDS = ("linear", "smoothstep", "smootherstep", "cosine")
 
@@ -47,9 +47,16 @@ class RampPlan:
         self.prev, self.nxt = np.clip(prev, 0, T - 1)[und], np.clip(nxt, 0, T - 1)[und]
 
     @classmethod
-    def many(cls, defined: np.ndarray, width: int, kind: str = "smoothstep") -> list["RampPlan"]:
+    def many(cls, defined: np.ndarray, width: int, kind: str = "smoothstep", clock: np.ndarray | None = None
+             ) -> list["RampPlan"]:
         """One plan per column of ``defined (T, C)``, their weights computed together (the same
-        numbers as ``RampPlan(defined[:, c], width, kind)``)."""
+        numbers as ``RampPlan(defined[:, c], width, kind)``).
+
+        ``clock`` ``(T - 1,)``: how far each step between two frames advances the fades, >= 0 (default 1
+        everywhere: the ease curve over ``width + 1`` equal steps). A fade still spans the same
+        ``width + 1`` steps, but the ease curve's argument advances by each step's share of their summed
+        clock: a step of small clock barely changes the weight (:func:`fade_clock` slows the fades where
+        the motion itself is turning fastest, so a correction faded in there does not add to its peak)."""
         d = np.asarray(defined, dtype=bool)
         T = d.shape[0]
         plans = [cls.__new__(cls) for _ in range(d.shape[1])]
@@ -61,8 +68,29 @@ class RampPlan:
         idx = np.arange(T)[:, None]
         prev = np.maximum.accumulate(np.where(d, idx, -1), axis=0)
         nxt = np.minimum.accumulate(np.where(d, idx, T)[::-1], axis=0)[::-1]
-        wp = np.where(prev >= 0, ease(1.0 - (idx - prev) / (width + 1.0), kind), 0.0)
-        wn = np.where(nxt < T, ease(1.0 - (nxt - idx) / (width + 1.0), kind), 0.0)
+        if clock is None:
+            wp = np.where(prev >= 0, ease(1.0 - (idx - prev) / (width + 1.0), kind), 0.0)
+            wn = np.where(nxt < T, ease(1.0 - (nxt - idx) / (width + 1.0), kind), 0.0)
+        else:
+            ck = np.asarray(clock, dtype=float).reshape(-1)
+            if ck.shape != (T - 1,) or not np.all(ck >= 0):
+                raise ValueError(f"clock: {T - 1} numbers >= 0 (one per step between frames) expected, "
+                                 f"got shape {ck.shape}")
+            C = np.concatenate([[0.0], np.cumsum(ck)])
+
+            def at(i):                  # the cumulative clock, continued with steps of 1 beyond the ends
+                ic = np.clip(i, 0, T - 1)
+                return C[ic] + (i - ic)
+
+            # a fade whose steps all have clock 0 runs on the frame count instead
+            span_p = at(prev + width + 1) - at(prev)
+            span_n = at(nxt) - at(nxt - width - 1)
+            gp = np.where(span_p > 0, (at(idx) - at(prev)) / np.where(span_p > 0, span_p, 1.0), (idx - prev) / (width + 1.0))
+            gn = np.where(span_n > 0, (at(nxt) - at(idx)) / np.where(span_n > 0, span_n, 1.0), (nxt - idx) / (width + 1.0))
+            wp = np.where(prev >= 0, ease(1.0 - gp, kind), 0.0)
+            wn = np.where(nxt < T, ease(1.0 - gn, kind), 0.0)
+            wp = np.where(idx - prev > width, 0.0, wp)
+            wn = np.where(nxt - idx > width, 0.0, wn)
         s = np.maximum(1.0, wp + wn)
         wp, wn = wp / s, wn / s
         prev, nxt = np.clip(prev, 0, T - 1), np.clip(nxt, 0, T - 1)
@@ -93,3 +121,15 @@ def ramp_fill(values: np.ndarray, defined: np.ndarray, width: int, kind: str = "
     weights sum above 1 (a short gap between two plants is bridged, not dipped to zero).
     :class:`RampPlan` fills several arrays with one mask."""
     return RampPlan(defined, width, kind).fill(values)
+
+
+def fade_clock(rates: np.ndarray, limit: float, slack: float = 0.5, floor: float = 0.0) -> np.ndarray:
+    """``(T - 1,)`` clock for :meth:`RampPlan.many` from the rates ``(T - 1,)`` at which what a fade
+    corrects is already moving on each step (e.g. a leg's fastest joint, rad per frame): 1 on steps
+    below ``(1 - slack) limit``, falling linearly to ``floor`` at ``limit`` and above. A fade then
+    hardly advances on the steps where the motion is near its fastest (``limit``), and makes up on the
+    slower steps around them: the correction's own rate is not added to the peak."""
+    r = np.asarray(rates, dtype=float)
+    if not limit > 0:
+        return np.ones_like(r)
+    return np.clip((limit - r) / (slack * limit), floor, 1.0)

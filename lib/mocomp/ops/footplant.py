@@ -17,7 +17,10 @@ local rotation is kept. On the frames of :class:`~mocomp.ops.plants.FootPlants`:
   up about the toe).
 
 The translation and the rotation vector of each foot are faded in and out over ``blend`` frames
-around the planted frames (:func:`~mocomp.ops.easing.ramp_fill`), so no pose jumps. The leg then
+around the planted frames (:func:`~mocomp.ops.easing.ramp_fill`), so no pose jumps; a fade waits
+through the steps where the leg itself turns near the legs' fastest rate (:func:`leg_fade_clocks`) and
+makes up on the slower steps around them, so the correction does not add to the input's peak joint
+speed (issue 15: "no pose discontinuity above the input's own maximum joint speed"). The leg then
 follows by :func:`~mocomp.ops.ik.two_bone_ik` (hip fixed, knee kept in the leg's plane; a nearly
 straight leg, whose plane is noise, bends about its knee's hinge axis, :data:`BEND_PRIOR`). The reach
 is soft: a target within :data:`SOFT_REACH` of the leg's full length is approached smoothly by
@@ -49,9 +52,9 @@ from scipy.ndimage import gaussian_filter1d
 from scipy.spatial.transform import Rotation
 
 from ..core.motion import Motion
-from ..core.rotations import quat_apply
+from ..core.rotations import quat_apply, quat_inverse, quat_multiply
 from ..dynamics.contacts import label_intervals
-from .easing import RampPlan, ease
+from .easing import RampPlan, ease, fade_clock
 from .ik import REACH_MARGIN, _norm, hinge_axis, two_bone_ik
 from .plants import FootPlants, foot_plants, plant_targets
 
@@ -74,6 +77,10 @@ PITCH_TO_ZERO = True
 #: starts the extra passes (clean captures add under 1 %: SFU walk 0.4 %, SFU cartwheels 0.6 %, ASE
 #: walk 0.3 %; raw CMU 131_01 7.5 %, 131_02 32 %)
 EXTRA_PASS_FRACTION = 0.02
+#: :func:`leg_fade_clocks`: fades slow down on the steps where a leg turns faster than ``1 - FADE_RATE_SLACK``
+#: of the legs' fastest rate, down to :data:`FADE_CLOCK_FLOOR` at that rate (``None``: uniform fades, as before)
+FADE_RATE_SLACK: float | None = 0.3
+FADE_CLOCK_FLOOR = 0.0
 #: fraction of the leg length over which the reach is softened (see :func:`_solve`)
 SOFT_REACH = 0.02
 #: weight of the knee's hinge axis (averaged over the clip in the thigh frame) against the leg's
@@ -355,12 +362,11 @@ def _rotvec_to_quat(rv: np.ndarray) -> np.ndarray:
 
 
 def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: str, tol: float,
-           reach_margin: float, ease_kind: str, prev=None, hinges=None):
+           reach_margin: float, ease_kind: str, prev=None, hinges=None, clocks=None):
     """One enforcement pass. Returns ``(rot, targets, state)`` with ``state`` per leg side:
     ``(delta (T, 3), rotvec (T, 3), miss (T,), lift (T,), solved (T,) bool, labels (T, 2))``. With ``prev`` (the
     ``(rot, state)`` of an earlier pass on the same motion) only the frames whose correction changed
     are solved again (the legs are independent and each frame's IK depends on its own correction)."""
-    from ..core.rotations import quat_multiply
     from .ik import arc_quaternions
 
     T = motion.n_frames
@@ -418,7 +424,14 @@ def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: st
     if both.any():
         q = arc_quaternions(Tp[both] - A[both], tT[both] - tA[both])
         rv[both] = _quat_to_rotvec(q)
-    plan_both, plan_a, plan_t, plan_any = RampPlan.many(np.column_stack([both, la, lt, la | lt]), blend, ease_kind)
+    clock = None
+    if clocks is not None and n > 1:
+        ck = np.ones(n)
+        for r, (li, a, b) in zip(rows, segs):
+            ck[r] = clocks[a:b, li]
+        clock = ck[:-1]
+    plan_both, plan_a, plan_t, plan_any = RampPlan.many(np.column_stack([both, la, lt, la | lt]), blend, ease_kind,
+                                                        clock=clock)
     rv = plan_both.fill(rv)
     Rq = _rotvec_to_quat(rv)
     tip = A + quat_apply(Rq, Tp - A)                      # the toe tip after the foot turned about the ankle point
@@ -539,6 +552,29 @@ def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: st
             miss_all[idx] = miss[n0:n0 + idx.size]
             n0 += idx.size
     return rot, targets, state
+
+
+def leg_fade_clocks(motion: Motion, plants: FootPlants) -> np.ndarray:
+    """``(T, legs)``: per frame ``t`` and leg, the clock of the fades on the step ``t -> t + 1``
+    (:func:`~mocomp.ops.easing.fade_clock`; 1 on the last frame): the leg's fastest local joint rate
+    (hip, knee, ankle) on that step against the fastest of all the legs' joints over the clip. A
+    correction faded in where the leg already turns near that rate would add to it (ASE walk: the right
+    foot's slap at touch-down, 8.48 rad/s, the clip's fastest joint, is in the fade-in of the next plant;
+    faded in uniformly the output's foot turned at 9.04 rad/s there); with this clock the fade waits
+    through that step and makes up on the steps before and after it."""
+    T = motion.n_frames
+    out = np.ones((T, len(plants.legs)))
+    if T < 2:
+        return out
+    joints = sorted({int(j) for leg in plants.legs for j in leg.chain})
+    q = motion.rotations[:, joints]
+    d = quat_multiply(quat_inverse(q[:-1]), q[1:])
+    ang = 2.0 * np.arctan2(_norm(d[..., :3]), np.abs(d[..., 3]))          # (T - 1, joints) rad per frame
+    limit = float(ang.max())
+    for li, leg in enumerate(plants.legs):
+        out[:-1, li] = fade_clock(ang[:, [joints.index(int(j)) for j in leg.chain]].max(axis=1), limit,
+                                  FADE_RATE_SLACK, FADE_CLOCK_FLOOR)
+    return out
 
 
 def _ik_legs(P, G, rot, parents, jobs, reach_margin):
@@ -693,10 +729,11 @@ def enforce_footplants(motion: Motion, plants: FootPlants | None = None, *, cont
                      "one foot point counted as planted")
     prev = None
     hinges = [hinge_axis(P, G, leg.chain) for leg in plants.legs]
+    clocks = leg_fade_clocks(motion, plants) if FADE_RATE_SLACK is not None else None
     limit, best = passes, None
     for k in range(max(passes, max_passes)):
         rot, targets, state = _solve(motion, P, G, pts, plants, blend, height, tol, reach_margin, ease_kind, prev,
-                                     hinges)
+                                     hinges, clocks)
         if k == limit - 1 and best is None:
             # the result: its FK is computed on first use (the evidence and the audits are lazy too)
             out = motion.replace_trusted(motion.root_positions, rot)
