@@ -14,7 +14,10 @@ Without ``MOCOMP_DATA_DIR`` the row is skipped (the method needs the ASE clips a
 Measured (2026-12-02, load ~11 on 2 cores, quick, 4 runs, the match time searched too: 8 query
 windows per response; servos at 50/60 rad/s): median CPU 0.77 s (naive simulation 463 ms, search
 15 ms, active simulation 228 ms, blend 33 ms; targets 21 ms); median wall of the whole call 2.9 s at
-that load. Goal met.
+that load. Goal met. Re-run 2026-12-02 16:08 after the strike limit, the attacker separation and the
+re-entry repairs (load 9.4-10.2, quick): median CPU 0.32 s (naive 188 ms, search 5 ms, active 101 ms,
+blend 15 ms; repairs 25 ms and attacker 24 ms outside the response); search 16.2 vs 169.4 ms CPU over the
+23 queries, 10.4x, same best 23/23, 74 k vs 822 k frame pairs (11.1x).
 
 Search and index rows (the search half, :mod:`mocomp.impact.index` / :mod:`mocomp.impact.search`):
 

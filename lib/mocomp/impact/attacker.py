@@ -173,7 +173,7 @@ def body_gap(attacker: Motion, victim: Motion) -> tuple[np.ndarray, np.ndarray]:
 
 
 def separate(attacker: Motion, victim: Motion, start: int = 0, *, clearance: float = 0.0, smooth_frames: float = 2.0,
-             iterations: int = 12, tolerance: float = 0.005) -> tuple[Motion, dict]:
+             iterations: int = 30, tolerance: float = 0.005) -> tuple[Motion, dict]:
     """``(attacker, evidence)``: the attacker's root moved horizontally, smoothly in time, so its body
     capsules (:func:`body_capsules`) keep at least ``clearance`` m from the victim's on every frame from
     ``start`` -- it cannot step through the victim after blending back to its clip (the simulation
