@@ -167,6 +167,9 @@ def test_curved_hop_zmp_falls_and_flight_is_ballistic(real_data_dir, tmp_path):
     assert after.mean_outside < capture.mean_outside
     (f0,), (f1,) = r.before["flights"], r.after["flights"]
     assert f0["com_residual_m"] > 0.02 and f1["com_residual_m"] < 1e-3
+    # the flight steps even out |L| (measured 19.5 -> 13.4 % variation); adjusting the ground frames
+    # next to the flight too gave the hop 50 % but the flips method's conserving back flip 17-29 %
+    assert f1["L_variation"] < f0["L_variation"]
     com = center_of_mass(default_body(out), out)
     (a, b), = r.stages.flight_runs
     assert com_residual(com, a, b, out.fps) < 1e-3
