@@ -16,6 +16,12 @@ Ours is :func:`mocomp.core.kinematics.forward_kinematics`: compiled
 (:mod:`mocomp.core._compiled`) once numba is loaded in the process (reading the real clip
 loads it), else the numpy reference; the note says which ran. A third row times the numpy
 reference alone (the backend with ``MOCOMP_NO_NUMBA=1``), which gives the same bits.
+
+Two more rows time core's joint velocities on the same clip: the world angular velocity of every
+joint frame (:func:`mocomp.core.kinematics.angular_velocity` of the FK orientations, order 2:
+compiled once numba is loaded, and its numpy reference) against the scipy way (``Rotation``
+products and ``as_rotvec`` of the relative rotation between frames, the same central blend: what
+``mocomp.dynamics`` ran before the velocities moved to core). No goal.
 """
 from __future__ import annotations
 
@@ -132,7 +138,45 @@ def run(quick: bool) -> list[dict]:
         f"fk {sk.n_joints}j x {m.n_frames}f, numpy reference", np_s, "scipy Rotation per joint (vectorised)", sc_s,
         note=f"mocomp.core.kinematics.forward_kinematics_numpy (the backend without numba); "
              f"identical to the compiled result: {bool(np.array_equal(Pn, P))}"))
+    rows += velocity_rows(m, quick)
     return rows
+
+
+def scipy_angular_velocity(G: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """World angular velocities the scipy way: ``as_rotvec`` of ``q_{i+1} q_i^-1`` over the step,
+    blended with the central-difference weights (uniform steps here: the mean of the two)."""
+    T, J = G.shape[:2]
+    r = Rotation.from_quat(G.reshape(-1, 4))
+    q = r.as_quat().reshape(T, J, 4)
+    a = Rotation.from_quat(q[1:].reshape(-1, 4))
+    b = Rotation.from_quat(q[:-1].reshape(-1, 4))
+    step = (a * b.inv()).as_rotvec().reshape(T - 1, J, 3) / np.diff(t)[:, None, None]
+    out = np.empty((T, J, 3))
+    out[0], out[-1] = step[0], step[-1]
+    out[1:-1] = 0.5 * (step[1:] + step[:-1])
+    return out
+
+
+def velocity_rows(m: Motion, quick: bool) -> list[dict]:
+    from mocomp.core.kinematics import angular_velocity, angular_velocity_numpy
+
+    _, G = m.fk()
+    t = m.times
+    repeat = 3 if quick else 7
+    ours_s, w = best_of(lambda _: angular_velocity(G, t), repeat=repeat)
+    np_s, wn = best_of(lambda _: angular_velocity_numpy(G, t), repeat=repeat)
+    sc_s, ws = best_of(lambda _: scipy_angular_velocity(G, t), repeat=repeat)
+    d = float(np.abs(w - ws).max())
+    dn = float(np.abs(w - wn).max())
+    name = f"angular velocity {G.shape[1]}j x {G.shape[0]}f (world, every joint frame)"
+    return [
+        result(name, ours_s, "scipy Rotation products + as_rotvec", sc_s,
+               note=f"mocomp.core.kinematics.angular_velocity (order 2) of the FK orientations; max |ours - scipy| "
+                    f"= {d:.1e} rad/s (rates up to {float(np.abs(ws).max()):.0f} rad/s)"),
+        result(name + ", numpy reference", np_s, "scipy Rotation products + as_rotvec", sc_s,
+               note=f"mocomp.core.kinematics.angular_velocity_numpy (the backend without numba); max |numpy - "
+                    f"compiled| = {dn:.1e} rad/s"),
+    ]
 
 
 def bvhio_version() -> str:

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.kinematics import point_velocities, propagate_velocities, world_angular_velocities
-from ..core.rotations import quat_apply, quat_inverse
+from ..core.rotations import quat_apply, quat_inverse, quat_matrix
 from ..errors import MotionFormatError
 from .com import check_compatible
 from .derivatives import angular_velocity, central_difference, smooth_motion
@@ -164,9 +164,7 @@ class MomentumResult:
 
 def world_inertias(body, rotations) -> np.ndarray:
     """``(T, S, 3, 3)`` segment inertias about their COMs in world axes: ``R_i I_i R_i^T``."""
-    from scipy.spatial.transform import Rotation
-
-    R = Rotation.from_quat(np.asarray(rotations).reshape(-1, 4)).as_matrix().reshape(rotations.shape[:-1] + (3, 3))
+    R = quat_matrix(rotations)
     return np.einsum("tsij,sjk,tslk->tsil", R, body.inertias, R, optimize=True)
 
 
