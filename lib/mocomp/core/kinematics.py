@@ -168,9 +168,10 @@ def angular_velocity(quats, times, order: int = 2, frame: str = "world") -> np.n
     seconds (strictly increasing) or a frame rate (fps). ``frame="world"`` (default) gives the
     rate in world axes, ``frame="body"`` in each orientation's own axes (``w_body = R^T w_world``).
 
-    The formula (J. Sola, "Quaternion kinematics for the error-state Kalman filter", 2017, sec. 3.5,
-    "Time-integration of rotation rates"): a constant rate over a step ``h`` moves an orientation as
-    ``q_{i+1} = Exp(w_world h) q_i = q_i Exp(w_body h)``, so the rate of each step is the
+    The formula (J. Sola, "Quaternion kinematics for the error-state Kalman filter", 2017,
+    arXiv:1711.02508, the sections on the time derivative ``q_dot = 1/2 w_world q = 1/2 q w_body``
+    and on the time-integration of rotation rates): a constant rate over a step ``h`` moves an
+    orientation as ``q_{i+1} = Exp(w_world h) q_i = q_i Exp(w_body h)``, so the rate of each step is the
     logarithm (rotation vector, :func:`~mocomp.core.rotations.quat_log`) of the relative rotation
     over ``h``: ``log(q_{i+1} q_i^-1) / h`` (world) or ``log(q_i^-1 q_{i+1}) / h`` (body). Interior
     frames blend the backward and forward steps with the weights of the non-uniform central
