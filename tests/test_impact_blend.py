@@ -126,3 +126,13 @@ def test_floor_lift_leaves_frames_before_start_alone_and_eases_in(walk):
     low = np.minimum(out.positions[..., 1].min(axis=1), out.end_site_positions()[..., 1].min(axis=1))
     assert np.all(low[20:] >= floor - 0.005 - 1e-9)
     assert np.all(np.diff(lift[20:26]) >= -1e-12)          # eased in, not a step at the start
+
+
+def test_correction_splits_the_root_error_into_vertical_and_horizontal(walk):
+    sim = walk.replace(root_positions=walk.root_positions + np.array([0.3, -0.4, 0.0]))
+    out = final_blend(sim, walk)
+    assert out.root_error_m == pytest.approx(0.5)
+    assert out.root_error_vertical_m == pytest.approx(0.4)            # clip minus simulation, signed
+    assert out.root_error_horizontal_m == pytest.approx(0.3)
+    d = out.to_dict()
+    assert d["root_error_vertical_m"] == pytest.approx(0.4) and d["root_error_horizontal_m"] == pytest.approx(0.3)

@@ -256,3 +256,12 @@ def test_long_bandai_slash_places_itself(real_data_dir, ase):
     t_strike = (w["strike_frame"] - w["start"]) / a.fps
     assert abs(r.naive.impact_time - t_strike) < 0.5
     assert r.attacker.n_frames <= w["stop"] - w["start"] + 2
+
+
+def test_active_root_error_is_the_pelvis_height_alone(counter):
+    """The found clip is realigned on the active simulation's root ground point at the re-entry: the
+    active pass's root error is all vertical (the unactuated root's height), none horizontal."""
+    r, _, _ = counter
+    b = r.blend_active
+    assert b.root_error_horizontal_m < 1e-4                 # measured 1.1e-5 m (the clip sampled between frames)
+    assert abs(abs(b.root_error_vertical_m) - b.root_error_m) < 1e-6

@@ -107,9 +107,16 @@ def run(args) -> int:
           + f"; {r.evidence['search']['query_windows']} query window(s) (match times); frame pairs compared "
             f"{r.evidence['search']['frames_compared']} of {r.evidence['search']['frames_exhaustive']} (exhaustive)")
     ba, bn = r.blend_active, r.blend_naive
-    print(f"final-blend correction (planned): root {ba.root_error_m:.3f} m, joints {ba.joint_error_deg:.1f} deg at "
-          f"re-entry from the active simulation" + (f"; from the naive one {bn.root_error_m:.3f} m, "
-                                                    f"{bn.joint_error_deg:.1f} deg" if bn is not None else ""))
+    print(f"final-blend correction (planned): root {ba.root_error_m:.3f} m (vertical {ba.root_error_vertical_m:+.3f} m: "
+          f"the root is unactuated), joints {ba.joint_error_deg:.1f} deg at re-entry from the active simulation"
+          + (f"; from the naive one {bn.root_error_m:.3f} m, {bn.joint_error_deg:.1f} deg" if bn is not None else ""))
+    if r.naive.strike_end is not None:
+        se = r.naive.strike_end
+        print(f"strike ended {se['after_impact_s']:.3f} s after the impact by its {se['limit']} limit")
+    sep = r.evidence["attacker"].get("separation")
+    if sep and sep["frames_shifted"]:
+        print(f"attacker kept out of the victim: overlap {-100 * sep['min_gap_before_m']:.1f} cm -> gap "
+              f"{100 * sep.get('min_gap_final_m', sep['min_gap_after_m']):.1f} cm, pushed up to {sep['max_shift_m']:.2f} m")
     c = r.evidence["continuity_final"]
     print(f"re-entry at frame {r.frames['reentry']}: root step {c['reentry_root_step_m'] * 100:.1f} cm, joint step "
           f"{c['reentry_joint_step_deg']:.1f} deg (found clip's own max {c['clip_max_root_step_m'] * 100:.1f} cm, "

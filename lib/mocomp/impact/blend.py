@@ -43,7 +43,11 @@ class BlendOutcome:
     """The blended segment and the correction it applied.
 
     motion: the blended segment (same frames as the simulated one).
-    root_error_m: ``|c_n - s_n|``, the root position error at the re-entry.
+    root_error_m: ``|c_n - s_n|``, the root position error at the re-entry; root_error_vertical_m (signed,
+    clip minus simulation) and root_error_horizontal_m: its parts. With the pipeline's realignment the
+    found clip is aligned on the simulation's root ground point at the re-entry, so the horizontal part is
+    zero and the error is the pelvis height difference -- which the joint servos change only through
+    the pose (the root is unactuated).
     joint_error_deg: mean over joints of the angle between simulation and clip at re-entry.
     mean_correction_deg: mean over frames and joints of ``w_i * angle(s_i, c_i)`` (what the slerp moved).
     max_correction_deg: its largest value over frames and joints.
@@ -54,9 +58,13 @@ class BlendOutcome:
     joint_error_deg: float
     mean_correction_deg: float
     max_correction_deg: float
+    root_error_vertical_m: float = float("nan")
+    root_error_horizontal_m: float = float("nan")
 
     def to_dict(self) -> dict:
-        return {"root_error_m": self.root_error_m, "joint_error_at_reentry_deg": self.joint_error_deg,
+        return {"root_error_m": self.root_error_m, "root_error_vertical_m": self.root_error_vertical_m,
+                "root_error_horizontal_m": self.root_error_horizontal_m,
+                "joint_error_at_reentry_deg": self.joint_error_deg,
                 "mean_correction_deg": self.mean_correction_deg, "max_correction_deg": self.max_correction_deg}
 
 
@@ -66,7 +74,9 @@ def correction(sim: Motion, clip: Motion) -> dict:
     w = np.arange(sim.n_frames) / max(n, 1)
     ang = np.degrees(quat_angle(quat_multiply(quat_inverse(sim.rotations), clip.rotations)))
     applied = w[:, None] * ang
-    return {"root_error_m": float(np.linalg.norm(clip.root_positions[-1] - sim.root_positions[-1])),
+    e = clip.root_positions[-1] - sim.root_positions[-1]
+    return {"root_error_m": float(np.linalg.norm(e)), "root_error_vertical_m": float(e[1]),
+            "root_error_horizontal_m": float(np.hypot(e[0], e[2])),
             "joint_error_deg": float(ang[-1].mean()), "mean_correction_deg": float(applied.mean()),
             "max_correction_deg": float(applied.max())}
 
@@ -102,7 +112,7 @@ def final_blend(sim: Motion, clip: Motion, root: str = "interpolate", weights: s
     c = correction(sim, clip)
     out = sim.replace(root_positions=root_out, rotations=rot)
     return BlendOutcome(out, c["root_error_m"], c["joint_error_deg"], c["mean_correction_deg"],
-                        c["max_correction_deg"])
+                        c["max_correction_deg"], c["root_error_vertical_m"], c["root_error_horizontal_m"])
 
 
 def frame_steps(motion: Motion) -> tuple[np.ndarray, np.ndarray]:

@@ -4,12 +4,16 @@ simulation, final blend, the attacker's response -- with evidence and per-stage 
 :func:`impact_response` runs, on the victim clip's frame rate and timeline (the attack clip sampled
 on it):
 
-1. **placement** (:func:`~mocomp.impact.scene.place_victim`) and the scene
+0. a long attack clip (over ``max_attack``, 5 s) cut to the window of its fastest strike
+   (:func:`~mocomp.impact.scene.strike_window`);
+1. **placement** (:func:`~mocomp.impact.scene.place_victim`; backed off 10 cm at a time while the
+   characters touch at the first frame) and the scene
    (:func:`~mocomp.impact.scene.build_scene`; victim joint limits from the victim clip and the
    library's clips);
 2. **first contact** at the capture rate and the **rewind** to the last frame before it
    (:func:`~mocomp.impact.simulate.find_first_contact`);
-3. the **naive simulation** (friction 1.0) from the rewind frame to 1.0 s after the impact;
+3. the **naive simulation** (friction 1.0) from the rewind frame to 1.0 s after the impact; the strike
+   ends after 0.25 s of contact or 60 N s (``max_contact``, ``max_impulse``; both passes);
 4. the **search** (:func:`mocomp.impact.search.search`) of the naive frames from 0.1 s after the
    impact (pushed later while the contact lasts, up to 0.25 s; App. A) to 1.0 s;
 5. the **active simulation** (friction 0.5) toward the found clip, aligned by the search's root
@@ -18,7 +22,8 @@ on it):
 6. the **final blend** of the active segment onto the found clip at the re-entry frame (the last
    frame of the search window), the found clip playing on after it; the same blend from the naive
    segment is measured for comparison (the correction the active simulation saves);
-7. repairs of the output: the root lifted where a joint would be below the floor
+7. repairs of the output (tried again with eased blend weights, then with the plants freed around the
+   re-entry, while the re-entry steps past the found clip's own largest step): the root lifted where a joint would be below the floor
    (:func:`~mocomp.impact.blend.floor_lift`; the ASE falls sink while lying), the planted feet held
    (:func:`mocomp.ops.enforce_footplants`), and a second lift for what the plants' levels sank
    (vertical only, so the plants stay put in the ground plane);
