@@ -19,7 +19,7 @@ from mocomp.reproduce import ResultRow, write_results
 write_results([
     ResultRow("acrobatics", "Fig. 1", "slope of the line", paper_value=2.0, ours=SLOPE, tolerance=0.01),
     ResultRow("acrobatics", "Fig. 1", "data source", paper_value=None, ours=float(len(DATA_SOURCE)), tolerance=0.0,
-              note=DATA_SOURCE),
+              note=f"{DATA_SOURCE}; QUICK={QUICK}"),
     ResultRow("acrobatics", "Table 9", "a cell that differs", paper_value=1.0, ours=1.5, tolerance=0.1,
               note="reason <b>escaped</b>"),
     ResultRow("acrobatics", "Table 9", "a bound", paper_value=20.0, ours=3.0, tolerance=0.0, comparison="at most"),
@@ -33,7 +33,7 @@ def write_fake_notebooks(folder: Path, slope: float = 2.0) -> Path:
     folder.mkdir(parents=True, exist_ok=True)
     good = new_notebook(cells=[
         new_markdown_cell("# A fake notebook"),
-        _params(f"SLOPE = {slope!r}"),
+        _params(f"SLOPE = {slope!r}\nQUICK = None  # mocomp reproduce passes True (--quick) or False"),
         new_code_cell("import os\nimport matplotlib.pyplot as plt\n"
                       "DATA_SOURCE = os.environ.get('MOCOMP_DATA_DIR') or 'embedded'"),
         new_markdown_cell("## Figure 1: a line of slope 2"),

@@ -44,7 +44,8 @@ def test_failure_path_figures_data_modes_and_baseline(tmp_path, capfd, monkeypat
     # the good notebook ran after the bad one failed (name order, 2 jobs) and its rows are all there
     rows = read_results(out / "notebooks" / "good.results.json")
     assert [r.status for r in rows] == ["reproduced", "no paper value", "differs", "reproduced"]
-    assert rows[1].note == "embedded", "--quick left MOCOMP_DATA_DIR set in the kernel"
+    assert rows[1].note.split("; ")[0] == "embedded", "--quick left MOCOMP_DATA_DIR set in the kernel"
+    assert rows[1].note.split("; ")[1] == "QUICK=True", "--quick did not pass QUICK=True to the notebook"
     # executed notebooks exported (the failed one up to its error), the figure extracted as a PNG
     assert "deliberate failure" in (out / "notebooks" / "bad.html").read_text()
     figs = nbs["good.ipynb"]["figures"]
@@ -61,7 +62,7 @@ def test_failure_path_figures_data_modes_and_baseline(tmp_path, capfd, monkeypat
                "--data", str(data), "--no-progress", "--check-baseline", str(base)])
     cap = capfd.readouterr()
     assert rc == 0, cap.err
-    assert read_results(tmp_path / "r2" / "notebooks" / "good.results.json")[1].note == str(data.resolve())
+    assert read_results(tmp_path / "r2" / "notebooks" / "good.results.json")[1].note == f"{data.resolve()}; QUICK=False"
     assert "2 reproduced row(s) not in" in cap.out
 
     # the slope changes: the row that reproduced no longer does -> exit 1 naming it

@@ -5,7 +5,10 @@ own Jupyter kernel, in ``jobs`` parallel threads (each thread drives one kernel
 process; the work runs in the kernels), with the data choice of the run:
 
 * ``data=None`` (``--quick``): ``MOCOMP_DATA_DIR`` is removed from the kernels'
-  environment, so each notebook uses the embedded data alone;
+  environment, so each notebook uses the embedded data alone, and the papermill parameter
+  ``QUICK = True`` is passed (``False`` otherwise): a notebook that declares it in its parameters
+  cell may make its quick run cheaper in ways that leave its rows' numbers unchanged (fewer
+  pixels, simpler filmstrips); the others ignore it;
 * ``data=DIR``: ``MOCOMP_DATA_DIR=DIR`` for the kernels.
 
 A notebook that raises does not stop the others: its record says ``failed``
@@ -181,9 +184,10 @@ def _logged_kernel_manager(log_path: Path, handles: list):
 
 
 def run_notebook(path: Path, report_dir: Path, *, timeout: float = 900.0, progress=None,
-                 kernel_name: str = "python3") -> NotebookRun:
+                 kernel_name: str = "python3", parameters: dict | None = None) -> NotebookRun:
     """Execute one notebook into ``report_dir`` (see the module docstring); never raises for the
-    notebook's own failure (the record says ``failed``)."""
+    notebook's own failure (the record says ``failed``). ``parameters``: papermill parameters
+    besides ``results_path`` (``QUICK`` in a ``--quick`` run)."""
     import nbformat
     import papermill as pm
 
@@ -204,7 +208,7 @@ def run_notebook(path: Path, report_dir: Path, *, timeout: float = 900.0, progre
     rec.results_file = results.relative_to(report_dir).as_posix()
     t0 = time.perf_counter()
     try:
-        pm.execute_notebook(str(path), str(executed), parameters={"results_path": str(results)},
+        pm.execute_notebook(str(path), str(executed), parameters={**(parameters or {}), "results_path": str(results)},
                             cwd=str(path.parent), kernel_name=kernel_name, execution_timeout=timeout,
                             progress_bar=progress if progress is not None else False, log_output=False,
                             report_mode=False, request_save_on_cell_execute=False,
@@ -351,7 +355,8 @@ def reproduce(report_dir, *, notebooks: Path | None = None, only=(), data: Path 
     prog = _Progress(books, progress)
 
     def one(p: Path) -> NotebookRun:
-        rec = run_notebook(p, report_dir, timeout=timeout, progress=prog.bar_kwargs(p.name))
+        rec = run_notebook(p, report_dir, timeout=timeout, progress=prog.bar_kwargs(p.name),
+                           parameters={"QUICK": data is None})
         prog.finished(rec)
         return rec
 
