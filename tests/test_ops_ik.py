@@ -237,3 +237,34 @@ def test_plant_feet_lets_go_without_a_jump_on_a_real_walk(real_data_dir, monkeyp
     monkeypatch.setattr(ik, "plant_rotations", _old_plant_rotations)
     old, _ = ik.plant_feet(drift, 0, w, chains)
     assert _step_excess(drift, old)[cross].max() > 0.1
+
+
+def test_compiled_leg_ik_equals_the_numpy_two_bone_ik(monkeypatch):
+    """ops._kernels.two_bone_ik_rows (the footplant's compiled leg IK) against ops.ik.two_bone_ik on random
+    targets around the feet, with the hinge prior, a given foot orientation and targets out of reach."""
+    import mocomp.ops.displacement as dm
+    from mocomp.core._compiled import AVAILABLE
+    from mocomp.core.rotations import quat_exp
+    from mocomp.ops.footplant import BEND_PRIOR, _ik_legs
+    from mocomp.ops.ik import hinge_axis
+
+    if not AVAILABLE:
+        pytest.skip("numba not available")
+    m = example("backflip").motion
+    P, G = m.fk()
+    rng = np.random.default_rng(11)
+    jobs = []
+    for chain in leg_chains(m.skeleton):
+        idx = np.sort(rng.choice(m.n_frames, 120, replace=False))
+        tgt = P[idx, chain[2]] + rng.normal(scale=0.08, size=(idx.size, 3))
+        tgt[:5] += [0.0, -2.0, 0.0]                             # out of reach
+        end = quat_multiply(quat_exp(rng.normal(scale=0.2, size=(idx.size, 3))), G[idx, chain[2]])
+        jobs.append((chain, idx, tgt, end, hinge_axis(P, G, chain), None))
+    got = {}
+    for flag in (True, False):
+        monkeypatch.setattr(dm, "USE_COMPILED", flag)
+        got[flag] = _ik_legs(P, G, m.rotations, m.skeleton.parents, jobs, 1e-6)
+    for a, b in zip(got[True][0], got[False][0]):
+        np.testing.assert_allclose(a, b, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(got[True][1], got[False][1], rtol=0, atol=1e-12)
+    assert got[True][1][:5].min() > 0.5 and BEND_PRIOR > 0

@@ -581,7 +581,21 @@ def _ik_legs(P, G, rot, parents, jobs, reach_margin):
     """:func:`~mocomp.ops.ik.two_bone_ik` of several legs in one call: each job ``(chain, frames,
     target, end rotation, hinge axis, _)`` is cut to a four-joint chain (the hip's parent, hip, knee,
     ankle) and the rows of all jobs are stacked. Returns the new local rotations ``(n, 3, 4)`` of each
-    job's chain and the misses of all rows (job order)."""
+    job's chain and the misses of all rows (job order). With numba (:func:`mocomp.ops.displacement._compiled`)
+    each job runs through the compiled twin :func:`mocomp.ops._kernels.two_bone_ik_rows` on the clip's
+    arrays directly (same operations; equal to this numpy path to rounding, ``tests/test_ops_ik.py``)."""
+    from .displacement import _compiled
+
+    if _compiled():
+        from ._kernels import two_bone_ik_rows
+
+        outs, misses = [], []
+        for chain, idx, tgt, e, hinge, _ in jobs:
+            o, mi = two_bone_ik_rows(P, G, rot, idx, int(parents[chain[0]]), chain, tgt, e, hinge, BEND_PRIOR,
+                                     reach_margin)
+            outs.append(o)
+            misses.append(mi)
+        return outs, np.concatenate(misses)
     Pm, Gm, Rm, tg, end, ax = [], [], [], [], [], []
     for chain, idx, tgt, e, hinge, _ in jobs:
         h = chain[0]
