@@ -516,7 +516,7 @@ MATCH_TOL = 1.0
 FIT_HALF_S = 0.03
 #: m/s: the margins over the input's own event jump :func:`smooth_stance` tries in turn (the audit calls
 #: an output worse than its input beyond a quarter of its 0.5 m/s threshold, 0.125)
-SMOOTH_MARGINS = (0.0, 0.05, 0.1, 0.2, 0.35)
+SMOOTH_MARGINS = (0.0, 0.05, 0.1, 0.15, 0.2, 0.35)
 
 
 def captured_acceleration(com: np.ndarray, fps: float, rate: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -631,9 +631,9 @@ def smooth_stance(motion: Motion, com_fn, event: str, event_frame: float, stance
     (:func:`_jump_rows`: the jumps are linear in ``d``): the push starts earlier and lasts longer
     instead of ending harder, the landing gives way over more frames.
 
-    The margins ``margins`` (m/s) are tried in turn until a map exists; the map is kept only if it
-    lowers the largest jump measured on the COM of the frames in the event window
-    (:func:`_event_jump`). Returns ``(motion, info)``: ``info`` has ``event``, ``jump_before``,
+    The margins ``margins`` (m/s) are tried in turn until a map exists (then once more halfway back to
+    the last one that did not fit); the map is kept only if it lowers the largest jump measured on
+    the COM of the frames in the event window (:func:`_event_jump`). Returns ``(motion, info)``: ``info`` has ``event``, ``jump_before``,
     ``jump_after`` (m/s), ``target`` (m/s), ``margin`` (``None``: unchanged), ``repair``
     (:meth:`StanceRepair.to_dict` or ``None``) and ``error``.
     """
@@ -657,7 +657,7 @@ def smooth_stance(motion: Motion, com_fn, event: str, event_frame: float, stance
     share = np.sqrt(np.sum(J0 * J0, axis=0) / max(float(np.sum(J0 * J0)), 1e-12))
     share = np.maximum(share, 0.1)
     share /= np.linalg.norm(share)
-    for margin in margins:
+    def attempt(margin):
         b = (float(target_jump) + float(margin)) * share
         try:
             new, rep = repair_stance(motion, com_fn, event, float(event_frame), np.zeros(3), stance, g=g,
@@ -665,11 +665,23 @@ def smooth_stance(motion: Motion, com_fn, event: str, event_frame: float, stance
                                      measure_zmp=False, explain=False, jump=(M, -b - J0, b - J0), free_slope=True)
         except StanceRepairError as e:
             info["error"] = info["error"] or str(e)
-            continue
+            return None
         after = _event_jump(com_fn(np.asarray(new.root_positions), np.asarray(new.rotations)), fps, event_frame)
-        if np.isfinite(after) and after < before - 1e-3:
-            info.update(jump_after=after, margin=float(margin), repair=rep.to_dict())
-            return new, info
+        return (after, new, rep, float(margin)) if np.isfinite(after) and after < before - 1e-3 else None
+
+    failed = None
+    for margin in margins:
+        got = attempt(margin)
+        if got is None:
+            failed = margin
+            continue
+        if failed is not None:              # one bisection step between the last margin that did not fit and this
+            mid = attempt(0.5 * (failed + margin))
+            if mid is not None and mid[0] < got[0]:
+                got = mid
+        after, new, rep, m = got
+        info.update(jump_after=after, margin=m, repair=rep.to_dict())
+        return new, info
     return motion, info
 
 
