@@ -491,25 +491,33 @@ def impact_response(attacker: Motion, victim: Motion, index, scenario: Scenario 
         # reaction: its body is kept out of the victim's (root pushed horizontally, smoothly)
         from .attacker import separate
 
-        held, sep = separate(att_out, out, start=fc.rewind_frame + ar.follow_frames)
+        from .attacker import body_gap
+
+        s0 = fc.rewind_frame + ar.follow_frames
+        pushed, sep = separate(att_out, out, start=s0)
+        held = pushed
+        floor_a = _floor_level(att.slice(0, max(fc.rewind_frame + 1, 2)))
         if sep["frames_shifted"] and config.plant:
             # the push slides the feet: the plants of the unpushed attacker are held on the pushed one
             from ..ops import NoContactError, enforce_footplants
             from ..ops.plants import foot_plants
 
             try:
-                held = enforce_footplants(held, plants=foot_plants(att_out), audit=False).motion
-                sep["feet_planted"] = True
+                planted = enforce_footplants(pushed, plants=foot_plants(att_out), audit=False).motion
+                if config.lift:                       # the plants' support level, as for the victim
+                    planted, _ = floor_lift(planted, floor_a, tolerance=0.002)
+                g_, _ = body_gap(planted, out)
+                # a foot held where the push has carried the body away from can put a leg back into the
+                # victim (a 1.6 m push): then the feet slide instead
+                if g_.size <= s0 or g_[s0:].min() >= min(sep["min_gap_after_m"], 0.0) - 0.025:
+                    held, sep["feet_planted"] = planted, True
+                else:
+                    sep["feet_planted"] = False
+                    sep["plants_undone"] = f"holding the feet put the attacker {-100 * g_[s0:].min():.1f} cm into the victim"
             except NoContactError:
                 sep["feet_planted"] = False
-        if sep["frames_shifted"] and config.lift:     # the plants' support level, as for the victim
-            held, alift2 = floor_lift(held, _floor_level(att.slice(0, max(fc.rewind_frame + 1, 2))), tolerance=0.002)
-            sep["lifted_after_plants_m"] = float(alift2.max())
         if sep["frames_shifted"]:
-            from .attacker import body_gap
-
             g_, _ = body_gap(held, out)
-            s0 = fc.rewind_frame + ar.follow_frames
             sep["min_gap_final_m"] = float(g_[s0:].min()) if g_.size > s0 else None
         att_out = held
         evidence["attacker"]["separation"] = sep
