@@ -265,3 +265,24 @@ def test_active_root_error_is_the_pelvis_height_alone(counter):
     b = r.blend_active
     assert b.root_error_horizontal_m < 1e-4                 # measured 1.1e-5 m (the clip sampled between frames)
     assert abs(abs(b.root_error_vertical_m) - b.root_error_m) < 1e-6
+
+
+def test_no_foot_slide_after_reentry_where_the_found_clip_itself_slides(counter, ase):
+    """The counter attack's found clip (ASE Fall_SpinRight) slides its feet 4-17 cm in its own plants over
+    the frames it plays after the re-entry; the written victim holds them (audit of the file read back,
+    strike frames declared)."""
+    from mocomp.audit import audit
+    from mocomp.audit.run import default_body
+
+    r, v, _ = counter
+    clips, index, _ = ase
+    re = r.frames["reentry"]
+    va = audit(v, against=clips["idle"], external_force_frames=[tuple(r.frames["external_force"])])
+    assert not [x for x in va.violations if x.check == "foot_slide" and x.frames[1] > re]
+    clip = index.motion(r.search.clip)
+    off = r.frames["found_clip_frame_at_reentry"] - re          # clip frame = output frame + off (same rate)
+    assert abs(clip.fps - v.fps) < 0.1
+    ca = audit(clip, body=default_body(v, like=clips["idle"]))
+    own = [x.size for x in ca.violations if x.check == "foot_slide" and x.frames[1] - off > re
+           and x.frames[0] - off < v.n_frames]
+    assert own and max(own) > 0.03
