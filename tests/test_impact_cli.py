@@ -67,10 +67,12 @@ def test_acceptance_continuity_floor_and_feet(kicked):
     penetration over 1 cm, no foot slide over the audit's limit after re-entry."""
     _, _, rep, _ = kicked
     c = rep["evidence"]["continuity_final"]
-    # measured 2026-12-02: root 0.4 cm (clip max 5.2 cm); joints 18.2 deg (left foot, the blend's error rate
-    # on top of the clip's own fast get-up) against the clip's 17.6 deg: within 10 %, not strictly below
+    # measured 2026-12-02: root 0.6 cm (clip max 5.2 cm); joints 17.60 deg against the clip's 17.58 (the
+    # linear blend gave 18.3: its error rate on top of the clip's own fast get-up; the eased weights enter
+    # the clip with its own velocity, the rest is the simulation's velocity at weight 1 - w(n-1))
     assert c["reentry_root_step_m"] <= c["clip_max_root_step_m"]
-    assert c["reentry_joint_step_deg"] <= 1.1 * c["clip_max_joint_step_deg"]
+    assert c["reentry_joint_step_deg"] <= c["clip_max_joint_step_deg"] + 0.05
+    assert rep["evidence"]["blend_weights"] in ("linear", "smoothstep", "smootherstep")
     assert c["rewind_root_step_m"] <= c["clip_max_root_step_m"]
     au = rep["audit"]["victim"]
     assert au["measures"]["max_penetration_m"] <= 0.01
