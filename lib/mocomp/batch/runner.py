@@ -18,7 +18,7 @@ import pandas as pd
 
 from .clip import PARTIAL, ROW_FILE, ClipTask, base_row, read_row, run_clip, write_row_dir
 from .commands import COMMANDS, command_argv
-from .engine import map_items, open_client
+from .engine import ClientStarter, map_items
 from .inputs import InputFile, discover
 
 __all__ = ["BatchResult", "run_batch", "BASE_COLUMNS", "TIMING_COLUMNS", "compare_tables", "read_results"]
@@ -38,7 +38,11 @@ class BatchResult:
     table: the results table (one row per input file, sorted by clip; also ``results.parquet`` and
         ``results.csv`` in ``out_dir``).
     ran: clips run now; resumed: clips whose completed folder was reused (``--resume``).
-    seconds: wall time of the whole batch; run_seconds: from the first submission to the last row.
+    seconds: wall time of the whole batch; run_seconds: from the first submission to the last row
+        (the cluster up and warm).
+    start_seconds: the local cluster's start and the workers' warm-up (in a background thread, beside
+        the inputs' classification; NaN when no cluster was started); start_waited: the part of it the
+        batch waited for, after its own preparation.
     workers: worker threads of the cluster (0: none was needed).
     """
 
@@ -49,6 +53,8 @@ class BatchResult:
     seconds: float = 0.0
     run_seconds: float = 0.0
     workers: int = 0
+    start_seconds: float = float("nan")
+    start_waited: float = 0.0
     notes: list[str] = field(default_factory=list)
 
     def counts(self) -> dict[str, int]:
@@ -68,7 +74,10 @@ class BatchResult:
                         if math.isfinite(rate) else "")
                      + (f"; command time per clip median {t['seconds'].median():.2f} s, "
                         f"max {t['seconds'].max():.2f} s ({t.loc[t['seconds'].idxmax(), 'clip']})"
-                        if t["seconds"].notna().any() else "") + ")")
+                        if t["seconds"].notna().any() else "") + ")"
+                     + (f"; cluster start and warm-up {self.start_seconds:.1f} s, beside the inputs' "
+                        f"classification ({self.start_waited:.1f} s waited for)"
+                        if math.isfinite(self.start_seconds) else ""))
         for col in ("verdict", "out_verdict"):
             if col in t.columns and t[col].notna().any():
                 v = t[col].dropna().value_counts()
@@ -182,12 +191,23 @@ def _write_table(df: pd.DataFrame, out: Path) -> None:
 
 
 def _warm_up() -> None:
-    """Import the commands on a worker, so that no clip's time holds the imports. (Not a worker
-    plugin: a plugin's setup runs while a restarted worker starts, and a clip that crashes that
-    worker then, while its nanny is still starting it, leaves the nanny without restarting it.)"""
-    from ..cli import build_parser
+    """Import the commands on a worker and make the first call of the reader and the audit (which
+    every command runs on its input or output) on an embedded example clip, so that no clip's time
+    holds the imports or first calls (~0.5 s). (Not a worker plugin: a plugin's setup runs while a
+    restarted worker starts, and a clip that crashes that worker then, while its nanny is still
+    starting it, leaves the nanny without restarting it.)"""
+    import tempfile
+
+    from .. import datasets
+    from ..cli import build_parser, main
+    from ..io import write_bvh
 
     build_parser()
+    with tempfile.TemporaryDirectory(prefix="mocomp-batch-warm-") as d:
+        clip = Path(d) / "warm.bvh"
+        write_bvh(datasets.load("jump"), clip)
+        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+            main(["audit", str(clip), "--report", str(Path(d) / "warm.json")])
 
 
 def _completed(task: ClipTask) -> bool:
@@ -211,7 +231,8 @@ def _bar(total: int, desc: str, enabled: bool):
 
 def run_batch(command: str, source, out_dir, options=(), *, workers: int | None = None,
               scheduler: str | None = None, resume: bool = False, retry_failed: bool = False,
-              output_type: str | None = None, progress: bool = True, client=None) -> BatchResult:
+              output_type: str | None = None, progress: bool = True, client=None,
+              chunk: int | None = None) -> BatchResult:
     """Run ``mocomp COMMAND`` on every clip of ``source`` (folder, glob or file), on Dask.
 
     options: the command's own options, as on its command line (file options take file names).
@@ -220,6 +241,10 @@ def run_batch(command: str, source, out_dir, options=(), *, workers: int | None 
         where a crash ends the batch), an existing cluster's scheduler address, or an open Client.
     resume: keep every clip whose folder is complete (its ``row.json``); ``retry_failed`` also
         re-runs those that failed or crashed.
+    chunk: clips per Dask task (default: adaptive, :func:`mocomp.batch.engine.chunk_sizes`; the
+        clips are submitted largest file first).
+    A local cluster is started in the background as soon as the command line is checked, while the
+    inputs are classified (its start and the workers' warm-up: ``BatchResult.start_seconds``).
     Writes ``out_dir/clips/<clip>/``, ``results.parquet``, ``results.csv`` and ``batch.json``;
     returns a :class:`BatchResult`. A clip that fails or crashes its worker is a row; the batch
     always finishes.
@@ -232,6 +257,40 @@ def run_batch(command: str, source, out_dir, options=(), *, workers: int | None 
     out = Path(out_dir).expanduser()
     if out.exists() and not out.is_dir():
         raise NotADirectoryError(f"output folder {out} is a file, not a directory")
+    in_process = client is None and scheduler is None and workers == 0
+    starter = None
+    if client is None and not in_process and _may_exist(source):
+        # the cluster's workers start and import while the inputs are classified and finished clips
+        # read back; closed below when no clip is left to run
+        starter = ClientStarter(workers, scheduler, setup=_warm_up)
+    try:
+        return _run(command, source, out, options, output_type, resume, retry_failed, progress, client, starter,
+                    in_process, t_start, chunk)
+    finally:
+        if starter is not None:
+            starter.close()
+
+
+def _may_exist(source) -> bool:
+    import glob as _glob
+
+    text = os.fspath(source)
+    return Path(text).expanduser().exists() or _glob.has_magic(text)
+
+
+def _by_size(tasks: list[ClipTask]) -> list[ClipTask]:
+    """Largest input first (a clip's command time grows with its frames): the chunks that end the
+    batch hold the small clips, so the workers finish together."""
+    def size(t):
+        try:
+            return os.path.getsize(t.path)
+        except OSError:
+            return 0
+    return sorted(tasks, key=lambda t: (-size(t), t.clip))
+
+
+def _run(command, source, out, options, output_type, resume, retry_failed, progress, client, starter,
+         in_process, t_start, chunk) -> BatchResult:
     files = discover(source, exclude=out)
     out.mkdir(parents=True, exist_ok=True)
     _check_config(out, _config(command, options, output_type), resume)
@@ -255,40 +314,42 @@ def run_batch(command: str, source, out_dir, options=(), *, workers: int | None 
             continue
         tasks.append(ClipTask(f.clip, str(f.path), f.format, command, tuple(options), str(d), output_type, run_id))
 
-    t_run = time.perf_counter()
     if tasks:
+        c = client
+        if starter is not None:
+            c = starter.get()
+            res.start_seconds, res.start_waited = starter.start_seconds, starter.waited_seconds
+        elif c is not None:
+            c.run(_warm_up)  # imports on every worker before the first clip (a restarted one: in its first)
+        if c is not None:
+            res.workers = sum(c.nthreads().values())
         bar = _bar(len(tasks), f"batch {command}", progress)
         n_bad = 0
-        in_process = client is None and scheduler is None and workers == 0
-        cm = (contextlib.nullcontext(client) if client is not None or in_process
-              else open_client(workers, scheduler))
+        t_run = time.perf_counter()
         try:
-            with cm as c:
-                if c is not None:
-                    res.workers = sum(c.nthreads().values())
-                    c.run(_warm_up)  # imports on every worker before the first clip (a restarted one: in its first)
-                for o in map_items(run_clip, tasks, client=c, workers=0 if in_process else None,
-                                   name=f"batch-{command}", fetch=False, done=_completed, stall_seconds=120.0):
-                    task = o.item
-                    final = Path(task.out_dir)
-                    done = read_row(final)  # the row the worker wrote (run_clip's result stays on the worker)
-                    if done is not None and done.get("run") == task.run:
-                        row = done
-                    else:  # the task did not complete its folder: the worker died, or run_clip broke
-                        row = base_row(task)
-                        row.update({"status": o.status if o.status != "ok" else "failed", "run": task.run,
-                                    "error": o.error or "the clip's task ended without writing its row.json"})
-                        for p in final.parent.glob(final.name + PARTIAL + "*"):
-                            shutil.rmtree(p, ignore_errors=True)
-                        write_row_dir(final, row)
-                    rows[task.clip] = row
-                    n_bad += row["status"] != "ok"
-                    res.ran += 1
-                    bar.set_postfix_str(f"{n_bad} failed" if n_bad else "", refresh=False)
-                    bar.update(1)
+            for o in map_items(run_clip, _by_size(tasks), client=c, workers=0 if in_process else None,
+                               name=f"batch-{command}", fetch=False, done=_completed, stall_seconds=120.0,
+                               chunk=chunk):
+                task = o.item
+                final = Path(task.out_dir)
+                done = read_row(final)  # the row the worker wrote (run_clip's result stays on the worker)
+                if done is not None and done.get("run") == task.run:
+                    row = done
+                else:  # the task did not complete its folder: the worker died, or run_clip broke
+                    row = base_row(task)
+                    row.update({"status": o.status if o.status != "ok" else "failed", "run": task.run,
+                                "error": o.error or "the clip's task ended without writing its row.json"})
+                    for p in final.parent.glob(final.name + PARTIAL + "*"):
+                        shutil.rmtree(p, ignore_errors=True)
+                    write_row_dir(final, row)
+                rows[task.clip] = row
+                n_bad += row["status"] != "ok"
+                res.ran += 1
+                bar.set_postfix_str(f"{n_bad} failed" if n_bad else "", refresh=False)
+                bar.update(1)
         finally:
             bar.close()
-    res.run_seconds = time.perf_counter() - t_run
+        res.run_seconds = time.perf_counter() - t_run
     res.table = _table(list(rows.values()), command)
     _write_table(res.table, out)
     res.seconds = time.perf_counter() - t_start

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
 
 def _add_batch_options(p: argparse.ArgumentParser) -> None:
@@ -46,10 +47,14 @@ def register(sub) -> None:
                     "files, with the reason), the command's time and its report's key numbers. A failing or "
                     "crashing clip never stops the batch. Outputs are written atomically (a folder renamed "
                     "when complete), so --resume after a killed run redoes only the unfinished clips. "
-                    "Commands: " + "; ".join(f"{n}: {s.help}" for n, s in COMMANDS.items()) + ".",
+                    "Commands: " + "; ".join(f"{n}: {s.help}" for n, s in COMMANDS.items()) + "; impact-index: "
+                    "INPUT is the reaction library, every clip indexed into the cache on the workers, then merged "
+                    "(OUT_DIR/index.json, results.parquet; resuming is the cache itself).",
         epilog="example: mocomp batch audit $MOCOMP_DATA_DIR -o audits --workers 2 --threshold penetration=0.03")
-    p.add_argument("batch_command", choices=sorted(COMMANDS), metavar="COMMAND",
-                   help="the command to run: " + ", ".join(COMMANDS))
+    p.add_argument("batch_command", choices=sorted([*COMMANDS, "impact-index"]), metavar="COMMAND",
+                   help="the command to run: " + ", ".join(COMMANDS) + ", impact-index (the impact search's library "
+                        "index: per-clip features and unique frames on the workers, into the content-addressed cache; "
+                        "options as `mocomp impact-index`: --victim, --tolerance, --fps, --cache)")
     p.add_argument("input", metavar="INPUT_DIR_OR_GLOB",
                    help="a folder (every file below it), a glob ('data/flips/*.bvh', 'data/**/*.amc') or a file")
     _add_batch_options(p)
@@ -73,12 +78,49 @@ def _batch_parser_class():
     return BatchParser
 
 
+def _run_impact_index(args, options: list[str]) -> int:
+    """``mocomp batch impact-index LIBRARY -o OUT [--victim FILE] [--tolerance T] [--fps HZ] [--cache DIR]``:
+    the options are checked by ``mocomp impact-index``'s own parser."""
+    import contextlib
+    import io as _io
+
+    from .. import io
+    from ..batch.impact_index import build_index_batch
+    from . import build_parser
+    from .impact_index import _majority_skeleton
+
+    if args.output_type is not None:
+        raise ValueError("--output-type: impact-index writes the index cache (no output type to choose)")
+    if args.retry_failed:
+        raise ValueError("--retry-failed: impact-index re-reads every clip each run (the cache keeps the finished "
+                         "ones), so there is nothing to retry")
+    err = _io.StringIO()
+    try:
+        with contextlib.redirect_stderr(err):
+            ns = build_parser().parse_args(["impact-index", args.input, *options])
+    except SystemExit as e:
+        if e.code:
+            msg = err.getvalue().strip().splitlines()[-1] if err.getvalue().strip() else f"exit {e.code}"
+            raise ValueError(f"options for impact-index: {msg.split(': error: ', 1)[-1]}") from None
+        raise
+    if ns.json:
+        raise ValueError("--json: in a batch the index summary is OUT_DIR/index.json")
+    skeleton = io.load(ns.victim).skeleton if ns.victim else _majority_skeleton(Path(args.input))
+    res = build_index_batch(args.input, skeleton, cache_dir=ns.cache, tolerance=ns.tolerance, fps=ns.fps,
+                            workers=args.workers, scheduler=args.scheduler, out_dir=args.out,
+                            progress=not args.no_progress)
+    print("\n".join(res.summary_lines()))
+    return 0
+
+
 def run(args) -> int:
     from ..batch import run_batch
 
     options = list(args.command_options)
     if args.out is None:
         raise ValueError("-o OUT_DIR is required")
+    if args.batch_command == "impact-index":
+        return _run_impact_index(args, options)
     if args.retry_failed and not args.resume:
         raise ValueError("--retry-failed goes with --resume")
     res = run_batch(args.batch_command, args.input, args.out, options, workers=args.workers,
