@@ -39,8 +39,11 @@ claim; the lead's full run is the reference), real CMU 88_01 clip: row 1 4.8-7.9
 10.4-18.9 ms (2.0-2.4x), row 2 270-378 us vs 2.2-3.7 ms (7.7-9.7x: the goal is met),
 row 3 201-317 us vs 2.2-3.7 ms (9.8-11.6x). Before the compiled kernel, row 2 was
 5.2 vs 2.4 ms (0.5x: numpy call overhead, ~40 calls per joint for 240 frames).
-Row 1's remaining cost is numpy forward kinematics (~1.4 ms) and the quaternion
-finite differences (``angular_velocity``, ~2-2.5 ms, scipy ``as_rotvec``).
+Row 1's cost was numpy forward kinematics (~1.4 ms) and the quaternion finite
+differences (``angular_velocity``, ~2-2.5 ms, scipy ``as_rotvec``); both now run in core's
+kernel (compiled FK; :func:`mocomp.core.kinematics.angular_velocity`, compiled, since
+2026-12-02): row 1 measured 1.41 -> 0.39 ms (best of two ``run.py --only dynamics`` runs each,
+old and new trees alternated, load 5-7; rows 2 and 3 unchanged, 0.16 -> 0.17 and 0.10 -> 0.10 ms).
 """
 from __future__ import annotations
 
