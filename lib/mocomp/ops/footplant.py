@@ -49,10 +49,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.ndimage import gaussian_filter1d
-from scipy.spatial.transform import Rotation
 
 from ..core.motion import Motion
-from ..core.rotations import quat_apply, quat_inverse, quat_multiply
+from ..core.rotations import quat_apply, quat_exp, quat_inverse, quat_log, quat_multiply
 from ..dynamics.contacts import label_intervals
 from .easing import RampPlan, ease, fade_clock
 from .ik import REACH_MARGIN, _norm, hinge_axis, two_bone_ik
@@ -336,31 +335,6 @@ def _fade_height_change(y: np.ndarray, y0: np.ndarray, both: np.ndarray, planted
     y[sel] = y0[sel] + w * ch[near[sel]]
 
 
-def _quat_to_rotvec(q: np.ndarray) -> np.ndarray:
-    """Rotation vectors of unit quaternions ``(n, 4)`` (scalar-last): what
-    ``_quat_to_rotvec(q)`` gives (the w >= 0 cover, series near 0), without building
-    a ``Rotation`` (its per-call cost dominates on a few hundred frames)."""
-    q = q / _norm(q)[:, None]
-    q = np.where(q[:, 3:] < 0, -q, q)
-    v = q[:, :3]
-    angle = 2.0 * np.arctan2(_norm(v), q[:, 3])
-    small = angle <= 1e-3
-    a2 = angle * angle
-    scale = np.where(small, 2.0 + a2 / 12.0 + 7.0 * a2 * a2 / 2880.0,
-                     angle / np.sin(0.5 * np.where(small, 1.0, angle)))
-    return scale[:, None] * v
-
-
-def _rotvec_to_quat(rv: np.ndarray) -> np.ndarray:
-    """Unit quaternions (scalar-last) of rotation vectors ``(n, 3)``, as ``_rotvec_to_quat(rv)``."""
-    angle = _norm(rv)
-    small = angle <= 1e-3
-    a2 = angle * angle
-    scale = np.where(small, 0.5 - a2 / 48.0 + a2 * a2 / 3840.0,
-                     np.sin(0.5 * angle) / np.where(small, 1.0, angle))
-    return np.concatenate([scale[:, None] * rv, np.cos(0.5 * angle)[:, None]], axis=1)
-
-
 def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: str, tol: float,
            reach_margin: float, ease_kind: str, prev=None, hinges=None, clocks=None):
     """One enforcement pass. Returns ``(rot, targets, state)`` with ``state`` per leg side:
@@ -423,7 +397,7 @@ def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: st
     rv = np.zeros((n, 3))
     if both.any():
         q = arc_quaternions(Tp[both] - A[both], tT[both] - tA[both])
-        rv[both] = _quat_to_rotvec(q)
+        rv[both] = quat_log(q)
     clock = None
     if clocks is not None and n > 1:
         ck = np.ones(n)
@@ -433,7 +407,7 @@ def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: st
     plan_both, plan_a, plan_t, plan_any = RampPlan.many(np.column_stack([both, la, lt, la | lt]), blend, ease_kind,
                                                         clock=clock)
     rv = plan_both.fill(rv)
-    Rq = _rotvec_to_quat(rv)
+    Rq = quat_exp(rv)
     tip = A + quat_apply(Rq, Tp - A)                      # the toe tip after the foot turned about the ankle point
     # translation: the ankle point on its target while it is planted (with both points planted,
     # the aimed tip misses its target along the foot by the change of the ankle-tip distance
@@ -457,7 +431,7 @@ def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: st
         q_e = arc_quaternions(a_cur - Tt, want - Tt)
         R2 = quat_multiply(q_e, Rq[i])
         delta[i] = Tt - A[i] - quat_apply(R2, Tp[i] - A[i])
-        rv[i] = _quat_to_rotvec(R2)
+        rv[i] = quat_log(R2)
     # ankle point planted alone (before the toe lands, after it lifts): the ankle point exactly on
     # its target, the foot turned about it so that the toe tip follows its fading correction from
     # the toe's plant (symmetric to the above: a toe-only frame next to an ankle-only one is no jump)
@@ -471,7 +445,7 @@ def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: st
             tip0 = a_new + quat_apply(Rq[i], Tp[i] - A[i])
             want = tip0 + ct_fill[i] + w_t[i, None] * (Tp[i] - tip0)
             R2 = quat_multiply(arc_quaternions(tip0 - a_new, want - a_new), Rq[i])
-            rv[i] = _quat_to_rotvec(R2)
+            rv[i] = quat_log(R2)
     if any(one_leg[li] for li, _, _ in segs):
         rv_f = plan_any.fill(rv)
         for r, (li, _, _) in zip(rows, segs):
@@ -502,7 +476,7 @@ def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: st
             rv_l[a:b] = rv[r]
         A_l = pts[:, ka]
         ja = leg.chain[2]
-        Rq = _rotvec_to_quat(rv_l)
+        Rq = quat_exp(rv_l)
         solve = (_norm(delta_l) > tol) | (_norm(rv_l) > tol)
         miss_all, lift_all = np.zeros(T), np.zeros(T)
         if prev is not None:

@@ -16,9 +16,9 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from ..core.motion import Motion
+from ..core.rotations import quat_apply, quat_exp
 
 __all__ = ["SlopeResult", "slope", "travel_direction"]
 
@@ -106,8 +106,8 @@ def slope(motion: Motion, degrees: float, *, axis=None, pivot=None) -> SlopeResu
         piv = np.array([motion.root_positions[0, 0], floor_y, motion.root_positions[0, 2]])
     else:
         piv = np.asarray(pivot, dtype=float).reshape(3)
-    q = Rotation.from_rotvec(ax * np.radians(degrees)).as_quat()
+    q = quat_exp(ax * np.radians(degrees))
     out = motion if degrees == 0 else motion.rotated(q, center=piv)
-    normal = Rotation.from_quat(q).apply([0.0, 1.0, 0.0])
+    normal = quat_apply(q, np.array([0.0, 1.0, 0.0]))
     climb = float(out.root_positions[-1, 1] - out.root_positions[0, 1])
     return SlopeResult(out, float(degrees), ax, piv, normal, floor_y, climb, time.perf_counter() - t0, tuple(notes))
