@@ -63,6 +63,17 @@ the planted frames); a raw CMU clip that does (131_02, 32 %) costs 2.8x its two 
 heel-height easing and the toes moved with their heels (vectorised; 14:09, load 3.5, 12 calls each):
 footplant 24.6 / 25.3 -> 25.9 / 28.3 ms (+5 % min), pathedit 27.3 / 28.9 -> 29.4 / 30.9 ms (+8 %),
 blend with feet planted 27.0 / 27.8 -> 28.7 / 29.7 ms (+6 %).
+
+Speed work for touch-up (2026-12-02 afternoon; before = ``lib/`` of 341bed2's ``mocomp.ops`` dropped into
+today's tree, so only ``ops`` differs; the two run alternately, process by process): the displacement
+maps log, smooth and apply only the joints they move (touch-up's targets differ by rounding on 28-30 of
+31 joints: offsets within 1e-12 rad are dropped), long Gaussians by FFT, fused compiled log/exp kernels
+(:mod:`mocomp.ops._kernels`), the legs' IK compiled. ``run.py --only ops``, three alternations at load
+4.5-5 (best of 25 each): footplant 14.8, 15.9, 16.3 -> 14.2, 26.1, 15.6 ms; pathedit 16.6, 19.2, 37.0
+-> 16.2, 33.6, 30.1 ms; blend 1.2 -> 1.1-1.4 ms -- the same within the noise (these 1,201-frame rows were
+not the target; the clocked fades, ``leg_fade_clocks``, add no measurable time: 34.3 vs 35.6 ms min in
+one process at load 5.6). Touch-up ``ground-default`` on the 10,001-frame synthetic walk, CPU best of 3:
+2.11, 2.08 -> 0.80, 0.85 s (ops' share about 60 % -> 38 %).
 """
 from __future__ import annotations
 
