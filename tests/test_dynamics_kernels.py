@@ -16,11 +16,15 @@ from scipy.spatial.transform import Rotation
 
 from dyn_helpers import rigid_spin, wavy_motion
 from mocomp.body import BodyModel
-from mocomp.core import Motion
+from mocomp.core import Motion, _compiled
 from mocomp.dynamics import MotionVelocities, _kernels, composite_inertia, momentum
 from mocomp.dynamics.momentum import assemble_momentum
 from mocomp.synth import make_example
 from mocomp.synth.skeleton import synthetic_skeleton
+
+#: these tests compare the compiled kernels with the numpy path: without numba (MOCOMP_NO_NUMBA=1)
+#: there is only the numpy path, so they skip (the numpy path is tested in test_dynamics_momentum)
+needs_numba = pytest.mark.skipif(not _kernels.AVAILABLE, reason="compiled backend off (MOCOMP_NO_NUMBA or no numba)")
 
 FIELDS = ("com", "com_velocity", "linear", "angular", "segment_positions", "segment_velocities",
           "segment_angular_velocities")
@@ -65,11 +69,13 @@ def random_case(seed: int = 3, n_frames: int = 97):
     return body, m, vel
 
 
+@pytest.mark.skipif(_compiled.DISABLED, reason="MOCOMP_NO_NUMBA set: the numpy path runs by request")
 def test_numba_is_there():
-    """numba is a project dependency: the compiled path is the one that runs."""
+    """numba is a project dependency: the compiled path is the one that runs (unless switched off)."""
     assert _kernels.AVAILABLE
 
 
+@needs_numba
 def test_backflip_exact_rates_compiled_equals_numpy(monkeypatch):
     r = make_example("backflip")
     got = momentum(r.body, r.motion.replace(), velocity=r.velocities)
@@ -80,6 +86,7 @@ def test_backflip_exact_rates_compiled_equals_numpy(monkeypatch):
     assert np.max(np.linalg.norm(got.angular[a:b] - r.L0, axis=1)) / np.linalg.norm(r.L0) <= 1e-9
 
 
+@needs_numba
 @pytest.mark.parametrize("seed", [3, 11])
 def test_random_motion_given_rates_compiled_equals_numpy(monkeypatch, seed):
     body, m, vel = random_case(seed)
@@ -92,6 +99,7 @@ def test_random_motion_given_rates_compiled_equals_numpy(monkeypatch, seed):
     assert "fk" not in fresh._cache
 
 
+@needs_numba
 @pytest.mark.parametrize("mode", ["finite_difference", "kinematic"])
 @pytest.mark.parametrize("order", [2, 4])
 def test_difference_modes_compiled_sums_equal_numpy(monkeypatch, mode, order):
@@ -103,6 +111,7 @@ def test_difference_modes_compiled_sums_equal_numpy(monkeypatch, mode, order):
     _assert_same(sm, _reference(monkeypatch, lambda: momentum(body, m.replace(), smooth_sigma=2.0)))
 
 
+@needs_numba
 def test_assemble_compiled_equals_numpy_and_checks_shapes(monkeypatch):
     body, m, _ = random_case(7, n_frames=30)
     rng = np.random.default_rng(0)
@@ -117,6 +126,7 @@ def test_assemble_compiled_equals_numpy_and_checks_shapes(monkeypatch):
         assemble_momentum(body, m.times, pos, rot, vel[:, :-1], om)
 
 
+@needs_numba
 def test_compiled_rigid_spin_gives_L_equals_I_omega():
     """Closed form, no reference path: a frozen pose spinning at constant w about its principal axis
     with its COM drifting; the exact rates are w for the root, 0 for every joint and
