@@ -146,6 +146,9 @@ def test_strike_frames_declared_as_external_force_in_the_audit(kicked):
     a, b = rep["frames"]["external_force"]
     assert rep["frames"]["rewind"] <= a < b <= rep["frames"]["reentry"] + 1
     assert rep["impulse_norm_Ns"] <= 60.0 * 1.15
+    # the kick's foot stays on the victim 0.37 s unlimited: the strike ends at 0.25 s
+    assert rep["contact_end_s"] - rep["impact_time_s"] <= 0.25 + 1e-3
+    assert rep["strike_end"] is not None and rep["strike_end"]["after_impact_s"] <= 0.25 + 1e-3
     for f in rep["audit"]["victim"]["findings"]:
         if f["check"] in ("gravity", "L_direction", "L_magnitude") and f["frames"][0] < b and f["frames"][1] > a:
             assert f["severity"] != "violation", f

@@ -165,7 +165,7 @@ def test_counter_attack_is_a_strike_not_a_push(ase, counter):
     fps = r.victim.fps
     assert r.naive.strike_end is not None and r.naive.strike_end["limit"] in ("impulse", "duration")
     assert np.linalg.norm(r.naive.impulse) <= 60.0 * 1.15          # one servo update of overshoot at most
-    assert r.naive.contact_end - r.naive.impact_time <= 0.25 + 1.0 / fps
+    assert r.naive.contact_end - r.naive.impact_time <= 0.25 + 1e-3
     assert np.linalg.norm(r.naive.impulse) > 10.0                   # still a hit
     # the same burst without the limit: a sustained push, an order of magnitude more impulse
     clips, _, _ = ase

@@ -407,6 +407,13 @@ def simulate(scene: Scene, attacker: Motion, victim: Motion, t0: float, t_end: f
                         # the strike is over: the victim's geoms stop accepting the attacker's
                         model.geom_conaffinity[lv.geom_ids] = model.geom_conaffinity[lv.geom_ids] & ~_ATT_BITS
                         cut = (t_now, why)
+            if cut is None and impact is not None and max_contact is not None:
+                # the strike is one touch: its time runs out whether or not the bodies touch just now (a
+                # limb that comes back later is not a second strike)
+                t_now = t0 + (k + (s + 1) / sub) / fps
+                if t_now - impact >= max_contact:
+                    model.geom_conaffinity[lv.geom_ids] = model.geom_conaffinity[lv.geom_ids] & ~_ATT_BITS
+                    cut = (t_now, "duration")
         track[k] = ang_err_v
         if not np.all(np.isfinite(data.qpos)):
             raise ImpactError(f"the simulation became unstable at {t0 + k / fps:.3f} s (non-finite state); "
