@@ -278,7 +278,10 @@ def test_every_real_single_flip_becomes_a_double(real_data_dir, name, options):
     assert R.L_range_new <= 1.5 * R.L_range_original, str(R)
     assert R.L_variation_new <= 1.5 * R.L_variation_original, str(R)     # 88_01 was 1.62x before eq. 5.22 seams
     assert R.com_target_error < 1e-9
-    assert 0.7 <= R.gravity_scale <= 1.45                          # timing right after the corrections
+    # timing right after the corrections; the DeepMimic side flip is planned with its character's own
+    # (known) masses since issue 13 (prepare(estimate="auto")): its simulated flight is not ballistic
+    # and fits 14.8 m/s^2 with them (the flight-fitted masses had hidden that at <= 1.45)
+    assert 0.7 <= R.gravity_scale <= (1.6 if name == "deepmimic_sideflip" else 1.45)
 
 
 @pytest.mark.realdata

@@ -198,7 +198,8 @@ def test_fallback_without_self_loop_says_so():
 def test_real_fallbacks_are_reported(real_data_dir, name):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        P = prepare(name)
+        P = prepare(name, estimate=True)    # the flight-fitted masses (a DeepMimic clip's own are used by
+        # default since issue 13; with them the side flip's |L| std is 0.103 against the input's 0.090)
     R = multiflip(P, flips=2).report
     assert not R.loop_found
     assert any(n.startswith("fallback (section 5.2)") and "eq. 5.22" in n for n in R.notes)

@@ -203,7 +203,13 @@ def test_deepmimic_back_flip_landing_is_matched_to_the_arrival(deepmimic_back):
     assert auto.landing is not None and auto.landing["repaired"] and plain.landing is None
     body = default_body(P.motion)
     ra, rp = audit(auto.motion, body, against=P.motion), audit(plain.motion, body, against=P.motion)
-    assert ra.measure("landing_jump_mps") < rp.measure("landing_jump_mps") - 0.2
+    # planned with the character's own masses (prepare(estimate="auto")) the matched stance takes
+    # 1.11 -> 0.96 m/s; with the command's default stance smoothing too (takeoff="smooth"), ~0.3
+    # (input 0.37)
+    assert ra.measure("landing_jump_mps") < rp.measure("landing_jump_mps") - 0.1
+    sm = audit(multiflip(P, flips=2, takeoff="smooth").motion, body, against=P.motion)
+    assert sm.measure("landing_jump_mps") < rp.measure("landing_jump_mps") - 0.5
+    assert sm.measure("landing_jump_mps") <= audit(P.motion, body).measure("landing_jump_mps") + 0.125
     assert ra.measure("max_com_jump_mps") <= rp.measure("max_com_jump_mps") + 0.05
     assert ra.measure("max_penetration_m") <= rp.measure("max_penetration_m") + 0.005
     assert ra.measure("max_foot_slide_m") <= rp.measure("max_foot_slide_m") + 0.005

@@ -115,7 +115,8 @@ def _run(args: argparse.Namespace) -> int:
     if args.k_ratio is not None and not (math.isfinite(args.k_ratio) and args.k_ratio > 0):
         raise ValueError(f"--k-ratio must be a positive number, got {args.k_ratio}")
     prep = prepare(args.input, fps=args.fps, fix_timing=args.fix_timing, total_mass=args.total_mass,
-                   flight=tuple(args.flight) if args.flight else None, estimate=not args.no_mass_estimate,
+                   flight=tuple(args.flight) if args.flight else None,
+                   estimate="auto" if not args.no_mass_estimate else False,
                    joint_flights=args.joint_flights, shape=args.shape)
     check_flight(prep, args, "flips", fps_hint="--fix-timing, or --fps F")
     res = multiflip(prep, flips=args.flips, k=args.k, k_ratio=args.k_ratio, height_change=args.height_change,
