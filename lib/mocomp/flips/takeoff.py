@@ -517,6 +517,9 @@ FIT_HALF_S = 0.03
 #: m/s: the margins over the input's own event jump :func:`smooth_stance` tries in turn (the audit calls
 #: an output worse than its input beyond a quarter of its 0.5 m/s threshold, 0.125)
 SMOOTH_MARGINS = (0.0, 0.05, 0.1, 0.15, 0.2, 0.35)
+#: a velocity-jump row whose sensitivity to the stance's displacement is below this fraction of the
+#: most sensitive row's is only kept from growing by :func:`smooth_stance` (its fits lie in the flight)
+WEAK_ROW = 0.25
 
 
 def captured_acceleration(com: np.ndarray, fps: float, rate: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -657,8 +660,19 @@ def smooth_stance(motion: Motion, com_fn, event: str, event_frame: float, stance
     share = np.sqrt(np.sum(J0 * J0, axis=0) / max(float(np.sum(J0 * J0)), 1e-12))
     share = np.maximum(share, 0.1)
     share /= np.linalg.norm(share)
-    def attempt(margin):
-        b = (float(target_jump) + float(margin)) * share
+    # each component gets at least 0.35 of the bound: a component the current jumps barely have can
+    # still carry the flight side's own (the norm may then exceed the bound a little; the result is
+    # kept only where the measured largest jump falls)
+    share = np.maximum(share, 0.35)
+    # rows the stance barely reaches (their fits lie mostly in the flight, which is not changed) may not
+    # grow, but are not held to the target: a jump on the flight's side is out of the stance's reach
+    sens = np.abs(M).sum(axis=1)
+    weak = sens < WEAK_ROW * float(sens.max())
+
+    def attempt(margin, min_force, split=True):
+        B = float(target_jump) + float(margin)
+        b = np.broadcast_to(B * share if split else np.full(3, B), J0.shape).copy()
+        b[weak] = np.maximum(b[weak], np.abs(J0[weak]))
         try:
             new, rep = repair_stance(motion, com_fn, event, float(event_frame), np.zeros(3), stance, g=g,
                                      max_force=max_force, min_force=min_force, max_window=max_window, body=body,
@@ -669,18 +683,29 @@ def smooth_stance(motion: Motion, com_fn, event: str, event_frame: float, stance
         after = _event_jump(com_fn(np.asarray(new.root_positions), np.asarray(new.rotations)), fps, event_frame)
         return (after, new, rep, float(margin)) if np.isfinite(after) and after < before - 1e-3 else None
 
-    failed = None
-    for margin in margins:
-        got = attempt(margin)
-        if got is None:
-            failed = margin
-            continue
-        if failed is not None:              # one bisection step between the last margin that did not fit and this
-            mid = attempt(0.5 * (failed + margin))
-            if mid is not None and mid[0] < got[0]:
-                got = mid
+    # the least ground force: min_force (then the repair's own fallback, 0.1 body weights), and only where
+    # no map exists so, none: the last frames before a take-off the method counts as ground may already
+    # be airborne (the DeepMimic side flip's feet leave 3 frames before its detected take-off)
+    for floor in (min_force, 0.0) if min_force > 0.0 else (min_force,):
+        failed = None
+        for margin in margins:
+            got = attempt(margin, floor)
+            if got is None:
+                failed = margin
+                continue
+            if failed is not None:          # one bisection step between the last margin that did not fit and this
+                mid = attempt(0.5 * (failed + margin), floor)
+                if mid is not None and mid[0] < got[0]:
+                    got = mid
+            after, new, rep, m = got
+            info.update(jump_after=after, margin=m, repair=rep.to_dict(), min_force=float(floor))
+            return new, info
+    # last: every component bounded alike, just below the largest jump now (a jump mostly on the flight's
+    # side in a direction the current jumps barely have)
+    got = attempt(before - 0.05 - float(target_jump), 0.0, split=False)
+    if got is not None:
         after, new, rep, m = got
-        info.update(jump_after=after, margin=m, repair=rep.to_dict())
+        info.update(jump_after=after, margin=m, repair=rep.to_dict(), min_force=0.0)
         return new, info
     return motion, info
 
