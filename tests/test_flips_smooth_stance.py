@@ -142,3 +142,25 @@ def test_edit_deepmimic_backflip_straight_legs_lands_as_the_input(tmp_path):
     assert got["as-is"]["landing_jump_mps"]["this"] > land["this"] + 0.1
     for key in ACCEPTANCE:
         assert not got["smooth"][key]["worse"], (key, got["smooth"][key])
+
+
+def test_deepmimic_clip_is_planned_with_its_own_characters_masses(tmp_path):
+    """A DeepMimic clip names its character: ``prepare`` uses its masses (known) instead of estimating
+    them from the flight (``estimate="auto"``). The flight's parabola is then the COM the audit
+    measures: the back flip x2's largest jump away from its landings 0.67 m/s (estimated masses)
+    against the input's 0.33 becomes the input's own."""
+    from mocomp.audit.run import default_body
+
+    clip = _data("flips", "deepmimic_backflip.txt")
+    P = prepare(str(clip))
+    char = default_body(P.motion)
+    assert P.mass is None and any("character's own" in n for n in P.notes)
+    np.testing.assert_allclose(P.body.masses, char.masses, rtol=1e-12)
+    Q = prepare(str(clip), estimate=True)
+    assert Q.mass is not None and not np.allclose(Q.body.masses, char.masses)
+    rows = {}
+    for label, prep in (("own", P), ("estimated", Q)):
+        rows[label] = _rows(multiflip(prep, 2, takeoff="smooth").motion, P.motion, tmp_path, label)
+    own, est = rows["own"]["max_com_jump_mps"], rows["estimated"]["max_com_jump_mps"]
+    assert own[3] <= own[4] + MARGIN and not own[5]
+    assert est[3] > own[3] + 0.2
