@@ -371,8 +371,9 @@ def prepare(source, *, body: BodyModel | None = None, total_mass: float = 70.0, 
         them unless the prior is the clip's own character (a DeepMimic clip names the character its
         motion was simulated with: its masses are known, and an estimate from its flight, which is
         not ballistic, is worse: its x2 flight planned with the estimated masses read 0.67 m/s COM
-        velocity jumps in flight with the character's, against the input's 0.33; with the
-        character's, 0.32). ``True`` estimates them anyway.
+        velocity jumps with the character's (the audit's body), against the input's 0.33; planned with
+        the character's, 0.58, and 0.45 with ``mocomp flips``'s stance smoothing). ``True`` estimates
+        them anyway.
     joint_flights: estimate from every detected flight jointly (e.g. hops before the flip).
     W: regulariser of eq. 5.2 (see :mod:`mocomp.flips.mass`).
     keep_prior_if_worse: when the estimate does not reduce the linear-momentum deviation from
