@@ -38,6 +38,10 @@ ALLOWED_FAILURES = 1
 REVIVE_SECONDS = 15.0
 #: seconds between the checks of pending items (complete on disk, the cluster's workers)
 SCAN_SECONDS = 5.0
+#: how local worker processes start (:func:`open_client`)
+START_METHOD = "forkserver"
+#: modules the forkserver imports once for every local worker it forks
+WORKER_PRELOAD = ("mocomp.batch._preload",)
 #: seconds one attempt to fetch a result may block the loop (the loop's checks run in between)
 FETCH_POLL_SECONDS = 2.0
 #: items per task at most when :func:`map_items` chunks adaptively
@@ -73,12 +77,38 @@ def default_workers() -> int:
         return max(1, os.cpu_count() or 1)
 
 
+def _preload_forkserver() -> None:
+    """Have the forkserver import mocomp's commands once (with Dask's own preloads), so that each
+    local worker process is forked with them imported instead of importing them itself."""
+    import multiprocessing
+    import multiprocessing.forkserver as fs
+
+    from distributed.utils import get_mp_context
+
+    with contextlib.suppress(Exception):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            import dask
+
+            with dask.config.set({"distributed.worker.multiprocessing-method": "forkserver"}):
+                get_mp_context()  # Dask's preload list, set once per process
+        have = list(getattr(fs._forkserver, "_preload_modules", []) or [])
+        want = have + [m for m in WORKER_PRELOAD if m not in have]
+        multiprocessing.get_context("forkserver").set_forkserver_preload(want)
+
+
 @contextlib.contextmanager
 def open_client(workers: int | None = None, scheduler: str | None = None, *,
-                allowed_failures: int = ALLOWED_FAILURES, memory_limit: str | None = "auto"):
+                allowed_failures: int = ALLOWED_FAILURES, memory_limit: str | None = "auto",
+                start_method: str = START_METHOD):
     """A :class:`dask.distributed.Client`: on ``scheduler`` (an existing cluster) or on a new
     LocalCluster of ``workers`` single-threaded worker processes (default :func:`default_workers`),
-    closed on exit. Raises ``OSError`` naming the scheduler when it cannot be reached."""
+    closed on exit. Raises ``OSError`` naming the scheduler when it cannot be reached.
+
+    start_method: how the local worker processes start: ``"forkserver"`` (default) forks them from
+    a server process that imported mocomp's commands once (:data:`WORKER_PRELOAD`), so two
+    workers do not each import them on a 2-core host; ``"spawn"`` (Dask's default) starts each
+    afresh. The ``MOCOMP_*`` variables of this process are passed to the workers either way."""
     import dask
     from dask.distributed import Client, LocalCluster
 
@@ -96,12 +126,19 @@ def open_client(workers: int | None = None, scheduler: str | None = None, *,
     if n < 1:
         raise ValueError(f"workers must be at least 1 for a cluster, got {n}")
     # worker-saturation 1.0: a worker holds only the task it runs, so a crash takes no queued item down with it
-    with dask.config.set({"distributed.scheduler.allowed-failures": int(allowed_failures),
-                          "distributed.scheduler.worker-saturation": 1.0}):
+    cfg = {"distributed.scheduler.allowed-failures": int(allowed_failures),
+           "distributed.scheduler.worker-saturation": 1.0}
+    if start_method == "forkserver":
+        cfg["distributed.worker.multiprocessing-method"] = "forkserver"
+        _preload_forkserver()
+    with dask.config.set(cfg):
         with warnings.catch_warnings():  # the scheduler's port probing leaves sockets to the collector
             warnings.simplefilter("ignore", ResourceWarning)
+            # the project's switches (MOCOMP_*) as the client has them now: a forked worker would
+            # otherwise have the forkserver's environment of when it started
+            env = {k: v for k, v in os.environ.items() if k.startswith("MOCOMP_")}
             cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
-                                   memory_limit=memory_limit, silence_logs=logging.CRITICAL)
+                                   memory_limit=memory_limit, silence_logs=logging.CRITICAL, env=env)
             client = Client(cluster)
     try:
         yield client

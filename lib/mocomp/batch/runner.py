@@ -44,6 +44,7 @@ class BatchResult:
         the inputs' classification; NaN when no cluster was started); start_waited: the part of it the
         batch waited for, after its own preparation.
     workers: worker threads of the cluster (0: none was needed).
+    started: when the batch started (``time.time()``).
     """
 
     table: pd.DataFrame
@@ -55,6 +56,7 @@ class BatchResult:
     workers: int = 0
     start_seconds: float = float("nan")
     start_waited: float = 0.0
+    started: float = 0.0
     notes: list[str] = field(default_factory=list)
 
     def counts(self) -> dict[str, int]:
@@ -250,6 +252,7 @@ def run_batch(command: str, source, out_dir, options=(), *, workers: int | None 
     always finishes.
     """
     t_start = time.perf_counter()
+    started = time.time()
     if command not in COMMANDS:
         raise ValueError(f"unknown command {command!r}; batch runs: {', '.join(COMMANDS)}")
     options = [str(o) for o in options]
@@ -264,8 +267,10 @@ def run_batch(command: str, source, out_dir, options=(), *, workers: int | None 
         # read back; closed below when no clip is left to run
         starter = ClientStarter(workers, scheduler, setup=_warm_up)
     try:
-        return _run(command, source, out, options, output_type, resume, retry_failed, progress, client, starter,
-                    in_process, t_start, chunk)
+        res = _run(command, source, out, options, output_type, resume, retry_failed, progress, client, starter,
+                   in_process, t_start, chunk)
+        res.started = started
+        return res
     finally:
         if starter is not None:
             starter.close()
