@@ -62,7 +62,7 @@ from ..core.motion import Motion
 from ..errors import PhysicsError
 
 __all__ = ["StanceRepair", "StanceRepairError", "repair_stance", "stance_displacement", "TAKEOFF_CHOICES",
-           "stance_window", "smooth_stance", "audit_com", "captured_acceleration", "MATCH_S", "MATCH_TOL", "SMOOTH_MARGINS",
+           "stance_window", "smooth_stance", "audit_com", "SMOOTH_MARGINS",
            "MAX_FORCE", "MIN_FORCE", "MIN_FORCE_FALLBACK", "MAX_WINDOW_S", "JERK_WEIGHT", "DEGREE", "KNOT_SPACING_S", "ACC_SMOOTH_S",
            "IK_TOLERANCE", "AIRBORNE_CLEARANCE", "KNEE_MARGIN", "KNEE_MIN"]
 
@@ -303,11 +303,11 @@ def _needed_force(tau, slope, D, a_own, g, min_force, max_force, d_lo=None, d_hi
 
 
 def _solve_map(tau, sign, dv, D, lo_acc, hi_acc, d_lo, d_hi, jerk_weight, frames, fps, event, a_own, g, min_force,
-               max_force, fine, acc_match=None, acc_tol: float = 0.0, explain: bool = True, jump=None,
+               max_force, fine, explain: bool = True, jump=None,
                free_slope: bool = False):
     """The three components of the displacement map (vertical: force bounds on the grid ``fine``,
-    leg-room bounds on the frames ``tau``; ``acc_match (n, 3)``: the extra acceleration ``d''`` the
-    frames ``tau`` must get, within ``acc_tol`` m/s^2, NaN where free). Returns ``(disp (n, 3),
+    leg-room bounds on the frames ``tau``; ``jump``: linear bounds on the frames' displacement, see
+    :func:`repair_stance`). Returns ``(disp (n, 3),
     acc (len(fine), 3))``."""
     disp = np.zeros((frames.size, 3))
     acc = np.zeros((fine.size, 3))
@@ -316,27 +316,22 @@ def _solve_map(tau, sign, dv, D, lo_acc, hi_acc, d_lo, d_hi, jerk_weight, frames
     inf = np.full(fine.size, np.inf)
     for c in range(3):
         m_lo, m_hi = np.full(n, -np.inf), np.full(n, np.inf)
-        if acc_match is not None:
-            am = np.asarray(acc_match, dtype=float)[:, c]
-            fin = np.isfinite(am)
-            m_lo[fin], m_hi[fin] = am[fin] - acc_tol, am[fin] + acc_tol
-        matched = acc_match is not None and bool(np.any(np.isfinite(m_lo)))
         rows = None
         if jump is not None:
             Mj = np.asarray(jump[0], dtype=float)
             rows = (np.c_[Mj, np.zeros((Mj.shape[0], fine.size))], np.asarray(jump[1], dtype=float)[:, c],
                     np.asarray(jump[2], dtype=float)[:, c])
-        if abs(dv[c]) < 1e-9 and not matched and rows is None:
+        if abs(dv[c]) < 1e-9 and rows is None:
             continue
         slope = None if free_slope else sign * dv[c]
         if c == 1:
             d, a, ok = stance_displacement(both, slope, D, np.r_[m_lo, lo_acc],
                                            np.r_[m_hi, hi_acc], jerk_weight=jerk_weight,
                                            d_lower=np.r_[-d_lo, -inf], d_upper=np.r_[d_hi, inf], lin_rows=rows)
-        elif matched or rows is not None:
+        elif rows is not None:
             d, a, ok = stance_displacement(both, slope, D, np.r_[m_lo, -inf], np.r_[m_hi, inf],
                                            jerk_weight=jerk_weight, lin_rows=rows,
-                                           acc_weight=HORIZONTAL_ACC_WEIGHT if rows is not None else 0.0)
+                                           acc_weight=HORIZONTAL_ACC_WEIGHT)
         else:
             d, a, ok = stance_displacement(both, slope, D, jerk_weight=jerk_weight)
         if not ok and not explain:
@@ -375,8 +370,8 @@ def stance_window(event: str, event_frame: float, stance, fps: float, max_window
 def repair_stance(motion: Motion, com_fn, event: str, event_frame: float, dv, stance: tuple[int, int], *,
                   g: float, max_force: float = MAX_FORCE, min_force: float = MIN_FORCE,
                   max_window: float = MAX_WINDOW_S, jerk_weight: float = JERK_WEIGHT, body=None,
-                  measure_zmp: bool = True, acc_match=None, acc_tol: float = 0.0,
-                  explain: bool = True, jump=None, free_slope: bool = False) -> tuple[Motion, StanceRepair]:
+                  measure_zmp: bool = True, explain: bool = True, jump=None,
+                  free_slope: bool = False) -> tuple[Motion, StanceRepair]:
     """Add the velocity ``dv`` ``(3,)`` m/s to the stance next to an event, smoothly (module docstring).
 
     Parameters
@@ -395,10 +390,8 @@ def repair_stance(motion: Motion, com_fn, event: str, event_frame: float, dv, st
     jump: ``(M, lo, hi)``: linear bounds ``lo <= M d <= hi`` (``lo``, ``hi`` of shape ``(m, 3)``, per
         component) on the displacement of the window frames (``M (m, n)``; :func:`smooth_stance` bounds
         the audit's velocity jumps with them); free_slope: leave ``d'`` at the event free.
-    acc_match: ``(n, 3)`` m/s^2 on the window frames (:func:`stance_window`, in its order), the extra
-        COM acceleration ``d''`` each frame must get within ``acc_tol`` (NaN: free); used by
-        :func:`smooth_stance` to give the frames next to the event the captured push's or impact's
-        acceleration.
+    explain: on failure, work out the force a map would need for the message (a bisection; off in
+        :func:`smooth_stance`, which tries several bounds).
 
     Raises :class:`StanceRepairError` when no map within the force bounds exists in the stance or
     the legs cannot keep the feet planted.
@@ -406,7 +399,7 @@ def repair_stance(motion: Motion, com_fn, event: str, event_frame: float, dv, st
     with _one_blas_thread():
         return _repair_stance(motion, com_fn, event, event_frame, dv, stance, g=g, max_force=max_force,
                               min_force=min_force, max_window=max_window, jerk_weight=jerk_weight, body=body,
-                              measure_zmp=measure_zmp, acc_match=acc_match, acc_tol=acc_tol, explain=explain,
+                              measure_zmp=measure_zmp, explain=explain,
                               jump=jump, free_slope=free_slope)
 
 
@@ -432,7 +425,7 @@ def _one_blas_thread():
 
 def _repair_stance(motion: Motion, com_fn, event: str, event_frame: float, dv, stance: tuple[int, int], *,
                    g: float, max_force: float, min_force: float, max_window: float, jerk_weight: float, body,
-                   measure_zmp: bool, acc_match, acc_tol: float, explain: bool, jump, free_slope: bool):
+                   measure_zmp: bool, explain: bool, jump, free_slope: bool):
     if event not in ("take-off", "landing"):
         raise ValueError(f"event must be 'take-off' or 'landing', got {event!r}")
     if not (np.isfinite(max_force) and np.isfinite(min_force) and 0.0 <= min_force < 1.0 < max_force):
@@ -440,8 +433,6 @@ def _repair_stance(motion: Motion, com_fn, event: str, event_frame: float, dv, s
     fps = float(motion.fps)
     dv = np.asarray(dv, dtype=float).reshape(3)
     frames, tau, sign = stance_window(event, event_frame, stance, fps, max_window)
-    if acc_match is not None and np.shape(acc_match) != (frames.size, 3):
-        raise ValueError(f"acc_match must be ({frames.size}, 3) (the window frames), got {np.shape(acc_match)}")
     if frames.size < 4:
         raise StanceRepairError(
             f"the {event} stance has {frames.size} output frame(s) next to the event (frame {event_frame:.1f}): too short "
@@ -463,13 +454,6 @@ def _repair_stance(motion: Motion, com_fn, event: str, event_frame: float, dv, s
     fine = np.linspace(0.0, D, 2 * frames.size + 1)[1:]
     a_fine = np.interp(fine, tau[order], a_own[order])
     hi_fine = g * (max_force - 1.0) - a_fine
-    # frames whose acceleration is matched to the captured one carry no force bound of their own (the
-    # captured push ends, and its impact begins, outside the bounds: the feet leave or strike the floor)
-    free_fine = None
-    if acc_match is not None:
-        am = np.all(np.isfinite(np.asarray(acc_match, dtype=float)), axis=1)
-        if am.any():
-            free_fine = fine <= float(np.max(tau[am])) + 0.5 / fps
     gain = 1.0
     # the least vertical force: min_force, and only where the stance cannot do it so, MIN_FORCE_FALLBACK
     floors = (float(min_force),) + ((MIN_FORCE_FALLBACK,) if min_force > MIN_FORCE_FALLBACK else ())
@@ -477,12 +461,9 @@ def _repair_stance(motion: Motion, com_fn, event: str, event_frame: float, dv, s
         for i, floor in enumerate(floors):
             lo_fine = g * (floor - 1.0) - a_fine
             try:
-                if free_fine is not None:
-                    lo_fine = np.where(free_fine, -np.inf, lo_fine)
-                disp, acc = _solve_map(tau, sign, dv, D, lo_fine, np.where(free_fine, np.inf, hi_fine)
-                                       if free_fine is not None else hi_fine, down / gain, up / gain, jerk_weight,
-                                       frames, fps, event, a_fine, g, floor, max_force, fine, acc_match, acc_tol,
-                                       explain, jump, free_slope)
+                disp, acc = _solve_map(tau, sign, dv, D, lo_fine, hi_fine, down / gain, up / gain, jerk_weight,
+                                       frames, fps, event, a_fine, g, floor, max_force, fine, explain, jump,
+                                       free_slope)
                 break
             except StanceRepairError:
                 if i == len(floors) - 1:
@@ -509,15 +490,6 @@ def _repair_stance(motion: Motion, com_fn, event: str, event_frame: float, dv, s
     return new, rep
 
 
-#: s: the stretch of the stance next to a take-off or a landing that :func:`smooth_stance` plays with the
-#: captured COM acceleration: the audit's event window (0.05 s) plus two of its one-sided fits (0.03 s
-#: each), so every velocity-jump fit the audit makes around the event sees the captured push or impact
-MATCH_S = 0.12
-#: m/s^2: how closely :func:`smooth_stance` matches the captured acceleration there
-MATCH_TOL = 1.0
-#: s: half-width of the local quadratic (Savitzky-Golay) fits of the stance's COM velocity and
-#: acceleration in :func:`captured_acceleration` (the audit's one-sided fit length)
-FIT_HALF_S = 0.03
 #: m/s: the margins over the input's own event jump :func:`smooth_stance` tries in turn (the audit calls
 #: an output worse than its input beyond a quarter of its 0.5 m/s threshold, 0.125)
 SMOOTH_MARGINS = (0.0, 0.05, 0.1, 0.15, 0.2, 0.35)
@@ -530,33 +502,6 @@ HORIZONTAL_ACC_WEIGHT = 0.1
 #: a velocity-jump row whose sensitivity to the stance's displacement is below this fraction of the
 #: most sensitive row's is only kept from growing by :func:`smooth_stance` (its fits lie in the flight)
 WEAK_ROW = 0.25
-
-
-def captured_acceleration(com: np.ndarray, fps: float, rate: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(a_out, a_captured)``, each ``(n, 3)`` m/s^2: the COM acceleration of a stretch of ground frames
-    ``com (n, 3)`` played at the rate ``rate (n,)`` (source seconds per output second), and the acceleration
-    the same frames have as captured (rate 1). Output frame ``u`` shows source time ``s(u)``, so with
-    ``r = ds/du`` the output's COM velocity is ``r v`` and its acceleration ``r^2 a + r' v``: ``a =
-    (a_out - r' v_out / r) / r^2``. Velocity and acceleration are local quadratic least-squares fits
-    (Savitzky-Golay) over :data:`FIT_HALF_S` each side, one-sided at the stretch's ends (a take-off or
-    landing's ground side only, as the audit's one-sided fits)."""
-    from scipy.signal import savgol_filter
-
-    c = np.asarray(com, dtype=float)
-    n = c.shape[0]
-    r = np.asarray(rate, dtype=float)
-    if r.shape != (n,) or not np.all(r > 0):
-        raise ValueError(f"rate must be ({n},) positive, got shape {r.shape}")
-    h = max(2, int(round(FIT_HALF_S * fps)))
-    L = min(2 * h + 1, n if n % 2 else n - 1)
-    if L < 3:
-        return np.zeros_like(c), np.zeros_like(c)
-    dt = 1.0 / float(fps)
-    v = savgol_filter(c, L, 2, deriv=1, delta=dt, axis=0, mode="interp")
-    a = savgol_filter(c, L, 2, deriv=2, delta=dt, axis=0, mode="interp")
-    rdot = np.gradient(r, dt) if n > 1 else np.zeros(n)
-    cap = (a - (rdot / r)[:, None] * v) / (r * r)[:, None]
-    return a, cap
 
 
 def _event_jump(com: np.ndarray, fps: float, event_frame: float) -> float:
