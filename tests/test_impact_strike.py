@@ -286,3 +286,40 @@ def test_no_foot_slide_after_reentry_where_the_found_clip_itself_slides(counter,
     own = [x.size for x in ca.violations if x.check == "foot_slide" and x.frames[1] - off > re
            and x.frames[0] - off < v.n_frames]
     assert own and max(own) > 0.03
+
+
+def test_counter_victim_after_reentry_has_only_the_found_clips_own_jumps(counter, ase):
+    """The counter attack's found clip (ASE Fall_SpinRight) drives the 0.74 m sword up to 39 cm into the
+    floor while lying; the floor lift used to raise the whole body by that, leaving it floating 24 cm
+    above the floor (audit: gravity finding in a 'flight', output frames 163-172). The sword is now turned
+    out of the floor at the wrist and the body lifted for its own joints only: on the written file, after
+    the strike, no gravity finding, the sword above the floor, and every COM velocity jump after the
+    re-entry one the found clip has itself at that frame (or within its own jump noise)."""
+    from mocomp.audit import audit
+    from mocomp.audit.run import default_body
+    from mocomp.impact.blend import wrist_props
+
+    r, v, _ = counter
+    clips, index, _ = ase
+    re = r.frames["reentry"]
+    va = audit(v, against=clips["idle"], external_force_frames=[tuple(r.frames["external_force"])])
+    assert not [x for x in va.violations if x.check == "gravity"]
+    floor = r.evidence["floor_lift"]["floor_y_m"]
+    (sword,) = wrist_props(v.skeleton)
+    assert v.skeleton.names[sword] == "sword"
+    assert v.positions[re:, sword, 1].min() >= floor - 0.005            # written precision
+    assert r.evidence["props_turned"]["frames"] > 0 and r.evidence["props_turned"]["max_deg"] < 45
+    # the lift is the body's own sinking, not the sword's: the lowest body joint touches the floor while lying
+    body = [j for j in range(v.skeleton.n_joints) if j != sword]
+    lying = slice(re + 60, re + 120)
+    assert v.positions[lying, body, 1].min(axis=1).min() < floor + 0.03
+    clip = index.motion(r.search.clip)
+    off = r.frames["found_clip_frame_at_reentry"] - re
+    ca = audit(clip, body=default_body(v, like=clips["idle"]))
+    own = [x for x in ca.violations if x.check == "com_velocity_jump"]
+    limit = min(x.threshold for x in own)
+    for x in va.violations:
+        if x.check != "com_velocity_jump" or x.frames[0] <= re:
+            continue
+        at = [c.size for c in own if abs(c.peak_frame - off - x.peak_frame) <= 2]
+        assert (at and max(at) >= x.size) or x.size <= limit, x.message

@@ -35,6 +35,7 @@ from ..core.motion import Motion, slerp
 from ..core.rotations import quat_angle, quat_inverse, quat_multiply
 
 __all__ = ["BlendOutcome", "final_blend", "correction", "floor_lift", "plant_feet", "frame_steps",
+           "wrist_props", "props_above_floor",
            "limit_plant_steps"]
 
 
@@ -124,19 +125,48 @@ def frame_steps(motion: Motion) -> tuple[np.ndarray, np.ndarray]:
     return dr, dq.max(axis=1)
 
 
+def wrist_props(skeleton) -> tuple[int, ...]:
+    """Prop joints (:data:`mocomp.impact.attacker.PROPS`: ASE's sword) that a turn of their parent
+    alone can move: the parent's every child joint is a prop (the hand holding the sword), so turning
+    the wrist moves the prop and nothing of the body. The ASE shield hangs from the forearm beside
+    the hand and is not one."""
+    from .attacker import PROPS
+
+    names = [n.lower() for n in skeleton.names]
+    parents = np.asarray(skeleton.parents)
+    out = []
+    for j, n in enumerate(names):
+        p = int(parents[j])
+        if j == 0 or p < 0 or not any(w in n for w in PROPS) or any(w in names[p] for w in PROPS):
+            continue
+        kids = np.nonzero(parents == p)[0]
+        if all(any(w in names[k] for w in PROPS) for k in kids) and not np.any(parents == j):
+            out.append(j)
+    return tuple(out)
+
+
 def floor_lift(motion: Motion, floor_y: float, *, smooth_frames: float = 2.0,
-               tolerance: float = 0.005, start: int = 0, ramp_frames: int = 0) -> tuple[Motion, np.ndarray]:
+               tolerance: float = 0.005, start: int = 0, ramp_frames: int = 0,
+               exclude: tuple[int, ...] = ()) -> tuple[Motion, np.ndarray]:
     """``(motion, lift (T,))``: the root raised per frame so that no joint or end site is more than
     ``tolerance`` (m) below ``floor_y`` (m), the lift smoothed in time (a running maximum over ``3 * smooth_frames`` frames each
     side, then a Gaussian of ``smooth_frames``: never less than what a frame needs, no jumps).
     Frames that need nothing keep a zero lift unless within the smoothing of one that does.
     ``start``: frames before it are never lifted (the input clip before the impact); the lift then
-    eases in over ``ramp_frames`` frames from ``start`` (never below what a frame needs)."""
+    eases in over ``ramp_frames`` frames from ``start`` (never below what a frame needs).
+    ``exclude``: joints (and their end sites) that do not count (:func:`wrist_props`, which
+    :func:`props_above_floor` turns out of the floor instead: the ASE falls drive the 0.74 m sword
+    up to 39 cm into the floor while lying, and lifting the body by that left it floating, 24 cm
+    above the floor with no support -- a gravity finding of the audit)."""
     P = motion.positions
     ends = motion.end_site_positions()
-    low = P[..., 1].min(axis=1)
+    keep = np.ones(motion.skeleton.n_joints, bool)
+    keep[list(exclude)] = False
+    low = P[:, keep, 1].min(axis=1)
     if ends.size:
-        low = np.minimum(low, ends[..., 1].min(axis=1))
+        ek = [k for k, e in enumerate(motion.skeleton.end_sites) if keep[e.parent]]
+        if ek:
+            low = np.minimum(low, ends[:, ek, 1].min(axis=1))
     need = np.maximum(floor_y - tolerance - low, 0.0)
     if not need.any():
         return motion, np.zeros(motion.n_frames)
@@ -154,6 +184,56 @@ def floor_lift(motion: Motion, floor_y: float, *, smooth_frames: float = 2.0,
     rp = np.array(motion.root_positions)
     rp[:, 1] += lift
     return motion.replace(root_positions=rp), lift
+
+
+def props_above_floor(motion: Motion, floor_y: float, props: tuple[int, ...], *, tolerance: float = 0.005,
+                      smooth_frames: float = 2.0, start: int = 0) -> tuple[Motion, np.ndarray]:
+    """``(motion, angle (T,) rad)``: each prop of ``props`` (:func:`wrist_props`) kept no more than
+    ``tolerance`` m below ``floor_y`` by turning its parent (the wrist) in the vertical plane of the
+    hand-to-prop line: the line's drop is limited to what the floor allows, the deficit smoothed in
+    time like :func:`floor_lift`'s (a running maximum, then a Gaussian: never less than a frame
+    needs), the turn the shortest arc from the line to its lifted copy. Frames before ``start`` are
+    left alone. ``angle``: the largest turn over the props per frame."""
+    from ..core.rotations import quat_inverse, quat_multiply, shortest_arc
+
+    T = motion.n_frames
+    angle = np.zeros(T)
+    if not props or T == 0:
+        return motion, angle
+    parents = np.asarray(motion.skeleton.parents)
+    rot = np.array(motion.rotations)
+    r = int(np.ceil(3 * smooth_frames))
+    for j in props:
+        P = motion.positions
+        G = motion.global_rotations
+        h = int(parents[j])
+        v = P[:, j] - P[:, h]
+        L = np.linalg.norm(v, axis=1)
+        lo = floor_y - tolerance - P[:, h, 1]              # the lowest the line may reach
+        need = np.maximum(lo - v[:, 1], 0.0)
+        need[:start] = 0.0
+        if not need.any():
+            continue
+        d = gaussian_filter1d(maximum_filter1d(need, 2 * r + 1, mode="nearest"), smooth_frames, mode="nearest")
+        d = np.maximum(d, need)
+        d[:start] = 0.0
+        d[d < 1e-6] = 0.0
+        y = np.clip(v[:, 1] + d, -L, L)
+        hor = v[:, [0, 2]]
+        hn = np.linalg.norm(hor, axis=1)
+        dirs = np.where(hn[:, None] > 1e-9, hor / np.maximum(hn, 1e-9)[:, None], np.array([1.0, 0.0]))
+        hl = np.sqrt(np.maximum(L ** 2 - y ** 2, 0.0))
+        w = np.stack([dirs[:, 0] * hl, y, dirs[:, 1] * hl], axis=1)
+        q = shortest_arc(v, w)                             # world turn of the line
+        q[d == 0] = (0.0, 0.0, 0.0, 1.0)
+        gp = G[:, int(parents[h])] if parents[h] >= 0 else np.broadcast_to((0.0, 0.0, 0.0, 1.0), (T, 4))
+        # new local = parent^-1 q G_h
+        rot[:, h] = quat_multiply(quat_inverse(gp), quat_multiply(q, G[:, h]))
+        motion = motion.replace(rotations=rot)
+        rot = np.array(motion.rotations)
+        cosang = np.clip(np.einsum("ij,ij->i", v, w) / np.maximum(L * L, 1e-12), -1.0, 1.0)
+        angle = np.maximum(angle, np.where(d > 0, np.arccos(cosang), 0.0))
+    return motion, angle
 
 
 def plant_feet(motion: Motion, fade: float | None = None):

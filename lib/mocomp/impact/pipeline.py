@@ -250,7 +250,7 @@ def impact_response(attacker: Motion, victim: Motion, index, scenario: Scenario 
     (:func:`load_library`); ``library_motions``: its clips as motions (for the joint limits; read
     from the index when None)."""
     from .attacker import attacker_response
-    from .blend import final_blend, floor_lift, frame_steps, limit_plant_steps, plant_feet
+    from .blend import final_blend, floor_lift, frame_steps, limit_plant_steps, plant_feet, props_above_floor, wrist_props
     from .scene import build_scene, place_victim
     from .search import search
     from .simulate import ServoGains, blend_targets, clip_targets, find_first_contact, naive_targets, simulate
@@ -417,7 +417,10 @@ def impact_response(attacker: Motion, victim: Motion, index, scenario: Scenario 
     cq_max = float(frame_steps(clip_steps)[1].max())
     floor_y = _floor_level(placed.slice(0, max(fc.rewind_frame + 1, 2)))
     # the input before the rewind frame is left as it is; the lift eases in over the simulated segment
-    lift_kw = dict(tolerance=0.002, start=fc.rewind_frame, ramp_frames=max(reentry, 1))
+    # the sword does not lift the body (a lying fall drove it 39 cm into the floor: the lifted body floated
+    # 24 cm above it); the wrist turns it out of the floor instead
+    props = wrist_props(out.skeleton)
+    lift_kw = dict(tolerance=0.002, start=fc.rewind_frame, ramp_frames=max(reentry, 1), exclude=props)
 
     def repair(out, seam_free: bool = False):
         """The lift, the plants (their fades rate-limited; with ``seam_free`` the leg joints are free of
@@ -447,6 +450,8 @@ def impact_response(attacker: Motion, victim: Motion, index, scenario: Scenario 
             # again: a second, vertical-only lift (the plants stay put in the ground plane)
             out, lift2 = floor_lift(out, floor_y, **lift_kw)
             lift = lift + lift2
+            out, turn = props_above_floor(out, floor_y, props, tolerance=0.002, start=fc.rewind_frame)
+            ev["props_turned"] = {"frames": int((turn > 0).sum()), "max_deg": float(np.degrees(turn.max()))}
             ev["floor_lift"] = {"floor_y_m": floor_y, "frames_lifted": int((lift > 0).sum()),
                                 "max_lift_m": float(lift.max()), "lift_at_reentry_m": float(lift[re_frame]),
                                 "after_plants_max_m": float(lift2.max())}
