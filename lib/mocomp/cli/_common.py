@@ -319,12 +319,16 @@ class OutputAudit:
 
 
 def audit_output(path, input_motion, *, body=None, name: str | None = None, input_name: str = "input",
-                 other_inputs=(), external_force_frames=None) -> OutputAudit:
+                 other_inputs=(), external_force_frames=None, thresholds=None,
+                 against_frame_map=None) -> OutputAudit:
     """Audit the motion a command wrote to the BVH file ``path`` (read back: physics is measured on
     the frames a command writes) against ``input_motion`` with :func:`mocomp.audit.audit` and its
     default :class:`~mocomp.audit.AuditThresholds`; ``other_inputs`` are ``(name, Motion)`` pairs
     of further inputs whose violations also count as the input's (``mocomp join``);
-    ``external_force_frames``: frames under a declared external force, passed to the audit (``mocomp impact``).
+    ``external_force_frames``: frames under a declared external force, passed to the audit (``mocomp impact``);
+    ``thresholds``: :class:`~mocomp.audit.AuditThresholds` instead of the defaults (the editing-primitive
+    commands judge pose jumps as violations); ``against_frame_map``: the input frame of each written frame
+    for the audit's pose-jump check (default: matched by time).
 
     The verdict line reads ``audit: FAIL, 2 violation(s) (com_velocity_jump 2), 1 advisory; input:
     PASS, 0 violation(s); new or worse: com_velocity_jump 2; worse than the input on 3 measure(s): ...``
@@ -337,8 +341,13 @@ def audit_output(path, input_motion, *, body=None, name: str | None = None, inpu
     written = read_bvh(path, scale=1.0)           # the commands write BVH in metres (write_bvh's default)
     label = name or str(path)
     kw = {} if external_force_frames is None else {"external_force_frames": external_force_frames}
+    if thresholds is not None:
+        kw["thresholds"] = thresholds
+    if against_frame_map is not None:
+        kw["against_frame_map"] = against_frame_map
     rep = audit(written, body, against=input_motion, name=label, against_name=input_name, **kw)
-    others = tuple(audit(m, name=n) for n, m in other_inputs)
+    others = tuple(audit(m, name=n, **({} if thresholds is None else {"thresholds": thresholds}))
+                   for n, m in other_inputs)
     new = new_violations(rep, others)
 
     def state(r) -> str:

@@ -26,8 +26,36 @@ def check_outputs(args) -> Path:
     return out
 
 
-def finish(args, command: str, out: Path, motion, input_motion, report: dict) -> int:
-    """Write the motion, the report, and end with the audit of the written file against the input."""
+#: the editing primitives keep their input's timing, so a joint turning much faster than the input's
+#: own joint is a defect of the edit (leg IK snapping a knee), not an intended change: their output
+#: audits judge pose jumps (``mocomp.audit.posejump``) as violations
+POSE_JUMP_THRESHOLDS = {"pose_jump_is_violation": True}
+
+
+def ops_thresholds():
+    """The :class:`~mocomp.audit.AuditThresholds` of the editing-primitive commands' output audits: the
+    defaults with ``pose_jump_is_violation=True`` (:data:`POSE_JUMP_THRESHOLDS`)."""
+    from ..audit import AuditThresholds
+
+    return AuditThresholds(**POSE_JUMP_THRESHOLDS)
+
+
+def pose_jump_line(report) -> str | None:
+    """``joint rates: largest excess over the input's own 3.5 rad/s (RightKnee, frames 93-94), limit 20
+    rad/s, 0 jump step(s) (violations)``: the audit's ``max_joint_speed_excess`` measure, or ``None``
+    when the report has no pose-jump comparison (skeletons without common joints)."""
+    pj = getattr(report, "pose_jumps", None)
+    if pj is None:
+        return None
+    return (f"joint rates: largest excess over the input's own {pj.max_excess:.1f} rad/s ({pj.joint}, frames "
+            f"{pj.frame}-{pj.frame + 1}: {pj.rate:.1f} vs {pj.reference:.1f} rad/s), limit {pj.threshold:g} rad/s, "
+            f"{pj.n_jumps} jump step(s) (judged as violations)")
+
+
+def finish(args, command: str, out: Path, motion, input_motion, report: dict, *, against_frame_map=None) -> int:
+    """Write the motion, the report, and end with the audit of the written file against the input,
+    pose jumps judged as violations (:func:`ops_thresholds`); ``against_frame_map``: the input frame of
+    each written frame when they are not matched by time (``mocomp blend``)."""
     from ..io import write_bvh
     from ._common import audit_output, finish_audit
 
@@ -35,7 +63,13 @@ def finish(args, command: str, out: Path, motion, input_motion, report: dict) ->
     print(f"wrote {out} ({motion.n_frames} frames at {motion.fps:g} fps)")
     if args.report:
         Path(args.report).write_text(json.dumps(report, indent=1) + "\n")
-    result = None if args.no_audit else audit_output(out, input_motion, input_name=str(args.motion))
+    result = None
+    if not args.no_audit:
+        result = audit_output(out, input_motion, input_name=str(args.motion), thresholds=ops_thresholds(),
+                              against_frame_map=against_frame_map)
+        line = pose_jump_line(result.report)
+        if line:
+            print(line)
     finish_audit(args, command, result, args.report)
     return 0
 
