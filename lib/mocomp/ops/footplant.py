@@ -58,7 +58,7 @@ from .ik import REACH_MARGIN, _norm, hinge_axis, two_bone_ik
 from .plants import FootPlants, foot_plants, plant_targets
 
 __all__ = ["FootplantResult", "enforce_footplants", "plant_slides", "default_blend_frames", "foot_points",
-           "consistent_toe_targets", "detected_slide"]
+           "consistent_toe_targets", "detected_slide", "FootplantPlan", "footplant_plan"]
 
 #: m: a leg that misses its target by more than this is reported as unreachable on that frame
 UNREACHABLE_TOL = 1e-3
@@ -336,19 +336,27 @@ def _fade_height_change(y: np.ndarray, y0: np.ndarray, both: np.ndarray, planted
 
 
 def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: str, tol: float,
-           reach_margin: float, ease_kind: str, prev=None, hinges=None, clocks=None):
+           reach_margin: float, ease_kind: str, prev=None, hinges=None, clocks=None, plan=None):
     """One enforcement pass. Returns ``(rot, targets, state)`` with ``state`` per leg side:
     ``(delta (T, 3), rotvec (T, 3), miss (T,), lift (T,), solved (T,) bool, labels (T, 2))``. With ``prev`` (the
     ``(rot, state)`` of an earlier pass on the same motion) only the frames whose correction changed
-    are solved again (the legs are independent and each frame's IK depends on its own correction)."""
+    are solved again (the legs are independent and each frame's IK depends on its own correction).
+    ``plan``: a :class:`FootplantPlan` of these ``plants``, ``blend``, ``height`` and ``ease_kind`` (the
+    first pass's label work done once)."""
     from .ik import arc_quaternions
 
     T = motion.n_frames
     if hinges is None:
         hinges = [hinge_axis(P, G, leg.chain) for leg in plants.legs]
-    targets = consistent_toe_targets(plant_targets(pts, plants, height), pts, plants)
-    if height == "level" and PITCH_SLACK is not None:
-        targets = bounded_foot_pitch(targets, pts, plants, PITCH_SLACK, blend if PITCH_TO_ZERO else 0)
+    if plan is not None and (prev is not None or plan.plants is not plants or plan.blend != blend
+                             or plan.height != height or plan.ease_kind != ease_kind):
+        plan = None
+    if plan is not None:
+        targets = plan.targets(pts)
+    else:
+        targets = consistent_toe_targets(plant_targets(pts, plants, height), pts, plants)
+        if height == "level" and PITCH_SLACK is not None:
+            targets = bounded_foot_pitch(targets, pts, plants, PITCH_SLACK, blend if PITCH_TO_ZERO else 0)
     rot = np.array(motion.rotations) if prev is None else np.array(prev[0])
     state = {}
     jobs = []
@@ -360,10 +368,13 @@ def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: st
     # frames: beyond that its corrections are those of the earlier pass)
     nl = len(plants.legs)
     reach = 3 * blend + 2
-    labs = [plants.labels[:, [2 * li, 2 * li + 1]] for li in range(nl)]
-    one_leg = [bool(np.any(x[:, 1] & ~x[:, 0]) or np.any(x[:, 0] & ~x[:, 1])) for x in labs]
-    segs = []
-    for li, leg in enumerate(plants.legs):
+    if plan is not None:
+        labs, one_leg = None, plan.one_leg
+    else:
+        labs = [plants.labels[:, [2 * li, 2 * li + 1]] for li in range(nl)]
+        one_leg = [bool(np.any(x[:, 1] & ~x[:, 0]) or np.any(x[:, 0] & ~x[:, 1])) for x in labs]
+    segs = [] if plan is None else plan.segs
+    for li, leg in enumerate(plants.legs if plan is None else ()):
         if prev is None:
             segs.append((li, 0, T))
             continue
@@ -380,9 +391,12 @@ def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: st
             a, b = max(0, int(f0) - reach), min(T, int(f1) + 1 + reach)
             if changed[b] > changed[a]:
                 segs.append((li, a, b))
-    offs = np.cumsum([0] + [b - a + reach for _, a, b in segs])
-    rows = [slice(int(o), int(o) + b - a) for o, (_, a, b) in zip(offs, segs)]
-    n = int(offs[-1] - reach) if segs else 0
+    if plan is not None:
+        rows, n = plan.rows, plan.n
+    else:
+        offs = np.cumsum([0] + [b - a + reach for _, a, b in segs])
+        rows = [slice(int(o), int(o) + b - a) for o, (_, a, b) in zip(offs, segs)]
+        n = int(offs[-1] - reach) if segs else 0
 
     def stack(k, x, fill=0.0):
         out = np.full((n,) + x.shape[2:], fill, dtype=x.dtype)
@@ -390,10 +404,13 @@ def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: st
             out[r] = x[a:b, 2 * li + k]
         return out
 
-    la, lt = stack(0, plants.labels, False), stack(1, plants.labels, False)
+    if plan is not None:
+        la, lt, both = plan.la, plan.lt, plan.both
+    else:
+        la, lt = stack(0, plants.labels, False), stack(1, plants.labels, False)
+        both = la & lt
     A, Tp = stack(0, pts), stack(1, pts)
     tA, tT = stack(0, targets, np.nan), stack(1, targets, np.nan)
-    both = la & lt
     rv = np.zeros((n, 3))
     if both.any():
         q = arc_quaternions(Tp[both] - A[both], tT[both] - tA[both])
@@ -419,7 +436,7 @@ def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: st
     # toe tip planted alone (heel off): the tip exactly on its target, and the foot turned about
     # the tip so that the ankle point follows its fading correction from the heel's plant (the
     # heel rolls up about the toe; where the two targets disagree nothing jumps at heel-off)
-    toe_only = lt & ~la
+    toe_only = lt & ~la if plan is None else plan.toe_only
     delta = np.where(la[:, None], d_a, 0.0)
     if toe_only.any():
         w_a = plan_a.fill(la.astype(float))
@@ -435,7 +452,7 @@ def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: st
     # ankle point planted alone (before the toe lands, after it lifts): the ankle point exactly on
     # its target, the foot turned about it so that the toe tip follows its fading correction from
     # the toe's plant (symmetric to the above: a toe-only frame next to an ankle-only one is no jump)
-    ankle_only = la & ~lt
+    ankle_only = la & ~lt if plan is None else plan.ankle_only
     if ankle_only.any() and lt.any():
         w_t = plan_t.fill(lt.astype(float))                  # 0 on a leg whose toe is never planted
         ct_fill = plan_t.fill(np.where(lt[:, None], tT - Tp, 0.0))
@@ -454,15 +471,21 @@ def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: st
     delta = plan_any.fill(delta)
     # a toe-only frame next to an ankle-only one (the foot rocks from toe to heel, as in a
     # cartwheel) holds two targets no rigid foot joins: cross-fade there over the blend frames
-    for r, (li, a, b) in zip(rows, segs):
-        to, ao = toe_only[r], ankle_only[r]
-        sw = np.flatnonzero((to[:-1] & ao[1:]) | (ao[:-1] & to[1:])) + 1
-        if sw.size and blend > 0:
-            t = np.arange(b - a)
-            m = np.max(ease(1.0 - np.abs(t[:, None] - sw[None] + 0.5) / (blend + 1.0), ease_kind), axis=1)[:, None]
-            sig = max(blend / 2.0, 1.0)
-            delta[r] = (1 - m) * delta[r] + m * gaussian_filter1d(delta[r], sig, axis=0, mode="nearest")
-            rv[r] = (1 - m) * rv[r] + m * gaussian_filter1d(rv[r], sig, axis=0, mode="nearest")
+    if plan is not None:
+        switches = plan.switches
+    else:
+        switches = []
+        for r, (li, a, b) in zip(rows, segs):
+            to, ao = toe_only[r], ankle_only[r]
+            sw = np.flatnonzero((to[:-1] & ao[1:]) | (ao[:-1] & to[1:])) + 1
+            if sw.size and blend > 0:
+                t = np.arange(b - a)
+                m = np.max(ease(1.0 - np.abs(t[:, None] - sw[None] + 0.5) / (blend + 1.0), ease_kind),
+                           axis=1)[:, None]
+                switches.append((r, m, max(blend / 2.0, 1.0)))
+    for r, m, sig in switches:
+        delta[r] = (1 - m) * delta[r] + m * gaussian_filter1d(delta[r], sig, axis=0, mode="nearest")
+        rv[r] = (1 - m) * rv[r] + m * gaussian_filter1d(rv[r], sig, axis=0, mode="nearest")
     for li, leg in enumerate(plants.legs):
         ka, kt = 2 * li, 2 * li + 1
         mine = [(r, a, b) for r, (lj, a, b) in zip(rows, segs) if lj == li]
@@ -663,7 +686,8 @@ def _close_gaps(plants: FootPlants, max_gap: int) -> tuple[FootPlants, int]:
 def enforce_footplants(motion: Motion, plants: FootPlants | None = None, *, contacts=None,
                        blend: int | None = None, height: str = "level", tol: float = 1e-6,
                        reach_margin: float = REACH_MARGIN, ease_kind: str = "smoothstep", passes: int = 2,
-                       max_passes: int = 6, slide_goal: float | None = 0.01, audit: bool = True) -> FootplantResult:
+                       max_passes: int = 6, slide_goal: float | None = 0.01, audit: bool = True,
+                       plan: "FootplantPlan | None" = None) -> FootplantResult:
     """Hold the planted feet of ``motion`` still (see the module docstring).
 
     Parameters
@@ -687,6 +711,9 @@ def enforce_footplants(motion: Motion, plants: FootPlants | None = None, *, cont
         (:func:`detected_slide`, the audit's measure), and the pass whose result slides least is
         kept. ``slide_goal=None``: exactly ``passes`` passes.
     audit: also audit the input and the output (:func:`mocomp.audit.audit`), the measured evidence.
+    plan: a :func:`footplant_plan` (in place of ``plants`` and ``blend``): the plants' label work
+        (gaps closed, runs, stacked labels) done once for many motions, e.g. touch-up's iterations;
+        ``height`` and ``ease_kind`` must be the plan's.
 
     Raises :class:`~mocomp.ops.plants.NoContactError` when no foot is ever planted.
     """
@@ -695,6 +722,13 @@ def enforce_footplants(motion: Motion, plants: FootPlants | None = None, *, cont
     from ..dynamics.contacts import detect_contacts
 
     t0 = time.perf_counter()
+    if plan is not None:
+        if plants is not None or contacts is not None or blend is not None:
+            raise ValueError("give either a plan or plants/contacts/blend, not both")
+        if plan.height != height or plan.ease_kind != ease_kind:
+            raise ValueError(f"the plan is for height={plan.height!r}, ease_kind={plan.ease_kind!r}; got "
+                             f"height={height!r}, ease_kind={ease_kind!r}")
+        plants, blend = plan.input_plants, plan.blend
     if plants is None:
         plants = foot_plants(motion, contacts)
     elif contacts is not None:
@@ -711,7 +745,7 @@ def enforce_footplants(motion: Motion, plants: FootPlants | None = None, *, cont
     P, G = motion.fk()
     pts = foot_points(P, G, plants)
     notes = []
-    plants, closed = _close_gaps(plants, max(1, blend // 2))
+    plants, closed = (plan.plants, plan.closed) if plan is not None else _close_gaps(plants, max(1, blend // 2))
     if closed:
         notes.append(f"{closed} frame(s) of gaps shorter than {max(1, blend // 2)} frames between two plants of "
                      "one foot point counted as planted")
@@ -721,7 +755,7 @@ def enforce_footplants(motion: Motion, plants: FootPlants | None = None, *, cont
     limit, best = passes, None
     for k in range(max(passes, max_passes)):
         rot, targets, state = _solve(motion, P, G, pts, plants, blend, height, tol, reach_margin, ease_kind, prev,
-                                     hinges, clocks)
+                                     hinges, clocks, plan)
         if k == limit - 1 and best is None:
             # the result: its FK is computed on first use (the evidence and the audits are lazy too)
             out = motion.replace_trusted(motion.root_positions, rot)
@@ -787,3 +821,230 @@ def enforce_footplants(motion: Motion, plants: FootPlants | None = None, *, cont
         res = dataclasses.replace(res, audit_before=run_audit(motion, name="input"),
                                   audit_after=run_audit(out, name="footplants"))
     return res
+
+
+class FootplantPlan:
+    """What :func:`enforce_footplants` derives from the plants alone, computed once and reused on
+    every motion those plants are enforced on (touch-up holds the input's plants after each of its
+    5 + 5 + 2 iterations, Shin et al. 2003 sec. 3.1): the gaps closed (:func:`_close_gaps`), the
+    planted runs of each point and their resting-level groups (:func:`~mocomp.ops.plants.plant_targets`
+    with ``height="level"``), the toe runs paired with their heels' (``_toes_with_their_heels``), the
+    shared runs of :func:`consistent_toe_targets` and :func:`bounded_foot_pitch` with the ease weights
+    of its height fade (:func:`_fade_height_change`), and the first pass's stacked labels and
+    toe-heel cross-fades (:func:`_solve`). :meth:`targets` gives the same numbers as those functions
+    (the same operations on the same rows; ``tests/test_touchup_speed.py``). Build with
+    :func:`footplant_plan`; pass as ``enforce_footplants(motion, plan=plan)``."""
+
+    def __init__(self, plants: FootPlants, blend: int, height: str = "level", ease_kind: str = "smoothstep"):
+        from .plants import ROBUST_LEVEL, TOE_HEEL_GAP
+
+        if blend < 0:
+            raise ValueError(f"blend must be 0 or more frames, got {blend}")
+        self.input_plants = plants
+        self.blend, self.height, self.ease_kind = int(blend), height, ease_kind
+        plants, closed = _close_gaps(plants, max(1, self.blend // 2))
+        self.plants, self.closed = plants, closed
+        self.toe_heel_gap = TOE_HEEL_GAP
+        lab = plants.labels
+        T = plants.n_frames
+        # plant_targets: per point, its planted rows, their runs and the resting-level groups
+        self.points = []
+        for k in range(4):
+            sel = np.flatnonzero(lab[:, k])
+            if sel.size == 0:
+                self.points.append(None)
+                continue
+            first = np.flatnonzero(np.r_[True, np.diff(sel) > 1])
+            cnt = np.diff(np.r_[first, sel.size])
+            rid = np.repeat(np.arange(first.size), cnt)
+            rest = None
+            if height == "level" and ROBUST_LEVEL and plants.source.get(plants.effectors[k]) == "detector":
+                level = plants.levels[sel[first], k]
+                key = np.round(level, 3)
+                rest = (np.array(level, dtype=float), [key == v for v in np.unique(key[np.isfinite(key)])])
+            self.points.append((sel, first, cnt, rid, rest))
+        # _toes_with_their_heels: per foot, each toe frame's heel run shift source
+        self.toes = []
+        if height == "level" and ROBUST_LEVEL:
+            for ka, kt in ((0, 1), (2, 3)):
+                if any(plants.source.get(plants.effectors[k]) != "detector" for k in (ka, kt)):
+                    continue
+                la, lt = lab[:, ka], lab[:, kt]
+                if not (la & lt).any():
+                    continue
+                ra = np.cumsum(np.r_[la[0], la[1:] & ~la[:-1]]) * la
+                rt = np.cumsum(np.r_[lt[0], lt[1:] & ~lt[:-1]]) * lt
+                sh = np.flatnonzero(la & lt)
+                pairs, first, cnt = np.unique(rt[sh] * (int(ra.max()) + 1) + ra[sh], return_index=True,
+                                              return_counts=True)
+                toe_run = pairs // (int(ra.max()) + 1)
+                order = np.lexsort((first, -cnt, toe_run))
+                keep = order[np.r_[True, toe_run[order][1:] != toe_run[order][:-1]]]
+                f = np.flatnonzero(lt)
+                starts = np.r_[0, np.flatnonzero(np.diff(f) > 1) + 1]
+                self.toes.append((ka, kt, int(rt.max()) + 1, toe_run[keep], sh[first[keep]], rt[f], f, starts,
+                                  np.diff(np.r_[starts, f.size])))
+        # consistent_toe_targets: per leg, the shared frames and the toe runs they belong to
+        self.consistent = []
+        for li in range(len(plants.legs)):
+            ka, kt = 2 * li, 2 * li + 1
+            la, lt = lab[:, ka], lab[:, kt]
+            run = np.cumsum(np.r_[lt[0], lt[1:] & ~lt[:-1]]) * lt
+            sel = np.flatnonzero(lt & la)
+            if sel.size == 0:
+                continue
+            rid = run[sel]
+            nr = int(run.max()) + 1
+            cnt = np.bincount(rid, minlength=nr)
+            has = cnt > 0
+            first = np.zeros(nr, dtype=int)
+            r_u, i_u = np.unique(rid, return_index=True)
+            first[r_u] = sel[i_u]
+            self.consistent.append((ka, kt, run, sel, rid, nr, cnt, has, first))
+        # bounded_foot_pitch: per leg, the runs of frames with both points planted, and the fade weights
+        self.pitch = []
+        fade = self.blend if PITCH_TO_ZERO else 0
+        for li in range(len(plants.legs)):
+            ka, kt = 2 * li, 2 * li + 1
+            both = lab[:, ka] & lab[:, kt]
+            if not both.any():
+                continue
+            sel = np.flatnonzero(both)
+            first = np.flatnonzero(np.r_[True, np.diff(sel) > 1])
+            cnt = np.diff(np.r_[first, sel.size])
+            rid = np.repeat(np.arange(first.size), cnt)
+            fw = _height_fade_weights(both, lab[:, ka], fade) if fade > 0 else None
+            self.pitch.append((ka, kt, both, sel, first, cnt, rid, fw))
+        # _solve's first pass: every leg whole, stacked with ``reach`` unplanted frames between them
+        nl = len(plants.legs)
+        reach = 3 * self.blend + 2
+        labs = [lab[:, [2 * li, 2 * li + 1]] for li in range(nl)]
+        self.one_leg = [bool(np.any(x[:, 1] & ~x[:, 0]) or np.any(x[:, 0] & ~x[:, 1])) for x in labs]
+        self.segs = [(li, 0, T) for li in range(nl)]
+        offs = np.cumsum([0] + [b - a + reach for _, a, b in self.segs])
+        self.rows = [slice(int(o), int(o) + b - a) for o, (_, a, b) in zip(offs, self.segs)]
+        self.n = n = int(offs[-1] - reach) if self.segs else 0
+        la, lt = np.zeros(n, bool), np.zeros(n, bool)
+        for r, (li, a, b) in zip(self.rows, self.segs):
+            la[r], lt[r] = lab[a:b, 2 * li], lab[a:b, 2 * li + 1]
+        self.la, self.lt, self.both = la, lt, la & lt
+        self.toe_only, self.ankle_only = lt & ~la, la & ~lt
+        self.switches = []
+        for r, (li, a, b) in zip(self.rows, self.segs):
+            to, ao = self.toe_only[r], self.ankle_only[r]
+            sw = np.flatnonzero((to[:-1] & ao[1:]) | (ao[:-1] & to[1:])) + 1
+            if sw.size and self.blend > 0:
+                t = np.arange(b - a)
+                m = np.max(ease(1.0 - np.abs(t[:, None] - sw[None] + 0.5) / (self.blend + 1.0), ease_kind),
+                           axis=1)[:, None]
+                self.switches.append((r, m, max(self.blend / 2.0, 1.0)))
+
+    def targets(self, pts: np.ndarray) -> np.ndarray:
+        """``(T, 4, 3)`` m: ``consistent_toe_targets(plant_targets(pts, plants, height), pts, plants)``,
+        then :func:`bounded_foot_pitch` for ``height="level"`` (as :func:`_solve` sets them), with the
+        runs planned."""
+        from .plants import _resting_levels, plant_targets
+
+        plants = self.plants
+        if self.height != "level":
+            out = plant_targets(pts, plants, self.height)
+        else:
+            T = plants.n_frames
+            out = np.full((T, 4, 3), np.nan)
+            for k, pl in enumerate(self.points):
+                if pl is None:
+                    continue
+                sel, first, cnt, rid, rest = pl
+                p = pts[sel, k]
+                mean = np.add.reduceat(p, first, axis=0) / cnt[:, None]
+                out[sel, k] = mean[rid]
+                y = p[:, 1]
+                low = np.minimum.reduceat(y, first)
+                if rest is not None:
+                    lv = np.array(rest[0])
+                    for g in rest[1]:
+                        lv[g] = np.median(low[g])
+                    out[sel, k, 1] = y - low[rid] + lv[rid]
+                else:
+                    out[sel, k, 1] = y - low[rid] + plants.levels[sel, k]
+            for ka, kt, nsh, toe_run, src, rt_f, f, starts, lens in self.toes:
+                shift = np.full(nsh, np.nan)
+                shift[toe_run] = out[src, ka, 1] - pts[src, ka, 1]
+                s_t = shift[rt_f]
+                own = np.repeat((out[f, kt, 1] - pts[f, kt, 1])[starts], lens)
+                move = np.isfinite(s_t) & (np.abs(own - s_t) > self.toe_heel_gap)
+                out[f[move], kt, 1] = pts[f[move], kt, 1] + s_t[move]
+        targets = out
+        out = np.array(targets)
+        for ka, kt, run, sel, rid, nr, cnt, has, first in self.consistent:
+            d = (pts[sel, kt] - pts[sel, ka])[:, [0, 2]]
+            L = np.bincount(rid, _norm(d), minlength=nr)
+            u = np.stack([np.bincount(rid, d[:, c], minlength=nr) for c in range(2)], axis=1)
+            L[has] /= cnt[has]
+            u[has] /= cnt[has, None]
+            n = _norm(u)
+            ok = has & (n >= 1e-9)
+            ok[0] = False
+            if not ok.any():
+                continue
+            f = np.flatnonzero(ok[run])
+            r = run[f]
+            scale = L[r] / n[r]
+            out[f, kt, 0] = targets[first[r], ka, 0] + scale * u[r, 0]
+            out[f, kt, 2] = targets[first[r], ka, 2] + scale * u[r, 1]
+        if self.height != "level" or PITCH_SLACK is None:
+            return out
+        targets = out
+        out = np.array(targets)
+        slack = PITCH_SLACK
+        for ka, kt, both, sel, first, cnt, rid, fw in self.pitch:
+            L3 = _norm(pts[sel, kt] - pts[sel, ka])
+            dy = out[sel, ka, 1] - out[sel, kt, 1]
+            h_t = _norm((out[sel, kt] - out[sel, ka])[:, [0, 2]])
+            h = np.sqrt(np.maximum(L3 * L3 - dy * dy, 0.0))
+            res = h_t - h
+            ref = (np.add.reduceat(res, first) / cnt)[rid] if not PITCH_TO_ZERO else 0.0
+            res_c = np.clip(res, ref - slack, ref + slack)
+            change = res_c != res
+            if not change.any():
+                continue
+            h_new = np.clip(h_t - res_c, 0.0, L3)
+            dy_new = np.sign(dy) * np.sqrt(np.maximum(L3 * L3 - h_new * h_new, 0.0))
+            f = sel[change]
+            out[f, ka, 1] = out[f, kt, 1] + dy_new[change]
+            if fw is not None:
+                y, y0 = out[:, ka, 1], targets[:, ka, 1]
+                ch = np.where(both, y - y0, 0.0)
+                if np.any(ch):
+                    fsel, near, w = fw
+                    y[fsel] = y0[fsel] + w * ch[near]
+        return out
+
+
+def _height_fade_weights(both: np.ndarray, planted: np.ndarray, fade: int):
+    """The label-only part of :func:`_fade_height_change`: ``(frames, nearest shared frame, weight)``."""
+    T = both.size
+    t = np.arange(T)
+    run = np.cumsum(np.r_[planted[0], planted[1:] & ~planted[:-1]]) * planted
+    prev = np.maximum.accumulate(np.where(both, t, -1))
+    nxt = np.minimum.accumulate(np.where(both, t, T)[::-1])[::-1]
+    ok_p = (prev >= 0) & (run[np.maximum(prev, 0)] == run)
+    ok_n = (nxt < T) & (run[np.minimum(nxt, T - 1)] == run)
+    dp = np.where(ok_p, t - prev, np.iinfo(np.int64).max)
+    dn = np.where(ok_n, nxt - t, np.iinfo(np.int64).max)
+    near = np.where(dp <= dn, np.maximum(prev, 0), np.minimum(nxt, T - 1))
+    sel = planted & ~both & (ok_p | ok_n)
+    d = np.minimum(dp, dn)[sel]
+    w = ease(np.clip(1.0 - d / (fade + 1.0), 0.0, 1.0), "smoothstep")
+    return sel, near[sel], w
+
+
+def footplant_plan(plants: FootPlants, blend: int, *, height: str = "level",
+                   ease_kind: str = "smoothstep") -> FootplantPlan:
+    """:class:`FootplantPlan` of ``plants`` for :func:`enforce_footplants` with these ``blend`` frames,
+    ``height`` and ``ease_kind`` (build once, enforce on many motions of the plants' frame count)."""
+    from .plants import HEIGHT_MODES
+
+    if height not in HEIGHT_MODES:
+        raise ValueError(f"height must be one of {', '.join(HEIGHT_MODES)}, got {height!r}")
+    return FootplantPlan(plants, int(blend), height, ease_kind)

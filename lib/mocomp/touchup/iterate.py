@@ -18,7 +18,7 @@ from ..dynamics.com import center_of_mass
 from ..dynamics.momentum import momentum
 from ..dynamics.constants import G_STANDARD
 from ..ops import HierarchyStep, apply_hierarchy, ease, enforce_footplants
-from ..ops.footplant import foot_points
+from ..ops.footplant import default_blend_frames, foot_points, footplant_plan
 from ._fast import SegmentChains, fk
 from .flight import ballistic_targets, com_residual, flight_com_adjustment, flight_momentum_adjustment
 from .ground import MAX_ANGLE, ground_adjustment
@@ -130,7 +130,8 @@ def resting_levels(plants, reference_points: np.ndarray) -> np.ndarray:
 def lift_feet(motion, plants, reference_points: np.ndarray, touching: np.ndarray, *, tol: float = 1e-3,
               rest: np.ndarray | None = None, airborne: np.ndarray | None = None):
     """``(motion, lifted frames per leg)``: each leg raised by two-bone IK
-    (:func:`mocomp.ops.two_bone_ik`, the foot's orientation kept) on the frames where one of its
+    (:func:`mocomp.ops.two_bone_ik`, the foot's orientation kept; with numba its compiled twin
+    :func:`mocomp.ops._kernels.two_bone_ik_rows` on the clip's rows) on the frames where one of its
     foot points has been pushed down -- below its height in the input (``reference_points``
     ``(T, 4, 3)``) where it touches the ground there (``touching`` ``(T, 4)``), below its resting
     level elsewhere -- and lowered where a touching point has risen above its input height (a leg
@@ -144,6 +145,12 @@ def lift_feet(motion, plants, reference_points: np.ndarray, touching: np.ndarray
     their input height, so that a flight stays a flight."""
     from ..dynamics.derivatives import gaussian_smooth
     from ..ops import two_bone_ik
+    from ..ops.displacement import _compiled
+    from ..ops.ik import REACH_MARGIN
+
+    compiled = _compiled()
+    if compiled:
+        from ..ops._kernels import two_bone_ik_rows
 
     P, G = fk(motion)
     pts = foot_points(P, G, plants)
@@ -197,8 +204,13 @@ def lift_feet(motion, plants, reference_points: np.ndarray, touching: np.ndarray
         end = quat_multiply(q, G[f, a])
         A_new = A + np.column_stack([np.zeros(f.size), dy[f], np.zeros(f.size)])
         tgt = A_new - quat_apply(q, A - P[f, a])                    # the ankle joint under the turned foot
-        r, _ = two_bone_ik(P[f], G[f], rot[f], motion.skeleton.parents, leg.chain, tgt, end_rotation=end)
-        rot[f] = r
+        if compiled:                               # the same solve on the clip's rows (ops._kernels)
+            r, _ = two_bone_ik_rows(P, G, rot, f, int(motion.skeleton.parents[leg.chain[0]]), leg.chain, tgt, end,
+                                    (1.0, 0.0, 0.0), 0.0, REACH_MARGIN)
+            rot[f[:, None], np.asarray(leg.chain)[None]] = r
+        else:
+            r, _ = two_bone_ik(P[f], G[f], rot[f], motion.skeleton.parents, leg.chain, tgt, end_rotation=end)
+            rot[f] = r
         lifted[leg.side] = f.tolist()
     if rot is None:
         return motion, lifted
@@ -343,9 +355,12 @@ def touchup(motion, body=None, schedule=None, *, contacts=None, iterations: int 
         # local rotations of rigid turns of unit quaternions: unit to rounding
         return cur.replace_trusted(adj.root_positions, adj.rotations)
 
+    # the plants are the input's for every hold: their label work (gaps, runs, stacked labels) once
+    fplan = footplant_plan(st.plants, default_blend_frames(motion.fps)) if footplants else None
+
     def hold(mm):
         fk(mm)
-        return DisplacementMap.between(mm, enforce_footplants(mm, st.plants, audit=False, passes=1).motion)
+        return DisplacementMap.between(mm, enforce_footplants(mm, audit=False, passes=1, plan=fplan).motion)
 
     def post(cur):
         prev = state["prev"]
