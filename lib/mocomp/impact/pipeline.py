@@ -78,6 +78,11 @@ class ImpactConfig:
     min_overlap: m: with the default placement (no ``Scenario.offset``), when the characters touch at
     the first frame the victim is placed 10 cm farther (the scenario's overlap less 0.1 m) until they
     do not, down to this overlap (``evidence["placement"]``).
+    strike_early: s: a long take cut to its strike (``max_attack``) is placed for that strike
+    (:func:`~mocomp.impact.scene.strike_at`: its fastest joint's reach at the fastest frame); while the
+    first contact comes more than ``strike_early`` s before that frame (the wind-up touching the victim),
+    the victim is placed 10 cm farther, down to ``min_overlap``; if the strike then misses, the last
+    placement that touched is kept (``evidence["placement"]["contact_before_strike"]``).
     separate: keep the attacker's body out of the victim's after the strike
     (:func:`~mocomp.impact.attacker.separate`).
     blend_weights: the final blend's weights (:func:`~mocomp.impact.blend.final_blend`): ``"linear"``
@@ -110,6 +115,7 @@ class ImpactConfig:
     blend_weights: str = "auto"
     max_attack: float | None = 5.0
     min_overlap: float = -0.35
+    strike_early: float = 0.25
     strike_lead: float = 1.5
     separate: bool = True
     max_contact: float | None = 0.25
@@ -270,7 +276,10 @@ def impact_response(attacker: Motion, victim: Motion, index, scenario: Scenario 
                                       tail=config.max_attack - config.strike_lead)
         attack_window = {"start": a_, "stop": b_, "strike_frame": peak_, "clip_frames": attacker.n_frames}
         attacker = attacker.slice(a_, b_)
-    placed = place_victim(attacker, victim, scenario)
+    # a long take cut to its strike is placed for that strike (its fastest joint's reach there): the farthest
+    # reach of the window came from the wind-up, and the victim was touched 1.3 s before the slash
+    k_place = None if attack_window is None else attack_window["strike_frame"] - attack_window["start"]
+    placed = place_victim(attacker, victim, scenario, strike_frame=k_place)
     need = int(np.ceil((config.window[1] + 0.5) * fps))
     # the attack on the victim's frames, long enough to be looked up during the burst
     att = _on_timeline(attacker, fps, max(victim.n_frames, int(np.floor(attacker.duration * fps + 1e-9)) + 1))
@@ -284,10 +293,24 @@ def impact_response(attacker: Motion, victim: Motion, index, scenario: Scenario 
 
     t, c = time.perf_counter(), time.process_time()
     placement = {"overlap_m": scenario.overlap if scenario.offset is None else None, "tries": 1}
+    t_strike = None if k_place is None else k_place / attacker.fps
+    if t_strike is not None:
+        placement["strike_time_s"] = t_strike
+    early = None                                      # (placed, fc, overlap) of a try that touched before the strike
     while True:
         vk = placed.slice(0, min(placed.n_frames, att.n_frames))
         try:
             fc = find_first_contact(scene, att.slice(0, vk.n_frames), vk)
+            if (t_strike is not None and scenario.offset is None and fc.time < t_strike - config.strike_early
+                    and placement["overlap_m"] - 0.1 >= config.min_overlap - 1e-9):
+                # the wind-up touches the victim (a Bandai slash's forearms on the victim's guard 1.3 s before
+                # the slash): back off for the strike, keeping this try should the strike then miss
+                early = (placed, fc, placement["overlap_m"])
+                placement["overlap_m"] = round(placement["overlap_m"] - 0.1, 6)
+                placement["tries"] += 1
+                placed = place_victim(attacker, victim, replace(scenario, overlap=placement["overlap_m"]),
+                                      strike_frame=k_place)
+                continue
             break
         except TouchAtStartError:
             # the default placement (the strike's reach minus the overlap) can put a short strike's
@@ -296,7 +319,17 @@ def impact_response(attacker: Motion, victim: Motion, index, scenario: Scenario 
                 raise
             placement["overlap_m"] = round(placement["overlap_m"] - 0.1, 6)
             placement["tries"] += 1
-            placed = place_victim(attacker, victim, replace(scenario, overlap=placement["overlap_m"]))
+            placed = place_victim(attacker, victim, replace(scenario, overlap=placement["overlap_m"]),
+                                  strike_frame=k_place)
+        except ImpactError:
+            if early is None:
+                raise
+            # backed off past the strike's reach: the last placement that touched is kept
+            placed, fc, placement["overlap_m"] = early
+            placement["contact_before_strike"] = True
+            break
+    if t_strike is not None:
+        placement["contact_time_s"] = fc.time
     timings["first_contact"], cpu["first_contact"] = time.perf_counter() - t, time.process_time() - c
     # the victim clip held at its end beyond, so the burst has targets
     t0 = fc.rewind_frame / fps

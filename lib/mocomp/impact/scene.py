@@ -41,7 +41,7 @@ from ..core.motion import Motion
 from ..core.rotations import quat_angle
 from ..errors import MocompError
 
-__all__ = ["ImpactError", "TouchAtStartError", "Scenario", "CharacterLayout", "Scene", "build_scene", "place_victim", "joint_limits",
+__all__ = ["ImpactError", "TouchAtStartError", "Scenario", "strike_at", "CharacterLayout", "Scene", "build_scene", "place_victim", "joint_limits",
            "strike_direction", "strike_joints", "strike_window", "default_impact_body", "STEP", "FRICTION_NAIVE", "FRICTION_ACTIVE", "TORSIONAL_FRICTION"]
 
 #: simulation step, s (App. A)
@@ -289,7 +289,31 @@ def strike_window(attacker: Motion, contact_body: str | None = None, *, lead: fl
     return a, b, peak
 
 
-def place_victim(attacker: Motion, victim: Motion, scenario: Scenario) -> Motion:
+def strike_at(attacker: Motion, contact_body: str | None, frame: int) -> tuple[np.ndarray, float, int]:
+    """``(direction (3,), reach m, frame)`` of the strike at a given ``frame`` (the fastest swing of
+    :func:`strike_window`): the striking joint moving fastest relative to the root there (the end
+    effector of the swing), its horizontal direction and distance from the attacker's root at its first
+    frame -- :func:`strike_direction`'s answer for that frame instead of the clip's farthest reach
+    (a 13 s Bandai take reaches farthest when it walks about, not when it slashes)."""
+    T = attacker.n_frames
+    if not 0 <= frame < T:
+        raise ImpactError(f"strike frame {frame} outside the attack clip's {T} frames")
+    P = attacker.positions
+    sub = sorted(strike_joints(attacker.skeleton, contact_body)) if contact_body is not None else \
+        list(range(1, attacker.skeleton.n_joints))
+    rel = P[:, sub] - attacker.root_positions[:, None]
+    a, b = max(frame - 1, 0), min(frame + 1, T - 1)
+    speed = np.linalg.norm(rel[b] - rel[a], axis=-1)
+    j = sub[int(np.argmax(speed))]
+    d = P[frame, j] - attacker.root_positions[0]
+    d[1] = 0.0
+    reach = float(np.linalg.norm(d))
+    if reach < 1e-6:
+        raise ImpactError("the attacker's striking joint is above its root at the strike: no strike direction")
+    return d / reach, reach, int(frame)
+
+
+def place_victim(attacker: Motion, victim: Motion, scenario: Scenario, *, strike_frame: int | None = None) -> Motion:
     """The victim clip moved rigidly (about the vertical, on the ground) for the scenario.
 
     The frame of reference is the attacker's strike (:func:`strike_direction`): x along the strike,
@@ -298,10 +322,12 @@ def place_victim(attacker: Motion, victim: Motion, scenario: Scenario) -> Motion
     victim's root goes to ``scenario.offset`` in that frame (default: straight ahead at the strike's
     reach minus ``scenario.overlap``), heading toward the attacker turned by ``facing_deg`` (0: face
     to face, 180: its back to the attacker) -- so a walking or running victim arrives there when the
-    strike does."""
+    strike does. ``strike_frame``: the strike is the one at that frame (:func:`strike_at`: its fastest
+    joint's reach there), not the farthest reach."""
     from ..ops.align import headings, yaw_quaternion
 
-    fwd, reach, k_strike = strike_direction(attacker, scenario.contact_body)
+    fwd, reach, k_strike = strike_direction(attacker, scenario.contact_body) if strike_frame is None else \
+        strike_at(attacker, scenario.contact_body, strike_frame)
     k = int(min(round(k_strike / attacker.fps * victim.fps), victim.n_frames - 1))
     right = np.cross(fwd, np.array([0.0, 1.0, 0.0]))
     off = scenario.offset if scenario.offset is not None else (max(reach - scenario.overlap, 0.2), 0.0)
