@@ -93,12 +93,13 @@ def default_blend_frames(fps: float) -> int:
 
 
 def foot_points(P: np.ndarray, G: np.ndarray, plants: FootPlants) -> np.ndarray:
-    """``(T, 4, 3)`` world positions of the four foot points (``plants.effectors`` order)."""
-    pts = []
-    for leg in plants.legs:
-        for j, off in (leg.ankle_point, leg.toe_point):
-            pts.append(P[:, j] + quat_apply(G[:, j], off))
-    return np.stack(pts, axis=1)
+    """``(T, 4, 3)`` world positions of the four foot points (``plants.effectors`` order); the four
+    rotated in one :func:`~mocomp.core.rotations.quat_apply` (elementwise: the same numbers as one
+    call per point)."""
+    pairs = [p for leg in plants.legs for p in (leg.ankle_point, leg.toe_point)]
+    js = [int(j) for j, _ in pairs]
+    offs = np.array([off for _, off in pairs], dtype=float)
+    return P[:, js] + quat_apply(G[:, js], offs)
 
 
 def plant_slides(points: np.ndarray, plants: FootPlants) -> np.ndarray:
