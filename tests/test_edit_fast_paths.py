@@ -88,7 +88,12 @@ def _plant_feet_reference(motion, start, weights, chains, tol=1e-3):
         idx = np.flatnonzero(np.linalg.norm(tgt - P[start:, a], axis=1) > tol)
         if idx.size:
             f = start + idx
-            rot[f], _ = two_bone_ik(P[f], G[f], rot[f], parents, chain, tgt[idx])
+            # ops.ik's soft reach (SOFT_REACH of the leg's length: the knee never snaps straight)
+            from mocomp.ops.ik import SOFT_REACH
+
+            full = (np.linalg.norm(P[f, chain[1]] - P[f, chain[0]], axis=1)
+                    + np.linalg.norm(P[f, a] - P[f, chain[1]], axis=1))
+            rot[f], _ = two_bone_ik(P[f], G[f], rot[f], parents, chain, tgt[idx], soft_reach=SOFT_REACH * full)
             solves += idx.size
     return motion.replace(rotations=rot), solves
 
@@ -123,11 +128,21 @@ def _recover_upright_reference(motion, first_ground, up_now, seconds, ce, contac
             cw = w[i].max()
             held = cw * (w[i] @ err[i]) / ws + (1.0 - cw) * held
         shift[i] = held
+    # the root follows the held shift with bounded acceleration (causal raised-cosine, 0 before touchdown)
+    L = int(round(seams.SHIFT_EASE_S * motion.fps))
+    h = 1.0 - np.cos(2.0 * np.pi * np.arange(1, L + 1) / (L + 1))
+    h /= h.sum()
+    shift = np.stack([np.convolve(shift[:, k], h)[:n] for k in range(2)], axis=1)
     rp[first_ground:, 0] += shift[:, 0]
     rp[first_ground:, 2] += shift[:, 1]
     out = motion.replace(root_positions=rp, rotations=rot)
     chains = [ch for ch in leg_chains(motion.skeleton) if ch[2] in feet]
     wa = w[:, [feet.index(ch[2]) for ch in chains]]
+    # held ankles let go no faster than over seams.RELEASE_S (d0375af; this reference had not followed it)
+    from mocomp.edit.landing import _release_limited
+
+    rate = 1.0 / max(seams.RELEASE_S * motion.fps, 1.0)
+    wa = np.stack([_release_limited(wa[:, i], rate) for i in range(wa.shape[1])], axis=1)
     out, solves = _plant_feet_reference(out, first_ground, wa, chains)
     assert solves > 0
     after = out[first_ground:].positions[:, feet]
@@ -168,6 +183,24 @@ def test_held_shift_known_answer():
     err = np.array([[[1.0, 2.0]], [[9.0, 9.0]], [[3.0, -1.0]], [[5.0, 5.0]]])
     np.testing.assert_allclose(seams._held_shift(w, err),
                                [[1.0, 2.0], [1.0, 2.0], [3.0, -1.0], [4.0, 2.0]], atol=1e-15)
+
+
+def test_ease_shift_spreads_a_step_with_bounded_speed_and_acceleration():
+    # a 7 cm step of the target (a foot re-touching the floor) at frame 10, eased over L = 24 frames
+    L, d = 24, 0.07
+    target = np.zeros((60, 2))
+    target[10:, 0] = d
+    target[10:, 1] = -d / 2
+    out = seams._ease_shift(target, L)
+    assert np.all(out[:10] == 0.0)                                       # causal: nothing before the step
+    np.testing.assert_allclose(out[10 + L - 1:], target[10 + L - 1:], atol=1e-15)   # reached after L-1 frames
+    v = np.diff(out[:, 0])
+    assert np.all(v >= -1e-15) and v.max() <= 2 * d / L * 1.01         # monotone, peak speed 2 d / L per frame
+    assert np.abs(np.diff(v)).max() <= 2 * np.pi * d / L ** 2           # acceleration bound
+    assert v.max() < d / 3                                                # the raw step moved d in one frame
+    # a target that is already constant from before the first frame (0) stays 0; L <= 1 is the identity
+    assert np.all(seams._ease_shift(np.zeros((5, 2)), L) == 0.0)
+    np.testing.assert_array_equal(seams._ease_shift(target, 1), target)
 
 
 # ------------------------------------------------- step 1's joint solve: band LU vs sparse LU

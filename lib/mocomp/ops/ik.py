@@ -9,6 +9,21 @@ footplant). A target out of reach is approached as far as the limb allows: the e
 on the line from the hip to the target with the knee straight (or fully folded), and the miss
 in metres is returned per frame, so callers can report unreachable frames.
 
+**Soft reach** (``soft_reach=s`` m; :func:`plant_rotations` uses :data:`SOFT_REACH` of the leg's
+length). With a hard clamp the knee angle goes as ``sqrt(L - d)`` near full extension
+(``L = l1 + l2``), so a target moving at constant speed toward and past the reach straightens the
+knee at an unbounded angular rate and then stops it dead: the knee *snaps* straight (and back).
+The common soft-IK formulation (A. Nicholas, "Soft IK", 2012, as used in animation rigs) replaces
+the hip-ankle distance ``d`` beyond ``d_s = L - s`` by
+
+    ``d' = d_s + s (1 - exp(-(d - d_s) / s))``,
+
+which equals ``d`` with slope 1 at ``d_s`` (C1), stays below ``L`` for every ``d`` and approaches it
+exponentially, so the knee straightens smoothly and never quite locks. The ankle then stops short
+of a target near or beyond the reach (by ``d - d'``, returned as the miss). So that a target at the
+ankle's own position (a vanishing correction) is still reached exactly, ``d'`` is never taken below
+``min(d, d_0)``, the chain's current hip-ankle distance ``d_0``.
+
 The hip does not move, and bone lengths are those of the skeleton (forward kinematics of the
 returned local rotations): only the rotations of the hip, knee and ankle change.
 
@@ -19,6 +34,8 @@ edits (:mod:`mocomp.edit.seams`, :mod:`mocomp.edit.landing`), the take-off repai
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from ..core.kinematics import forward_kinematics
@@ -26,11 +43,35 @@ from ..core.motion import Motion
 from ..core.rotations import quat_apply, quat_inverse, quat_multiply
 
 __all__ = ["two_bone_ik", "hinge_axis", "leg_chains", "plant_feet", "plant_rotations", "run_starts", "descends",
-           "arc_quaternions", "axis_angle_quaternions", "REACH_MARGIN", "plant_targets"]
+           "arc_quaternions", "axis_angle_quaternions", "REACH_MARGIN", "SOFT_REACH", "UNREACHABLE_TOL", "soft_distance",
+           "PlantReach", "plant_targets"]
 
 #: m: a target is reached with the limb at most this much shorter than fully straight (or this much
 #: longer than fully folded); a straight knee has no bending plane, so it is never quite reached.
 REACH_MARGIN = 1e-6
+
+#: fraction of a leg's length ``l1 + l2`` over which :func:`plant_rotations` softens the reach
+#: (``soft_reach`` of :func:`two_bone_ik`; the same as :data:`mocomp.ops.footplant.SOFT_REACH`)
+SOFT_REACH = 0.02
+
+#: m: :func:`plant_rotations` reports a frame as unreachable where the leg misses its target by more
+#: than this (the soft reach alone leaves misses of a few mm near full extension)
+UNREACHABLE_TOL = 0.005
+
+
+def soft_distance(d, full, soft, floor=None) -> np.ndarray:
+    """The soft-reach hip-ankle distance (module docstring): ``d`` below ``d_s = full - soft``,
+    ``d_s + soft (1 - exp(-(d - d_s) / soft))`` above it, never below ``floor`` (``min(d, d_0)``
+    in :func:`two_bone_ik`); ``soft <= 0``: ``d`` unchanged. Broadcasts over its arguments."""
+    d = np.asarray(d, dtype=float)
+    soft = np.asarray(soft, dtype=float)
+    full = np.asarray(full, dtype=float)
+    s = np.where(soft > 0, soft, 1.0)
+    d_s = full - s
+    out = np.where((soft > 0) & (d > d_s), d_s + s * (1.0 - np.exp(-np.maximum(d - d_s, 0.0) / s)), d)
+    if floor is not None:
+        out = np.maximum(out, np.minimum(d, floor))
+    return out
 
 
 def leg_chains(skeleton) -> list[tuple[int, int, int]]:
@@ -108,7 +149,7 @@ def _parent_rotation(G, parents, j):
 
 def two_bone_ik(P: np.ndarray, G: np.ndarray, rot: np.ndarray, parents, chain, target, *,
                 end_rotation: np.ndarray | None = None, reach_margin: float = REACH_MARGIN,
-                bend_axis=(1.0, 0.0, 0.0), bend_prior: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+                bend_axis=(1.0, 0.0, 0.0), bend_prior: float = 0.0, soft_reach=0.0) -> tuple[np.ndarray, np.ndarray]:
     """Local rotations with the chain's end joint on ``target``.
 
     Parameters
@@ -129,9 +170,11 @@ def two_bone_ik(P: np.ndarray, G: np.ndarray, rot: np.ndarray, parents, chain, t
         is ``l1 l2 sin(knee angle)``): the knee bends about ``w x u + bend_prior l1 l2 G_hip bend_axis``,
         so a nearly straight leg, whose plane is noise, bends about its hinge. 0 (default): the axis
         is used only where the leg is exactly straight.
+    soft_reach: m (scalar or ``(...)``), the width ``s`` of the soft reach (module docstring);
+        0 (default): the hard clamp alone.
 
     Returns ``(rot, miss)``: ``miss (...)`` m, the distance left between the ankle and the
-    target (0 to rounding where it is reachable; the clamped excess otherwise).
+    target (0 to rounding where it is reachable; the clamped or softened excess otherwise).
     """
     h, k, a = (int(c) for c in chain)
     H, K, A = P[..., h, :], P[..., k, :], P[..., a, :]
@@ -139,7 +182,10 @@ def two_bone_ik(P: np.ndarray, G: np.ndarray, rot: np.ndarray, parents, chain, t
     l1 = _norm(K - H)
     l2 = _norm(A - K)
     d_want = _norm(T - H)
-    d = np.clip(d_want, np.abs(l1 - l2) + reach_margin, l1 + l2 - reach_margin)
+    d = d_want
+    if np.any(np.asarray(soft_reach) > 0):
+        d = soft_distance(d_want, l1 + l2 - reach_margin, soft_reach, floor=_norm(A - H))
+    d = np.clip(d, np.abs(l1 - l2) + reach_margin, l1 + l2 - reach_margin)
     # knee: bend in the leg's plane (normal n = w x u) so that |ankle - hip| = d
     u, w = H - K, A - K
     n = _cross(w, u)
@@ -271,13 +317,56 @@ def plant_targets(pos: np.ndarray, weights: np.ndarray) -> np.ndarray:
     return pos + w[..., None] * (anchor - pos)
 
 
-def plant_rotations(parents, rotations, P, G, start, weights, chains, tol=1e-3) -> tuple[np.ndarray, int]:
+@dataclass(frozen=True)
+class PlantReach:
+    """Where :func:`plant_rotations` could not put the ankles on their targets.
+
+    unreachable: per chain (in the order given), half-open runs ``(start, stop)`` of clip frames where
+        the ankle missed its target by more than :data:`UNREACHABLE_TOL` (the target beyond the soft
+        reach, or beyond the leg).
+    max_miss: m, the largest miss per chain (0 where every target was reached).
+    softened: per chain, the number of solved frames whose target lay in the soft zone
+        (within ``soft_reach`` of full extension) or beyond.
+    """
+
+    unreachable: tuple
+    max_miss: tuple
+    softened: tuple
+
+    @property
+    def n_unreachable(self) -> int:
+        return int(sum(b - a for runs in self.unreachable for a, b in runs))
+
+    def summary(self) -> str:
+        if not self.n_unreachable:
+            return "every plant target within reach"
+        return (f"{self.n_unreachable} leg-frame(s) out of reach (ankle short of its target by up to "
+                f"{max(self.max_miss) * 100:.1f} cm): " + "; ".join(
+                    f"leg {i}: frames " + ", ".join(f"{a}-{b - 1}" for a, b in runs)
+                    for i, runs in enumerate(self.unreachable) if runs))
+
+
+def _runs(mask: np.ndarray, offset: int) -> list[tuple[int, int]]:
+    m = np.concatenate([[False], np.asarray(mask, dtype=bool), [False]])
+    e = np.flatnonzero(np.diff(m.astype(np.int8)))
+    return [(int(a) + offset, int(b) + offset) for a, b in zip(e[::2], e[1::2])]
+
+
+def plant_rotations(parents, rotations, P, G, start, weights, chains, tol=1e-3, *, soft_reach: float = SOFT_REACH,
+                    return_reach: bool = False):
     """:func:`plant_feet` on arrays: ``rotations (T, J, 4)`` and the FK ``P``, ``G`` of frames
-    ``start..`` only; returns the new rotations (a copy) and the number of IK solves."""
+    ``start..`` only; returns the new rotations (a copy) and the number of IK solves.
+
+    soft_reach: fraction of each leg's length ``l1 + l2`` over which the reach is softened
+        (module docstring; 0: the hard clamp, whose knee snaps straight where a target passes the reach).
+    return_reach: also return a :class:`PlantReach` (the unreachable frames), as a third element.
+    """
     for c1 in chains:
         for c2 in chains:
             if c1 is not c2 and descends(parents, c2[0], c1[0]):
                 raise ValueError(f"leg chains {c1} and {c2} overlap; plant_feet needs disjoint legs")
+    if not (np.isfinite(soft_reach) and 0.0 <= soft_reach < 0.5):
+        raise ValueError(f"soft_reach must be a fraction of the leg length in [0, 0.5), got {soft_reach!r}")
     rot = np.array(rotations)
     solves = 0
     weights = np.asarray(weights, dtype=float)
@@ -286,13 +375,24 @@ def plant_rotations(parents, rotations, P, G, start, weights, chains, tol=1e-3) 
                          f"got {weights.shape}")
     ank = [c[2] for c in chains]
     hor = plant_targets(P[:, ank][..., [0, 2]], weights)
+    unreachable, max_miss, softened = [], [], []
     for c, chain in enumerate(chains):
-        a = chain[2]
+        h, k, a = chain
         tgt = np.array(P[:, a])
         tgt[:, [0, 2]] = hor[:, c]
         idx = np.flatnonzero(np.linalg.norm(tgt - P[:, a], axis=1) > tol)
+        miss = np.zeros(P.shape[0])
+        n_soft = 0
         if idx.size:
             f = start + idx
-            rot[f], _ = two_bone_ik(P[idx], G[idx], rot[f], parents, chain, tgt[idx])
+            full = _norm(P[idx, k] - P[idx, h]) + _norm(P[idx, a] - P[idx, k])
+            rot[f], miss[idx] = two_bone_ik(P[idx], G[idx], rot[f], parents, chain, tgt[idx],
+                                            soft_reach=soft_reach * full)
+            n_soft = int(np.count_nonzero(_norm(tgt[idx] - P[idx, h]) > (1.0 - soft_reach) * full))
             solves += idx.size
+        unreachable.append(_runs(miss > UNREACHABLE_TOL, start))
+        max_miss.append(float(miss.max(initial=0.0)))
+        softened.append(n_soft)
+    if return_reach:
+        return rot, solves, PlantReach(tuple(unreachable), tuple(max_miss), tuple(softened))
     return rot, solves
