@@ -371,3 +371,27 @@ def test_strike_at_takes_the_fastest_joint_at_the_frame(walk):
     np.testing.assert_allclose(fwd, d / np.linalg.norm(d), atol=1e-12)
     with pytest.raises(Exception, match="outside"):
         strike_at(m, None, m.n_frames)
+
+
+def test_run_victim_input_frames_kept_and_no_penetration(ase, tmp_path):
+    """Running victim, counter attack in the back: the plants used to raise an input plant 1.7 cm over
+    frames 0-24 (before the rewind), which lifted the audit's floor above the input's own unchanged
+    footfall at frame 31: 1.17 cm penetration on the written file. The input frames before the rewind are
+    now kept exactly (the plants' change eases in after it): penetration 0.47 cm (the input's own: 0.88)."""
+    from mocomp.audit import audit
+    from mocomp.impact.pipeline import ImpactConfig, impact_response
+    from mocomp.impact.scene import Scenario
+    from mocomp.io import read_bvh, write_bvh
+
+    clips, index, lib = ase
+    r = impact_response(clips["counter"], clips["run"], index, Scenario(180.0), ImpactConfig(seed=0), library_motions=lib)
+    write_bvh(r.victim, tmp_path / "v.bvh")
+    v = read_bvh(tmp_path / "v.bvh", scale=1.0)
+    rw = r.frames["rewind"]
+    assert rw > 20 and r.evidence["footplant"]["input_frames_restored"] > 0
+    ref = audit(clips["run"])
+    va = audit(v, against=clips["run"], external_force_frames=[tuple(r.frames["external_force"])])
+    # the written input part: the captured clip placed rigidly, so its lowest point's heights are the input's
+    np.testing.assert_allclose(va.penetration.lowest[:rw], ref.penetration.lowest[:rw], atol=2e-4)
+    assert va.penetration.max_depth <= 0.01
+    assert not [x for x in va.violations if x.check == "floor_penetration"]

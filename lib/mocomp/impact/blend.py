@@ -35,7 +35,7 @@ from ..core.motion import Motion, slerp
 from ..core.rotations import quat_angle, quat_inverse, quat_multiply
 
 __all__ = ["BlendOutcome", "final_blend", "correction", "floor_lift", "plant_feet", "frame_steps",
-           "wrist_props", "props_above_floor",
+           "wrist_props", "props_above_floor", "keep_before",
            "limit_plant_steps"]
 
 
@@ -234,6 +234,31 @@ def props_above_floor(motion: Motion, floor_y: float, props: tuple[int, ...], *,
         cosang = np.clip(np.einsum("ij,ij->i", v, w) / np.maximum(L * L, 1e-12), -1.0, 1.0)
         angle = np.maximum(angle, np.where(d > 0, np.arccos(cosang), 0.0))
     return motion, angle
+
+
+def keep_before(changed: Motion, original: Motion, start: int, ramp_frames: int) -> tuple[Motion, int]:
+    """``(motion, frames_restored)``: ``changed`` with the frames before ``start`` put back to
+    ``original``'s exactly, the change easing in (smoothstep; root lerp, joints slerp) over the
+    ``ramp_frames`` frames from ``start``. The plants (:func:`plant_feet`) hold the detector's plants of
+    the whole output, the input clip's before the rewind frame too: on the running victim they raised a
+    plant 1.7 cm over frames 0-24, which raised the audit's floor (measured from the first ground stage)
+    above the input's own unchanged footfall at frame 31 (1.17 cm "penetration")."""
+    from ..ops import ease
+
+    if start <= 0 or changed.n_frames != original.n_frames:
+        return changed, 0
+    T = changed.n_frames
+    k = np.arange(T) - start
+    w = ease(np.clip((k + 1) / max(ramp_frames + 1, 1), 0.0, 1.0), "smoothstep") if ramp_frames > 0 else (k >= 0) * 1.0
+    w = np.where(k < 0, 0.0, w)
+    if np.all(w >= 1.0):
+        return changed, 0
+    rp = original.root_positions + w[:, None] * (changed.root_positions - original.root_positions)
+    rot = slerp(original.rotations, changed.rotations, np.broadcast_to(w[:, None], changed.rotations.shape[:2]))
+    s = min(start, T)
+    moved = int((np.any(np.abs(changed.root_positions[:s] - original.root_positions[:s]) > 1e-9, axis=1)
+                 | np.any(np.abs(changed.rotations[:s] - original.rotations[:s]) > 1e-9, axis=(1, 2))).sum())
+    return changed.replace(root_positions=rp, rotations=rot), moved
 
 
 def plant_feet(motion: Motion, fade: float | None = None):

@@ -256,7 +256,8 @@ def impact_response(attacker: Motion, victim: Motion, index, scenario: Scenario 
     (:func:`load_library`); ``library_motions``: its clips as motions (for the joint limits; read
     from the index when None)."""
     from .attacker import attacker_response
-    from .blend import final_blend, floor_lift, frame_steps, limit_plant_steps, plant_feet, props_above_floor, wrist_props
+    from .blend import (final_blend, floor_lift, frame_steps, keep_before, limit_plant_steps, plant_feet,
+                        props_above_floor, wrist_props)
     from .scene import build_scene, place_victim
     from .search import search
     from .simulate import ServoGains, blend_targets, clip_targets, find_first_contact, naive_targets, simulate
@@ -471,11 +472,14 @@ def impact_response(attacker: Motion, victim: Motion, index, scenario: Scenario 
                 if seam_free:
                     free = np.zeros(out.n_frames, bool)
                     free[max(re_frame - fp.blend_frames, 0):re_frame + fp.blend_frames + 1] = True
+                lifted = out
                 out, limited = limit_plant_steps(out, fp.motion, fp.plants, cq_max, free=free)
+                # the input before the rewind frame stays as captured (the plants' change eases in after it)
+                out, restored = keep_before(out, lifted, fc.rewind_frame, fp.blend_frames)
                 ev["footplant"] = {"plants": {e: len(v) for e, v in fp.plants.intervals.items()}
                                    if hasattr(fp.plants, "intervals") else None,
                                    "max_miss_m": float(fp.max_miss), "changed_frames": int(fp.changed_frames),
-                                   "frames_fade_slowed": limited, "seam_free_frames": int(free.sum()) if seam_free else 0}
+                                   "frames_fade_slowed": limited, "input_frames_restored": restored, "seam_free_frames": int(free.sum()) if seam_free else 0}
             except NoContactError as e:               # no plant at all (a victim airborne throughout)
                 ev["footplant"] = {"skipped": str(e)}
         if config.lift:
