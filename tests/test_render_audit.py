@@ -289,3 +289,46 @@ def test_real_88_01_landing_below_the_floor_is_drawn_red(real_data_dir):
     assert labels["take-off 1"] == rep.phases.takeoffs[0] and labels["landing 1"] == rep.phases.landings[0]
     a, b = rep.phases.flights[0]
     assert sum(a <= p.frame < b for p in ra.phase_poses(rep)) >= 4
+
+
+# ------------------------------------------------------------------ expected findings (external force)
+@pytest.fixture(scope="module")
+def pushed(bf):
+    """The back flip pushed: a 1 m/s horizontal velocity step in the landing hold, audited with and
+    without the push declared as an external force."""
+    m = bf.motion
+    a = bf.phases["hold"][0] + 10
+    rp = np.array(m.root_positions)
+    rp[a:, 0] += 1.0 * (np.arange(m.n_frames - a) + 1) / m.fps
+    p = m.replace(root_positions=rp)
+    forced = audit(p, bf.body, external_force_frames=[(a - 2, a + 3)])
+    return p, a, forced, audit(p, bf.body)
+
+
+def _color_cols(img, col, tol=6):
+    c = np.array(ra._rgb255(col))
+    return np.flatnonzero(np.all(np.abs(img.astype(int) - c) <= tol, axis=-1).any(axis=0))
+
+
+def test_expected_findings_have_their_own_colour_and_legend(pushed):
+    p, a, forced, free = pushed
+    assert forced.expected and not any(f.frames[0] - 12 <= a < f.frames[1] + 12 for f in forced.violations)
+    assert any(f.frames[0] - 12 <= a < f.frames[1] + 12 for f in free.violations)
+    st = ra.OverlayStyle()
+    assert st.expected_color not in (st.advisory_color, st.penetration_color)
+    e = forced.expected[0]
+    assert ra.finding_color(e, st) == st.expected_color
+    assert ra.finding_color(free.violations[0], st) == st.penetration_color
+    bar_f = ra._TimeBar(ra.audit_track(p, forced, name="forced", style=SMALL), 640, st, (0, p.n_frames))
+    bar_v = ra._TimeBar(ra.audit_track(p, free, name="free", style=SMALL), 640, st, (0, p.n_frames))
+    z0, z1 = bar_f.rows[2], bar_f.rows[3]
+    row_f = bar_f.image[z0:z1 + 1]
+    cols = _color_cols(row_f, st.expected_color)
+    # the expected finding is drawn violet over its frames
+    lo, hi = bar_f.xf(e.frames[0]), max(bar_f.xf(e.frames[1]) - 1, bar_f.xf(e.frames[0]) + 1)
+    assert np.any((cols >= lo) & (cols <= hi))
+    # the legend (top strip) has the violet swatch only where there are expected findings
+    assert _color_cols(bar_f.image[:z0 - 12], st.expected_color).size > 0
+    assert _color_cols(bar_v.image[:z0 - 12], st.expected_color).size == 0
+    assert _color_cols(bar_v.image[z0:z1 + 1], st.expected_color).size == 0
+    assert "expected" in ra._verdict_text(forced)[0] and "expected" not in ra._verdict_text(free)[0]

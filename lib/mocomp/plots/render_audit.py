@@ -18,8 +18,9 @@
   audit's least-squares parabola in height, lines in x and z, over the flight's frames): where
   the motion leaves the fit, the two curves part;
 * **a time bar** under each panel: ground stages (grey) and flights (blue), the audit's
-  violations (red) and advisories (orange) over the frames they cover, the current frame, and the
-  findings active at that frame in words above the scene.
+  violations (red), advisories (orange) and findings expected under a declared external force
+  (violet: severity ``"expected"``, :mod:`mocomp.audit.force`; neither judged nor advised) over the
+  frames they cover, the current frame, and the findings active at that frame in words above the scene.
 
 Filmstrips (``.png``) pick poses by phase, not by uniform time (:func:`phase_poses`): per flight
 its take-off, apex and landing frames (the audit's phases) with poses in between at most
@@ -126,7 +127,9 @@ class OverlayStyle:
     penetration_color: bones below the floor by more than the audit's threshold, the depth mark.
     contact_color: the disc under a planted effector; contact_radius: its radius, m.
     com_color / fit_color: COM path / ballistic fits; line_width: of both.
-    flight_color, ground_color: phases in the time bar; advisory_color: advisory findings.
+    flight_color, ground_color: phases in the time bar; advisory_color: advisory findings;
+    expected_color: findings expected under a declared external force (severity ``"expected"``),
+    with their own legend entry where a report has any.
     bar_height: the time bar strip under each panel; caption_height: the caption under a filmstrip
     tile; header_height: the title strip over a filmstrip row; font_size: text size.
     """
@@ -141,6 +144,7 @@ class OverlayStyle:
     flight_color: tuple[float, float, float] = (0.55, 0.74, 0.96)
     ground_color: tuple[float, float, float] = (0.78, 0.78, 0.76)
     advisory_color: tuple[float, float, float] = (0.98, 0.62, 0.12)
+    expected_color: tuple[float, float, float] = (0.52, 0.36, 0.86)
     bar_height: int = 56
     caption_height: int = 52
     header_height: int = 40
@@ -157,6 +161,18 @@ class OverlayStyle:
 
 def _rgb255(c) -> tuple[int, int, int]:
     return tuple(int(round(255 * float(v))) for v in c)
+
+
+def finding_color(f, style: "OverlayStyle") -> tuple[float, float, float]:
+    """The colour of a finding in the time bar: violations ``penetration_color`` (red), findings
+    expected under a declared external force ``expected_color`` (violet), advisories ``advisory_color``."""
+    if f.is_violation:
+        return style.penetration_color
+    return style.expected_color if f.severity == "expected" else style.advisory_color
+
+
+#: text colours (0-255) of the findings written above the scene, by severity
+_TEXT_COLORS = {"advisory": (170, 95, 0), "expected": (95, 55, 170)}
 
 
 # -------------------------------------------------------------- the data
@@ -500,10 +516,12 @@ def _verdict_text(rep) -> tuple[str, tuple[int, int, int]]:
     counts: dict[str, int] = {}
     for f in rep.violations:
         counts[f.check] = counts.get(f.check, 0) + 1
+    n_exp = len(getattr(rep, "expected", ()))
+    exp = f" · {n_exp} expected (external force)" if n_exp else ""
     if not counts:
-        return f"audit PASS · {len(rep.advisories)} advisory", (20, 120, 40)
+        return f"audit PASS · {len(rep.advisories)} advisory{exp}", (20, 120, 40)
     return (f"audit FAIL · {len(rep.violations)} violation(s): " + ", ".join(f"{k.replace('_', ' ')} {v}"
-                                                                              for k, v in counts.items()),
+                                                                              for k, v in counts.items()) + exp,
             (200, 20, 20))
 
 
@@ -526,8 +544,10 @@ class _TimeBar:
         for a, b in rep.phases.flights:
             d.rectangle([self.xf(a), y0, max(self.xf(b) - 1, self.xf(a) + 1), y1], fill=_rgb255(style.flight_color))
         d.rectangle([self.x0, z0, self.x1, z1], fill=(236, 236, 236))
-        for f in sorted(rep.findings, key=lambda f: f.is_violation):
-            col = _rgb255(style.penetration_color) if f.is_violation else _rgb255(style.advisory_color)
+        # expected first, then advisories, violations on top
+        order = {"expected": 0, "advisory": 1, "violation": 2}
+        for f in sorted(rep.findings, key=lambda f: order.get(f.severity, 1)):
+            col = _rgb255(finding_color(f, style))
             top = z0 if f.is_violation else (z0 + z1) // 2
             a, b = f.frames
             d.rectangle([self.xf(a), top, max(self.xf(b) - 1, self.xf(a) + 1), z1], fill=col)
@@ -541,8 +561,11 @@ class _TimeBar:
         d = ImageDraw.Draw(img)
         f = _font(style.font_size - 1)
         x = self.x1
-        for lab, col in reversed([("flight", style.flight_color), ("ground", style.ground_color),
-                                  ("violation", style.penetration_color), ("advisory", style.advisory_color)]):
+        legend = [("flight", style.flight_color), ("ground", style.ground_color),
+                  ("violation", style.penetration_color), ("advisory", style.advisory_color)]
+        if any(f.severity == "expected" for f in rep.findings):
+            legend.append(("expected", style.expected_color))
+        for lab, col in reversed(legend):
             x -= int(d.textlength(lab, font=f))
             d.text((x, 2), lab, fill=(60, 60, 60), font=f)
             x -= 12
@@ -738,7 +761,7 @@ class AuditRenderer(OffscreenScene):
             f = _font(ov.font_size)
             y = 4 + (2 * (ov.font_size + 4) if title else 0)
             for fd in tr.findings_at(frame)[:4]:
-                col = red if fd.is_violation else (170, 95, 0)
+                col = red if fd.is_violation else _TEXT_COLORS.get(fd.severity, _TEXT_COLORS["advisory"])
                 draw.text((ox + 8, y), _finding_text(fd), fill=col, font=f, stroke_width=2,
                           stroke_fill=(255, 255, 255))
                 y += ov.font_size + 3
