@@ -395,3 +395,47 @@ def test_run_victim_input_frames_kept_and_no_penetration(ase, tmp_path):
     np.testing.assert_allclose(va.penetration.lowest[:rw], ref.penetration.lowest[:rw], atol=2e-4)
     assert va.penetration.max_depth <= 0.01
     assert not [x for x in va.violations if x.check == "floor_penetration"]
+
+
+def test_separate_bounded_speed_and_shift_report_the_residual(walk):
+    """The bounded push: no frame-to-frame change above max_speed / fps, never longer than max_shift,
+    and what the bounds leave reported as the residual overlap (here the cap leaves one)."""
+    victim = _walk_through(walk, lateral=0.0)
+    start = 5
+    free, ev0 = separate(walk, victim, start=start)
+    assert ev0["max_shift_m"] > 0.2 and ev0["residual_overlap_m"] <= 0.005 and ev0["frames_overlapping"] == 0
+    out, ev = separate(walk, victim, start=start, max_speed=1.0, max_shift=0.15, lead_time=0.1)
+    shift = out.root_positions - walk.root_positions
+    assert np.linalg.norm(np.diff(shift, axis=0), axis=1).max() <= 1.0 / walk.fps + 1e-9
+    assert np.linalg.norm(shift, axis=1).max() <= 0.15 + 1e-9
+    assert np.allclose(shift[:start - 3], 0.0)                 # the ramp starts at most lead_time before start
+    g, _ = body_gap(out, victim)
+    assert ev["residual_overlap_m"] == pytest.approx(max(-g[start:].min(), 0.0)) and ev["residual_overlap_m"] > 0.01
+    assert ev["frames_overlapping"] == int((g[start:] < -0.005).sum()) > 0
+    assert ev["max_speed_mps"] == 1.0 and ev["max_shift_limit_m"] == 0.15
+
+
+def test_run_victim_falling_through_the_slash_attacker_is_a_bounded_push(ase, real_data_dir, tmp_path):
+    """The running victim's fall carries it through the slashing attacker's place: the unbounded
+    separation pushed the attacker 1.6 m at up to 12.4 cm per frame with its plants undone (feet gliding).
+    Bounded (1.5 m/s, 0.8 m): at most 5 cm per frame, 0.8 m, the plants held, the residual overlap
+    reported (measured 8.9 cm over 22 frames); on the written attacker no foot slide after the rewind."""
+    from mocomp.audit import audit
+    from mocomp.impact.pipeline import ImpactConfig, impact_response
+    from mocomp.impact.scene import Scenario
+    from mocomp.io import load, read_bvh, write_bvh
+
+    clips, index, lib = ase
+    A = load(real_data_dir / "attacks" / "ase_rl_Atk_SlashDown.derived.bvh")
+    r = impact_response(A, clips["run"], index, Scenario(0.0), ImpactConfig(seed=0), library_motions=lib)
+    sep = r.evidence["attacker"]["separation"]
+    assert sep["max_shift_m"] <= 0.8 + 1e-6 and sep["max_shift_step_m"] <= 1.5 / r.victim.fps + 1e-6
+    assert sep["feet_planted"] is True
+    assert 0.0 <= sep["residual_overlap_m"] < 0.15 and sep["residual_overlap_m"] == pytest.approx(-min(sep["min_gap_after_m"], 0.0))
+    write_bvh(r.attacker, tmp_path / "a.bvh")
+    a = read_bvh(tmp_path / "a.bvh", scale=1.0)
+    aa = audit(a, against=A, external_force_frames=[tuple(r.frames["external_force"])])
+    assert not [x for x in aa.violations if x.check == "foot_slide" and x.frames[1] > r.frames["rewind"]]
+    step = np.linalg.norm(np.diff(a.root_positions[r.frames["rewind"]:, [0, 2]], axis=0), axis=1)
+    own = np.linalg.norm(np.diff(A.root_positions[:, [0, 2]], axis=0), axis=1).max()
+    assert step.max() <= own + 1.5 / r.victim.fps + 0.02       # its own step plus the bounded push (+ the follow)

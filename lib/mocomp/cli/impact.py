@@ -116,7 +116,10 @@ def run(args) -> int:
     sep = r.evidence["attacker"].get("separation")
     if sep and sep["frames_shifted"]:
         print(f"attacker kept out of the victim: overlap {-100 * sep['min_gap_before_m']:.1f} cm -> gap "
-              f"{100 * sep.get('min_gap_final_m', sep['min_gap_after_m']):.1f} cm, pushed up to {sep['max_shift_m']:.2f} m")
+              f"{100 * sep.get('min_gap_final_m', sep['min_gap_after_m']):.1f} cm, pushed up to {sep['max_shift_m']:.2f} m"
+              + (f" (bounded: {sep['max_shift_step_m'] * 100:.1f} cm per frame; residual overlap "
+                 f"{100 * sep['residual_overlap_m']:.1f} cm on {sep['frames_overlapping']} frame(s))"
+                 if sep.get("frames_overlapping") else ""))
     c = r.evidence["continuity_final"]
     print(f"re-entry at frame {r.frames['reentry']}: root step {c['reentry_root_step_m'] * 100:.1f} cm, joint step "
           f"{c['reentry_joint_step_deg']:.1f} deg (found clip's own max {c['clip_max_root_step_m'] * 100:.1f} cm, "

@@ -84,7 +84,10 @@ class ImpactConfig:
     the victim is placed 10 cm farther, down to ``min_overlap``; if the strike then misses, the last
     placement that touched is kept (``evidence["placement"]["contact_before_strike"]``).
     separate: keep the attacker's body out of the victim's after the strike
-    (:func:`~mocomp.impact.attacker.separate`).
+    (:func:`~mocomp.impact.attacker.separate`). separate_max_speed, separate_max_shift: m/s, m: the
+    bounds of that push (1.5 m/s, about a step back; 0.8 m), None: unbounded (a running victim falling
+    through the attacker's place pushed it 1.6 m at 3.7 m/s, its feet gliding); what the bounds leave is
+    reported (``evidence["attacker"]["separation"]["residual_overlap_m"]``).
     blend_weights: the final blend's weights (:func:`~mocomp.impact.blend.final_blend`): ``"linear"``
     (the paper's), ``"smoothstep"``, ``"smootherstep"``, or ``"auto"`` (default: linear unless the
     repaired output's step into or out of the re-entry frame exceeds the found clip's own largest
@@ -118,6 +121,8 @@ class ImpactConfig:
     strike_early: float = 0.25
     strike_lead: float = 1.5
     separate: bool = True
+    separate_max_speed: float | None = 1.5
+    separate_max_shift: float | None = 0.8
     max_contact: float | None = 0.25
     max_impulse: float | None = 60.0
 
@@ -536,7 +541,8 @@ def impact_response(attacker: Motion, victim: Motion, index, scenario: Scenario 
         from .attacker import body_gap
 
         s0 = fc.rewind_frame + ar.follow_frames
-        pushed, sep = separate(att_out, out, start=s0)
+        pushed, sep = separate(att_out, out, start=s0, max_speed=config.separate_max_speed,
+                               max_shift=config.separate_max_shift)
         held = pushed
         floor_a = _floor_level(att.slice(0, max(fc.rewind_frame + 1, 2)))
         if sep["frames_shifted"] and config.plant:
