@@ -38,6 +38,22 @@ clip's: linear). The 10,000-frame run: ``ops.enforce_footplants`` ~25 %, eq. 4's
 ``between`` ~16 %, eq. 6-7 ~9 %, ``lift_feet`` ~8 %. The 100-frame clips spend most of their
 40-60 ms in per-call overhead of ~15 small numpy/numba calls per iteration x 12-15 iterations; the
 10 ms goal is still missed ~4-6x.
+
+Then (16:35-16:45; A/B alternated by process, ``before`` = the tree at 104b143, CPU best of 7 at load
+5-7): the footplant plan built once per touch-up (:func:`mocomp.ops.footplant.footplant_plan`: gaps,
+plant runs, resting-level groups, toe-heel pairs, pitch runs, stacked first-pass labels -- was redone
+by every hold), ``lift_feet``'s leg IK compiled (``ops._kernels.two_bone_ik_rows``), ``foot_points``
+in one ``quat_apply``: walk -> jog 98 frames 39-46 -> 31-33 ms, curved walk 111 frames 37-47 ->
+33 ms, uphill 166 frames 46-52 -> 41-42 ms, curved hop 91 frames 54-64 -> 49-51 ms; outputs within
+2e-13 (the compiled IK; the plan is bit for bit). 10,001 frames within the noise (0.92-1.07 ->
+0.96-1.18 s at load 6-7). ``benchmarks/run.py --only touchup`` at load 6.7: CPU best 34, 35, 45, 52 ms,
+1,001 frames 0.11 s, 10,001 frames 0.99 s (0.94x per frame of the 1,000-frame clip). Where a 98-frame
+run goes now (walk -> jog, ~31 ms): the holds (``enforce_footplants``, 6 calls) ~40 %, of which the
+planned targets ~25 %, ``RampPlan.many`` with the leg clocks ~12 %, the quaternion log/exp/apply of
+the foot corrections ~15 %; eq. 4 (``zmp_state``, 13 calls) ~12 %, eq. 6-7 ~8 %, ``lift_feet`` ~8 %,
+stages (contact detection, once) ~6 %, the maps ~8 %. Each is tens of small numpy calls on 100 rows
+per iteration; the 10 ms goal needs the hold's solve (targets, ramps, foot turns) compiled as one
+kernel, as the ZMP state is.
 """
 from __future__ import annotations
 
