@@ -216,3 +216,17 @@ def test_longest_first_from_the_last_run(tmp_path, monkeypatch):
                                                                      {"notebook": "d.ipynb", "seconds": 1}]}))
     # (b and c untimed there: first, by name)
     assert [p.stem for p in _longest_first(books, tmp_path / "results.json", "quick")] == ["b", "c", "a", "d"]
+
+
+def test_first_run_on_a_machine_starts_the_longest_notebooks_first(tmp_path, monkeypatch):
+    """No previous report, no time cache (a fresh clone in CI): the shipped times order the project's
+    notebooks, longest first; a notebook they do not know still goes first."""
+    from mocomp.reproduce.runner import DEFAULT_SECONDS, _longest_first, default_notebook_dir
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "empty_cache"))
+    real = sorted(default_notebook_dir().glob("*.ipynb"))
+    assert {p.name for p in real} == set(DEFAULT_SECONDS)  # every notebook of the project has a time
+    books = [tmp_path / n for n in ("mass_tables.ipynb", "momentum_errors.ipynb", "new_one.ipynb",
+                                    "touchup.ipynb", "perception_study.ipynb")]
+    order = [p.stem for p in _longest_first(books, tmp_path / "none.json", "quick")]
+    assert order == ["new_one", "momentum_errors", "perception_study", "touchup", "mass_tables"]

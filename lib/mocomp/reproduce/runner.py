@@ -298,11 +298,21 @@ def _read_times(path: Path, key: str = "notebooks") -> dict:
         return {}
 
 
+#: notebook run times (s) for a first run on a machine (no previous report, no time cache: a fresh
+#: clone in CI): the --quick run of 2026-12-02 with empty caches (numba compiling, examples
+#: generated) at load 1.3-3.3. Only their order matters (longest first).
+DEFAULT_SECONDS = {"momentum_errors.ipynb": 37.1, "perception_study.ipynb": 30.2, "impact_response.ipynb": 30.1,
+                   "dtw_bands.ipynb": 23.1, "multiflip.ipynb": 22.1, "touchup.ipynb": 15.8,
+                   "concatenation.ipynb": 15.0, "body_model.ipynb": 10.1, "perception_table2.ipynb": 9.1,
+                   "editing_primitives.ipynb": 6.9, "mass_tables.ipynb": 6.7}
+
+
 def _longest_first(books: list[Path], previous: Path, mode: str) -> list[Path]:
     """The notebooks, longest first by their last run times (the previous report in the same
-    folder, else the time cache of this data mode), so the parallel jobs end together; name order
-    for notebooks never timed (they go first: unknown may be long). The report lists them by name."""
-    secs = _read_times(previous) or _read_times(_history_file(), mode)
+    folder, else the time cache of this data mode, else :data:`DEFAULT_SECONDS`), so the parallel
+    jobs end together; name order for notebooks never timed (they go first: unknown may be long).
+    The report lists them by name."""
+    secs = _read_times(previous) or _read_times(_history_file(), mode) or DEFAULT_SECONDS
     return sorted(books, key=lambda p: (-secs.get(p.name, float("inf")), p.name))
 
 
