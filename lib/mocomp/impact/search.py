@@ -53,7 +53,9 @@ visit, i.e. they change how many frames are compared, never which of the visited
   far unique-frame window below it completed, then the intervals of the far unique-frame windows within
   the margin of it refined: 22/23 at 7.5x fewer frame pairs than the exhaustive search (the goal is 10x);
   the intervals alone 19/23 at 8.7x; the far unique-frame windows alone 18/23 at 9.3x; the search as it
-  is: 16/23 at 11.1x. The exact runner-up stays with ``exhaustive=True``.
+  is: 16/23 at 11.1x. The exact runner-up stays with ``exhaustive=True``, or ``runner_up="exact"``: the
+  best from the unique-frame search, then every far window it left uncomputed summed, abandoned above the
+  fast runner-up's distance (the exhaustive runner-up whenever the best is the exhaustive best).
 
 The compiled search (numba) runs the passes above in one call (:func:`._kernels.search_nb`); the
 query window's body parts come from one compiled function too. Without numba (``MOCOMP_NO_NUMBA=1``)
@@ -459,7 +461,8 @@ def _runner_up_distance(index: LibraryIndex, D: np.ndarray, L: int) -> float:
 
 
 def search(index: LibraryIndex, query: Motion, start: int, stop: int, *, support_foot: str | None = None,
-           exhaustive: bool = False, margin_factor: float = 0.25, max_regions: int = 16) -> SearchResult:
+           exhaustive: bool = False, margin_factor: float = 0.25, max_regions: int = 16,
+           runner_up: str = "fast") -> SearchResult:
     """The library window that best continues ``query`` frames ``start .. stop-1`` (module docstring).
 
     Parameters
@@ -473,6 +476,12 @@ def search(index: LibraryIndex, query: Motion, start: int, stop: int, *, support
     margin_factor, max_regions: the intervals of every unique-frame window within
         ``margin_factor * T * sum_i w_i`` of the best unique-frame window (at most ``max_regions``,
         best first) are refined (module docstring).
+    runner_up: ``"fast"`` (default): the runner-up among the windows the search computed (module
+        docstring; the exhaustive one in 16 of the benchmark's 23 queries); ``"exact"``: every far window
+        the search left uncomputed is computed as well (abandoned once above the fast runner-up's distance,
+        on the exact partial sums and the triangle bound), so the runner-up is the least distance over all
+        windows far from the search's best -- the exhaustive runner-up whenever the best is the exhaustive
+        best -- at the cost of those frame pairs (``stats["frames_runner_up"]``).
     """
     t0 = time.perf_counter()
     if not _same_skeleton(index, query.skeleton):
@@ -486,6 +495,8 @@ def search(index: LibraryIndex, query: Motion, start: int, stop: int, *, support
                          "(the query's frame count)")
     if support_foot is not None and support_foot not in FOOT_PARTS:
         raise ValueError(f"support_foot must be 'left', 'right' or None, got {support_foot!r}")
+    if runner_up not in ("fast", "exact"):
+        raise ValueError(f"runner_up must be 'fast' or 'exact', got {runner_up!r}")
     if not (margin_factor >= 0 and max_regions >= 1):
         raise ValueError(f"margin_factor must be >= 0 and max_regions >= 1, got {margin_factor!r}, {max_regions!r}")
     resampled = abs(query.fps / index.fps - 1.0) > RATE_TOLERANCE
@@ -546,6 +557,20 @@ def search(index: LibraryIndex, query: Motion, start: int, stop: int, *, support
     if exhaustive or not _kernels.AVAILABLE:
         best = int(np.nanargmin(D))
         ru = _runner_up(index, D, L)
+    stats["runner_up_mode"] = "exact" if exhaustive else runner_up
+    if runner_up == "exact" and not exhaustive:
+        # every far window not computed in full by the search, computed now: the runner-up is exact
+        all_rows = np.concatenate([s + np.arange(max(n, 0)) for s, n in zip(starts, n_valid)]).astype(np.int64)
+        far = all_rows[_far_mask(index, all_rows, best, L)]
+        todo = far[~np.isfinite(D[far])]
+        cnt = 0
+        if todo.size:
+            # abandoned above the fast runner-up's distance (the exact one is no larger): those windows
+            # cannot be the runner-up (inf), the others are summed in full
+            thr = float(D[ru]) if ru is not None and np.isfinite(D[ru]) else np.inf
+            D[todo], cnt = _distances(q, todo, thr, 0.0, bound=True)
+        stats["frames_runner_up"] = int(cnt)
+        ru = int(far[np.argmin(D[far])]) if far.size else None
     t2 = time.perf_counter()
     stats.update(seconds=t2 - t0, seconds_query=t1 - t0, seconds_matching=t2 - t1)
     runner = _result(index, q, ru, float(D[ru]), stats) if ru is not None else None
