@@ -141,6 +141,8 @@ def _recover_upright_reference(motion, first_ground, up_now, seconds, ce, contac
     # held ankles let go no faster than over seams.RELEASE_S (d0375af; this reference had not followed it)
     from mocomp.edit.landing import _release_limited
 
+    # ankles the motion moves along the floor are not held (seams._still_weights: known answer below)
+    wa = wa * seams._still_weights(before[:, [feet.index(ch[2]) for ch in chains]][..., [0, 2]], motion.fps)
     rate = 1.0 / max(seams.RELEASE_S * motion.fps, 1.0)
     wa = np.stack([_release_limited(wa[:, i], rate) for i in range(wa.shape[1])], axis=1)
     out, solves = _plant_feet_reference(out, first_ground, wa, chains)
@@ -183,6 +185,18 @@ def test_held_shift_known_answer():
     err = np.array([[[1.0, 2.0]], [[9.0, 9.0]], [[3.0, -1.0]], [[5.0, 5.0]]])
     np.testing.assert_allclose(seams._held_shift(w, err),
                                [[1.0, 2.0], [1.0, 2.0], [3.0, -1.0], [4.0, 2.0]], atol=1e-15)
+
+
+def test_still_weights_known_answer():
+    # one ankle at 120 Hz: still, then 0.35 m/s (half-way through the band), then 1 m/s along x
+    fps = 120.0
+    v = np.r_[np.zeros(10), np.full(10, 0.35), np.full(10, 1.0)]
+    x = np.cumsum(v) / fps
+    xz = np.stack([x, np.zeros_like(x)], axis=-1)[:, None]
+    w = seams._still_weights(xz, fps)[:, 0]
+    assert np.all(w[:9] == 1.0) and np.all(w[21:] == 0.0)
+    np.testing.assert_allclose(w[11:19], 0.5, atol=1e-12)                 # smoothstep(0.5) = 0.5
+    assert seams._still_weights(xz[:1], fps).shape == (1, 1)
 
 
 def test_ease_shift_spreads_a_step_with_bounded_speed_and_acceleration():

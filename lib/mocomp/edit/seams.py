@@ -90,6 +90,9 @@ def stance_slide(positions: np.ndarray, weights: np.ndarray) -> float:
 
 #: s: the shortest time over which :func:`recover_upright` lets go of a held ankle
 RELEASE_S = 0.2
+#: s: the time over which :func:`recover_upright`'s root shift follows a change of its target
+#: (:func:`_ease_shift`)
+SHIFT_EASE_S = 0.2
 
 
 def _held_shift(w: np.ndarray, err: np.ndarray) -> np.ndarray:
@@ -113,6 +116,51 @@ def _held_shift(w: np.ndarray, err: np.ndarray) -> np.ndarray:
         shift[i, 0] = x
         shift[i, 1] = z
     return shift
+
+
+#: m/s: horizontal ankle speeds (before the recovery) below which a foot in the contact band is
+#: held by :func:`recover_upright`'s leg IK, and above which it is not (smoothstep between)
+STILL_SPEED = (0.2, 0.5)
+
+
+def _still_weights(xz: np.ndarray, fps: float, speeds: tuple[float, float] = STILL_SPEED) -> np.ndarray:
+    """``(n, C)`` weights, 1 where the ankle's horizontal speed (central differences of ``xz (n, C,
+    2)``, m, at ``fps``) is below ``speeds[0]``, 0 above ``speeds[1]``, smoothstep between.
+
+    The contact band of :func:`_contact_weights` (within 5-12 cm of a foot's lowest height) also
+    takes feet that step low along the floor: on the DeepMimic back flip's landing the ankles travel
+    17 cm at up to 1.4 m/s a few cm above their lowest, and holding them where their contact began
+    stretched the legs against the stance (a 0.48 m/s COM velocity jump in the audit of the written
+    frames of ``edit deepmimic_backflip --preset arms-out``, input 0.33)."""
+    xz = np.asarray(xz, dtype=float)
+    if xz.shape[0] < 2:
+        return np.ones(xz.shape[:2])
+    v = np.linalg.norm(np.gradient(xz, axis=0), axis=-1) * fps
+    x = np.clip((speeds[1] - v) / (speeds[1] - speeds[0]), 0.0, 1.0)
+    return x * x * (3 - 2 * x)
+
+
+def _ease_shift(shift: np.ndarray, n_ease: int) -> np.ndarray:
+    """``shift (n, 2)`` followed with bounded acceleration: the causal convolution with a
+    raised-cosine kernel of ``n_ease`` frames (``h_k ~ 1 - cos(2 pi (k + 1) / (n_ease + 1))``,
+    summing to 1), the shift before the first frame taken as 0 (the frames before touchdown are
+    not shifted). A step ``d`` of the target becomes an S-curve over ``n_ease`` frames whose
+    speed starts and ends at 0, peaks at ``2 d / n_ease`` per frame, and whose acceleration stays
+    below ``2 pi d / n_ease^2`` per frame^2; a constant target is reached exactly ``n_ease - 1``
+    frames after it stops changing. Causal: the root never moves before the feet touch for it.
+
+    The target of :func:`_held_shift` steps by the whole error of a foot when it re-touches the
+    floor (synthetic side flip + arms-out: 8 cm within ~8 frames, a 1.06 m/s COM velocity jump in
+    the audit of the written frames, input 0.23); followed as is, that step is the jump."""
+    shift = np.asarray(shift, dtype=float)
+    L = int(n_ease)
+    if L <= 1 or shift.shape[0] == 0:
+        return shift.copy()
+    n = shift.shape[0]
+    # the taps that reach a frame of this motion only (a kernel longer than it is cut, not rescaled);
+    # sum_{k=1..L} (1 - cos(2 pi k / (L + 1))) = L + 1
+    h = (1.0 - np.cos(2.0 * np.pi * np.arange(1, min(L, n) + 1) / (L + 1))) / (L + 1)
+    return np.stack([np.convolve(shift[:, k], h)[:n] for k in range(shift.shape[1])], axis=1)
 
 
 def recover_upright(motion: Motion, first_ground: int, up_now: np.ndarray, seconds: float, ce,
@@ -170,13 +218,16 @@ def recover_upright(motion: Motion, first_ground: int, up_now: np.ndarray, secon
     if pin_feet:
         before = motion.fk(frames=slice(first_ground, None))[0][:, feet]
         err = before[..., [0, 2]] - after[..., [0, 2]]                    # (n, F, 2)
-        shift = _held_shift(w, err)
+        shift = _ease_shift(_held_shift(w, err), int(round(SHIFT_EASE_S * motion.fps)))
         rp[first_ground:, 0] += shift[:, 0]
         rp[first_ground:, 2] += shift[:, 1]
         chains = [ch for ch in leg_chains(sk) if ch[2] in feet]
         if chains:
             # heights are those after the rotation (the translation is horizontal)
             wa = w[:, [feet.index(ch[2]) for ch in chains]]
+            # an ankle the motion itself moves along the floor (a step within the contact band) is
+            # not held where its contact began (:func:`_still_weights`)
+            wa = wa * _still_weights(before[:, [feet.index(ch[2]) for ch in chains]][..., [0, 2]], motion.fps)
             # a held ankle is let go no faster than over RELEASE_S (as edit.landing's feet): a foot
             # lifting for a hop crosses the contact band within two frames, and the leg snapping back
             # from its held pose moved the COM by a 0.64 m/s velocity jump (DeepMimic side flip + arms-out)
