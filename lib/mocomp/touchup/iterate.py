@@ -373,7 +373,8 @@ def touchup(motion, body=None, schedule=None, *, contacts=None, iterations: int 
             if "d_ref" not in cache:
                 cache["d_ref"] = hold(motion)
             d_cur, d_ref = hold(cur), cache["d_ref"]
-            hold_map = DisplacementMap(d_cur.root - d_ref.root, d_cur.rotations - d_ref.rotations)
+            # differences of two finite maps, new arrays: wrapped without the constructor's copies and checks
+            hold_map = DisplacementMap._trusted(d_cur.root - d_ref.root, d_cur.rotations - d_ref.rotations)
             # the plants' fade-out must not reach into a flight (its COM is on the parabola): the map
             # weighted directly (the map from ``cur`` to ``cur`` held is this map again, to rounding,
             # for turns below pi; the leg corrections are a few degrees)
