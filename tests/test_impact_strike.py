@@ -439,3 +439,27 @@ def test_run_victim_falling_through_the_slash_attacker_is_a_bounded_push(ase, re
     step = np.linalg.norm(np.diff(a.root_positions[r.frames["rewind"]:, [0, 2]], axis=0), axis=1)
     own = np.linalg.norm(np.diff(A.root_positions[:, [0, 2]], axis=0), axis=1).max()
     assert step.max() <= own + 1.5 / r.victim.fps + 0.02       # its own step plus the bounded push (+ the follow)
+
+
+def test_running_victim_floor_is_the_audits_planted_floor(ase, real_data_dir, tmp_path):
+    """The lift's floor for a running victim: the median of every frame's lowest point (flights
+    included) stood 1 cm above the audit's planted floor, the lifted output raised the audit's floor and
+    the input's own footfall at frame 13 read 1.42 cm deep (run + kick from behind). Now the audit's own
+    floor: on the written file no more than 1 cm (measured 0.83 cm; the input's own 0.88 cm)."""
+    from mocomp.audit import audit
+    from mocomp.impact.pipeline import ImpactConfig, _floor_level, _planted_floor, impact_response
+    from mocomp.impact.scene import Scenario
+    from mocomp.io import load, read_bvh, write_bvh
+
+    clips, index, lib = ase
+    run = clips["run"]
+    assert _planted_floor(run.slice(0, 60)) == pytest.approx(audit(run.slice(0, 60)).penetration.floor_y)
+    assert _floor_level(run.slice(0, 60)) - _planted_floor(run.slice(0, 60)) > 0.005      # the flights' median
+    idle = clips["idle"].slice(0, 60)
+    assert _planted_floor(idle) == pytest.approx(_floor_level(idle), abs=1e-6)             # standing: the same
+    kick = load(real_data_dir / "attacks" / "ase_rl_Atk_Kick.derived.bvh")
+    r = impact_response(kick, run, index, Scenario(180.0), ImpactConfig(seed=0), library_motions=lib)
+    write_bvh(r.victim, tmp_path / "v.bvh")
+    v = read_bvh(tmp_path / "v.bvh", scale=1.0)
+    va = audit(v, against=run, external_force_frames=[tuple(r.frames["external_force"])])
+    assert va.penetration.max_depth <= 0.01
