@@ -43,9 +43,11 @@ Then (16:35-16:45; A/B alternated by process, ``before`` = the tree at 104b143, 
 5-7): the footplant plan built once per touch-up (:func:`mocomp.ops.footplant.footplant_plan`: gaps,
 plant runs, resting-level groups, toe-heel pairs, pitch runs, stacked first-pass labels -- was redone
 by every hold), ``lift_feet``'s leg IK compiled (``ops._kernels.two_bone_ik_rows``), ``foot_points``
-in one ``quat_apply``: walk -> jog 98 frames 39-46 -> 31-33 ms, curved walk 111 frames 37-47 ->
-33 ms, uphill 166 frames 46-52 -> 41-42 ms, curved hop 91 frames 54-64 -> 49-51 ms; outputs within
-2e-13 (the compiled IK; the plan is bit for bit). 10,001 frames within the noise (0.92-1.07 ->
+in one ``quat_apply``, the hold map wrapped without copies: walk -> jog 98 frames 39-46 -> 31-33 ms,
+curved walk 111 frames 37-47 -> 33 ms, uphill 166 frames 46-52 -> 41-42 ms, curved hop 91 frames 54-64
+-> 49-51 ms; a later pair of rounds at load 4.7-5.0: 34-39 -> 28 ms, 36-39 -> 31-33 ms, 42-48 ->
+38-45 ms, 54-55 -> 38-48 ms (15-25 % less); outputs within 2e-13 (the compiled IK; the plan is bit
+for bit). 10,001 frames within the noise (0.92-1.07 ->
 0.96-1.18 s at load 6-7). ``benchmarks/run.py --only touchup`` at load 6.7: CPU best 34, 35, 45, 52 ms,
 1,001 frames 0.11 s, 10,001 frames 0.99 s (0.94x per frame of the 1,000-frame clip). Where a 98-frame
 run goes now (walk -> jog, ~31 ms): the holds (``enforce_footplants``, 6 calls) ~40 %, of which the
