@@ -112,3 +112,37 @@ def test_lift_feet_compiled_ik_equals_numpy(walk, monkeypatch):
     assert la == lb and sum(len(v) for v in la.values()) > 5            # frames were lifted/held
     assert np.abs(a.rotations - b.rotations).max() < 1e-12
     assert np.abs(a.rotations - moved.rotations).max() > 1e-3
+
+
+def test_ground_weights_equal_their_frame_by_frame_definition():
+    """The vectorised ramps of :func:`mocomp.touchup.iterate.ground_weights` against the definition
+    written frame by frame (0 on a flight, eased to 1 over min(neighbourhood, max(flight, min_ramp))
+    frames either side, the smaller weight where two ramps meet), on random flights."""
+    from mocomp.ops import ease
+    from mocomp.touchup.iterate import ground_weights
+
+    def by_frame(T, flights, nb, min_ramp, min_flight):
+        w = np.ones(T)
+        for a, b in flights:
+            if b - a < min_flight:
+                continue
+            w[a:b] = 0.0
+            n = min(nb, max(b - a, min_ramp))
+            for i in range(1, n + 1):
+                for f in (a - i, b - 1 + i):
+                    if 0 <= f < T:
+                        w[f] = min(w[f], float(ease(np.array([(i - 1) / n]))[0]))
+        return w
+
+    rng = np.random.default_rng(0)
+    partial = 0
+    for _ in range(200):
+        T = int(rng.integers(5, 150))
+        k = int(rng.integers(0, 4))
+        cuts = np.sort(rng.choice(T, size=2 * k, replace=False)) if 2 * k < T else np.zeros(0, int)
+        flights = [(int(cuts[2 * j]), int(cuts[2 * j + 1])) for j in range(len(cuts) // 2)]
+        args = (T, flights, int(rng.integers(0, 25)), int(rng.integers(0, 5)), int(rng.integers(0, 4)))
+        w = ground_weights(*args)
+        assert np.array_equal(w, by_frame(*args)), args
+        partial += int(((w > 0) & (w < 1)).any())
+    assert partial > 50                                    # ramps were exercised

@@ -109,11 +109,13 @@ def ground_weights(n_frames: int, flights, neighbourhood: int, min_ramp: int = 0
             continue
         w[a:b] = 0.0
         n = min(int(neighbourhood), max(b - a, int(min_ramp)))
-        for i in range(1, n + 1):                  # the frame next to a flight stays 0 too
-            v = float(ease(np.array([(i - 1) / n]))[0])
-            for f in (a - i, b - 1 + i):
-                if 0 <= f < n_frames:
-                    w[f] = min(w[f], v)
+        if n < 1:
+            continue
+        i = np.arange(1, n + 1)
+        v = ease((i - 1) / n)                      # the frame next to a flight stays 0 too
+        for f in (a - i, b - 1 + i):               # before and after the flight (never the same frame)
+            ok = (f >= 0) & (f < n_frames)
+            w[f[ok]] = np.minimum(w[f[ok]], v[ok])
     return w
 
 
