@@ -69,11 +69,41 @@ def test_block_jacobians_match_finite_differences_and_rotate_L_rigidly():
         np.testing.assert_allclose(Jm[f] + J0[f] + Jp[f], -Lx, atol=1e-9 * np.abs(Jp[f]).max())
 
 
-# (case, per-frame roughness at least, smooth roughness at most) -- measured 8.3 / 0.34,
-# 49.6 / 1.04, 12.2 / 3.4 deg
-OSCILLATING = [(("sideflip", "straight-legs", 0.45), 6.0, 0.6),
-               (("sideflip", "straight-legs", 0.2), 30.0, 1.5),
+# (case, per-frame roughness at least, smooth roughness at most) -- measured 46-52 / 0.95-1.07,
+# 12.2 / 3.4 deg under 1e-9..1e-8 rad changes of one input frame (robust; see the next test for a case
+# that is not: side flip straight-legs with the default 0.45 ease was listed here with "> 6 deg",
+# measured 8.2 deg until 32837b5 and 72ed8b8 changed kernels' summation order: 5.8, then 3.9 deg)
+OSCILLATING = [(("sideflip", "straight-legs", 0.2), 30.0, 1.5),
                (("backflip", "arms-twist", 0.05), 10.0, 4.5)]
+
+
+def _nudged(ed, frame, eps):
+    rot = np.array(ed.rotations)
+    rot[frame, 3] = quat_multiply(_qexp(np.array([eps, 0.0, 0.0])), rot[frame, 3])
+    return ed.replace(rotations=rot)
+
+
+def test_weakly_excited_per_frame_jitter_is_round_off_the_joint_solve_is_not():
+    """Side flip + straight-legs, default 0.45 ease: the recurrence's neutrally stable mode is only
+    weakly excited, so its size is whatever round-off seeds it. Turning one knee of one early flight
+    frame by 1e-9..1e-8 rad moves the per-frame solution's roughness between 0.3 and 6 deg (measured
+    3.86, 0.30, 3.84, 5.66, 6.15) -- the per-frame result is not determined by the problem to better
+    than degrees -- while the joint solve stays at 0.30-0.36 deg; all meet eq. 5.21 to 1e-6 rad."""
+    r = example("sideflip")
+    ed = edited("sideflip", "straight-legs", 0.45)
+    a, b = r.flight
+    gn, sm = [], []
+    for eps in (0.0, 1e-9, -1e-9, 1e-8, 3e-9):
+        e = _nudged(ed, a + 5, eps)
+        g = correct_direction(r.body, e, r.flight, L_star=r.L0, method="gauss-newton")
+        s = correct_direction(r.body, e, r.flight, L_star=r.L0, method="smooth", smooth_above_deg=0.0)
+        for d in (g, s):
+            assert d.error_after[a + 1:b - 1].max() < 1e-6
+        gn.append(g.roughness_deg)
+        sm.append(s.roughness_deg)
+    assert max(gn) - min(gn) > 3.0, gn                # 1e-8 rad in, degrees out
+    assert max(sm) < 0.6 and max(sm) - min(sm) < 0.1, sm
+    assert max(gn) > 5.0 * max(sm)                    # when excited, the mode dwarfs the body's reaction
 
 
 @pytest.mark.parametrize("case,rough_gn,rough_smooth", OSCILLATING)
@@ -135,14 +165,16 @@ def test_smooth_equals_per_frame_when_nothing_oscillates():
 
 
 def test_pipeline_default_has_no_jitter_note_and_meets_acceptance():
+    # a 0.2 ease: the per-frame recurrence oscillates whatever the round-off (46-52 deg), so the
+    # gauss-newton run's note is certain (with the 0.45 ease its roughness is 0.3-8 deg: see above)
     r = example("sideflip")
-    ed = edited("sideflip", "straight-legs", 0.45)
+    ed = edited("sideflip", "straight-legs", 0.2)
     res = restore_momentum(r.body, r.motion, ed, r.flight, L_star=r.L0)
     assert res.direction.method == "smooth"
     assert res.stages["direction"].max_direction < 0.01
     assert res.stages["magnitude"].max_magnitude < 0.05
     assert not any("jitter" in n for n in res.notes)
-    assert res.report(curves=False)["direction"]["per_frame_roughness_deg"] > 6.0
+    assert res.report(curves=False)["direction"]["per_frame_roughness_deg"] > 30.0
     gn = restore_momentum(r.body, r.motion, ed, r.flight, L_star=r.L0, method="gauss-newton")
     assert any("jitter" in n for n in gn.notes)
 

@@ -362,9 +362,10 @@ def correct_direction(body, motion: Motion, flight, L_star=None, method: str = "
         *Deviation from the paper (``"smooth"``).* Eq. 5.21 frame after frame is a
         two-step recurrence (``L_f`` fixes ``R_{f+1}`` from ``R_{f-1}`` and ``R_f``) whose
         parasitic even/odd mode nothing damps: after fast limb edits the corrections
-        jitter from frame to frame (:attr:`DirectionResult.roughness_deg`; 8.3 deg on the
-        synthetic side flip with the default ``straight-legs`` preset, 50 deg with a 0.2
-        ease). ``"smooth"`` low-passes the sweep's rotation vectors (Gaussian, ``sigma``
+        jitter from frame to frame (:attr:`DirectionResult.roughness_deg`; 50 deg on the
+        synthetic side flip with the ``straight-legs`` preset and a 0.2 ease; with the
+        default 0.45 ease anywhere from 0.3 to 8 deg, set by round-off: the neutrally
+        stable mode amplifies a 1e-9 rad change of one input frame to 0.03 rad). ``"smooth"`` low-passes the sweep's rotation vectors (Gaussian, ``sigma``
         frames) and projects them back onto the same constraints (unit(L_f) = unit(L*_f)
         on every flight frame, to ``tol``) by Newton steps that are smallest in a
         second- plus first-difference metric, solved as one sparse system over the whole
