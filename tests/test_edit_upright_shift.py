@@ -84,3 +84,17 @@ def test_deepmimic_backflip_arms_out_steps_are_not_held(tmp_path, real_data_dir,
     monkeypatch.setattr(seams._still_weights, "__defaults__", ((1e3, 2e3),))
     held, _ = _run(tmp_path, src, "arms-out")
     assert _rows(held)["max_com_jump_mps"].this > 0.42
+
+
+def test_deepmimic_sideflip_straight_legs_warning_names_the_worse_landing(tmp_path, capsys, real_data_dir):
+    # the arrival repair is refused (the stance cannot take -0.89 m/s): the landing jump stays worse
+    # than the input's though below the 1.5 m/s landing limit, and the warning line says so
+    src = str(real_data_dir / "flips" / "deepmimic_sideflip.txt")
+    assert main(["edit", src, "--preset", "straight-legs", "-o", str(tmp_path / "o.bvh")]) == 0
+    cap = capsys.readouterr()
+    warn = [ln for ln in cap.err.splitlines() if ln.startswith("mocomp edit: warning:")]
+    assert len(warn) == 1
+    tail = warn[0].split("COM velocity worse than the input's: ")[1]
+    assert tail.startswith("max COM velocity jump at landing 0.")          # measured 0.52, input 0.30
+    assert "the input's 0.30" in tail
+    assert "not repaired" in warn[0] and "not repaired" in cap.out
