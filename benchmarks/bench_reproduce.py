@@ -13,6 +13,17 @@ multiflip render filmstrips). Peer: none.
 
 ``--quick`` (of the benchmark runner): one notebook (perception_table2) with
 ``mocomp reproduce --quick``, no goal: a smoke run of the command.
+
+Measured (2026-12-02): ``mocomp reproduce --quick`` on all 11 notebooks, warm caches, load 1.5-1.8:
+46.8 s (notebooks' own times summed 84 s), baseline check passing; with empty caches (a fresh
+export of the tree, ``NUMBA_CACHE_DIR``/``MOCOMP_CACHE_DIR``/``XDG_CACHE_HOME`` empty, so numba
+compiles and the examples are generated) 108.8 s at load 1.3-3.3 (summed 206 s; momentum_errors
+37 s of which 16.5 s is its first restoration's compilation). Quick mode of the two longest
+notebooks (``QUICK``: momentum_errors' filmstrips drawn with matplotlib and its straight-leg
+restorations reused; perception_study's stimuli at 320x240, 15 fps, 200 bootstrap draws),
+before/after alternated with ``--jobs 1``: momentum_errors 21.1/13.9/13.3 s -> 10.5/10.6/10.9 s,
+perception_study 49.3/29.2/30.3 s -> 20.8/16.2/20.2 s (load 5.9 -> 1.8 over the six pairs), the
+rows unchanged (within 1e-5 relative).
 """
 from __future__ import annotations
 
