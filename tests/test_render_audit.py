@@ -87,6 +87,12 @@ def test_the_deepest_frame_below_the_floor_is_a_pose(sunk, bf_track):
     poses = ra.phase_poses(tr.report)
     # the body is pushed down in one step: the same frame is also a COM velocity jump
     assert ra.Pose(pen.peak_frame, "COM jump + below floor") in poses
+    # the one-step push reads as one-frame airborne runs (the detector's speed test) at its ends: the
+    # audit calls them spurious, not flights, so they get no take-off/landing poses that would hide it
+    labels = {p.label for p in poses}
+    for k, f in enumerate(tr.report.flights):
+        if not f.is_flight:
+            assert not {f"take-off {k + 1}", f"landing {k + 1}", f"apex {k + 1}"} & labels
     assert "below floor" not in {p.label for p in ra.phase_poses(bf_track.report)}   # clean: no such pose
 
 

@@ -305,8 +305,9 @@ def phase_poses(report, frames: tuple[int, int] | None = None, *, max_gap_s: flo
 
     Within ``frames`` (half-open; default all): for each flight, its take-off (the audit's first
     airborne frame), apex (the frame of the highest COM) and landing (the first ground frame after
-    it), and evenly spaced flight poses between take-off and apex and between apex and landing, at
-    most ``max_gap_s`` apart (so a somersault shows its rotation); for each ground stage the
+    it; not for the audit's *spurious* airborne runs, too short to be flights, such as the one-frame
+    flicker a body moved centimetres in one step reads as), and evenly spaced flight poses between
+    take-off and apex and between apex and landing, at most ``max_gap_s`` apart (so a somersault shows its rotation); for each ground stage the
     frame of its lowest COM (the deepest crouch) when it lies at least 3 frames from the stage's
     ends; the peak frame of each floor-penetration and COM-velocity-jump violation (``"below floor"``,
     ``"COM jump"``: where the motion is worst); the first and the last frame. A pose closer than 2
@@ -319,7 +320,10 @@ def phase_poses(report, frames: tuple[int, int] | None = None, *, max_gap_s: flo
     com_y = np.asarray(report.com.com, float)[:, 1]
     cand: list[tuple[int, str, int]] = []  # (frame, label, priority: lower wins)
     ph = report.phases
+    kinds = [getattr(f, "is_flight", True) for f in getattr(report, "flights", ())]
     for k, (fa, fb) in enumerate(ph.flights):
+        if k < len(kinds) and not kinds[k]:
+            continue   # a spurious airborne run (a contact flicker): no take-off/apex/landing poses
         apex = fa + int(np.argmax(com_y[fa:fb]))
         key = [(fa, f"take-off {k + 1}"), (apex, f"apex {k + 1}")]
         if fb < n:
