@@ -11,14 +11,13 @@ atomically; the client then merges them with :func:`mocomp.impact.index.build_in
 reads every clip back from that cache. The merged index is therefore the in-process index (same
 code, same files), and a later ``mocomp impact`` / ``build_index`` reads the cache the batch filled.
 
-The cache key is computed here as :func:`mocomp.impact.index.build_index` computes it (from its
-``INDEX_VERSION``, ``BODY_PARTS``, skeleton signature and content hash). Should the two ever
-differ, the merge rebuilds the clips in the client (still the same index, just not in parallel)
-and :attr:`IndexBatchResult.rebuilt` says which: the tests require it to be empty.
+Each worker runs :func:`mocomp.impact.index.index_clip_file`, the per-clip step of
+``build_index`` itself, so the cache keys are the same by construction. Should the merge still miss
+a clip's cache file, it rebuilds that clip in the client (still the same index, just not in
+parallel) and :attr:`IndexBatchResult.rebuilt` says which: the tests require it to be empty.
 """
 from __future__ import annotations
 
-import hashlib
 import json
 import os
 import socket
@@ -49,15 +48,6 @@ class IndexItem:
     cache: str
 
 
-def _params(skeleton, tolerance: float, fps: float) -> str:
-    from ..impact.features import BODY_PARTS
-    from ..impact.index import INDEX_VERSION, _skeleton_signature
-
-    # as mocomp.impact.index.build_index
-    return hashlib.sha256(json.dumps({"v": INDEX_VERSION, "T": float(tolerance), "fps": float(fps),
-                                      "parts": BODY_PARTS}).encode() + _skeleton_signature(skeleton)).hexdigest()
-
-
 _BODIES: dict = {}
 
 
@@ -79,14 +69,10 @@ def index_clip(item: IndexItem) -> dict:
         body = _BODIES.get(sig)
         if body is None:
             body = _BODIES[sig] = body_model_for(item.skeleton)
-        sha, extra = ix._content_hash(p)
-        params = _params(item.skeleton, item.tolerance, item.fps)
-        key = hashlib.sha256((params + sha).encode() + hashlib.sha256(extra).digest()).hexdigest()[:32]
-        cache = Path(item.cache)
-        c = ix._read(cache, key, p, item.name)
-        if c is None:
-            c = ix._build_clip(p, item.name, sha, key, item.skeleton, body, item.tolerance, item.fps)
-            ix._save(cache, c)
+        params = ix.index_parameters(item.skeleton, item.tolerance, item.fps)
+        c = ix.index_clip_file(p, item.name, item.skeleton, body, params, Path(item.cache), item.tolerance,
+                               item.fps)
+        key = c.key
     except RetargetError as e:
         row.update(status="failed", error=str(e))
     except (MocompError, ValueError, OSError) as e:

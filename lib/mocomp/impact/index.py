@@ -350,6 +350,39 @@ def _read(cache: Path, key: str, path: Path, name: str) -> ClipIndex | None:
                      notes=tuple(meta["notes"]), seconds=time.perf_counter() - t0, cached=True, **arrays)
 
 
+def index_parameters(skeleton: Skeleton, tolerance: float, fps: float) -> str:
+    """The index parameters' part of every cache key: :data:`INDEX_VERSION`, ``T``, the index rate,
+    the body parts and the victim's skeleton signature (hex SHA-256)."""
+    return hashlib.sha256(json.dumps({"v": INDEX_VERSION, "T": float(tolerance), "fps": float(fps),
+                                      "parts": BODY_PARTS}).encode() + _skeleton_signature(skeleton)).hexdigest()
+
+
+def clip_cache_key(path, params: str) -> tuple[str, str]:
+    """``(sha256 of the clip's bytes, cache key)`` of one clip file for :func:`index_parameters`'
+    ``params``: the key changes with the file's bytes (and a DeepMimic clip's character file or an
+    AMC's ASF) and with every index parameter."""
+    sha, extra = _content_hash(Path(path))
+    return sha, hashlib.sha256((params + sha).encode() + hashlib.sha256(extra).digest()).hexdigest()[:32]
+
+
+def index_clip_file(path, name: str, skeleton: Skeleton, body, params: str, cache=None,
+                    tolerance: float = DEFAULT_TOLERANCE, fps: float = DEFAULT_FPS) -> ClipIndex:
+    """Index one library clip: read back from ``cache`` when its file for this key exists, else built
+    (retarget onto ``skeleton``, resample to ``fps``, features, eq. 4.2's unique frames) and, with a
+    ``cache`` folder, written there atomically. ``params`` is :func:`index_parameters` for the same
+    skeleton, tolerance and fps. This is the per-clip step of :func:`build_index`, and what
+    ``mocomp batch impact-index`` runs on its workers. Raises ``RetargetError`` for a skeleton that
+    cannot be mapped and ``MocompError``/``ValueError``/``OSError`` for an unreadable file."""
+    p = Path(path)
+    sha, key = clip_cache_key(p, params)
+    c = _read(Path(cache), key, p, name) if cache is not None else None
+    if c is None:
+        c = _build_clip(p, name, sha, key, skeleton, body, tolerance, fps)
+        if cache is not None:
+            _save(Path(cache), c)
+    return c
+
+
 def build_index(library_dir, skeleton: Skeleton, *, cache_dir=None, tolerance: float = DEFAULT_TOLERANCE,
                 progress: bool = True, fps: float = DEFAULT_FPS, use_cache: bool = True) -> LibraryIndex:
     """Index every clip below ``library_dir`` for the victim's ``skeleton`` (see the module docstring).
@@ -375,19 +408,12 @@ def build_index(library_dir, skeleton: Skeleton, *, cache_dir=None, tolerance: f
     files = library_files(directory)
     cache = Path(cache_dir) if cache_dir is not None else default_cache_dir()
     body = body_model_for(skeleton)
-    params = hashlib.sha256(json.dumps({"v": INDEX_VERSION, "T": float(tolerance), "fps": float(fps),
-                                        "parts": BODY_PARTS}).encode() + _skeleton_signature(skeleton)).hexdigest()
+    params = index_parameters(skeleton, tolerance, fps)
     clips, refused = [], []
     for p in files:
         name = p.relative_to(directory).as_posix()
         try:
-            sha, extra = _content_hash(p)
-            key = hashlib.sha256((params + sha).encode() + hashlib.sha256(extra).digest()).hexdigest()[:32]
-            c = _read(cache, key, p, name) if use_cache else None
-            if c is None:
-                c = _build_clip(p, name, sha, key, skeleton, body, tolerance, fps)
-                if use_cache:
-                    _save(cache, c)
+            c = index_clip_file(p, name, skeleton, body, params, cache if use_cache else None, tolerance, fps)
         except RetargetError as e:
             refused.append((str(p), str(e)))
             continue
