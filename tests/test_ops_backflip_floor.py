@@ -6,11 +6,10 @@ the audit's floor (0.0535 m, input 0.0543) and penetration (3.55 cm, input 3.62)
 the leg pitches the feet heel-up by 2-6 cm over frames 5-9 (ankles 12.6 -> 17.3 cm at frame 6): the audit's floor (the first stance's resting
 level of the lowest body point) rises to 0.0742 m and the landing, which is unchanged in absolute height
 (its right foot slides 0.4-1.4 m/s at 16 Hz and is rightly not planted), reads 5.62 cm below it. The same
-shows in `mocomp concat deepmimic_backflip deepmimic_backflip` (5.59 cm vs 3.62). The passes are
-enforce_footplants' plan building (owned elsewhere): this test pins the defect until it is fixed there."""
+shows in `mocomp concat deepmimic_backflip deepmimic_backflip` (5.59 cm vs 3.62). Fixed in the passes'
+choice: a pass whose lowest body point reads deeper below the audit's floor than the input's by more
+than ops.footplant.PENETRATION_SLACK is kept only when every pass is; here pass 1 is kept."""
 from __future__ import annotations
-
-import pytest
 
 from mocomp import datasets
 from mocomp.audit import audit
@@ -33,11 +32,26 @@ def test_one_pass_keeps_the_backflips_floor_and_penetration(real_data_dir, tmp_p
     assert out.penetration.depth.max() <= ref.penetration.depth.max() + 0.002
 
 
-@pytest.mark.xfail(strict=True, reason="re-detection passes pitch the opening stance heel-up: the audit's floor "
-                                       "rises 2 cm and the landing reads 5.6 cm below it (module docstring)")
 def test_default_passes_keep_the_backflips_floor_and_penetration(real_data_dir, tmp_path):
     m = datasets.load("deepmimic_backflip")
     ref = audit(m)
-    out = _audited(tmp_path, enforce_footplants(m, audit=False).motion, "default")
+    res = enforce_footplants(m, audit=False)
+    out = _audited(tmp_path, res.motion, "default")
     assert abs(out.penetration.floor_y - ref.penetration.floor_y) < 0.005
     assert out.penetration.depth.max() <= ref.penetration.depth.max() + 0.25 * 0.02
+    assert any("result of pass 1 kept" in n for n in res.notes)
+
+
+def test_a_pass_deeper_than_the_input_is_kept_only_when_every_pass_is(real_data_dir):
+    """The choice itself: with the slack made negative every pass is 'deeper' than the input, and the
+    passes fall back to the least detected slide (the choice before the penetration rule)."""
+    from mocomp.ops import footplant as fp
+
+    m = datasets.load("deepmimic_backflip")
+    old = fp.PENETRATION_SLACK
+    try:
+        fp.PENETRATION_SLACK = -1.0
+        notes = enforce_footplants(m, audit=False).notes
+    finally:
+        fp.PENETRATION_SLACK = old
+    assert any("result of pass 3 kept" in n and "every pass is deeper" in n for n in notes)

@@ -87,6 +87,29 @@ SOFT_REACH = 0.02
 BEND_PRIOR = 0.05
 
 
+#: m: :func:`enforce_footplants`' extra passes keep a result whose lowest body point reads deeper below the
+#: audit's floor (:func:`_floor_depth`) than the input's by more than this only when every pass does
+PENETRATION_SLACK = 0.005
+
+
+def _floor_depth(motion: Motion) -> tuple[float, float]:
+    """``(floor_y, depth)`` m: the audit's floor (:func:`mocomp.audit.contacts.floor_level`, the resting
+    level of the lowest body point over the first ground stage's planted frames) and the largest depth
+    of the lowest body point below it -- the audit's floor penetration, from the same functions."""
+    from ..audit.contacts import floor_level, lowest_points, phases_of
+    from ..dynamics.contacts import detect_contacts
+
+    c = detect_contacts(motion)
+    low, _, _ = lowest_points(motion)
+    floor_y, _ = floor_level(low, c, phases_of(c, motion.n_frames))
+    return floor_y, float(np.max(floor_y - low, initial=0.0))
+
+
+def _deeper_than(motion: Motion, depth: float) -> bool:
+    """The audit's floor penetration of ``motion`` exceeds ``depth`` by more than :data:`PENETRATION_SLACK`."""
+    return _floor_depth(motion)[1] > depth + PENETRATION_SLACK
+
+
 def default_blend_frames(fps: float) -> int:
     """Frames over which a correction fades in and out: 0.1 s, at least 2 frames."""
     return max(2, int(round(0.1 * fps)))
@@ -710,7 +733,9 @@ def enforce_footplants(motion: Motion, plants: FootPlants | None = None, *, cont
         through the floor), passes go on, up to ``max_passes`` in all, until the feet slide at most
         ``slide_goal`` (m) within the plants the detector finds on the result
         (:func:`detected_slide`, the audit's measure), and the pass whose result slides least is
-        kept. ``slide_goal=None``: exactly ``passes`` passes.
+        kept -- of those whose audit floor penetration (:func:`_floor_depth`) is no deeper than the
+        input's + :data:`PENETRATION_SLACK`, the first pass's result among them; any pass only when
+        every one is deeper. ``slide_goal=None``: exactly ``passes`` passes.
     audit: also audit the input and the output (:func:`mocomp.audit.audit`), the measured evidence.
     plan: a :func:`footplant_plan` (in place of ``plants`` and ``blend``): the plants' label work
         (gaps closed, runs, stacked labels) done once for many motions, e.g. touch-up's iterations;
@@ -771,9 +796,11 @@ def enforce_footplants(motion: Motion, plants: FootPlants | None = None, *, cont
                                     ground_y=c.ground_y)
         if best is not None:                    # extra passes: keep the one the detector finds sliding least
             s = detected_slide(again, plants.effectors)
-            if s < best[0]:
-                best = (s, k, out, targets, state, plants)
-            if s <= slide_goal or k == limit - 1:
+            worse = _deeper_than(out, pen_in)
+            if (worse, s) < best[0]:
+                best = ((worse, s), k, out, targets, state, plants)
+            # the goal met: stop, unless this pass is deeper than the input and an earlier one was not
+            if (s <= slide_goal and (not worse or best[0][0])) or k == limit - 1:
                 break
         free = np.array([not str(plants.source[e]).startswith("csv") for e in plants.effectors])
         new = again.labels[:, [again.effectors.index(e) for e in plants.effectors]] & ~plants.labels & free[None]
@@ -784,7 +811,14 @@ def enforce_footplants(motion: Motion, plants: FootPlants | None = None, *, cont
                 and new.sum() > EXTRA_PASS_FRACTION * plants.labels.sum()):
             # the detector on the result disagrees with the input's (CMU toes sunk through the floor):
             # more passes, each result measured by the detection the next pass needs anyway
-            best, limit = (np.inf, -1, None, None, None, None), max_passes
+            best, limit = ((True, np.inf), -1, None, None, None, None), max_passes
+            # a pass may pitch a foot whose input slid under its merged plant (DeepMimic back flip: the
+            # opening crouch's toes slide 11-14 cm, the heels re-detected beside them): the audit's floor
+            # rises and the rest of the clip reads below it. Such a pass is kept only when every pass is
+            # (PENETRATION_SLACK); this pass's result is a candidate too
+            pen_in = _floor_depth(motion)[1]
+            s = detected_slide(again, plants.effectors)
+            best = ((_deeper_than(out, pen_in), s), k, out, targets, state, plants)
         lab = plants.labels | new
         # a point planted before: its median level; one planted only now: the level the detector found
         fill = _column_nanmedian(plants.levels)
@@ -795,9 +829,12 @@ def enforce_footplants(motion: Motion, plants: FootPlants | None = None, *, cont
         plants, _ = _close_gaps(plants, max(1, blend // 2))
         prev = (rot, state)
     if best is not None and best[2] is not None:
-        _, kb, out, targets, state, plants = best
+        (worse, sb), kb, out, targets, state, plants = best
         notes.append(f"the result of pass {kb + 1} kept: its feet slide least within the plants the detector finds "
-                     f"on it ({best[0] * 100:.2f} cm)")
+                     f"on it ({sb * 100:.2f} cm)" + (
+                         " of the passes not deeper below the audit's floor than the input" if not worse else
+                         f"; every pass is deeper below the audit's floor than the input by more than "
+                         f"{PENETRATION_SLACK * 100:g} cm"))
     unreachable, lifted, max_miss = {}, {}, 0.0
     changed = np.zeros(motion.n_frames, bool)
     for side, (_, _, miss, lift, solved, _) in state.items():
