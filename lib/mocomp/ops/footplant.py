@@ -733,9 +733,9 @@ def enforce_footplants(motion: Motion, plants: FootPlants | None = None, *, cont
         through the floor), passes go on, up to ``max_passes`` in all, until the feet slide at most
         ``slide_goal`` (m) within the plants the detector finds on the result
         (:func:`detected_slide`, the audit's measure), and the pass whose result slides least is
-        kept -- of those whose audit floor penetration (:func:`_floor_depth`) is no deeper than the
-        input's + :data:`PENETRATION_SLACK`, the first pass's result among them; any pass only when
-        every one is deeper. ``slide_goal=None``: exactly ``passes`` passes.
+        kept: among the results (the first pass's included) whose audit floor penetration
+        (:func:`_floor_depth`) is no deeper than the input's + :data:`PENETRATION_SLACK`; among all
+        of them only when every one is deeper. ``slide_goal=None``: exactly ``passes`` passes.
     audit: also audit the input and the output (:func:`mocomp.audit.audit`), the measured evidence.
     plan: a :func:`footplant_plan` (in place of ``plants`` and ``blend``): the plants' label work
         (gaps closed, runs, stacked labels) done once for many motions, e.g. touch-up's iterations;
