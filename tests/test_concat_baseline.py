@@ -52,7 +52,7 @@ def test_baseline_stops_between_the_flips_ours_does_not(flip):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         r = concatenate(flip, flip)
-        base = motion_graph_concatenate(flip, flip, r.phases, r.window_frames_out)
+        base = motion_graph_concatenate(flip, flip, r.phases, r.baseline_window)
     tr = base.transition
     assert tr.i >= r.phases[0].main[1] and tr.j + tr.window <= r.phases[1].main[0]
     assert r.motion.n_frames < base.motion.n_frames

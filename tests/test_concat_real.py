@@ -79,7 +79,7 @@ def test_ours_keeps_momentum_the_motion_graph_stops(real_data_dir, rel):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         r = concatenate(m, m)
-        mg = motion_graph_concatenate(m, m, r.phases, r.window_frames_out)
+        mg = motion_graph_concatenate(m, m, r.phases, r.baseline_window)
     sh = r.T + r.window_frames_out - (r.window[1] - r.window[0] + 1)
     ours = momentum_track(r.motion).magnitude[r.phases[0].t_m:r.phases[1].t_m + sh + 1].min()
     tr = mg.transition
@@ -146,3 +146,64 @@ def test_auto_rule_tries_the_other_rule_when_the_first_is_rejected(real_data_dir
     assert "rejected: " + str(e.value) in r.rule.reason
     assert "auto rule: forward rejected, reverse used" in r.notes
     assert r.facing_difference <= np.radians(45)
+
+
+def _between(r):
+    """The lowest |L| between the two main phases' reference frames, as a fraction of the main level."""
+    L = momentum_track(r.motion).magnitude
+    return float(L[r.phases[0].t_m:r.phases[1].t_m + r.frame_shift + 1].min() / r.L_reference)
+
+
+def _wushu(d):
+    from mocomp.concat import find_actions
+
+    w = _load(d, "kicks_punches/sfu_0017_WushuKicks001.bvh")
+    acts = find_actions(w)
+    rk = next(x for x in acts if x.effector == "toe_r")
+    lk = next(x for x in acts if x.effector == "toe_l")
+    return rk.cut(w), lk.cut(w)
+
+
+def test_forward_window_search_keeps_momentum_between_the_main_phases(real_data_dir):
+    """The two forward pairs whose |L| fell below 30 % of the main level between the main phases: on
+    both, one frame of the eq. 8 trace is within the threshold and the minimum window (0.1 s) blends
+    two postures that differ, so |L| dips at the blend's edges (SIE punch 0.16 at output frame 118,
+    the window 119-130; Wushu kicks 0.27 at 67, the window 67-78), not in the inputs' frames (A's own
+    |L| between its peak and the window: >= 0.56 / 1.45 of the main level). The window length chosen
+    by the lowest |L| between the main phases (eq. 8 + eq. 9): SIE 107-142 (s 2.16), 0.29 measured;
+    Wushu 58-87 (s 1.83), 0.96. The SIE inputs' own |L| falls below 30 % in the periods the forward rule
+    blends: A to 0.12 at its main phase's end, B from 0.26 at its main phase's start."""
+    a = _load(real_data_dir, "kicks_punches/deepmimic_sie_humanoid3d_punch_forward00.txt")
+    b = _load(real_data_dir, "kicks_punches/deepmimic_sie_humanoid3d_punch_forward02.txt")
+    wa, wb = _wushu(real_data_dir)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        r = concatenate(a, b)
+        r0 = concatenate(a, b, window_search=False, plant_both=False)
+        w = concatenate(wa, wb, on_facing="constrain")
+        w0 = concatenate(wa, wb, on_facing="constrain", window_search=False, plant_both=False)
+    assert r.rule.rule == "forward" and w.rule.rule == "forward"
+    assert _between(r0) < 0.2 and _between(w0) < 0.3                    # 0.16, 0.27 before
+    assert _between(r) > 0.26 and _between(w) > 0.8                      # 0.29, 0.96 measured
+    assert r.window[1] - r.window[0] > r0.window[1] - r0.window[0]
+    assert any("window length chosen" in n for n in r.notes)
+    # the inputs' own |L| (fraction of the main level) over the periods the forward rule blends
+    (t1, t2), (p1, p2) = r.tracks, r.phases
+    assert t1.magnitude[p1.t_m:p1.main[1] + 1].min() < 0.15 * r.L_reference
+    assert t2.magnitude[p2.main[0]:p2.t_m + 1].min() < 0.3 * r.L_reference
+    # not at the COM's expense: no COM velocity jump found at the blend
+    rep = audit(r.motion, against=a)
+    assert not [f for f in rep.violations if f.check == "com_velocity_jump"]
+    assert rep.measure("max_foot_slide_m") <= 0.01
+
+
+def test_feet_held_where_planted_in_both_in_the_blended_period(real_data_dir):
+    """On the SIE punches at the minimum window, holding a foot in the blended period only where it is
+    planted in A and in B (the blended foot moves where it is planted in one only) changes |L| less:
+    lowest |L| between the main phases 0.16 -> 0.23 of the main level (measured)."""
+    a = _load(real_data_dir, "kicks_punches/deepmimic_sie_humanoid3d_punch_forward00.txt")
+    b = _load(real_data_dir, "kicks_punches/deepmimic_sie_humanoid3d_punch_forward02.txt")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        lo = {pb: _between(concatenate(a, b, window_search=False, plant_both=pb)) for pb in (False, True)}
+    assert lo[True] > lo[False] + 0.05

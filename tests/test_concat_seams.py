@@ -127,7 +127,7 @@ def test_cartwheels_cut_whole_keep_their_turning_direction(real_data_dir):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         r = concatenate(c1, c3)
-        mg = motion_graph_concatenate(c1, c3, r.phases, r.window_frames_out)
+        mg = motion_graph_concatenate(c1, c3, r.phases, r.baseline_window)
     p1 = r.phases[0]
     ref = r.tracks[0].L[p1.main[0]:p1.main[1]].mean(0)
     ref /= np.linalg.norm(ref)
@@ -144,7 +144,7 @@ def test_cartwheels_cut_whole_keep_their_turning_direction(real_data_dir):
     assert "hand support" in r.period_notes[1]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
-        old = concatenate(c1, c3, hand_support=False, plant=False)
+        old = concatenate(c1, c3, hand_support=False, plant=False, window_search=False)
     u0, u1 = old.output_window
     assert momentum_track(old.motion).magnitude[u0:u1 + 1].max() > 1.8 * pk
 

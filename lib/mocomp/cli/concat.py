@@ -247,7 +247,7 @@ def run(args) -> int:
 
         acc_b, ph_a = motions[0], joints[0].phases[0]
         for j, r in enumerate(joints):
-            res = motion_graph_concatenate(acc_b, motions[j + 1], (ph_a, r.phases[1]), r.window_frames_out,
+            res = motion_graph_concatenate(acc_b, motions[j + 1], (ph_a, r.phases[1]), r.baseline_window,
                                            plant=not args.no_plant)
             sh = res.transition.i - res.transition.j
             base_peaks.append((ph_a.t_m, r.phases[1].t_m + sh))

@@ -65,6 +65,11 @@ MIN_PEAK_GAP = 0.5
 #: periods first, then inside both motions (noted)
 MIN_WINDOW = 3
 MIN_WINDOW_SECONDS = 0.1
+#: multiples of the minimum window tried by the forward rule's window search (``window_search``)
+WINDOW_SEARCH = (1.0, 1.5, 2.0, 2.5, 3.0)
+#: the forward rule's aim (issue 17's acceptance): |L| between the main phases stays above this
+#: fraction of the main level; the window search runs only when the minimum window falls below it
+KEEP_FRACTION = 0.3
 
 
 def check_same_skeleton(a: Motion, b: Motion, names=("A", "B")) -> None:
@@ -125,6 +130,13 @@ class ConcatResult:
         lo = max(m2.main[0] + sh, u1 + 1)
         borders = (min(lo, m2.main[1] + sh - 1), m2.main[1] + sh)
         return borders, min(max(m2.t_m + sh, borders[0]), borders[1] - 1)
+
+    @property
+    def baseline_window(self) -> int:
+        """Frames of the Motion-Graph baseline's blend: as long as ours in the output, and never shorter
+        than eq. 8's window (when eq. 9 plays the blend faster, ``s > 1``, the output's blend is
+        shorter than eq. 8's; the baseline, without eq. 9, blends over at least eq. 8's frames)."""
+        return max(self.window_frames_out, self.window[1] - self.window[0] + 1)
 
     @property
     def frame_shift(self) -> int:
@@ -269,13 +281,21 @@ def _hand_contacts(plants) -> np.ndarray | None:
     return np.asarray(c.labels)[:, cols] if cols else None
 
 
-def _blend_labels(la: np.ndarray, lb: np.ndarray, T: int, f_T: int, n: int) -> np.ndarray:
+def _blend_labels(la: np.ndarray, lb: np.ndarray, T: int, f_T: int, n: int,
+                  window: tuple[int, int] | None = None) -> np.ndarray:
+    """The plant labels of the output: A's before ``f_T``, B's (frame ``f - T``) from it on. With
+    ``window`` (eq. 8's ``[f_i0, f_if]``), a foot counts as planted in the window only where it is
+    planted in both A and B: planted in one only, the blended foot moves between the two, and holding
+    it there bends the leg fast at the plant's ends (SIE punch: |L| changed by up to 2.7 kg m^2/s)."""
     lab = np.zeros((n, 4), bool)
     k = min(f_T, len(la), n)
     lab[:k] = la[:k]
     g = np.arange(k, n) - T
     ok = (g >= 0) & (g < len(lb))
     lab[k:][ok] = lb[g[ok]]
+    if window is not None:
+        f = np.arange(max(window[0], 0, T), min(window[1] + 1, n, len(la), len(lb) + T))
+        lab[f] = la[f] & lb[f - T]
     return lab
 
 
@@ -302,6 +322,42 @@ def warp_positions(rate: np.ndarray, f0: int, fine: int = 32) -> np.ndarray:
     t = np.concatenate([[0.0], np.cumsum(0.5 * (sig[1:] + sig[:-1]) * dx)])
     t *= n / t[-1]
     return f0 + np.interp(np.arange(n + 1), t, x)
+
+
+def _between_low(a, b, yaw, win, T, la, lb, f_T, body, kind, max_scale, t1, t2r, p1, p2) -> float:
+    """The lowest |L| between the main phases' reference frames, as a fraction of their mean level,
+    of eq. 8 over ``win`` then eq. 9 (feet not held): the window search's criterion."""
+    f0, f1 = win
+    pivot = reference_points(b[f0 - T], "feet")[0]
+    target = reference_points(a[f0], "feet")[0]
+    b2 = GroundTransform(yaw, tuple(pivot.tolist()), tuple((target - pivot).tolist())).apply(b)
+    out = linear_blend(a, b2, f0, f1, T)
+    lab = _blend_labels(la, lb, T, f_T, out.n_frames)
+    added = 0
+    if f1 > f0:
+        out, _, _, added, _, _ = _time_scale(out, lab, f0, f1, body, kind, max_scale, (t1.L[f0], t2r.L[f1 - T]), 0)
+    s, e = p1.t_m, p2.t_m + T + added
+    lo, hi = max(s - _MARGIN, 0), min(e + 1 + _MARGIN, out.n_frames)
+    L = momentum_track(out[lo:hi], body, kind=kind).magnitude
+    return float(L[s - lo:e + 1 - lo].min() / _main_level((t1, t2r), (p1, p2)))
+
+
+#: m/s: the both-only plants are kept only when the COM velocity jump at the window grows by at most this
+JUMP_SLACK = 0.05
+
+
+def _window_com_jump(m: Motion, body, win: tuple[int, int], margin: int = 6) -> float:
+    """m/s, the largest COM velocity jump (:func:`mocomp.audit.com.velocity_jumps`, the audit's
+    one-sided fits) within ``margin`` frames of the output window ``win``."""
+    from ..audit.com import velocity_jumps
+    from ..audit.thresholds import AuditThresholds
+    from ..dynamics.com import center_of_mass
+
+    w = AuditThresholds().jump_frames(m.fps)
+    lo, hi = max(win[0] - margin - w, 0), min(win[1] + margin + w + 1, m.n_frames)
+    jump = velocity_jumps(center_of_mass(body, m[lo:hi]), m.fps, w)[0]
+    mag = np.linalg.norm(jump, axis=1)
+    return float(np.nanmax(mag)) if np.isfinite(mag).any() else 0.0
 
 
 def _time_scale(out: Motion, lab: np.ndarray, f0: int, f1: int, body, kind: str, max_scale: float,
@@ -350,7 +406,8 @@ def _time_scale(out: Motion, lab: np.ndarray, f0: int, f1: int, body, kind: str,
     return res, lab2, s, (len(x) - 1) - (b - a), (u0, u1), note
 
 
-def com_continuity(out: Motion, body, u0: int, u1: int, w: int = 2) -> tuple[Motion, tuple[float, float]]:
+def com_continuity(out: Motion, body, u0: int, u1: int, w: int = 2,
+                   supported: tuple[bool, bool] = (False, False)) -> tuple[Motion, tuple[float, float]]:
     """The root moved on output frames ``[u0, u1]`` so that the COM velocity has no step at ``u0`` and
     ``u1`` (beyond the paper). Eq. 9 plays the blended period at another rate than its neighbours, and
     the blend itself moves between two bodies that stand apart, so the COM velocity steps at both
@@ -361,6 +418,9 @@ def com_continuity(out: Motion, body, u0: int, u1: int, w: int = 2) -> tuple[Mot
     velocity step where a flight lands or takes off is the ground's impulse, and moving the root down
     there drives the feet into the floor (DeepMimic side flip: 8.8 -> 17.4 cm with it). A uniform
     translation leaves the angular momentum about the COM (eq. 1) unchanged, so eq. 9's |L| is kept.
+    ``supported``: at each edge, whether a foot is planted on every frame within ``w`` of it (no take-off
+    or landing there); at such an edge the vertical step is eq. 9's rate change alone (a punch whose
+    blend eq. 9 plays 2.2x faster: 0.75 m/s on the SIE punches) and is removed too.
 
     Returns the motion and the two steps in m/s (before the correction)."""
     from ..dynamics.com import center_of_mass
@@ -378,8 +438,11 @@ def com_continuity(out: Motion, body, u0: int, u1: int, w: int = 2) -> tuple[Mot
     h10 = u ** 3 - 2 * u ** 2 + u
     h11 = u ** 3 - u ** 2
     rp = np.array(out.root_positions)
+    if not supported[0]:
+        d0 = d0 * np.array([1.0, 0.0, 1.0])        # horizontal only where a flight may begin or end
+    if not supported[1]:
+        d1 = d1 * np.array([1.0, 0.0, 1.0])
     c = n * (h10[:, None] * d0 + h11[:, None] * d1)
-    c[:, 1] = 0.0                                  # horizontal only (see the docstring)
     rp[u0:u1 + 1] += c
     return out.replace(root_positions=rp), (float(np.linalg.norm(d0[[0, 2]]) * out.fps),
                                             float(np.linalg.norm(d1[[0, 2]]) * out.fps))
@@ -447,7 +510,7 @@ def _concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bo
                 facing_at: str = "t_m",
                 max_scale: float = 4.0, ramp_frames: int | None = 0, com_smooth: bool = True,
                 blend_ease: str = "linear", min_spread: float = 0.5, on_facing: str = "reject",
-                hand_support: bool = True) -> ConcatResult:
+                hand_support: bool = True, window_search: bool = True, plant_both: bool | None = None) -> ConcatResult:
     """Concatenate ``b`` after ``a`` (see the module docstring).
 
     Parameters
@@ -484,6 +547,19 @@ def _concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bo
     min_peak_gap: offsets with ``T + t_m(B) - t_m(A)`` below this fraction of the mean main-phase
         length are not considered (:data:`MIN_PEAK_GAP`).
     plant: hold the supporting feet on the result.
+    window_search: forward rule, when fewer than the minimum window's frames are within the eq. 8
+        threshold: the widened window's length is chosen among :data:`WINDOW_SEARCH` multiples of the
+        minimum by the lowest |L| between the main phases of eq. 8 + eq. 9, when the minimum's falls
+        below :data:`KEEP_FRACTION` of the main level (beyond the paper; the
+        paper's window is the traced one, and a short trace widened to the minimum dips |L| at the
+        blend's edges: SIE punch 0.16, SFU Wushu kicks 0.27 of the main level). ``False``: the minimum.
+    plant_both: in the blended period a foot is held only where it is planted in both A and B
+        (:func:`_blend_labels`; ``False``: A's plants before ``f_T``, B's after, as before). ``None``
+        (default): under the forward rule both are held and the one keeping the lowest |L| between the
+        main phases higher is kept (noted; SIE punch 0.30 -> 0.57 of the main level; on the DeepMimic
+        punch the other way round, 0.44 vs 0.76); under the reverse rule A's / B's (on the Bandai
+        one-two punch both-only gave 0.18 vs 0.52: a foot let go for a 3-frame window at 30 fps is
+        pulled back to its plant).
     hand_support: in the double-support truncation of the blendable periods, count frames with a hand
         planted and no foot as support (left out), not as flight (a cartwheel's inverted frames; the
         paper limits the periods to "double support when both feet are on the ground"); ``False``:
@@ -626,10 +702,35 @@ def _concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bo
     n_min = max(MIN_WINDOW, int(round(MIN_WINDOW_SECONDS * a.fps)))
     if f1 - f0 + 1 < n_min:
         # a shorter blend is close to a cut: widen it inside the periods, then inside both motions
-        g0, g1 = _widen(f0, f1, lo, hi, n_min)
-        h0, h1 = _widen(g0, g1, max(0, T), min(a.n_frames, b.n_frames + T) - 1, n_min)
+        def widened(n):
+            g0, g1 = _widen(f0, f1, lo, hi, n)
+            return (g0, g1), _widen(g0, g1, max(0, T), min(a.n_frames, b.n_frames + T) - 1, n)
+
+        (g0, g1), (h0, h1) = widened(n_min)
+        msg = ""
+        if window_search and choice.rule == "forward" and time_scale:
+            # beyond the paper: the forward rule keeps |L| up between the main phases; a blend over two
+            # postures that differ (few frames within the threshold) dips |L| at its edges, and how much
+            # depends on its length: try WINDOW_SEARCH widths, keep the one whose blend (eq. 8 + eq. 9,
+            # before the feet are held) keeps the lowest |L| between the main phases highest; only when the
+            # minimum window falls below KEEP_FRACTION (else the paper's window, widened to the minimum)
+            cand = {}
+            first = _between_low(a, b, yaw, (h0, h1), T, la, lb, f_T, body_a, kind, max_scale, t1, t2r, p1, p2)
+            for k in (WINDOW_SEARCH if first < KEEP_FRACTION else WINDOW_SEARCH[:1]):
+                (c0, c1), w = widened(max(n_min, int(round(k * n_min))))
+                if w == (h0, h1):
+                    cand[w] = (first, (g0, g1))
+                elif w not in cand:
+                    cand[w] = (_between_low(a, b, yaw, w, T, la, lb, f_T, body_a, kind, max_scale, t1, t2r, p1, p2),
+                               (c0, c1))
+            best_w = max(cand, key=lambda w: (round(cand[w][0], 6), -(w[1] - w[0])))
+            if best_w != (h0, h1):
+                msg = (f"; the forward rule's window length chosen by the lowest |L| between the main phases (eq. 8 + "
+                       f"eq. 9, before the feet are held): {cand[(h0, h1)][0]:.2f} at {h0}-{h1} -> "
+                       f"{cand[best_w][0]:.2f} at {best_w[0]}-{best_w[1]} of the main level")
+                (g0, g1), (h0, h1) = cand[best_w][1], best_w
         notes.append(f"blend window {f0}-{f1} ({f1 - f0 + 1} frame(s) within the threshold) widened to {h0}-{h1}"
-                     + ("" if (h0, h1) == (g0, g1) else " (beyond the blendable periods)"))
+                     + ("" if (h0, h1) == (g0, g1) else " (beyond the blendable periods)") + msg)
         f0, f1 = h0, h1
     # translation: the feet centres coincide at f_i0
     pivot = reference_points(b[f0 - T], "feet")[0]
@@ -637,20 +738,45 @@ def _concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bo
     tf = GroundTransform(yaw, tuple(pivot.tolist()), tuple((target - pivot).tolist()))
     b2 = tf.apply(b)
     out = linear_blend(a, b2, f0, f1, T, blend_ease)
-    lab = _blend_labels(la, lb, T, f_T, out.n_frames)
+    auto_both = plant_both is None and choice.rule == "forward" and plant
+    lab = _blend_labels(la, lb, T, f_T, out.n_frames, (f0, f1) if plant_both else None)
+    lab_both = _blend_labels(la, lb, T, f_T, out.n_frames, (f0, f1)) if auto_both else None
     scale, added, out_win = 1.0, 0, (f0, f1)
     if time_scale and f1 > f0:
         ramp = max(1, int(round(RAMP_SECONDS * a.fps))) if ramp_frames is None else int(ramp_frames)
+        out0 = out
         out, lab, scale, added, out_win, note = _time_scale(out, lab, f0, f1, body_a, kind, max_scale,
                                                             (t1.L[f0], t2r.L[f1 - T]), ramp)
+        if lab_both is not None:
+            lab_both = _time_scale(out0, lab_both, f0, f1, body_a, kind, max_scale, (t1.L[f0], t2r.L[f1 - T]), ramp)[1]
         if note:
             notes.append(note)
     steps = (0.0, 0.0)
     if com_smooth:
-        out, steps = com_continuity(out, body_a, out_win[0], out_win[1])
+        sup = tuple(bool(lab[max(u - 2, 0):u + 3].any(axis=1).all()) for u in out_win)
+        out, steps = com_continuity(out, body_a, out_win[0], out_win[1], supported=sup)
     fp = None
     if plant:
-        out, fp = _hold_feet(out, lab, notes)
+        held, fp = _hold_feet(out, lab, notes)
+        if lab_both is not None and (lab_both != lab).any():
+            # forward rule: the feet held as A's / B's plants, or in the blended period only where planted
+            # in both; the one keeping |L| between the main phases higher is kept (noted)
+            # (unless that adds a COM velocity jump at the window, the audit's measure, beyond JUMP_SLACK)
+            held2, fp2 = _hold_feet(out, lab_both, [])
+            s0, s1 = p1.t_m, p2.t_m + T + added
+            lows = [float(momentum_track(m, body_a, kind=kind).magnitude[s0:s1 + 1].min()) / L_ref
+                    for m in (held, held2)]
+            jumps = [_window_com_jump(m, body_a, out_win) for m in (held, held2)]
+            if lows[1] > lows[0] and jumps[1] <= jumps[0] + JUMP_SLACK:
+                notes.append(f"feet held in the blended period only where planted in both A and B: lowest |L| "
+                             f"between the main phases {lows[0]:.2f} -> {lows[1]:.2f} of the main level (COM "
+                             f"velocity jump at the window {jumps[0]:.2f} -> {jumps[1]:.2f} m/s)")
+                held, fp = held2, fp2
+            elif lows[1] > lows[0]:
+                notes.append(f"feet held as A's / B's plants: holding them only where planted in both would raise "
+                             f"the lowest |L| between the main phases {lows[0]:.2f} -> {lows[1]:.2f} of the main "
+                             f"level but the COM velocity jump at the window {jumps[0]:.2f} -> {jumps[1]:.2f} m/s")
+        out = held
     return ConcatResult(out, (p1, p2), choice, yaw, value, facing, facing_at, float(max_facing), (case, pa, pb), pnotes, tab, T, f_T, (f0, f1),
                         thr, max_F, min_T, tf, (t1, t2r), scale, out_win[1] - out_win[0] + 1, fp, time.perf_counter() - t0, tuple(notes),
                         out_win, added, steps)
