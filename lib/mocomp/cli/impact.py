@@ -54,6 +54,12 @@ def register(sub) -> None:
     p.add_argument("--seed", type=int_in(0, 2 ** 31 - 1), default=0, help="seed of the reaction delay draw (default 0)")
     p.add_argument("--delay", type=float_in(0.0, 0.9), metavar="S",
                    help="reaction delay before the active control, s (default: drawn from [0.1, 0.2] with --seed)")
+    p.add_argument("--reentry-radius", type=int_in(0, 30), default=0, metavar="FRAMES",
+                   help="beyond the paper: re-choose the found clip's frame at the re-entry within FRAMES frames "
+                        "against the active simulation's state (default 0: the searched frame, as the paper)")
+    p.add_argument("--reentry-by", choices=("eq4.1", "root_height"), default="root_height",
+                   help="with --reentry-radius: the frame nearest by eq. 4.1's frame term or by pelvis height "
+                        "(default root_height)")
     p.add_argument("-o", "--out", required=True, metavar="OUT_DIR",
                    help="output folder (created if missing): victim.bvh, attacker.bvh, filmstrip.png")
     p.add_argument("--report", metavar="r.json", help="write the evidence (and the audits) as JSON")
@@ -94,7 +100,9 @@ def run(args) -> int:
     index = load_library(lib, victim.skeleton, cache_dir=args.cache, progress=False)
     print(f"library {lib}: {len(index.clips)} clip(s), {index.n_frames} frames, {index.n_unique} unique at "
           f"T = {index.tolerance:g}" + (f"; refused {len(index.refused)}" if index.refused else ""))
-    r = impact_response(attacker, victim, index, scenario, ImpactConfig(seed=args.seed, delay=args.delay))
+    r = impact_response(attacker, victim, index, scenario, ImpactConfig(seed=args.seed, delay=args.delay,
+                                                                   reentry_radius=args.reentry_radius,
+                                                                   reentry_by=args.reentry_by))
     d = r.to_dict()
     print(f"first contact at frame {r.first_contact.frame} ({r.first_contact.time:.3f} s); rewind to frame "
           f"{r.first_contact.rewind_frame}; impact at {r.naive.impact_time:.4f} s, contact until "
@@ -110,6 +118,10 @@ def run(args) -> int:
     print(f"final-blend correction (planned): root {ba.root_error_m:.3f} m (vertical {ba.root_error_vertical_m:+.3f} m: "
           f"the root is unactuated), joints {ba.joint_error_deg:.1f} deg at re-entry from the active simulation"
           + (f"; from the naive one {bn.root_error_m:.3f} m, {bn.joint_error_deg:.1f} deg" if bn is not None else ""))
+    ref = r.evidence.get("reentry_refine")
+    if ref is not None:
+        print(f"re-entry frame re-chosen by {ref['by']} (beyond the paper): found clip frame {ref['clip_frame_searched']} "
+              f"-> {ref['clip_frame_chosen']} (within {ref['radius_frames']} clip frames)")
     if r.naive.strike_end is not None:
         se = r.naive.strike_end
         print(f"strike ended {se['after_impact_s']:.3f} s after the impact by its {se['limit']} limit")

@@ -85,7 +85,8 @@ from .features import BODY_PARTS, FOOT_PARTS, body_model_for, ground_frame_featu
 from . import _kernels
 from .index import RATE_TOLERANCE, LibraryIndex, frame_distances
 
-__all__ = ["RootTransform", "SearchResult", "search", "window_weights", "window_distance", "support_foot_of"]
+__all__ = ["RootTransform", "SearchResult", "search", "window_weights", "window_distance", "support_foot_of",
+           "reentry_frame_costs"]
 
 _CHUNK = 192            # candidate windows per vectorised block (keeps the gathered arrays ~10 MB)
 _SUPPORT_HEIGHT = 0.05  # m: a foot within this height of the lowest foot counts as on the ground
@@ -576,3 +577,29 @@ def search(index: LibraryIndex, query: Motion, start: int, stop: int, *, support
     runner = _result(index, q, ru, float(D[ru]), stats) if ru is not None else None
     res = _result(index, q, best, float(D[best]), stats)
     return SearchResult(res.clip, res.frame, res.root_transform, res.distance, runner, res.stats)
+
+
+def reentry_frame_costs(state: Motion, clip: Motion, frame: int, radius: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(frames (K,), costs (K,))``: eq. 4.1's frame term between the simulated state ``state``
+    (one frame, or its last frame) and each frame of ``clip`` within ``radius`` frames of ``frame``,
+    each in its own ground frame (root ground point and heading removed, height kept), with the
+    Table A.1 weights and the supporting foot of the state (sec. 4.1). The search matched the
+    *naive* simulation; this re-scores the found clip's frames against the *active* simulation's
+    state at the re-entry, for :class:`~mocomp.impact.pipeline.ImpactConfig` ``reentry_radius``
+    (beyond the paper: it blends onto the frame the search found)."""
+    from .features import body_features, ground_frame_features, part_weights
+    from .index import frame_distances
+
+    if radius < 0:
+        raise ValueError(f"radius must be >= 0, got {radius}")
+    if state.skeleton.names != clip.skeleton.names:
+        raise ValueError("reentry_frame_costs: the state and the clip must share one skeleton")
+    frames = np.arange(max(0, frame - radius), min(clip.n_frames - 1, frame + radius) + 1)
+    if frames.size == 0:
+        raise ValueError(f"reentry_frame_costs: frame {frame} outside the clip's {clip.n_frames} frames")
+    fs = body_features(state.slice(state.n_frames - 1, state.n_frames), velocities=False)
+    fc = body_features(clip.slice(int(frames[0]), int(frames[-1]) + 1), velocities=False)
+    ps, os_ = ground_frame_features(fs.positions, fs.orientations, fs.ground, fs.heading)
+    pc, oc = ground_frame_features(fc.positions, fc.orientations, fc.ground, fc.heading)
+    wp, wr = part_weights(support_foot_of(fs.com[0], fs.positions[0]))
+    return frames, frame_distances(ps[0][None], os_[0][None], pc, oc, wp, wr)
