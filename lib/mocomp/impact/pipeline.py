@@ -106,7 +106,7 @@ class ImpactConfig:
     (the frame term) or ``"root_height"`` (the clip frame whose pelvis height is nearest the simulation's).
     56-run sweep (3 victims x 5 attacks x 4 facings), root error at re-entry mean (median) and runs better
     than blending from the naive pass: radius 0 (the paper) 0.069 (0.039) m, 31/56; 3 by eq4.1 0.037
-    (0.026) m, 37/56; 3 by root_height 0.021 (0.008) m, 44/56; joint error at re-entry 8.4 / 9.9 / 10.0 deg
+    (0.026) m, 37/56; 3 by root_height 0.022 (0.012) m, 43/56; joint error at re-entry 8.4 / 9.9 / 10.1 deg
     (naive 23.2; better than naive 54 / 50 / 52 of 56). 0 (default) blends onto the searched frame exactly
     (the paper's final blend); the choice is ``evidence["reentry_refine"]``. Beyond the paper.
     """
@@ -456,6 +456,10 @@ def impact_response(attacker: Motion, victim: Motion, index, scenario: Scenario 
             costs = np.abs(np.asarray(native.root_positions)[fr, 1] - float(seg.root_positions[-1, 1]))
         # the shifted timeline must keep the clip's frames at and after the re-entry inside the clip
         ok = fr + (f_re - f0) <= native.n_frames - 1 + 1e-9
+        # a whole number of output frames (a 60 Hz clip shifted by an odd frame would be realigned a half frame
+        # off its blend target: 1 cm of horizontal root error)
+        sh = (fr - f0) * fps / native.fps
+        ok &= np.abs(sh - np.round(sh)) <= 0.05
         k = int(np.argmin(np.where(ok, costs, np.inf)))
         shift = float(fr[k] - f0) / native.fps
         i0 = int(np.flatnonzero(fr == f0)[0])
