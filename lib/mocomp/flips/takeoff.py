@@ -727,8 +727,13 @@ def _leg_room(motion: Motion, frames: np.ndarray, event: str = "take-off") -> tu
     P = P_all[frames]
     down, up = np.full(n, np.inf), np.full(n, np.inf)
     air = np.ones(n, bool)
+    clear = np.full(n, np.inf)
     for h, k, a in chains:
         air &= ~_foot_down(motion.skeleton, P, a, event)
+        if event == "take-off":     # a rigid leg in the air may sink no lower than its planted level
+            below = [a] + [j for j in range(len(motion.skeleton.parents)) if _descends(motion.skeleton.parents, j, a)]
+            hf = P[:, below, 1].min(axis=1)
+            clear = np.minimum(clear, hf - hf.min())
     for h, k, a in chains:
         l1 = np.linalg.norm(P[:, k] - P[:, h], axis=1)
         l2 = np.linalg.norm(P[:, a] - P[:, k], axis=1)
@@ -740,7 +745,7 @@ def _leg_room(motion: Motion, frames: np.ndarray, event: str = "take-off") -> tu
         # |r - delta e_y|^2 = rho2 - 2 delta hy + delta^2 reaches lo2 (sinking) / hi2 (rising)
         dn = hy - np.sqrt(np.maximum(hy * hy - (rho2 - lo2), 0.0))
         upv = -hy + np.sqrt(np.maximum(hy * hy + (hi2 - rho2), 0.0))
-        dn, upv = np.where(air, np.inf, dn), np.where(air, np.inf, upv)
+        dn, upv = np.where(air, clear, dn), np.where(air, np.inf, upv)
         down = np.minimum(down, np.maximum(dn, 0.0))
         up = np.minimum(up, np.maximum(upv, 0.0))
     return down, up
@@ -753,20 +758,26 @@ AIRBORNE_CLEARANCE = 0.02
 
 
 def _foot_down(sk, P: np.ndarray, ankle: int, event: str) -> np.ndarray:
-    """``(n,)`` bool: the window frames from the one on which the leg ending at ``ankle`` first comes
-    within :data:`AIRBORNE_CLEARANCE` of its lowest height over a landing window (ankle and the joints
-    below it). Frames before the first foot comes down are airborne: the legs move rigidly with the
-    root there (bending them in the air would change L, which only the ground may do; the audit saw
-    |L| drop 8 % on such a frame of the front flip at 0.7 k* repaired). Take-off windows end at the
-    take-off: every frame is held."""
+    """``(n,)`` bool: on a landing window (frames in time order), the frames from the one on which
+    the leg ending at ``ankle`` first comes within :data:`AIRBORNE_CLEARANCE` of its lowest height
+    over the window (ankle and the joints below it); on a take-off window, the frames up to the
+    last one on which it is still that low. Frames before the first foot comes down (after the
+    last one leaves) are airborne: the legs move rigidly with the root there (bending them in the
+    air would change L, which only the ground may do; the audit saw |L| drop 8 % on such a frame of
+    the front flip at 0.7 k* repaired), and they bound no displacement. The DeepMimic side flip's
+    feet leave 3 frames (120 Hz) before the take-off its flight is planned from: held there, the
+    leg IK's reach refused the map that makes the COM meet the flight (0.41 m/s jump, input 0.25)."""
     n = P.shape[0]
-    if event != "landing" or n == 0:
+    if event not in ("landing", "take-off") or n == 0:
         return np.ones(n, bool)
     below = [ankle] + [j for j in range(len(sk.parents)) if _descends(sk.parents, j, ankle)]
     h = P[:, below, 1].min(axis=1)
     touch = np.flatnonzero(h <= h.min() + AIRBORNE_CLEARANCE)
     out = np.zeros(n, bool)
-    out[int(touch[0]):] = True
+    if event == "landing":
+        out[int(touch[0]):] = True
+    else:
+        out[:int(touch[-1]) + 1] = True
     return out
 
 
