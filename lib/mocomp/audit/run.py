@@ -40,7 +40,11 @@ def default_body(motion, like=None) -> BodyModel:
     male table on the skeleton at 70 kg with constant-density ellipsoids. ``like``: the motion
     ``motion`` was made from; when both have the same skeleton (:func:`same_skeleton`, e.g. a
     command's BVH output of a DeepMimic clip, which no longer names the character) ``like``'s
-    character is used, matched into ``motion``'s skeleton by joint name."""
+    character is used, matched into ``motion``'s skeleton by joint name. Without either, a
+    skeleton that is exactly a known DeepMimic character's (its joints by name and parent in any
+    order, bone offsets within 0.1 mm: :func:`mocomp.io.deepmimic.match_character`; e.g. a BVH the
+    project wrote from a DeepMimic clip, read back alone) gets that character's bodies, the reason
+    being the model's first note (and part of the audit's body line)."""
     char = _character(motion)
     if char is None and like is not None and same_skeleton(motion.skeleton, like.skeleton):
         char = _character(like)
@@ -48,6 +52,14 @@ def default_body(motion, like=None) -> BodyModel:
         from ..io.deepmimic import read_deepmimic_body
 
         return read_deepmimic_body(char, motion.skeleton)
+    # a file that names no character (e.g. a BVH the project wrote from a DeepMimic clip, read back):
+    # the character whose skeleton it is exactly (joints by name and parent, bone offsets within
+    # 0.1 mm; mocomp.io.deepmimic.match_character), its masses mapped by joint name
+    from ..io.deepmimic import recognized_body
+
+    body = recognized_body(motion.skeleton)
+    if body is not None:
+        return body
     return BodyModel.from_skeleton(motion.skeleton, total_mass=70.0)
 
 
@@ -68,7 +80,8 @@ def same_skeleton(a, b, tol: float = 1e-4) -> bool:
 
 def _body_text(body) -> str:
     table = str(getattr(body, "table", "") or "").split(" (")[0]
-    return f"{body.n_segments} segments, {table or 'given masses'}"
+    why = next((n for n in getattr(body, "notes", ()) if n.startswith("skeleton recognised as")), None)
+    return f"{body.n_segments} segments, {table or 'given masses'}" + (f"; {why}" if why else "")
 
 
 def audit(motion, body=None, *, thresholds: AuditThresholds = AuditThresholds(), against=None,

@@ -48,6 +48,7 @@ from .validate import MAX_FRAMES, MAX_LENGTH_M, check_counts, check_fps, check_m
 __all__ = [
     "DeepMimicCharacter", "read_deepmimic_character", "read_deepmimic", "parse_deepmimic",
     "read_deepmimic_body", "find_character", "solid_inertia",
+    "match_character", "recognized_body", "known_characters", "MATCH_TOL_M",
 ]
 
 _PARAM_SIZE = {"none": 7, "spherical": 4, "revolute": 1, "fixed": 0}
@@ -257,7 +258,9 @@ def read_deepmimic_character(path) -> DeepMimicCharacter:
             if any(c):
                 ends.append(EndSite(k, np.array(c), f"{n}_end"))
     sk = Skeleton(tuple(names), np.array(parents), np.array(offsets), tuple(chans), tuple(ends))
-    return DeepMimicCharacter(str(path), sk, tuple(types), A, tuple(joints), tuple(bodies))
+    char = DeepMimicCharacter(str(path), sk, tuple(types), A, tuple(joints), tuple(bodies))
+    _SEEN[str(path.resolve())] = char
+    return char
 
 
 def find_character(motion_path) -> Path:
@@ -541,3 +544,98 @@ def read_deepmimic_body(character_path, skeleton: Skeleton | None = None) -> Bod
     return BodyModel(sk, tuple(seg_names), np.array(seg_joint), np.array(masses), np.array(coms),
                      np.array(inertias), tuple(massless), table=f"DeepMimic character file {char.path}",
                      shape="given")
+
+
+# ------------------------------------------------------------------ recognising a character's skeleton
+#: largest difference of any bone offset (metres) for a skeleton to count as a DeepMimic character's:
+#: a BVH the project wrote keeps offsets to 1e-11 m; another person's (or a rescaled) skeleton differs
+#: by centimetres
+MATCH_TOL_M = 1e-4
+
+#: characters read in this process, by resolved path (read_deepmimic_character registers them)
+_SEEN: dict[str, DeepMimicCharacter] = {}
+
+
+def known_characters() -> list[DeepMimicCharacter]:
+    """DeepMimic characters a skeleton may be matched against: those read in this process and the
+    character files of the data directory (``$MOCOMP_DATA_DIR/skeletons``: ``*character*.txt``,
+    ``humanoid3d*.txt``). Files that do not parse are skipped."""
+    from ..datasets.config import data_dir
+
+    try:
+        root = data_dir()
+    except Exception:  # a set but missing directory: only the characters already read
+        root = None
+    if root is not None:
+        d = root / "skeletons"
+        if d.is_dir():
+            for c in sorted(p for p in d.glob("*.txt") if "character" in p.name or p.name.startswith("humanoid3d")):
+                if str(c.resolve()) not in _SEEN:
+                    try:
+                        read_deepmimic_character(c)
+                    except MotionFormatError:
+                        continue
+    return list(_SEEN.values())
+
+
+def _skeleton_difference(sk: Skeleton, ref: Skeleton) -> tuple[float | None, str]:
+    """``(max offset difference in metres, "")`` when ``sk`` has ``ref``'s joints (names, each joint's
+    parent by name; any order) else ``(None, why not)``."""
+    na, nb = tuple(sk.names), tuple(ref.names)
+    if set(na) != set(nb):
+        miss, extra = sorted(set(nb) - set(na)), sorted(set(na) - set(nb))
+        return None, (f"joints differ ({len(na)} vs {len(nb)}; missing {miss[:4]}{'...' if len(miss) > 4 else ''}, "
+                      f"extra {extra[:4]}{'...' if len(extra) > 4 else ''})")
+    idx = np.array([nb.index(n) for n in na])
+    pa = [None if p < 0 else na[p] for p in np.asarray(sk.parents)]
+    pb = [None if p < 0 else nb[p] for p in np.asarray(ref.parents)[idx]]
+    bad = [n for n, x, y in zip(na, pa, pb) if x != y]
+    if bad:
+        return None, f"joint {bad[0]!r} hangs from {pa[na.index(bad[0])]!r}, not {pb[na.index(bad[0])]!r}"
+    # the root's offset is its rest position, not a bone: not compared
+    nonroot = np.array([k for k in range(len(na)) if pa[k] is not None], dtype=int)
+    d = np.abs(np.asarray(sk.offsets)[nonroot] - np.asarray(ref.offsets)[idx[nonroot]])
+    return (float(d.max()) if d.size else 0.0), ""
+
+
+def match_character(skeleton: Skeleton, candidates=None, tol: float = MATCH_TOL_M):
+    """The DeepMimic character whose skeleton ``skeleton`` is, and why: ``(character or None, reason)``.
+
+    A skeleton matches a character when it has exactly the character's joints (names and each
+    joint's parent by name, in any order: a BVH lists them depth first, DeepMimic by ID) and every
+    bone offset agrees within ``tol`` metres (:data:`MATCH_TOL_M`). A skeleton that merely
+    resembles one (same names, other bone lengths; a rescaled copy; a joint missing) does not
+    match, and ``reason`` says what differed. ``candidates``: characters or character-file paths
+    (default :func:`known_characters`)."""
+    if candidates is None:
+        cands = known_characters()
+    else:
+        cands = [c if isinstance(c, DeepMimicCharacter) else read_deepmimic_character(c) for c in candidates]
+    if not cands:
+        return None, "no DeepMimic character file known (none read, none in $MOCOMP_DATA_DIR/skeletons)"
+    why = []
+    for c in cands:
+        diff, whynot = _skeleton_difference(skeleton, c.skeleton)
+        name = Path(c.path).name if c.path else "character"
+        if diff is None:
+            why.append(f"{name}: {whynot}")
+        elif diff > tol:
+            why.append(f"{name}: same joints, but a bone offset differs by {diff * 1000:.3g} mm "
+                       f"(> {tol * 1000:.3g} mm)")
+        else:
+            return c, (f"skeleton recognised as DeepMimic character {name}: its {skeleton.n_joints} joints by name "
+                       f"and parent, bone offsets within {diff * 1000:.2g} mm (tolerance {tol * 1000:.3g} mm)")
+    return None, "not a DeepMimic character's skeleton (" + "; ".join(why) + ")"
+
+
+def recognized_body(skeleton: Skeleton, candidates=None, tol: float = MATCH_TOL_M) -> BodyModel | None:
+    """The body model of the DeepMimic character whose skeleton ``skeleton`` is (:func:`match_character`),
+    its masses, COMs and inertias mapped by joint name (any joint order), with the reason for the
+    choice as the model's first note; ``None`` when the skeleton is no known character's."""
+    import dataclasses
+
+    char, reason = match_character(skeleton, candidates, tol)
+    if char is None:
+        return None
+    body = read_deepmimic_body(char, skeleton)
+    return dataclasses.replace(body, notes=(reason,) + tuple(body.notes))
