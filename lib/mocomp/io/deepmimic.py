@@ -613,7 +613,7 @@ def match_character(skeleton: Skeleton, candidates=None, tol: float = MATCH_TOL_
         cands = [c if isinstance(c, DeepMimicCharacter) else read_deepmimic_character(c) for c in candidates]
     if not cands:
         return None, "no DeepMimic character file known (none read, none in $MOCOMP_DATA_DIR/skeletons)"
-    why = []
+    why, hits = [], []
     for c in cands:
         diff, whynot = _skeleton_difference(skeleton, c.skeleton)
         name = Path(c.path).name if c.path else "character"
@@ -623,9 +623,25 @@ def match_character(skeleton: Skeleton, candidates=None, tol: float = MATCH_TOL_
             why.append(f"{name}: same joints, but a bone offset differs by {diff * 1000:.3g} mm "
                        f"(> {tol * 1000:.3g} mm)")
         else:
-            return c, (f"skeleton recognised as DeepMimic character {name}: its {skeleton.n_joints} joints by name "
-                       f"and parent, bone offsets within {diff * 1000:.2g} mm (tolerance {tol * 1000:.3g} mm)")
-    return None, "not a DeepMimic character's skeleton (" + "; ".join(why) + ")"
+            hits.append((c, name, diff))
+    if not hits:
+        return None, "not a DeepMimic character's skeleton (" + "; ".join(why) + ")"
+    # several characters with this skeleton: only if their bodies agree is the choice safe
+    sigs = {_bodies_signature(c) for c, _, _ in hits}
+    if len(sigs) > 1:
+        return None, (f"skeleton matches {len(hits)} DeepMimic characters with different bodies "
+                      f"({', '.join(n for _, n, _ in hits)}): ambiguous, none chosen")
+    c, name, diff = hits[0]
+    return c, (f"skeleton recognised as DeepMimic character {name}: its {skeleton.n_joints} joints by name "
+               f"and parent, bone offsets within {diff * 1000:.2g} mm (tolerance {tol * 1000:.3g} mm)")
+
+
+def _bodies_signature(c: DeepMimicCharacter) -> tuple:
+    """The mass-relevant fields of a character's bodies, by joint name (to tell characters apart)."""
+    keys = ("Mass", "Shape", "AttachX", "AttachY", "AttachZ", "AttachThetaX", "AttachThetaY", "AttachThetaZ",
+            "Param0", "Param1", "Param2")
+    return tuple(sorted((n, tuple(str(b.get(k)) for k in keys)) for n, b in zip(c.skeleton.names, c.bodies)
+                        if b is not None))
 
 
 def recognized_body(skeleton: Skeleton, candidates=None, tol: float = MATCH_TOL_M) -> BodyModel | None:
