@@ -34,7 +34,7 @@ from scipy.ndimage import gaussian_filter1d, maximum_filter1d
 from ..core.motion import Motion, slerp
 from ..core.rotations import quat_angle, quat_inverse, quat_multiply
 
-__all__ = ["BlendOutcome", "final_blend", "correction", "floor_lift", "plant_feet", "frame_steps",
+__all__ = ["BlendOutcome", "final_blend", "correction", "floor_lift", "unsupported_frames", "linear_over", "plant_feet", "frame_steps",
            "wrist_props", "props_above_floor", "keep_before",
            "limit_plant_steps"]
 
@@ -147,7 +147,7 @@ def wrist_props(skeleton) -> tuple[int, ...]:
 
 def floor_lift(motion: Motion, floor_y: float, *, smooth_frames: float = 2.0,
                tolerance: float = 0.005, start: int = 0, ramp_frames: int = 0,
-               exclude: tuple[int, ...] = ()) -> tuple[Motion, np.ndarray]:
+               exclude: tuple[int, ...] = (), ballistic: bool = False) -> tuple[Motion, np.ndarray]:
     """``(motion, lift (T,))``: the root raised per frame so that no joint or end site is more than
     ``tolerance`` (m) below ``floor_y`` (m), the lift smoothed in time (a running maximum over ``3 * smooth_frames`` frames each
     side, then a Gaussian of ``smooth_frames``: never less than what a frame needs, no jumps).
@@ -157,7 +157,14 @@ def floor_lift(motion: Motion, floor_y: float, *, smooth_frames: float = 2.0,
     ``exclude``: joints (and their end sites) that do not count (:func:`wrist_props`, which
     :func:`props_above_floor` turns out of the floor instead: the ASE falls drive the 0.74 m sword
     up to 39 cm into the floor while lying, and lifting the body by that left it floating, 24 cm
-    above the floor with no support -- a gravity finding of the audit)."""
+    above the floor with no support -- a gravity finding of the audit).
+    ``ballistic``: the lift adds no vertical acceleration on the frames where the lifted body is
+    unsupported (:func:`unsupported_frames`: no effector touching and no body point resting on the
+    floor): over each such run it is the straight line between its values at the supported frames
+    on either side (after the last supported frame: held), so the lift's change of speed happens
+    where the floor can push (a falling body whose lift eased in mid-air fell at 3-6 m/s^2, then at
+    13.7 m/s^2: gravity findings of the audit); never below what a frame needs. Three passes, the
+    unsupported frames judged again on each pass's output."""
     P = motion.positions
     ends = motion.end_site_positions()
     keep = np.ones(motion.skeleton.n_joints, bool)
@@ -179,11 +186,70 @@ def floor_lift(motion: Motion, floor_y: float, *, smooth_frames: float = 2.0,
         w = ease(np.clip(k / max(ramp_frames, 1), 0.0, 1.0), "smoothstep") if ramp_frames > 0 else (k >= 0) * 1.0
         w[k < 0] = 0.0
         lift = lift * w
-    lift = np.maximum(lift, need if start <= 0 else np.where(np.arange(motion.n_frames) >= start, need, 0.0))
+    need = need if start <= 0 else np.where(np.arange(motion.n_frames) >= start, need, 0.0)
+    lift = np.maximum(lift, need)
     lift[lift < 1e-6] = 0.0
     rp = np.array(motion.root_positions)
+    if ballistic:
+        prev = None
+        for _ in range(3):
+            trial = np.array(rp)
+            trial[:, 1] += lift
+            air = unsupported_frames(motion.replace(root_positions=trial), floor_y)
+            if prev is not None and np.array_equal(air, prev):
+                break
+            prev = air
+            lift = np.maximum(linear_over(lift, air, start), need)
+            lift[lift < 1e-6] = 0.0
     rp[:, 1] += lift
     return motion.replace(root_positions=rp), lift
+
+
+def unsupported_frames(motion: Motion, floor_y: float, *, clearance: float = 0.08) -> np.ndarray:
+    """``(T,)`` bool: frames on which nothing holds the body up, judged as :func:`mocomp.audit.audit`
+    judges its flights: no end effector touching (:func:`~mocomp.dynamics.contacts.detect_contacts`,
+    :func:`~mocomp.dynamics.contacts.airborne_intervals`) and the body's lowest point (any joint or
+    end site) not resting within ``clearance`` m of ``floor_y``
+    (:func:`mocomp.audit.contacts.body_support`, the audit's ``support_clearance``)."""
+    from ..audit.contacts import body_points, body_support, lowest_points
+    from ..dynamics.contacts import airborne_intervals, detect_contacts
+
+    T = motion.n_frames
+    contacts = detect_contacts(motion)
+    air = np.zeros(T, bool)
+    for a, b in airborne_intervals(contacts, min_frames=1):
+        air[a:b] = True
+    if not air.any():
+        return air
+    pts = body_points(motion)
+    low, low_i, _ = lowest_points(motion, pts)
+    return air & ~body_support(pts[0], motion.fps, low, low_i, floor_y, clearance, contacts.speed_tol)
+
+
+def linear_over(values: np.ndarray, mask: np.ndarray, start: int = 0) -> np.ndarray:
+    """``values (T,)`` made straight over each run of ``mask`` frames at or after ``start``: the line
+    from the last frame before the run (not before ``start - 1``) to the first after it, or held at
+    the last frame's value when the run ends the array. Its second difference is zero on every
+    ``mask`` frame (the audit's central-difference acceleration over a flight)."""
+    out = np.array(values, dtype=float)
+    T = out.size
+    m = np.array(mask, bool)
+    m[:max(start, 0)] = False
+    k = 0
+    while k < T:
+        if not m[k]:
+            k += 1
+            continue
+        b = k
+        while b < T and m[b]:
+            b += 1
+        a = max(k - 1, start - 1, 0)
+        if b < T:
+            out[a:b + 1] = np.linspace(out[a], out[b], b - a + 1)
+        else:
+            out[a:] = out[a]
+        k = b
+    return out
 
 
 def props_above_floor(motion: Motion, floor_y: float, props: tuple[int, ...], *, tolerance: float = 0.005,

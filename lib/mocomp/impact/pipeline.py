@@ -56,6 +56,8 @@ class ImpactConfig:
     control starts (None: drawn uniformly from ``delay_range`` with ``seed``). friction_naive,
     friction_active: the floor's (1.0, 0.5). gains: :class:`~mocomp.impact.simulate.ServoGains`.
     plant: hold the planted feet of the output; lift: lift the output above the floor.
+    lift_ballistic: the lift adds no vertical acceleration on frames where the body is unsupported
+    (:func:`~mocomp.impact.blend.floor_lift` ``ballistic``; False: the lift eases in regardless).
     attacker_follow, attacker_blend: s (:func:`~mocomp.impact.attacker.attacker_response`).
     compare_naive: also measure the final-blend correction from the naive simulation.
     exhaustive_search: the exhaustive search instead of the unique-frame one (the reference).
@@ -122,6 +124,7 @@ class ImpactConfig:
     gains: object = None
     plant: bool = True
     lift: bool = True
+    lift_ballistic: bool = True
     attacker_follow: float = 0.1
     attacker_blend: float = 0.3
     compare_naive: bool = True
@@ -514,7 +517,8 @@ def impact_response(attacker: Motion, victim: Motion, index, scenario: Scenario 
     # the sword does not lift the body (a lying fall drove it 39 cm into the floor: the lifted body floated
     # 24 cm above it); the wrist turns it out of the floor instead
     props = wrist_props(out.skeleton)
-    lift_kw = dict(tolerance=0.002, start=fc.rewind_frame, ramp_frames=max(reentry, 1), exclude=props)
+    lift_kw = dict(tolerance=0.002, start=fc.rewind_frame, ramp_frames=max(reentry, 1), exclude=props,
+                   ballistic=config.lift_ballistic)
 
     def repair(out, seam_free: bool = False):
         """The lift, the plants (their fades rate-limited; with ``seam_free`` the leg joints are free of
