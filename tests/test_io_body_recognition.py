@@ -176,3 +176,46 @@ def test_small_character_round_trip_and_refusals(tmp_path):
     # ... but two copies of the same character are fine
     twin = read_deepmimic_character(_character(tmp_path, "twin.txt"))
     assert match_character(r.skeleton, [char, twin])[0] is char
+
+
+# ------------------------------------------------------------------ joint order
+def test_reorder_joints_restores_the_written_order(tmp_path):
+    """The BVH writer lists joints depth first (the format's column order); reorder_joints puts a
+    read-back motion in the original order: names, parents, offsets, channels, end sites and every
+    joint's rotation and world position equal the in-memory motion's."""
+    from mocomp.errors import MotionFormatError
+    from mocomp.io.bvh import reorder_joints
+
+    char = read_deepmimic_character(_character(tmp_path))
+    m = read_deepmimic(_motion_file(tmp_path), character=char, height_check=False)
+    r = _round_trip(m, tmp_path)
+    back = reorder_joints(r, m.skeleton.names)
+    assert back.skeleton.names == m.skeleton.names
+    np.testing.assert_array_equal(back.skeleton.parents, m.skeleton.parents)
+    np.testing.assert_allclose(back.skeleton.offsets, m.skeleton.offsets, atol=1e-10)
+    assert back.skeleton.channels == m.skeleton.channels
+    assert [(e.parent, e.name) for e in back.skeleton.end_sites] == [(e.parent, e.name) for e in m.skeleton.end_sites]
+    dots = np.abs(np.einsum("tjk,tjk->tj", back.rotations, m.rotations))
+    assert dots.min() > 1 - 1e-12
+    np.testing.assert_allclose(back.fk()[0], m.fk()[0], atol=1e-7)
+    assert reorder_joints(back, back.skeleton.names) is back
+    # a child before its parent, or a joint missing: clear errors
+    bad = list(m.skeleton.names)
+    bad[1], bad[3] = bad[3], bad[1]  # knee (child of hip) before hip
+    with pytest.raises(MotionFormatError, match="comes before its parent"):
+        reorder_joints(r, bad)
+    with pytest.raises(MotionFormatError, match="missing"):
+        reorder_joints(r, m.skeleton.names[:-1])
+
+
+@pytest.mark.realdata
+def test_deepmimic_order_restored_after_round_trip(real_data_dir, tmp_path):
+    from mocomp.io.bvh import reorder_joints
+
+    m = read_deepmimic(real_data_dir / "flips" / "deepmimic_backflip.txt")
+    back = reorder_joints(_round_trip(m, tmp_path), m.skeleton.names)
+    assert back.skeleton.names == m.skeleton.names
+    np.testing.assert_allclose(back.fk()[0], m.fk()[0], atol=1e-6)
+    b0, b1 = default_body(m), default_body(back)
+    np.testing.assert_array_equal(b1.segment_joint, b0.segment_joint)
+    np.testing.assert_allclose(b1.masses, b0.masses)

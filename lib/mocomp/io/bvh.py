@@ -36,7 +36,7 @@ from ..errors import MotionFormatError
 from .units import HEIGHT_RANGE, check_height, resolve_scale, standing_height
 from .validate import MAX_ANGLE_DEG, MAX_FRAMES, MAX_JOINTS, MAX_LENGTH_M, check_counts, check_fps, check_motion
 
-__all__ = ["read_bvh", "write_bvh", "parse_bvh", "format_bvh"]
+__all__ = ["read_bvh", "write_bvh", "parse_bvh", "format_bvh", "reorder_joints"]
 
 _POS = ("Xposition", "Yposition", "Zposition")
 #: relative spread above which a non-root joint's position channels count as moving
@@ -835,3 +835,40 @@ def write_bvh(motion: Motion, path, scale: float = 1.0, precision: int = 8, chan
     path.write_text(format_bvh(motion, scale=scale, precision=precision, channels=channels,
                                restore_root=restore_root))
     return path
+
+
+def reorder_joints(motion: Motion, names) -> Motion:
+    """``motion`` with its joints listed in the order ``names`` (the same joints), everything else kept.
+
+    A BVH file lists its joints depth first (the frame columns follow the hierarchy), so a skeleton
+    whose order is not depth first -- DeepMimic's humanoid lists ``right_hip`` (ID 3) before
+    ``right_shoulder`` (ID 6), a child of ``chest`` (ID 1) -- comes back from
+    ``read_bvh(write_bvh(m))`` in another order with the same joints, parents, offsets and poses.
+    ``reorder_joints(read_bvh(path), m.skeleton.names)`` restores ``m``'s order exactly (it is a
+    permutation: joint positions, rotations and end sites are unchanged). ``names`` must hold each
+    joint once, with the root first and every parent before its children."""
+    sk = motion.skeleton
+    names = tuple(names)
+    old = tuple(sk.names)
+    if len(names) != len(old) or set(names) != set(old):
+        missing, extra = sorted(set(old) - set(names)), sorted(set(names) - set(old))
+        raise MotionFormatError(f"reorder_joints: the order must list the skeleton's {len(old)} joints once each "
+                                f"(missing {missing}, unknown {extra}, {len(names)} given)")
+    if names == old:
+        return motion
+    idx = np.array([old.index(n) for n in names])
+    new_of = np.empty(len(old), dtype=int)
+    new_of[idx] = np.arange(len(old))
+    par_old = np.asarray(sk.parents)[idx]
+    parents = np.where(par_old < 0, -1, new_of[np.maximum(par_old, 0)])
+    bad = [names[j] for j in range(len(names)) if (j == 0) != (parents[j] < 0) or parents[j] >= j]
+    if bad:
+        raise MotionFormatError(f"reorder_joints: in the order given, joint {bad[0]!r} comes before its parent "
+                                "(or is not the root yet listed first); the root must be first and parents "
+                                "precede children")
+    # end sites in the order of the joints they hang from (stable: a joint's own sites keep their order)
+    ends = tuple(sorted((EndSite(int(new_of[e.parent]), e.offset, e.name) for e in sk.end_sites),
+                        key=lambda e: e.parent))
+    new_sk = Skeleton(names, parents, np.asarray(sk.offsets)[idx], tuple(sk.channels[k] for k in idx), ends,
+                      sk.removed_root)
+    return motion.replace(skeleton=new_sk, rotations=np.asarray(motion.rotations)[:, idx])
