@@ -6,17 +6,17 @@ from pathlib import Path
 
 from ..errors import MotionFormatError
 from .asf_amc import Asf, read_amc, read_asf
-from .bvh import format_bvh, parse_bvh, read_bvh, write_bvh
+from .bvh import format_bvh, parse_bvh, read_bvh, reorder_joints, write_bvh
 from .c3d import read_c3d
-from .deepmimic import read_deepmimic, read_deepmimic_body, read_deepmimic_character
+from .deepmimic import match_character, read_deepmimic, read_deepmimic_body, read_deepmimic_character, recognized_body
 from .markers import Markers
 from .units import UNITS, UnitWarning
 
 __all__ = [
     "load", "LOADERS",
-    "read_bvh", "write_bvh", "parse_bvh", "format_bvh",
+    "read_bvh", "write_bvh", "parse_bvh", "format_bvh", "reorder_joints",
     "read_amc", "read_asf", "Asf",
-    "read_deepmimic", "read_deepmimic_character", "read_deepmimic_body",
+    "read_deepmimic", "read_deepmimic_character", "read_deepmimic_body", "match_character", "recognized_body",
     "read_c3d", "Markers",
     "UNITS", "UnitWarning",
 ]

@@ -259,7 +259,11 @@ def read_deepmimic_character(path) -> DeepMimicCharacter:
                 ends.append(EndSite(k, np.array(c), f"{n}_end"))
     sk = Skeleton(tuple(names), np.array(parents), np.array(offsets), tuple(chans), tuple(ends))
     char = DeepMimicCharacter(str(path), sk, tuple(types), A, tuple(joints), tuple(bodies))
-    _SEEN[str(path.resolve())] = char
+    key = str(path.resolve())
+    _SEEN.pop(key, None)
+    _SEEN[key] = char
+    while len(_SEEN) > _SEEN_MAX:  # the oldest first (a data-directory file is read again when needed)
+        _SEEN.pop(next(iter(_SEEN)))
     return char
 
 
@@ -554,6 +558,7 @@ MATCH_TOL_M = 1e-4
 
 #: characters read in this process, by resolved path (read_deepmimic_character registers them)
 _SEEN: dict[str, DeepMimicCharacter] = {}
+_SEEN_MAX = 32
 
 
 def known_characters() -> list[DeepMimicCharacter]:
