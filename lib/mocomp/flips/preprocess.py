@@ -57,20 +57,33 @@ def spline_resample(motion: Motion, fps: float) -> Motion:
 def clip_prior(motion: Motion, total_mass: float = 70.0, table: str = "de_leva_male",
                shape: str = "ellipsoid") -> BodyModel:
     """The prior mass distribution for a clip: the DeepMimic character's own masses for
-    DeepMimic clips, else the table (de Leva 1996 male by default)."""
+    DeepMimic clips and for files whose skeleton is a known DeepMimic character's (e.g. a BVH the
+    project wrote from one: :func:`mocomp.io.deepmimic.recognized_body`), else the table (de Leva
+    1996 male by default)."""
     if motion.source.format == "deepmimic":
         from ..io.deepmimic import read_deepmimic_body
 
         for note in motion.source.notes:
             if note.startswith("character "):
                 return read_deepmimic_body(note[len("character "):], motion.skeleton)
+    body = _recognized(motion)
+    if body is not None:
+        return body
     return default_prior(motion.skeleton, total_mass=total_mass, table=table, shape=shape)
 
 
+def _recognized(motion: Motion):
+    from ..io.deepmimic import recognized_body
+
+    return recognized_body(motion.skeleton)
+
+
 def _own_character(motion: Motion) -> bool:
-    """The clip names the character it was made with (a DeepMimic clip): :func:`clip_prior` is its
-    bodies' own masses."""
-    return motion.source.format == "deepmimic" and any(n.startswith("character ") for n in motion.source.notes)
+    """The clip's character is known (a DeepMimic clip naming it, or a skeleton recognised as a
+    DeepMimic character's): :func:`clip_prior` is its bodies' own masses."""
+    if motion.source.format == "deepmimic":
+        return any(n.startswith("character ") for n in motion.source.notes)
+    return _recognized(motion) is not None
 
 
 def smooth_block(prep: "PreparedFlip", frames: np.ndarray, side, rotations: np.ndarray | None = None,
