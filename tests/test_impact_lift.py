@@ -61,3 +61,64 @@ def test_walk_victim_shield_charge_side_no_gravity_finding_after_the_strike(real
     assert va.penetration.max_depth <= 0.01
     assert r.evidence["continuity_final"]["continuous"]
     assert not [x for x in va.violations if "slide" in x.check and x.frames[0] >= r.frames["reentry"]]
+
+
+def test_ballistic_com_puts_a_lifted_hop_in_free_fall():
+    """A synthetic walk raised 0.6 m (a smooth bump) over frames 20-40: the COM of the raised frames is
+    moved onto the free-fall parabola between the supported frames around them (central-difference
+    acceleration -g on every shifted frame), the rest untouched, the pose kept."""
+    from mocomp.body import BodyModel
+    from mocomp.dynamics.com import segment_positions
+    from mocomp.impact.blend import ballistic_com, unsupported_frames
+    from mocomp.ops.synthetic import synthetic_walk
+
+    m = synthetic_walk(duration=2.0, fps=30.0).motion
+    rp = np.array(m.root_positions)
+    k = np.arange(m.n_frames)
+    rp[:, 1] += np.where((k >= 20) & (k <= 40), 0.6 * np.sin(np.pi * (k - 20) / 20) ** 2, 0.0)
+    hop = m.replace(root_positions=rp)
+    floor = float(m.positions[..., 1].min())
+    body = BodyModel.from_skeleton(m.skeleton, 70.0)
+    air = unsupported_frames(hop, floor)
+    assert air[25:36].all() and not air[:15].any()
+    out, shift = ballistic_com(hop, body, floor)
+    moved = np.abs(shift).max(axis=1) > 0
+    assert moved[25:36].all() and not moved[:15].any() and not moved[46:].any()
+    com = np.einsum("s,tsk->tk", body.masses, segment_positions(body, out)) / body.masses.sum()
+    acc = np.diff(com[:, 1], 2) * m.fps ** 2                  # acc[i] is frame i + 1's
+    idx = np.flatnonzero(moved)
+    np.testing.assert_allclose(acc[idx - 1], -9.81, atol=1e-6)
+    hor = np.diff(com[:, [0, 2]], 2, axis=0)
+    np.testing.assert_allclose(hor[idx - 1], 0.0, atol=1e-9)  # straight, constant speed
+    np.testing.assert_allclose(out.rotations, hop.rotations)
+
+
+def test_run_victim_shield_charge_side_com_falls_freely_between_strike_and_reentry(real_data_dir, tmp_path):
+    """Running victim, shield charge from its side: after the strike its fall toward the found clip left
+    the floor (flight 2, frames 42-47) with the COM not in free fall (the final blend mixes two roots each
+    falling on its own timeline): a gravity finding. With the COM put in free fall on those frames (root
+    shifted <= 5 cm) the gravity finding goes; the angular-momentum findings of the blended pose stay
+    (measured 2026-12-02, 56-run sweep: gravity findings after the strike 5 -> 3 runs, max shift 4.9 cm)."""
+    from mocomp.audit import audit
+    from mocomp.impact.pipeline import ImpactConfig, impact_response, load_library
+    from mocomp.impact.scene import Scenario
+    from mocomp.io import load, read_bvh, write_bvh
+
+    d = real_data_dir
+    run = load(d / "runs" / "ase_rl_RunForward.derived.bvh")
+    charge = load(d / "attacks" / "ase_rl_Atk_ShieldCharge.derived.bvh")
+    index = load_library(d / "reactions", run.skeleton, cache_dir=tmp_path / "idx")
+    lib = [index.motion(c.path) for c in index.clips]
+    found = {}
+    for cb in (False, True):
+        r = impact_response(charge, run, index, Scenario(-90.0), ImpactConfig(seed=0, com_ballistic=cb),
+                            library_motions=lib)
+        write_bvh(r.victim, tmp_path / f"v{cb}.bvh")
+        e0, e1 = r.frames["external_force"]
+        va = audit(read_bvh(tmp_path / f"v{cb}.bvh", scale=1.0), against=run, external_force_frames=[(e0, e1)])
+        found[cb] = [x for x in va.violations if x.check == "gravity" and x.frames[1] > e1]
+        if cb:
+            assert 0 < r.evidence["ballistic_com"]["max_shift_m"] <= 0.06
+            assert va.penetration.max_depth <= 0.01
+            assert r.evidence["continuity_final"]["continuous"]
+    assert found[False] and not found[True]

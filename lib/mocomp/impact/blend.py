@@ -34,7 +34,7 @@ from scipy.ndimage import gaussian_filter1d, maximum_filter1d
 from ..core.motion import Motion, slerp
 from ..core.rotations import quat_angle, quat_inverse, quat_multiply
 
-__all__ = ["BlendOutcome", "final_blend", "correction", "floor_lift", "unsupported_frames", "linear_over", "plant_feet", "frame_steps",
+__all__ = ["BlendOutcome", "final_blend", "correction", "floor_lift", "unsupported_frames", "linear_over", "ballistic_com", "plant_feet", "frame_steps",
            "wrist_props", "props_above_floor", "keep_before",
            "limit_plant_steps"]
 
@@ -224,6 +224,66 @@ def unsupported_frames(motion: Motion, floor_y: float, *, clearance: float = 0.0
     pts = body_points(motion)
     low, low_i, _ = lowest_points(motion, pts)
     return air & ~body_support(pts[0], motion.fps, low, low_i, floor_y, clearance, contacts.speed_tol)
+
+
+def ballistic_com(motion: Motion, body, floor_y: float, *, start: int = 0, stop: int | None = None,
+                  g: float = 9.81, clearance: float = 0.08, min_com_height: float = 0.45,
+                  passes: int = 2) -> tuple[Motion, np.ndarray]:
+    """``(motion, shift (T, 3) m)``: the root translated on each run of free-fall frames inside
+    ``[start, stop)`` so that the whole-body COM (``body``'s segment masses,
+    :func:`mocomp.dynamics.com.segment_positions`) falls freely there: from its position at the frame
+    before the run to its position at the frame after it, straight horizontally and a parabola of
+    acceleration ``-g`` (m/s^2) vertically, ``c_a + (c_b - c_a) t / D + (0, g t (D - t) / 2, 0)``.
+    Free-fall frames: :func:`unsupported_frames`, no body point within ``clearance`` m of the floor
+    (a body sliding on its hip is held by the floor however fast it slides) and the COM at least
+    ``min_com_height`` m above it (the audit's ``flight_com_height``: lower, the body lies on the
+    floor). The pose is kept, so the angular momentum about the COM is not changed. Runs whose ends
+    fall outside ``[start, stop)`` or the clip are left alone. The final blend's root (a weighted mean
+    of the simulated and the found clip's roots, each falling on its own timeline) is not ballistic
+    where both are; this distributes the root correction over the frames the floor can push on.
+    ``passes``: the free-fall frames judged again on the shifted motion."""
+    from ..audit.contacts import lowest_points
+    from ..dynamics.com import segment_positions
+
+    T = motion.n_frames
+    stop = T if stop is None else min(int(stop), T)
+    shift = np.zeros((T, 3))
+    m = np.asarray(body.masses, float)
+    for _ in range(max(int(passes), 1)):
+        com = np.einsum("s,tsk->tk", m, segment_positions(body, motion)) / m.sum()
+        low = lowest_points(motion)[0]
+        air = unsupported_frames(motion, floor_y, clearance=clearance)
+        air &= (low - floor_y > clearance) & (com[:, 1] - floor_y >= min_com_height)
+        air[:max(start, 0)] = False
+        air[stop:] = False
+        if not air.any():
+            break
+        rp = np.array(motion.root_positions)
+        changed = False
+        k = 0
+        while k < T:
+            if not air[k]:
+                k += 1
+                continue
+            b = k
+            while b < T and air[b]:
+                b += 1
+            a = k - 1
+            if a >= max(start, 0) and b < stop and b - a >= 2:
+                D = (b - a) / motion.fps
+                t = (np.arange(a + 1, b) - a) / motion.fps
+                path = com[a] + (com[b] - com[a]) * (t / D)[:, None]
+                path[:, 1] += 0.5 * g * t * (D - t)
+                d = path - com[a + 1:b]
+                if np.abs(d).max() > 1e-9:
+                    rp[a + 1:b] += d
+                    shift[a + 1:b] += d
+                    changed = True
+            k = b
+        if not changed:
+            break
+        motion = motion.replace(root_positions=rp)
+    return motion, shift
 
 
 def linear_over(values: np.ndarray, mask: np.ndarray, start: int = 0) -> np.ndarray:

@@ -58,6 +58,8 @@ class ImpactConfig:
     plant: hold the planted feet of the output; lift: lift the output above the floor.
     lift_ballistic: the lift adds no vertical acceleration on frames where the body is unsupported
     (:func:`~mocomp.impact.blend.floor_lift` ``ballistic``; False: the lift eases in regardless).
+    com_ballistic: the output's root translated on the free-fall frames between the strike's end and
+    the re-entry so that the COM falls freely there (:func:`~mocomp.impact.blend.ballistic_com`).
     attacker_follow, attacker_blend: s (:func:`~mocomp.impact.attacker.attacker_response`).
     compare_naive: also measure the final-blend correction from the naive simulation.
     exhaustive_search: the exhaustive search instead of the unique-frame one (the reference).
@@ -125,6 +127,7 @@ class ImpactConfig:
     plant: bool = True
     lift: bool = True
     lift_ballistic: bool = True
+    com_ballistic: bool = True
     attacker_follow: float = 0.1
     attacker_blend: float = 0.3
     compare_naive: bool = True
@@ -289,7 +292,7 @@ def impact_response(attacker: Motion, victim: Motion, index, scenario: Scenario 
     (:func:`load_library`); ``library_motions``: its clips as motions (for the joint limits; read
     from the index when None)."""
     from .attacker import attacker_response
-    from .blend import (final_blend, floor_lift, frame_steps, keep_before, limit_plant_steps, plant_feet,
+    from .blend import (ballistic_com, final_blend, floor_lift, frame_steps, keep_before, limit_plant_steps, plant_feet,
                         props_above_floor, wrist_props)
     from .scene import build_scene, place_victim
     from .search import search
@@ -520,6 +523,11 @@ def impact_response(attacker: Motion, victim: Motion, index, scenario: Scenario 
     lift_kw = dict(tolerance=0.002, start=fc.rewind_frame, ramp_frames=max(reentry, 1), exclude=props,
                    ballistic=config.lift_ballistic)
 
+    # the strike's last frame (its force acts up to it; the audit's external_force_frames end)
+    c_end = naive.contact_end if active.contact_end is None else max(naive.contact_end, active.contact_end)
+    strike_end = fc.rewind_frame + int(np.ceil((c_end - t0) * fps - 1e-9)) + 1
+    vbody = default_impact_body(placed) if config.com_ballistic else None
+
     def repair(out, seam_free: bool = False):
         """The lift, the plants (their fades rate-limited; with ``seam_free`` the leg joints are free of
         the plants within the plants' fade of the re-entry), the second lift; returns (out, evidence)."""
@@ -553,6 +561,19 @@ def impact_response(attacker: Motion, victim: Motion, index, scenario: Scenario 
             lift = lift + lift2
             out, turn = props_above_floor(out, floor_y, props, tolerance=0.002, start=fc.rewind_frame)
             ev["props_turned"] = {"frames": int((turn > 0).sum()), "max_deg": float(np.degrees(turn.max()))}
+        if config.com_ballistic:
+            # the blended root is a weighted mean of two roots each falling on its own timeline: the COM
+            # put in free fall on the unsupported frames between the strike's end and the re-entry
+            out, shift = ballistic_com(out, vbody, floor_y, start=strike_end - 1, stop=re_frame + 1)
+            lift3 = np.zeros(out.n_frames)
+            if config.lift:
+                out, lift3 = floor_lift(out, floor_y, **lift_kw)
+                lift = lift + lift3
+            sn = np.linalg.norm(shift, axis=1)
+            ev["ballistic_com"] = {"frames_shifted": int((sn > 0).sum()), "max_shift_m": float(sn.max()),
+                                   "max_vertical_shift_m": float(np.abs(shift[:, 1]).max()),
+                                   "lift_after_m": float(lift3.max())}
+        if config.lift:
             ev["floor_lift"] = {"floor_y_m": floor_y, "frames_lifted": int((lift > 0).sum()),
                                 "max_lift_m": float(lift.max()), "lift_at_reentry_m": float(lift[re_frame]),
                                 "after_plants_max_m": float(lift2.max())}
@@ -635,8 +656,7 @@ def impact_response(attacker: Motion, victim: Motion, index, scenario: Scenario 
               "reentry": re_frame, "found_clip_frame_at_reentry": int(round(tc[-1] * clip.fps)),
               "output_frames": out.n_frames}
     # the frames the strike's force acts on both characters (half-open; for the audit's external_force_frames)
-    c_end = naive.contact_end if active.contact_end is None else max(naive.contact_end, active.contact_end)
-    frames["external_force"] = [frames["impact"], fc.rewind_frame + int(np.ceil((c_end - t0) * fps - 1e-9)) + 1]
+    frames["external_force"] = [frames["impact"], strike_end]
     notes = scene.notes + naive.notes
     return ImpactResult(out, att_out, scenario, fc, naive, active, res, found_a, ba, bn, frames, delay,
                         timings, evidence, notes, cpu)
