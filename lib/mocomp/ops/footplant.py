@@ -316,23 +316,34 @@ def bounded_foot_pitch(targets: np.ndarray, pts: np.ndarray, plants: FootPlants,
         first = np.flatnonzero(np.r_[True, np.diff(sel) > 1])
         cnt = np.diff(np.r_[first, sel.size])
         rid = np.repeat(np.arange(first.size), cnt)
-        L3 = _norm(pts[sel, kt] - pts[sel, ka])                          # the foot's ankle-tip length
-        dy = out[sel, ka, 1] - out[sel, kt, 1]
-        h_t = _norm((out[sel, kt] - out[sel, ka])[:, [0, 2]])
-        h = np.sqrt(np.maximum(L3 * L3 - dy * dy, 0.0))
-        res = h_t - h
-        ref = (np.add.reduceat(res, first) / cnt)[rid] if not PITCH_TO_ZERO else 0.0
-        res_c = np.clip(res, ref - slack, ref + slack)
-        change = res_c != res
-        if not change.any():
+        if not _pitch_heights(out, pts, ka, kt, sel, first, cnt, rid, slack):
             continue
-        h_new = np.clip(h_t - res_c, 0.0, L3)
-        dy_new = np.sign(dy) * np.sqrt(np.maximum(L3 * L3 - h_new * h_new, 0.0))
-        f = sel[change]
-        out[f, ka, 1] = out[f, kt, 1] + dy_new[change]
         if fade > 0:
             _fade_height_change(out[:, ka, 1], targets[:, ka, 1], both, plants.labels[:, ka], fade)
     return out
+
+
+def _pitch_heights(out: np.ndarray, pts: np.ndarray, ka: int, kt: int, sel: np.ndarray, first: np.ndarray,
+                   cnt: np.ndarray, rid: np.ndarray, slack: float) -> bool:
+    """One foot's part of :func:`bounded_foot_pitch`, in place on ``out``: over the frames ``sel``
+    where both its points (ankle ``ka``, toe tip ``kt``) are planted, grouped in runs (``first``,
+    ``cnt``, ``rid``), the horizontal mismatch is kept within ``slack`` of zero (or of its run mean)
+    and the rest becomes the ankle point's height. Returns whether any frame changed."""
+    L3 = _norm(pts[sel, kt] - pts[sel, ka])                              # the foot's ankle-tip length
+    dy = out[sel, ka, 1] - out[sel, kt, 1]
+    h_t = _norm((out[sel, kt] - out[sel, ka])[:, [0, 2]])
+    h = np.sqrt(np.maximum(L3 * L3 - dy * dy, 0.0))
+    res = h_t - h
+    ref = (np.add.reduceat(res, first) / cnt)[rid] if not PITCH_TO_ZERO else 0.0
+    res_c = np.clip(res, ref - slack, ref + slack)
+    change = res_c != res
+    if not change.any():
+        return False
+    h_new = np.clip(h_t - res_c, 0.0, L3)
+    dy_new = np.sign(dy) * np.sqrt(np.maximum(L3 * L3 - h_new * h_new, 0.0))
+    f = sel[change]
+    out[f, ka, 1] = out[f, kt, 1] + dy_new[change]
+    return True
 
 
 def _fade_height_change(y: np.ndarray, y0: np.ndarray, both: np.ndarray, planted: np.ndarray, fade: int) -> None:
@@ -1036,20 +1047,8 @@ class FootplantPlan:
         out = np.array(targets)
         slack = PITCH_SLACK
         for ka, kt, both, sel, first, cnt, rid, fw in self.pitch:
-            L3 = _norm(pts[sel, kt] - pts[sel, ka])
-            dy = out[sel, ka, 1] - out[sel, kt, 1]
-            h_t = _norm((out[sel, kt] - out[sel, ka])[:, [0, 2]])
-            h = np.sqrt(np.maximum(L3 * L3 - dy * dy, 0.0))
-            res = h_t - h
-            ref = (np.add.reduceat(res, first) / cnt)[rid] if not PITCH_TO_ZERO else 0.0
-            res_c = np.clip(res, ref - slack, ref + slack)
-            change = res_c != res
-            if not change.any():
+            if not _pitch_heights(out, pts, ka, kt, sel, first, cnt, rid, slack):
                 continue
-            h_new = np.clip(h_t - res_c, 0.0, L3)
-            dy_new = np.sign(dy) * np.sqrt(np.maximum(L3 * L3 - h_new * h_new, 0.0))
-            f = sel[change]
-            out[f, ka, 1] = out[f, kt, 1] + dy_new[change]
             if fw is not None:
                 y, y0 = out[:, ka, 1], targets[:, ka, 1]
                 ch = np.where(both, y - y0, 0.0)
