@@ -30,6 +30,7 @@ from ..core.rotations import quat_multiply
 from ..dynamics.com import check_compatible
 from ..flips.mass import FlightFit, fit_ballistic
 from ..flips.reposition import ComEvaluator
+from ..flips.takeoff import smoothed_stance_note
 from .layers import EditRangeError
 from .linear import LinearResult, correct_linear
 from .restore import (DirectionResult, MagnitudeResult, correct_direction, correct_magnitude, direction_error,
@@ -777,15 +778,7 @@ def three_steps(body, edited: Motion, flight, L_const, fit: FlightFit, *, origin
         tr = time.perf_counter()
         final, stance_info = _smooth_stances(final, ce, lin, mg, original, original_flight, b_detected)
         timings["stances"] = time.perf_counter() - tr
-        for sm in stance_info:
-            r = sm.get("repair")
-            if r is not None:
-                notes.append(f"{sm['event']} stance smoothed (stances='smooth'; beyond the paper): largest COM velocity "
-                             f"jump near it {sm['jump_before']:.2f} -> {sm['jump_after']:.2f} m/s (the input's own "
-                             f"{sm['target']:.2f}) by a longer push / softer give over output frames "
-                             f"{r['frames'][0]}-{r['frames'][1] - 1}: crouch up to {100 * -r['dip']:.1f} cm deeper, "
-                             f"vertical ground force {r['min_force']:.2f}-{r['peak_force']:.2f} body weights, feet held "
-                             f"within {1000 * r['ik_miss']:.1f} mm")
+        notes += [n for n in (smoothed_stance_note(sm, "stances='smooth'") for sm in stance_info) if n]
     elif stances != "as-is":
         raise ValueError(f"stances must be 'smooth' or 'as-is', got {stances!r}")
     if land_ref is not None and td_out < final.n_frames:

@@ -36,7 +36,7 @@ from ..errors import PhysicsError
 from .preprocess import PreparedFlip, flight_L_stats, smooth_block
 from .reposition import FlightTrajectory, event_velocity, flight_trajectory
 from .retime import EASE_S, RetimePlan, TimeWarp, ease_limits, plan_retime, resolve_gravity, sample_positions
-from .takeoff import TAKEOFF_CHOICES
+from .takeoff import TAKEOFF_CHOICES, smoothed_stance_note
 from .seamtime import SPEED_BOUNDS, _landing_speed_nb, seam_speed, warp_time, warped_positions
 from .sequence import Sequence, build_sequence
 from .similarity import axis_quat, twist_angle
@@ -670,13 +670,7 @@ def _repair(P, seq, new, traj, kk, tau, u_to, u_land, v_to, v_ld, q_land, g, opt
 
     opts = dict(options or {})
     up, down = event_jumps(traj, kk, v_to, v_ld, q_land)
-    src = seq.frames[np.clip(np.rint(tau).astype(int), 0, seq.n_frames - 1)]
-    s, e = P.flight
-    others = [(int(f.start), int(f.stop)) for f in P.detection.flights if (int(f.start), int(f.stop)) != (s, e)]
-    prev_end = max([b for a, b in others if b <= s], default=0)
-    next_start = min([a for a, b in others if a >= e], default=P.motion.n_frames)
-    before = np.flatnonzero((tau < seq.takeoff) & (src >= prev_end))
-    after = np.flatnonzero((tau > seq.landing) & (src < next_start))
+    before, after = _stances(P, seq, tau)
     repairs = []
     for event, jump, frames, t_ev in (("take-off", up, before, u_to), ("landing", down, after, u_land)):
         if float(np.linalg.norm(jump)) < 1e-3 or frames.size == 0:
@@ -873,16 +867,7 @@ def _evaluate(P: PreparedFlip, seq: Sequence, plan: RetimePlan, traj: FlightTraj
                      f"vertical ground force {r['min_force']:.2f}-{r['peak_force']:.2f} body weights")
     elif landing_info is not None and landing_info.get("note"):
         notes.append(landing_info["note"])
-    for sm in smoothed:
-        r = sm.get("repair")
-        if r is not None:
-            notes.append(f"{sm['event']} stance smoothed (takeoff='smooth', --takeoff smooth; beyond the paper): "
-                         f"largest COM velocity jump near it {sm['jump_before']:.2f} -> {sm['jump_after']:.2f} m/s "
-                         f"(the input's own {sm['target']:.2f}) by a longer push / softer give over output frames "
-                         f"{r['frames'][0]}-{r['frames'][1] - 1}: crouch up to {100 * -r['dip']:.1f} cm deeper, root "
-                         f"moved up to {100 * r['horizontal']:.1f} cm horizontally, vertical ground force "
-                         f"{r['min_force']:.2f}-{r['peak_force']:.2f} body weights, feet held within "
-                         f"{1000 * r['ik_miss']:.1f} mm")
+    notes += [n for n in (smoothed_stance_note(sm, "takeoff='smooth', --takeoff smooth") for sm in smoothed) if n]
     for r in repairs:
         if np.isfinite(r.zmp_outside_after) and r.zmp_outside_after > max(r.zmp_outside_before, 0.0) + 0.02:
             notes.append(f"the {r.event} repair moves the ZMP up to {100 * r.zmp_outside_after:.1f} cm outside the "

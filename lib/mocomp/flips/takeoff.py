@@ -867,3 +867,17 @@ def _zmp_window(before: Motion, after: Motion, body, frames: np.ndarray) -> tupl
         d = d[np.isfinite(d)]
         out.append(float(d.max()) if d.size else float("nan"))
     return out[0], out[1]
+
+
+def smoothed_stance_note(info: dict, option: str) -> str | None:
+    """The report line of one :func:`smooth_stance` result (``None`` when it changed nothing);
+    ``option`` names how the user turns it on or off (e.g. "takeoff='smooth', --takeoff smooth")."""
+    r = info.get("repair")
+    if r is None:
+        return None
+    moved = (f"root moved up to {100 * r['horizontal']:.1f} cm horizontally, " if "horizontal" in r else "")
+    return (f"{info['event']} stance smoothed ({option}; beyond the paper): largest COM velocity jump near it "
+            f"{info['jump_before']:.2f} -> {info['jump_after']:.2f} m/s (the input's own {info['target']:.2f}) by a "
+            f"longer push / softer give over output frames {r['frames'][0]}-{r['frames'][1] - 1}: crouch up to "
+            f"{100 * -r['dip']:.1f} cm deeper, {moved}vertical ground force {r['min_force']:.2f}-"
+            f"{r['peak_force']:.2f} body weights, feet held within {1000 * r['ik_miss']:.1f} mm")
