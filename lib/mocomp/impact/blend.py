@@ -33,6 +33,7 @@ from scipy.ndimage import gaussian_filter1d, maximum_filter1d
 
 from ..core.motion import Motion, slerp
 from ..core.rotations import quat_angle, quat_inverse, quat_multiply
+from ..dynamics.contacts import label_intervals
 
 __all__ = ["BlendOutcome", "final_blend", "correction", "floor_lift", "unsupported_frames", "linear_over", "ballistic_com", "plant_feet", "frame_steps",
            "wrist_props", "props_above_floor", "keep_before",
@@ -260,14 +261,7 @@ def ballistic_com(motion: Motion, body, floor_y: float, *, start: int = 0, stop:
             break
         rp = np.array(motion.root_positions)
         changed = False
-        k = 0
-        while k < T:
-            if not air[k]:
-                k += 1
-                continue
-            b = k
-            while b < T and air[b]:
-                b += 1
+        for k, b in label_intervals(air):
             a = k - 1
             if a >= max(start, 0) and b < stop and b - a >= 2:
                 D = (b - a) / motion.fps
@@ -279,7 +273,6 @@ def ballistic_com(motion: Motion, body, floor_y: float, *, start: int = 0, stop:
                     rp[a + 1:b] += d
                     shift[a + 1:b] += d
                     changed = True
-            k = b
         if not changed:
             break
         motion = motion.replace(root_positions=rp)
@@ -295,20 +288,12 @@ def linear_over(values: np.ndarray, mask: np.ndarray, start: int = 0) -> np.ndar
     T = out.size
     m = np.array(mask, bool)
     m[:max(start, 0)] = False
-    k = 0
-    while k < T:
-        if not m[k]:
-            k += 1
-            continue
-        b = k
-        while b < T and m[b]:
-            b += 1
+    for k, b in label_intervals(m):
         a = max(k - 1, start - 1, 0)
         if b < T:
             out[a:b + 1] = np.linspace(out[a], out[b], b - a + 1)
         else:
             out[a:] = out[a]
-        k = b
     return out
 
 

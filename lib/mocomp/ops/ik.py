@@ -347,9 +347,9 @@ class PlantReach:
 
 
 def _runs(mask: np.ndarray, offset: int) -> list[tuple[int, int]]:
-    m = np.concatenate([[False], np.asarray(mask, dtype=bool), [False]])
-    e = np.flatnonzero(np.diff(m.astype(np.int8)))
-    return [(int(a) + offset, int(b) + offset) for a, b in zip(e[::2], e[1::2])]
+    from ..dynamics.contacts import label_intervals
+
+    return [(a + offset, b + offset) for a, b in label_intervals(mask)]
 
 
 def plant_rotations(parents, rotations, P, G, start, weights, chains, tol=1e-3, *, soft_reach: float = SOFT_REACH,

@@ -216,8 +216,9 @@ class SpliceQuality:
 
 
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
-    e = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
-    return list(zip(np.nonzero(e == 1)[0].tolist(), np.nonzero(e == -1)[0].tolist()))
+    from ..dynamics.contacts import label_intervals
+
+    return label_intervals(mask)
 
 
 def _speed(rel: np.ndarray, fps: float, smooth_frames: int) -> tuple[np.ndarray, np.ndarray]:

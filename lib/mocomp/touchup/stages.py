@@ -36,10 +36,11 @@ class StageError(MocompError, ValueError):
 
 
 def runs(mask: np.ndarray) -> list[tuple[int, int]]:
-    """Half-open ``(start, stop)`` runs of True in a ``(T,)`` bool array."""
-    m = np.r_[False, np.asarray(mask, bool), False].astype(np.int8)
-    d = np.diff(m)
-    return list(zip(np.flatnonzero(d == 1).tolist(), np.flatnonzero(d == -1).tolist()))
+    """Half-open ``(start, stop)`` runs of True in a ``(T,)`` bool array
+    (:func:`mocomp.dynamics.contacts.label_intervals`)."""
+    from ..dynamics.contacts import label_intervals
+
+    return label_intervals(mask)
 
 
 @dataclass(frozen=True, eq=False)
