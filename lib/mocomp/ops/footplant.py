@@ -354,20 +354,8 @@ def _fade_height_change(y: np.ndarray, y0: np.ndarray, both: np.ndarray, planted
     ch = np.where(both, y - y0, 0.0)
     if not np.any(ch):
         return
-    T = y.size
-    t = np.arange(T)
-    run = np.cumsum(np.r_[planted[0], planted[1:] & ~planted[:-1]]) * planted   # run id per frame (0: none)
-    prev = np.maximum.accumulate(np.where(both, t, -1))                     # last shared frame at or before
-    nxt = np.minimum.accumulate(np.where(both, t, T)[::-1])[::-1]            # first shared frame at or after
-    ok_p = (prev >= 0) & (run[np.maximum(prev, 0)] == run)
-    ok_n = (nxt < T) & (run[np.minimum(nxt, T - 1)] == run)
-    dp = np.where(ok_p, t - prev, np.iinfo(np.int64).max)
-    dn = np.where(ok_n, nxt - t, np.iinfo(np.int64).max)
-    near = np.where(dp <= dn, np.maximum(prev, 0), np.minimum(nxt, T - 1))
-    sel = planted & ~both & (ok_p | ok_n)
-    d = np.minimum(dp, dn)[sel]
-    w = ease(np.clip(1.0 - d / (fade + 1.0), 0.0, 1.0), "smoothstep")
-    y[sel] = y0[sel] + w * ch[near[sel]]
+    sel, near, w = _height_fade_weights(both, planted, fade)
+    y[sel] = y0[sel] + w * ch[near]
 
 
 def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: str, tol: float,
@@ -1070,9 +1058,9 @@ def _height_fade_weights(both: np.ndarray, planted: np.ndarray, fade: int):
     """The label-only part of :func:`_fade_height_change`: ``(frames, nearest shared frame, weight)``."""
     T = both.size
     t = np.arange(T)
-    run = np.cumsum(np.r_[planted[0], planted[1:] & ~planted[:-1]]) * planted
-    prev = np.maximum.accumulate(np.where(both, t, -1))
-    nxt = np.minimum.accumulate(np.where(both, t, T)[::-1])[::-1]
+    run = np.cumsum(np.r_[planted[0], planted[1:] & ~planted[:-1]]) * planted   # run id per frame (0: none)
+    prev = np.maximum.accumulate(np.where(both, t, -1))                     # last shared frame at or before
+    nxt = np.minimum.accumulate(np.where(both, t, T)[::-1])[::-1]            # first shared frame at or after
     ok_p = (prev >= 0) & (run[np.maximum(prev, 0)] == run)
     ok_n = (nxt < T) & (run[np.minimum(nxt, T - 1)] == run)
     dp = np.where(ok_p, t - prev, np.iinfo(np.int64).max)
