@@ -73,6 +73,11 @@ def clip_prior(motion: Motion, total_mass: float = 70.0, table: str = "de_leva_m
 
 
 def _recognized(motion: Motion):
+    """The DeepMimic character's body for a BVH file whose skeleton is a known character's (what the
+    project writes from a DeepMimic clip); ``None`` for anything else, motions made in memory
+    (synthetic, edited) included: they carry their body model with them."""
+    if motion.source.format != "bvh":
+        return None
     from ..io.deepmimic import recognized_body
 
     return recognized_body(motion.skeleton)
