@@ -121,7 +121,7 @@ class IndexBatchResult:
         for r in t[t["status"].isin(("failed", "crashed"))].itertuples():
             lines.append(f"  {r.status} {r.clip}: {r.error}")
         if self.rebuilt:
-            lines.append(f"  rebuilt in the client (cache keys differ from mocomp.impact.index): {', '.join(self.rebuilt)}")
+            lines.append(f"  rebuilt in the client (no cache file from the workers): {', '.join(self.rebuilt)}")
         return lines
 
 
@@ -222,6 +222,7 @@ def build_index_batch(library_dir, skeleton, *, cache_dir=None, tolerance: float
         tmp.write_text(json.dumps(summary, indent=1) + "\n")
         os.replace(tmp, out / "index.json")
     if rebuilt:
-        print(f"mocomp batch impact-index: warning: {len(rebuilt)} clip(s) rebuilt in the client: the cache keys of "
-              "mocomp.batch.impact_index differ from mocomp.impact.index's", file=sys.stderr)
+        print(f"mocomp batch impact-index: warning: {len(rebuilt)} clip(s) rebuilt in the client: the merge found "
+              "no cache file from the workers for them (was the cache folder shared with every worker?)",
+              file=sys.stderr)
     return res
