@@ -268,26 +268,11 @@ def consistent_toe_targets(targets: np.ndarray, pts: np.ndarray, plants: FootPla
             continue
         rid = run[sel]
         nr = int(run.max()) + 1
-        d = (pts[sel, kt] - pts[sel, ka])[:, [0, 2]]
         cnt = np.bincount(rid, minlength=nr)
-        L = np.bincount(rid, _norm(d), minlength=nr)
-        u = np.stack([np.bincount(rid, d[:, c], minlength=nr) for c in range(2)], axis=1)
-        has = cnt > 0
-        L[has] /= cnt[has]
-        u[has] /= cnt[has, None]
-        n = _norm(u)
-        ok = has & (n >= 1e-9)
-        ok[0] = False
-        if not ok.any():
-            continue
         first = np.zeros(nr, dtype=int)
         r_u, i_u = np.unique(rid, return_index=True)
         first[r_u] = sel[i_u]
-        f = np.flatnonzero(ok[run])
-        r = run[f]
-        scale = L[r] / n[r]
-        out[f, kt, 0] = targets[first[r], ka, 0] + scale * u[r, 0]
-        out[f, kt, 2] = targets[first[r], ka, 2] + scale * u[r, 1]
+        _toe_from_ankle(out, targets, pts, ka, kt, run, sel, rid, nr, cnt, cnt > 0, first)
     return out
 
 def bounded_foot_pitch(targets: np.ndarray, pts: np.ndarray, plants: FootPlants, slack: float,
@@ -321,6 +306,28 @@ def bounded_foot_pitch(targets: np.ndarray, pts: np.ndarray, plants: FootPlants,
         if fade > 0:
             _fade_height_change(out[:, ka, 1], targets[:, ka, 1], both, plants.labels[:, ka], fade)
     return out
+
+
+def _toe_from_ankle(out, targets, pts, ka, kt, run, sel, rid, nr, cnt, has, first) -> None:
+    """One foot's part of :func:`consistent_toe_targets`, in place on ``out``: per toe run (``run``,
+    ids ``rid`` of the shared frames ``sel``, ``cnt`` of them, ``first`` shared frame), the toe tip's
+    horizontal target is the ankle point's target at the run's first shared frame plus the mean
+    ankle-to-tip direction at the mean horizontal distance."""
+    d = (pts[sel, kt] - pts[sel, ka])[:, [0, 2]]
+    L = np.bincount(rid, _norm(d), minlength=nr)
+    u = np.stack([np.bincount(rid, d[:, c], minlength=nr) for c in range(2)], axis=1)
+    L[has] /= cnt[has]
+    u[has] /= cnt[has, None]
+    n = _norm(u)
+    ok = has & (n >= 1e-9)
+    ok[0] = False
+    if not ok.any():
+        return
+    f = np.flatnonzero(ok[run])
+    r = run[f]
+    scale = L[r] / n[r]
+    out[f, kt, 0] = targets[first[r], ka, 0] + scale * u[r, 0]
+    out[f, kt, 2] = targets[first[r], ka, 2] + scale * u[r, 1]
 
 
 def _pitch_heights(out: np.ndarray, pts: np.ndarray, ka: int, kt: int, sel: np.ndarray, first: np.ndarray,
@@ -1014,21 +1021,7 @@ class FootplantPlan:
         targets = out
         out = np.array(targets)
         for ka, kt, run, sel, rid, nr, cnt, has, first in self.consistent:
-            d = (pts[sel, kt] - pts[sel, ka])[:, [0, 2]]
-            L = np.bincount(rid, _norm(d), minlength=nr)
-            u = np.stack([np.bincount(rid, d[:, c], minlength=nr) for c in range(2)], axis=1)
-            L[has] /= cnt[has]
-            u[has] /= cnt[has, None]
-            n = _norm(u)
-            ok = has & (n >= 1e-9)
-            ok[0] = False
-            if not ok.any():
-                continue
-            f = np.flatnonzero(ok[run])
-            r = run[f]
-            scale = L[r] / n[r]
-            out[f, kt, 0] = targets[first[r], ka, 0] + scale * u[r, 0]
-            out[f, kt, 2] = targets[first[r], ka, 2] + scale * u[r, 1]
+            _toe_from_ankle(out, targets, pts, ka, kt, run, sel, rid, nr, cnt, has, first)
         if self.height != "level" or PITCH_SLACK is None:
             return out
         targets = out
