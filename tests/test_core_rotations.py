@@ -211,3 +211,24 @@ def test_quat_from_matrix_matches_scipy_and_inverts_quat_matrix(rots):
     np.testing.assert_allclose(quat_from_matrix(R[None]), q[None], atol=0)
     with pytest.raises(ValueError, match=r"\(\.\.\., 3, 3\)"):
         quat_from_matrix(np.eye(4))
+
+
+def test_axis_quat_and_twist_angle_against_scipy():
+    """axis_quat(axis, a) is scipy's rotation by a about axis; twist_angle recovers a from
+    axis_quat(axis, a) times any rotation about a perpendicular axis (the swing), either side."""
+    from mocomp.core.rotations import axis_quat, twist_angle
+
+    rng = np.random.default_rng(5)
+    axis = rng.normal(size=3)
+    u = axis / np.linalg.norm(axis)
+    a = rng.uniform(-3.0, 3.0, size=50)
+    q = axis_quat(3.0 * axis, a)                                   # the axis is normalised
+    ref = Rotation.from_rotvec(a[:, None] * u).as_quat()
+    np.testing.assert_allclose(q, ref * np.sign(ref[:, 3:] * q[:, 3:]), atol=1e-14)
+    perp = np.cross(u, rng.normal(size=(50, 3)))
+    swing = Rotation.from_rotvec(perp / np.linalg.norm(perp, axis=1, keepdims=True)
+                                 * rng.uniform(0.0, 2.5, size=(50, 1))).as_quat()
+    from mocomp.core.rotations import quat_multiply
+
+    np.testing.assert_allclose(twist_angle(quat_multiply(q, swing), u), a, atol=1e-12)
+    np.testing.assert_allclose(twist_angle(quat_multiply(swing, q), u), a, atol=1e-12)

@@ -306,8 +306,8 @@ def test_loop_seam_smoothing_is_computed_once_and_reused(prepared, monkeypatch):
 
     P = prepared["frontflip"]
     calls = []
-    real = preprocess.seam_corrections
-    monkeypatch.setattr(preprocess, "seam_corrections", lambda *a, **k: calls.append(1) or real(*a, **k))
+    real = preprocess.loop_seams
+    monkeypatch.setattr(preprocess, "loop_seams", lambda *a, **k: calls.append(1) or real(*a, **k))
     keys = set(P._cache)
     res = multiflip(P, flips=4, k=1.0, seam_retime=False)   # k = 1, uniform: output frames = sequence frames
     multiflip(P, flips=3)

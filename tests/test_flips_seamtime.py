@@ -8,7 +8,7 @@ import pytest
 from mocomp.dynamics import center_of_mass, momentum
 from mocomp.flips import multiflip, prepare
 from mocomp.flips.retime import sample_positions
-from mocomp.flips.seamtime import (SPEED_BOUNDS, AngularMomentumEvaluator, reference_levels, seam_speed, warp_time,
+from mocomp.flips.smoothing import (SPEED_BOUNDS, AngularMomentumEvaluator, reference_levels, seam_speed, warp_time,
                                    warped_positions)
 from mocomp.flips.similarity import frame_distance
 
@@ -17,7 +17,7 @@ from _flips_data import synthetic
 
 def angular_numpy(ev: AngularMomentumEvaluator, rotations: np.ndarray, fps: float) -> np.ndarray:
     """The numpy oracle of :meth:`AngularMomentumEvaluator.angular` (moved here from
-    mocomp.flips.seamtime, where only the compiled kernel runs): FK joint by joint, segment COMs
+    mocomp.flips.smoothing, where only the compiled kernel runs): FK joint by joint, segment COMs
     and orientations, central differences, eq. 5.5."""
     from mocomp.core.rotations import cross, quat_apply, quat_inverse, quat_log, quat_multiply
 

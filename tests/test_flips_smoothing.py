@@ -117,3 +117,42 @@ def test_identical_sides_are_left_unchanged():
     blk = Rotation.random(4 * 6, random_state=9).as_quat().reshape(4, 6, 4)
     assert same_rotation(apply_rotation_offsets(blk, L), blk, 1e-12)
     np.testing.assert_allclose(apply_direction_offsets(np.tile(b, (4, 1)), R), np.tile(b, (4, 1)), atol=1e-12)
+
+
+def test_loop_seams_all_windows_at_once_equal_each_window_alone():
+    """loop_seams evaluates every candidate window in one pass (the blocks laid end to end for L);
+    each window's result equals the one-seam construction: seam_corrections, the offsets applied,
+    the root recomposed (eq. 5.14), L of that block alone, the reference levels and eq. 5.22 speeds."""
+    from mocomp.flips import prepare
+    from mocomp.flips.smoothing import loop_seams, reference_levels, seam_speed
+    from mocomp.core.rotations import quat_apply
+
+    P = prepare("backflip")
+    ws = P.seam_windows()
+    assert len(ws) >= 3
+    together = loop_seams(P, ws)
+    m, n, phi = P.loop.m, P.loop.n, P.loop.phi
+    L0, Lv = P.L_magnitude, np.asarray(P.momentum.angular)
+    for w in ws:
+        left, right, L_new, L_ref, sl, sr = together[w]
+        sides = seam_corrections(P.rotations[n], P.rotations[m], P.bdir[n], P.bdir[m], w, pair_at_left=False)
+        for frames, side, got in zip((np.arange(n - 1 - w, n), np.arange(m, m + w + 1)), sides, (left, right)):
+            want = apply_rotation_offsets(P.rotations[frames], side)
+            want[:, 0] = compose_root(P.theta[frames], apply_direction_offsets(P.bdir[frames], side), P.axis,
+                                      P.root_ref)
+            np.testing.assert_allclose(got, want, atol=1e-14)
+        q_phi = axis_quat(P.axis, phi)
+        R = np.concatenate([P.rotations[n - 3 - w:n - 1 - w], left, right, P.rotations[m + w + 1:m + w + 3]])
+        R[w + 3:, 0] = quat_multiply(q_phi, R[w + 3:, 0])
+        np.testing.assert_allclose(L_new, P.momentum_evaluator.angular(R, P.fps), rtol=0, atol=1e-12)
+        mid = np.sqrt(L0[n] * L0[m])
+        fl = reference_levels(np.ones(w + 2), L0[n], mid, ramp(np.arange(w + 2, 0, -1), w))
+        fr = reference_levels(np.ones(w + 2), L0[m], mid, ramp(np.arange(0, w + 2), w))
+        want_ref = np.concatenate([Lv[n - 2 - w:n] * fl[:, None],
+                                   quat_apply(np.broadcast_to(q_phi, (w + 2, 4)), Lv[m:m + w + 2]) * fr[:, None]])
+        np.testing.assert_allclose(L_ref, want_ref, rtol=1e-14, atol=1e-12)
+        np.testing.assert_allclose(np.concatenate([sl, sr]), seam_speed(L_new, L_ref), rtol=1e-14)
+        # and the same as computing this window alone
+        alone = loop_seams(P, [w])[w]
+        for a, b in zip(alone, together[w]):
+            np.testing.assert_allclose(a, b, rtol=1e-14, atol=1e-14)

@@ -45,6 +45,8 @@ __all__ = [
     "shortest_arc",
     "make_continuous",
     "swing_twist",
+    "axis_quat",
+    "twist_angle",
     "euler_sequence",
     "euler_to_quat",
 ]
@@ -331,6 +333,33 @@ def swing_twist(q: np.ndarray, axis: np.ndarray) -> tuple[np.ndarray, np.ndarray
     twist = np.where(degenerate[..., None], quat_identity(twist.shape[:-1]), twist / np.where(norm == 0, 1, norm))
     swing = quat_multiply(q, quat_inverse(twist))
     return swing, twist
+
+
+def axis_quat(axis: np.ndarray, angle) -> np.ndarray:
+    """Quaternions ``(..., 4)`` of rotations by ``angle`` (radians, array ``(...)``) about one ``axis``
+    ``(3,)`` (normalised here): ``(sin(a/2) axis, cos(a/2))`` (Sola 2017, eq. 101)."""
+    a = np.asarray(axis, dtype=float)
+    a = a / np.linalg.norm(a)
+    ang = np.asarray(angle, dtype=float)
+    h = 0.5 * ang
+    out = np.empty(ang.shape + (4,))
+    out[..., :3] = np.sin(h)[..., None] * a
+    out[..., 3] = np.cos(h)
+    return out
+
+
+def twist_angle(q: np.ndarray, axis: np.ndarray) -> np.ndarray:
+    """Signed rotation angle (radians, in ``(-2pi, 2pi]``) about ``axis`` ``(3,)`` of the twist part
+    of ``q`` ``(..., 4)`` (:func:`swing_twist`): ``2 atan2(q_xyz . axis, q_w)``.
+
+    The twist is the projection of the quaternion on ``axis``, the same for the left and right
+    swing/twist orders, so for ``q = axis_quat(axis, a) s`` with ``s`` perpendicular to the axis
+    this returns ``a`` (modulo the 4 pi sign ambiguity of the quaternion; callers unwrap over time).
+    """
+    q = np.asarray(q, dtype=float)
+    a = np.asarray(axis, dtype=float)
+    a = a / np.linalg.norm(a)
+    return 2.0 * np.arctan2(q[..., :3] @ a, q[..., 3])
 
 
 _AXIS = {"Xrotation": "X", "Yrotation": "Y", "Zrotation": "Z"}

@@ -13,7 +13,7 @@ Pre-processing (:func:`prepare`, :class:`PreparedFlip`): ballistic phase detecti
 momentum (eq. 5.4-5.5), the angular-momentum direction and the self-looping search
 (:mod:`.looping`, eq. 5.9). Run time (:func:`multiflip`, :class:`MultiFlipResult`):
 sequencing (:mod:`.sequence`, eq. 5.10-5.11), seam smoothing (:mod:`.smoothing`, eq. 5.14) and
-non-uniform retiming across the seams (:mod:`.seamtime`, eq. 5.22 as section 5.4.2.2 prescribes),
+non-uniform retiming across the seams (:mod:`.smoothing`, eq. 5.22 as section 5.4.2.2 prescribes),
 retiming (:mod:`.retime`, App. B; ``k = k*`` by default, continuous at take-off), repositioning
 (:mod:`.reposition`, eq. 5.15-5.17, the new flight falling with g = 9.81 m/s^2 from the input's
 measured take-off velocity) and, beyond the paper, the take-off/landing repair that makes ``k < k*``

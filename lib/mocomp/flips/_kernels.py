@@ -477,7 +477,7 @@ def warmup() -> None:
     th.setflags(write=False)
     _landing_search(ro, th, 0, 1, 1, 1.0, 1, 2, 0.0, 1.0, np.array([1.0, 0.0, 0.0]), 1.0,
                     np.arange(2, dtype=np.int64), np.ones(2))
-    from .seamtime import _angular_nb, _landing_speed_nb
+    from .smoothing import _angular_nb, _landing_speed_nb
 
     def ro(x):                              # the body's evaluator arrays are read-only
         x = np.array(x)

@@ -35,7 +35,7 @@ weighted joint-angle difference is below ``max_mean_angle`` degrees; otherwise
 the best pair is still returned with ``found=False`` and the caller falls back
 (section 5.2: "the transition between any two chosen frames ... automatically by
 smoothing", its momentum adjusted "by applying non-uniform motion retiming as described
-in Section 5.5"; :mod:`mocomp.flips.seamtime`), and says so.
+in Section 5.5"; :mod:`mocomp.flips.smoothing`), and says so.
 """
 from __future__ import annotations
 

@@ -8,7 +8,7 @@ dissertation section 5.4), with a physics report.
 2. **smooth** -- root rotation about ``L`` plus the rotated copies' extra turn, the
    loop seam correction computed once in pre-processing and pasted at every seam,
    the landing seam (eq. 5.14, :mod:`.smoothing`); then the eq. 5.22 playback speeds
-   across the seams (section 5.4.2.2's non-uniform retiming, :mod:`.seamtime`: the loop
+   across the seams (section 5.4.2.2's non-uniform retiming, :mod:`.smoothing`: the loop
    seam's cached per clip, the landing seam's from the angular momentum of its frames);
 3. **retime** -- one factor ``k`` for take-off, flight and landing (App. B, :mod:`.retime`)
    on the seam-warped time; slerp of every joint at the retimed instants;
@@ -30,19 +30,18 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.motion import Motion
-from ..core.rotations import quat_angle, quat_apply, quat_inverse, quat_multiply, slerp
+from ..core.rotations import axis_quat, quat_angle, quat_apply, quat_inverse, quat_multiply, slerp, twist_angle
 from ..dynamics.constants import G_STANDARD
 from ..errors import PhysicsError
-from .preprocess import PreparedFlip, flight_L_stats, smooth_block
+from .preprocess import PreparedFlip, flight_L_stats
 from .reposition import FlightTrajectory, event_velocity, flight_trajectory
 from .retime import EASE_S, RetimePlan, TimeWarp, ease_limits, plan_retime, resolve_gravity, sample_positions
 from .takeoff import TAKEOFF_CHOICES, smoothed_stance_note
-from .seamtime import SPEED_BOUNDS, _landing_speed_nb, seam_speed, warp_time, warped_positions
 from .sequence import Sequence, build_sequence
-from .similarity import axis_quat, twist_angle
 from ._kernels import AVAILABLE as KERNELS
 from ._kernels import landing_seam_nb, reposition_nb, slerp_gather_nb, turn_roots_nb
-from .smoothing import compose_root, ramp, split_root
+from .smoothing import (SPEED_BOUNDS, _landing_speed_nb, compose_root, ramp, seam_speed, split_root, warp_time,
+                        warped_positions)
 
 __all__ = ["PhysicsReport", "MultiFlipResult", "multiflip", "landing_change_for_k"]
 
@@ -266,7 +265,7 @@ class MultiFlipResult:
     report: the :class:`PhysicsReport` (``None`` when ``evaluate=False``).
     timings: seconds per run-time stage.
     seq_times: ``(T_new,)`` warped sequence time (in original frames) of each output frame (the
-        retiming acts on warped time, see :mod:`mocomp.flips.seamtime`): ``i k`` when uniform, else
+        retiming acts on warped time, see :mod:`mocomp.flips.smoothing`): ``i k`` when uniform, else
         :attr:`warp`'s source positions (the flight at ``k``, the stances eased to 1).
     takeoff_time: warped sequence time of the take-off frame (output time: :attr:`takeoff_seconds`).
     warp: the :class:`~mocomp.flips.retime.TimeWarp` used (``ease=0``: rate ``k`` everywhere).
@@ -358,7 +357,7 @@ def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None 
     evaluate: compute the physics report (momentum of the new motion; timed separately).
     max_delta: radians, largest rotation mismatch accepted at the landing join.
     seam_retime: non-uniform retiming across the seams (eq. 5.22 as section 5.4.2.2 prescribes for
-        dissimilar adjoining frames; :mod:`mocomp.flips.seamtime`): frames whose ``|L|`` the seam
+        dissimilar adjoining frames; :mod:`mocomp.flips.smoothing`): frames whose ``|L|`` the seam
         smoothing changed are played faster or slower so ``|L|`` follows the original's. ``False``
         gives the plain uniform retiming by ``k``.
     ease: s of source time over which the play rate eases from the flight's ``k`` back to 1 in the
@@ -699,7 +698,7 @@ def _seam_speeds(P: PreparedFlip, seq: Sequence, rot: np.ndarray, w: int, hi_u: 
     """``(nseq,)`` eq. 5.22 playback speeds (1 away from seams): the loop seam's profile, computed
     once per clip (:meth:`PreparedFlip.loop_seam_speed`), pasted at every loop seam; the landing
     seam's from the ``|L|`` of its smoothed frames (``rot``, final rotations at the sequence's
-    timing) against the original's (:mod:`mocomp.flips.seamtime`)."""
+    timing) against the original's (:mod:`mocomp.flips.smoothing`)."""
     nseq = rot.shape[0]
     speed = np.ones(nseq)
     if seq.loop_seams:

@@ -19,15 +19,14 @@ import numpy as np
 
 from ..body.model import BodyModel
 from ..core.motion import Motion
-from ..core.rotations import make_continuous, quat_apply, quat_multiply
+from ..core.rotations import make_continuous
 from ..errors import PhysicsError
 from .looping import SelfLoop, find_self_loop
 from .mass import FlightFit, MassEstimate, diagnose_gravity, estimate_masses, fit_ballistic
 from .phases import FlightDetection, default_prior, detect_flights
 from .reposition import ComEvaluator
 from .similarity import SimilarityWeights, local_angular_velocities, similarity_weights
-from .smoothing import (apply_direction_offsets, apply_rotation_offsets, compose_root, root_reference,
-                        seam_corrections, split_root)
+from .smoothing import AngularMomentumEvaluator, loop_seams, root_reference, split_root
 
 __all__ = ["PreparedFlip", "prepare", "prepare_cached", "clip_prior", "spline_resample", "flight_L_stats",
            "clip_timing"]
@@ -89,20 +88,6 @@ def _own_character(motion: Motion) -> bool:
     if motion.source.format == "deepmimic":
         return any(n.startswith("character ") for n in motion.source.notes)
     return _recognized(motion) is not None
-
-
-def smooth_block(prep: "PreparedFlip", frames: np.ndarray, side, rotations: np.ndarray | None = None,
-                 bdir: np.ndarray | None = None) -> np.ndarray:
-    """Rotations of ``frames`` (source frame indices) with one seam side's ramped corrections:
-    joints offset by slerp (section 5.4.2.2), the root's perpendicular part ``b`` rotated and
-    recomposed with the frames' own rotation about ``L`` (eq. 5.14). ``rotations``/``bdir``
-    override the source values (e.g. frames already smoothed by another seam)."""
-    R = prep.rotations[frames] if rotations is None else rotations
-    b = prep.bdir[frames] if bdir is None else bdir
-    out = apply_rotation_offsets(R, side)
-    out[:, 0] = compose_root(prep.theta[frames], apply_direction_offsets(b, side), prep.axis, prep.root_ref)
-    out.setflags(write=False)
-    return out
 
 
 def flight_L_stats(L: np.ndarray, start: int, stop: int, margin: int = 1) -> dict:
@@ -201,20 +186,26 @@ class PreparedFlip:
         40 ms x 1 .. 8 (within the loop period) whose loop seam disturbs ``L`` least."""
         return self.best_window(retime)
 
+    def _loop_seams(self, windows) -> None:
+        """Compute (once) the loop seam of each half-window in ``windows`` that is not cached yet,
+        all of them in one pass (:func:`~mocomp.flips.smoothing.loop_seams`)."""
+        todo = [int(w) for w in dict.fromkeys(windows) if ("loop_seam", int(w)) not in self._cache]
+        if not todo:
+            return
+        for w, (left, right, L_new, L_ref, sp_left, sp_right) in loop_seams(self, todo).items():
+            self._cache[("loop_seam", w)] = (left, right)
+            self._cache[("loop_seam_L", w)] = (L_new, L_ref)
+            self._cache[("loop_seam_speed", w)] = (sp_left, sp_right)
+
     def loop_seam(self, window: int):
         """The loop seam correction ``f_{n-1} -> R(f_m)``, computed once and reused for every
         repetition (section 5.4.2.2): ``(left (w+1, J, 4), right (w+1, J, 4))`` smoothed
         rotations of source frames ``n-1-w .. n-1`` and ``m .. m+w``, the root recomposed
         from its own rotation about ``L`` and the smoothed perpendicular part (eq. 5.14), at
-        zero extra rotation (a copy's rotation about ``L`` is applied on the left later)."""
-        key = ("loop_seam", int(window))
-        if key not in self._cache:
-            m, n, w = self.loop.m, self.loop.n, int(window)
-            self._cache[key] = tuple(smooth_block(self, frames, side) for frames, side in zip(
-                (np.arange(n - 1 - w, n), np.arange(m, m + w + 1)),
-                seam_corrections(self.rotations[n], self.rotations[m], self.bdir[n], self.bdir[m], w,
-                                 pair_at_left=False)))
-        return self._cache[key]
+        zero extra rotation (a copy's rotation about ``L`` is applied on the left later);
+        :func:`~mocomp.flips.smoothing.loop_seams`."""
+        self._loop_seams([window])
+        return self._cache[("loop_seam", int(window))]
 
     @property
     def L_magnitude(self) -> np.ndarray:
@@ -227,43 +218,19 @@ class PreparedFlip:
         return self._cache[key]
 
     @property
-    def momentum_evaluator(self):
-        """:class:`~mocomp.flips.seamtime.AngularMomentumEvaluator` of the estimated body (cached)."""
+    def momentum_evaluator(self) -> AngularMomentumEvaluator:
+        """:class:`~mocomp.flips.smoothing.AngularMomentumEvaluator` of the estimated body (cached)."""
         key = "L_eval"
         if key not in self._cache:
-            from .seamtime import AngularMomentumEvaluator
-
             self._cache[key] = AngularMomentumEvaluator(self.body)
         return self._cache[key]
 
     def _loop_seam_momentum(self, window: int) -> tuple[np.ndarray, np.ndarray]:
         """``(L_new, L_ref)``, both ``(2w+4, 3)``: angular momentum of the smoothed loop seam at the
-        sequence's own timing (source frames ``n-2-w .. n-1`` then ``R(f_m) .. R(f_{m+w+1})``) and
-        the original's at those source frames (rotated with the copy), its level blended across
-        the seam like the poses (:func:`~mocomp.flips.seamtime.reference_levels`)."""
-        key = ("loop_seam_L", int(window))
-        if key not in self._cache:
-            from .seamtime import reference_levels
-            from .similarity import axis_quat
-            from .smoothing import ramp
-
-            m, n, w = self.loop.m, self.loop.n, int(window)
-            left_blk, right_blk = self.loop_seam(w)
-            q_phi = axis_quat(self.axis, self.loop.phi)
-            R = np.concatenate([self.rotations[n - 3 - w:n - 1 - w], left_blk, right_blk,
-                                self.rotations[m + w + 1:m + w + 3]])
-            R[w + 3:, 0] = quat_multiply(q_phi, R[w + 3:, 0])
-            L_new = self.momentum_evaluator.angular(R, self.fps)
-            L0 = self.L_magnitude
-            Lv = np.asarray(self.momentum.angular)
-            src_l, src_r = np.arange(n - 2 - w, n), np.arange(m, m + w + 2)
-            mid = float(np.sqrt(L0[n] * L0[m]))
-            fl = reference_levels(np.ones(w + 2), L0[n], mid, ramp(np.arange(w + 2, 0, -1), w))
-            fr = reference_levels(np.ones(w + 2), L0[m], mid, ramp(np.arange(0, w + 2), w))
-            L_ref = np.concatenate([Lv[src_l] * fl[:, None],
-                                    quat_apply(np.broadcast_to(q_phi, (w + 2, 4)), Lv[src_r]) * fr[:, None]])
-            self._cache[key] = (L_new, L_ref)
-        return self._cache[key]
+        sequence's own timing and the original's at those source frames (rotated with the copy),
+        its level blended across the seam like the poses (:func:`~mocomp.flips.smoothing.loop_seams`)."""
+        self._loop_seams([window])
+        return self._cache[("loop_seam_L", int(window))]
 
     def loop_seam_speed(self, window: int) -> tuple[np.ndarray, np.ndarray]:
         """Eq. 5.22 playback speeds across the loop seam ``f_{n-1} -> R(f_m)`` (section 5.4.2.2:
@@ -271,19 +238,9 @@ class PreparedFlip:
         and reused for every repetition like :meth:`loop_seam` (a rotation about ``L`` leaves
         ``|L|`` unchanged): ``(left (w+2,), right (w+2,))`` for the sequence frames showing source
         frames ``n-2-w .. n-1`` and ``m .. m+w+1`` (the smoothed window plus the neighbour whose
-        central difference reaches into it). See :mod:`mocomp.flips.seamtime`."""
-        key = ("loop_seam_speed", int(window))
-        if key not in self._cache:
-            from .seamtime import seam_speed
-
-            w = int(window)
-            L_new, L_ref = self._loop_seam_momentum(w)
-            sp = seam_speed(L_new, L_ref)
-            left, right = sp[:w + 2].copy(), sp[w + 2:].copy()
-            left.setflags(write=False)
-            right.setflags(write=False)
-            self._cache[key] = (left, right)
-        return self._cache[key]
+        central difference reaches into it). See :mod:`mocomp.flips.smoothing`."""
+        self._loop_seams([window])
+        return self._cache[("loop_seam_speed", int(window))]
 
     def seam_disturbance(self, window: int, retime: bool = True) -> float:
         """Largest change of the angular momentum vector the loop seam makes, over the flight's
@@ -311,6 +268,7 @@ class PreparedFlip:
         key = ("best_window", bool(retime))
         if key not in self._cache:
             ws = self.seam_windows()
+            self._loop_seams(ws)                # every candidate window in one pass
             d = np.array([self.seam_disturbance(w, retime) for w in ws])
             ok = np.flatnonzero(d <= 1.1 * d.min() + 1e-3)
             self._cache[key] = int(ws[int(ok[0])])

@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..core.rotations import quat_angle, quat_inverse, quat_multiply
+from ..core.rotations import axis_quat, quat_angle, quat_apply, quat_inverse, quat_log, quat_multiply, twist_angle
 from ..core.skeleton import Skeleton
 
 __all__ = [
@@ -145,32 +145,6 @@ def similarity_weights(skeleton: Skeleton, overrides: dict | None = None,
                              velocity_weight=float(velocity_weight), names=skeleton.names)
 
 
-def twist_angle(q: np.ndarray, axis: np.ndarray) -> np.ndarray:
-    """Signed rotation angle about ``axis`` of the twist part of ``q`` (in ``(-2pi, 2pi]``).
-
-    The twist is the projection of the quaternion on ``axis`` (the same for the
-    left and right swing/twist orders), so for ``q = q_axis(a) s`` with ``s``
-    perpendicular to the axis this returns ``a`` (modulo 4 pi sign ambiguity of
-    the quaternion; callers unwrap over time).
-    """
-    q = np.asarray(q, dtype=float)
-    a = np.asarray(axis, dtype=float)
-    a = a / np.linalg.norm(a)
-    return 2.0 * np.arctan2(q[..., :3] @ a, q[..., 3])
-
-
-def axis_quat(axis: np.ndarray, angle) -> np.ndarray:
-    """Quaternions of rotations by ``angle`` (array) about the unit ``axis``."""
-    a = np.asarray(axis, dtype=float)
-    a = a / np.linalg.norm(a)
-    ang = np.asarray(angle, dtype=float)
-    h = 0.5 * ang
-    out = np.empty(ang.shape + (4,))
-    out[..., :3] = np.sin(h)[..., None] * a
-    out[..., 3] = np.cos(h)
-    return out
-
-
 def alignment_angle(q_r1: np.ndarray, q_r2: np.ndarray, axis: np.ndarray) -> np.ndarray:
     """Eq. 5.12: the angle ``phi`` about ``axis`` that best aligns root ``q_r1`` to ``q_r2``.
 
@@ -208,8 +182,6 @@ def frame_distance(rot1: np.ndarray, rot2: np.ndarray, axis: np.ndarray, weights
     if weights.velocity_weight > 0:
         if omega1 is None or omega2 is None:
             raise ValueError("velocity_weight > 0 needs the angular velocities omega1 and omega2")
-        from ..core.rotations import quat_apply
-
         o1 = np.asarray(omega1, dtype=float)
         o2 = np.asarray(omega2, dtype=float)
         dv_root = np.linalg.norm(quat_apply(q_phi, o1[..., 0, :]) - o2[..., 0, :], axis=-1)
@@ -221,12 +193,10 @@ def frame_distance(rot1: np.ndarray, rot2: np.ndarray, axis: np.ndarray, weights
 def local_angular_velocities(rotations: np.ndarray, fps: float) -> np.ndarray:
     """``(T, J, 3)`` angular velocities (rad/s) of local rotations by central differences.
 
-    For each joint, ``omega(t) = rotvec(q(t+1) q(t-1)^-1) / (2 dt)`` (one-sided at
+    For each joint, ``omega(t) = Log(q(t+1) q(t-1)^-1) / (2 dt)`` (core's :func:`~mocomp.core.rotations.quat_log`; one-sided at
     the ends): expressed in the parent's frame (world frame for the root), which
     is the frame eq. 5.13's velocity term compares in.
     """
-    from scipy.spatial.transform import Rotation
-
     q = np.asarray(rotations, dtype=float)
     T = q.shape[0]
     if T < 2:
@@ -236,5 +206,4 @@ def local_angular_velocities(rotations: np.ndarray, fps: float) -> np.ndarray:
     span = np.full(T, 2.0)
     span[0] = span[-1] = 1.0
     rel = quat_multiply(nxt, quat_inverse(prv))
-    rv = Rotation.from_quat(rel.reshape(-1, 4)).as_rotvec().reshape(q.shape[:-1] + (3,))
-    return rv * (fps / span)[:, None, None]
+    return quat_log(rel) * (fps / span)[:, None, None]
