@@ -383,6 +383,8 @@ def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: st
         plan = None
     if plan is not None:
         targets = plan.targets(pts)
+        if _compiled_hold():
+            return _solve_compiled(motion, P, G, pts, plan, targets, tol, reach_margin, hinges, clocks)
     else:
         targets = consistent_toe_targets(plant_targets(pts, plants, height), pts, plants)
         if height == "level" and PITCH_SLACK is not None:
@@ -579,6 +581,48 @@ def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: st
             miss_all[idx] = miss[n0:n0 + idx.size]
             n0 += idx.size
     return rot, targets, state
+
+
+def _compiled_hold() -> bool:
+    """Whether the hold's compiled kernels run (:func:`mocomp.ops.displacement._compiled`: numba present,
+    ``MOCOMP_NO_NUMBA`` unset, ``displacement.USE_COMPILED`` not ``False``)."""
+    from .displacement import _compiled
+
+    return _compiled()
+
+
+def _solve_compiled(motion: Motion, P, G, pts, plan: "FootplantPlan", targets, tol, reach_margin, hinges, clocks):
+    """:func:`_solve`'s first pass with a plan, compiled (:func:`mocomp.ops._footplant_kernel.solve_legs`):
+    the same ``(rot, targets, state)``, equal to the numpy path to rounding."""
+    from ._footplant_kernel import solve_legs
+
+    k = plan.kernel_inputs(motion.skeleton.parents)
+    rot = np.array(motion.rotations)
+    delta, rv, miss, lift, solve = solve_legs(
+        np.ascontiguousarray(P, dtype=np.float64), np.ascontiguousarray(G, dtype=np.float64), rot,
+        np.ascontiguousarray(pts, dtype=np.float64), np.ascontiguousarray(targets, dtype=np.float64), k["labels"],
+        k["chains"], k["parents"], np.ascontiguousarray(np.asarray(hinges, dtype=np.float64).reshape(-1, 3)), clocks,
+        k["one_leg"], k["sw_mask"], k["has_sw"], k["sw_w"], plan.blend, k["kind"], tol, reach_margin, SOFT_REACH,
+        BEND_PRIOR)
+    state = {}
+    for li, leg in enumerate(plan.plants.legs):
+        state[leg.side] = (delta[li], rv[li], miss[li], lift[li], solve[li],
+                           plan.plants.labels[:, [2 * li, 2 * li + 1]])
+    return rot, targets, state
+
+
+def _hinges_and_clocks(motion: Motion, P, G, plants: FootPlants):
+    """``(hinges, clocks)``: :func:`~mocomp.ops.ik.hinge_axis` of each leg and :func:`leg_fade_clocks`
+    (``None`` without :data:`FADE_RATE_SLACK`); compiled in one call when :func:`_compiled_hold`."""
+    if _compiled_hold() and motion.n_frames >= 1:
+        from ._footplant_kernel import hinges_and_clocks
+
+        h, c = hinges_and_clocks(np.ascontiguousarray(P, dtype=np.float64), np.ascontiguousarray(G, dtype=np.float64),
+                                 np.ascontiguousarray(motion.rotations, dtype=np.float64),
+                                 [leg.chain for leg in plants.legs], FADE_RATE_SLACK, FADE_CLOCK_FLOOR)
+        return list(h), c
+    hinges = [hinge_axis(P, G, leg.chain) for leg in plants.legs]
+    return hinges, (leg_fade_clocks(motion, plants) if FADE_RATE_SLACK is not None else None)
 
 
 def leg_fade_clocks(motion: Motion, plants: FootPlants) -> np.ndarray:
@@ -782,8 +826,7 @@ def enforce_footplants(motion: Motion, plants: FootPlants | None = None, *, cont
         notes.append(f"{closed} frame(s) of gaps shorter than {max(1, blend // 2)} frames between two plants of "
                      "one foot point counted as planted")
     prev = None
-    hinges = [hinge_axis(P, G, leg.chain) for leg in plants.legs]
-    clocks = leg_fade_clocks(motion, plants) if FADE_RATE_SLACK is not None else None
+    hinges, clocks = _hinges_and_clocks(motion, P, G, plants)
     limit, best = passes, None
     for k in range(max(passes, max_passes)):
         rot, targets, state = _solve(motion, P, G, pts, plants, blend, height, tol, reach_margin, ease_kind, prev,
@@ -982,6 +1025,34 @@ class FootplantPlan:
                 m = np.max(ease(1.0 - np.abs(t[:, None] - sw[None] + 0.5) / (self.blend + 1.0), ease_kind),
                            axis=1)[:, None]
                 self.switches.append((r, m, max(self.blend / 2.0, 1.0)))
+
+    def kernel_inputs(self, parents) -> dict:
+        """The plan as arrays for the compiled hold (:mod:`mocomp.ops._footplant_kernel`; made on first use):
+        the labels, the legs' chains and hip parents, which legs get the ``plan_any`` fill of the foot turn,
+        and per leg the toe-to-heel cross-fade weight (``sw_mask (L, T)``, ``has_sw``) with the Gaussian of
+        its smoothing (``sw_w``). ``parents``: the skeleton's (the hips' parents; the plan is for one
+        skeleton)."""
+        k = getattr(self, "_kernel", None)
+        if k is not None:
+            return k
+        from ._footplant_kernel import EASE_CODES
+        from .displacement import _gaussian_kernel
+
+        plants = self.plants
+        L, T = len(plants.legs), plants.n_frames
+        sw_mask, has_sw = np.zeros((L, T)), np.zeros(L, np.bool_)
+        sig = max(self.blend / 2.0, 1.0)
+        for r, m, sig in self.switches:
+            li = self.segs[self.rows.index(r)][0]
+            sw_mask[li] = m[:, 0]
+            has_sw[li] = True
+        k = {"labels": np.ascontiguousarray(plants.labels, dtype=np.bool_),
+             "chains": np.array([leg.chain for leg in plants.legs], dtype=np.int64),
+             "parents": np.array([int(parents[leg.chain[0]]) for leg in plants.legs], dtype=np.int64),
+             "one_leg": np.array(self.one_leg, dtype=np.bool_), "sw_mask": sw_mask, "has_sw": has_sw,
+             "sw_w": _gaussian_kernel(sig), "kind": EASE_CODES[self.ease_kind]}
+        self._kernel = k
+        return k
 
     def targets(self, pts: np.ndarray) -> np.ndarray:
         """``(T, 4, 3)`` m: ``consistent_toe_targets(plant_targets(pts, plants, height), pts, plants)``,
