@@ -118,10 +118,15 @@ def default_blend_frames(fps: float) -> int:
 def foot_points(P: np.ndarray, G: np.ndarray, plants: FootPlants) -> np.ndarray:
     """``(T, 4, 3)`` world positions of the four foot points (``plants.effectors`` order); the four
     rotated in one :func:`~mocomp.core.rotations.quat_apply` (elementwise: the same numbers as one
-    call per point)."""
+    call per point), or with numba in one compiled loop (:func:`mocomp.ops._footplant_kernel.foot_points_rows`,
+    core's ``qrot``: the same operations)."""
     pairs = [p for leg in plants.legs for p in (leg.ankle_point, leg.toe_point)]
     js = [int(j) for j, _ in pairs]
     offs = np.array([off for _, off in pairs], dtype=float)
+    if _compiled_hold() and P.ndim == 3 and P.dtype == np.float64 and G.dtype == np.float64:
+        from ._footplant_kernel import foot_points_rows   # the same products per point (core's qrot)
+
+        return foot_points_rows(P, G, js, offs)
     return P[:, js] + quat_apply(G[:, js], offs)
 
 
