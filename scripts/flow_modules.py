@@ -56,5 +56,5 @@ f()  # warm: imports, numba cache
 seen, ret, pairs, trans = trace(f)
 print(f"{which}: {len(seen)} modules, {trans} transitions, {ret} returns to an already-visited module")
 print(" ".join(sorted(s.replace("mocomp.", "") for s in seen)))
-for (a, b), n in pairs.most_common(12):
+for (a, b), n in pairs.most_common(int(os.environ.get("TOP", 12))):
     print(f"  {n:5d}  {a} -> {b}")

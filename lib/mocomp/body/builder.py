@@ -65,7 +65,7 @@ def build_from_table(cls, skeleton: Skeleton, total_mass: float, table, shape: s
     rest = skeleton.rest_positions()
     segs = rm.segments
     kinds = [_kind(s) for s in segs]
-    rows = [t.row(k) for k in kinds]
+    rows = t.rows(kinds)
     frac = np.array([r.mass_fraction for r in rows])
     fsum = frac.sum()
     masses = total_mass * frac / fsum

@@ -1,6 +1,7 @@
 """``BodyModel``: the mass distribution of a skeleton (immutable)."""
 from __future__ import annotations
 
+import collections
 from dataclasses import dataclass
 
 import numpy as np
@@ -154,10 +155,28 @@ class BodyModel:
         Each anatomical segment is one rigid body carried by one joint; its COM lies
         at the table's fraction along the proximal -> distal landmark line. Joints
         carrying nothing are listed in ``massless_joints``.
+
+        Built once per skeleton object and arguments (named table, shape, mapping): the same call
+        again returns the same immutable model (the 32 most recent are kept; custom table or
+        mapping objects are built every time).
         """
+        key = _table_key(skeleton, total_mass, table, shape, mapping, densities, props)
+        if key is not None and cls is BodyModel:
+            hit = _TABLE_BODIES.get(key)
+            if hit is not None and hit[0] is skeleton:
+                _TABLE_BODIES.move_to_end(key)
+                return hit[1]
         from .builder import build_from_table
 
-        return build_from_table(cls, skeleton, total_mass, table, shape, mapping, densities, props)
+        body = build_from_table(cls, skeleton, total_mass, table, shape, mapping, densities, props)
+        if key is not None and cls is BodyModel:
+            for a in (body.geometry.lengths, body.geometry.densities, body.geometry.ratios, body.geometry.axes,
+                      body.geometry.gyration):
+                a.setflags(write=False)
+            _TABLE_BODIES[key] = (skeleton, body)
+            while len(_TABLE_BODIES) > _TABLE_BODIES_MAX:
+                _TABLE_BODIES.popitem(last=False)
+        return body
 
     # ---------------------------------------------------------------- helpers
     def symmetric_groups(self) -> list[list[int]]:
@@ -197,3 +216,24 @@ class BodyModel:
             "com_x": self.local_coms[:, 0], "com_y": self.local_coms[:, 1], "com_z": self.local_coms[:, 2],
             "Ixx": self.inertias[:, 0, 0], "Iyy": self.inertias[:, 1, 1], "Izz": self.inertias[:, 2, 2],
         })
+
+
+#: table body models already built, keyed by the skeleton's identity and the arguments (a table
+#: model is a pure function of them, and both are immutable): a clip's prior is built once per
+#: process, not once per call (``mocomp flips`` asks for it in its phase detection, its mass
+#: estimate and its report). The skeleton object is kept with the entry and checked by identity,
+#: so a recycled ``id`` never returns another skeleton's body; the 32 most recent are kept.
+_TABLE_BODIES: "collections.OrderedDict" = collections.OrderedDict()
+_TABLE_BODIES_MAX = 32
+
+
+def _table_key(skeleton, total_mass, table, shape, mapping, densities, props):
+    """The cache key of :meth:`BodyModel.from_skeleton`, ``None`` when an argument is not a plain
+    name or number (a custom table or mapping object: built every time)."""
+    if not all(x is None or isinstance(x, str) for x in (table, shape, mapping, densities, props)):
+        return None
+    try:
+        mass = float(total_mass)
+    except (TypeError, ValueError):
+        return None
+    return (id(skeleton), mass, table, shape, mapping, densities, props)

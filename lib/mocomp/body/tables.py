@@ -122,10 +122,15 @@ class SegmentTable:
     body_mass_kg: float | None = None
 
     def row(self, kind: str) -> SegmentParameters:
-        for s in self.segments:
-            if s.kind == kind:
-                return s
-        raise KeyError(f"table {self.key!r} has no segment {kind!r}")
+        return self.rows([kind])[0]
+
+    def rows(self, kinds) -> list[SegmentParameters]:
+        """The rows of segment ``kinds`` (a sequence of kind names, repeats allowed), in that order."""
+        by_kind = {s.kind: s for s in self.segments}
+        missing = [k for k in kinds if k not in by_kind]
+        if missing:
+            raise KeyError(f"table {self.key!r} has no segment {missing[0]!r}")
+        return [by_kind[k] for k in kinds]
 
 
 _DL = ("P. de Leva (1996), Adjustments to Zatsiorsky-Seluyanov's segment inertia parameters, "

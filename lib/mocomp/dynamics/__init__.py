@@ -2,7 +2,8 @@
 from .constants import G_STANDARD
 from .com import center_of_mass, segment_positions, segment_rotations
 from .contacts import ContactResult, airborne_intervals, detect_contacts
-from .derivatives import angular_velocity, central_difference, gaussian_smooth, second_difference, smooth_motion
+from ..core.kinematics import angular_velocity, central_difference, gaussian_smooth, second_difference
+from .derivatives import smooth_motion
 from .momentum import MomentumResult, MotionVelocities, composite_inertia, momentum
 from .zmp import ZMPResult, support_polygon_distance, zmp
 

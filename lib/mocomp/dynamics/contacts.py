@@ -37,7 +37,7 @@ import numpy as np
 
 from ..core.rotations import quat_apply
 from ..errors import MotionFormatError
-from .derivatives import central_difference, gaussian_smooth
+from ..core.kinematics import central_difference, gaussian_smooth
 
 __all__ = ["ContactResult", "detect_contacts", "airborne_intervals", "default_effectors", "effector_positions",
            "label_intervals"]

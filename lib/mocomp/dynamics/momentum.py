@@ -13,11 +13,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.kinematics import point_velocities, propagate_velocities, world_angular_velocities
+from ..core.kinematics import (angular_velocity, central_difference, point_velocities, propagate_velocities,
+                               world_angular_velocities)
 from ..core.rotations import quat_apply, quat_inverse, quat_matrix
 from ..errors import MotionFormatError
 from .com import check_compatible
-from .derivatives import angular_velocity, central_difference, smooth_motion
+from .derivatives import smooth_motion
 
 __all__ = ["MomentumResult", "MotionVelocities", "momentum", "assemble_momentum", "composite_inertia",
            "world_inertias", "joint_velocities"]
@@ -199,7 +200,7 @@ def momentum(body, motion, smooth_sigma: float | None = None, velocity="finite_d
         :class:`MotionVelocities` of known rates (``velocity_mode="given"``: no time
         differences; ``smooth_sigma`` and ``order`` must then be left at their defaults).
     order: accuracy order of the time differences, 2 (default) or 4 (uniform frame
-        times; for exact synthetic motions, see :func:`~mocomp.dynamics.derivatives.central_difference`).
+        times; for exact synthetic motions, see :func:`~mocomp.core.kinematics.central_difference`).
 
     ``velocity="kinematic"`` propagates the root velocity and the joints' angular
     velocities down the tree as a physics engine does: it is the mode that matches

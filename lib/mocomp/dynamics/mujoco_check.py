@@ -5,7 +5,7 @@ model from :func:`~mocomp.body.mjcf.to_mjcf`, with velocities *matched* to ours:
 the root's linear velocity is our central difference of root positions, and
 each joint's ball velocity is its angular velocity relative to its parent,
 ``R_j^T (w_j - w_parent)``, from the same quaternion finite differences
-(:func:`~mocomp.dynamics.derivatives.angular_velocity`). MuJoCo then propagates
+(:func:`~mocomp.core.kinematics.angular_velocity`). MuJoCo then propagates
 velocities down the tree as rigid bodies, which equals our
 ``momentum(..., velocity="kinematic")``; the default finite-difference
 velocities differ from it by O(dt^2).
@@ -18,7 +18,7 @@ import numpy as np
 
 from ..body.mjcf import mjcf_names, to_mjcf
 from ..core.rotations import quat_apply, quat_inverse
-from .derivatives import angular_velocity, central_difference
+from ..core.kinematics import angular_velocity, central_difference
 
 __all__ = ["qpos_qvel", "MujocoMomentum", "mujoco_momentum", "build_mujoco"]
 

@@ -19,9 +19,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.kinematics import second_difference
 from .com import segment_positions
 from .constants import G_STANDARD
-from .derivatives import second_difference, smooth_motion
+from .derivatives import smooth_motion
 
 __all__ = ["ZMPResult", "zmp", "zmp_of_point_masses", "support_polygon_distance", "nearest_on_polygon"]
 

@@ -172,7 +172,8 @@ def detect_flights(motion, prior: BodyModel | None = None, still_speed: float = 
         share its frame rate and units, so a gravity far off means the interval is not free
         flight); ``None`` keeps every flight.
     """
-    from ..dynamics import center_of_mass, central_difference, gaussian_smooth, second_difference
+    from ..core.kinematics import central_difference, gaussian_smooth
+    from ..dynamics import center_of_mass
     from ..dynamics.contacts import default_effectors, effector_positions, label_intervals
 
     fps = motion.fps

@@ -440,7 +440,7 @@ def _repair_stance(motion: Motion, com_fn, event: str, event_frame: float, dv, s
     D = float(tau.max()) + 1.0 / fps                    # the map reaches zero one frame beyond the window
     root = np.asarray(motion.root_positions, dtype=float)
     rot = np.asarray(motion.rotations, dtype=float)
-    from ..dynamics.derivatives import gaussian_smooth
+    from ..core.kinematics import gaussian_smooth
 
     com = com_fn(root, rot)
     ay = np.gradient(np.gradient(gaussian_smooth(com[:, 1], ACC_SMOOTH_S * fps), 1.0 / fps), 1.0 / fps)
