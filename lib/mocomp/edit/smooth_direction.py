@@ -129,12 +129,16 @@ def rotvecs_continuous(q: np.ndarray) -> np.ndarray:
 
 def second_difference_deg(q: np.ndarray) -> np.ndarray:
     """``(n-3,)`` degrees: change of the per-frame increment ``q_{g+1} q_g^-1`` from frame to
-    frame -- the roughness measure of :attr:`mocomp.edit.DirectionResult.roughness_deg`."""
-    from scipy.spatial.transform import Rotation
+    frame -- the roughness measure of :attr:`mocomp.edit.DirectionResult.roughness_deg`. The
+    increments are core's rotation vectors (:func:`~mocomp.core.rotations.quat_log`, the short way)
+    of the normalised relative rotations."""
+    from ..core.rotations import quat_inverse, quat_log, quat_multiply
 
     if q.shape[0] < 4:
         return np.zeros(0)
-    inc = (Rotation.from_quat(q[1:]) * Rotation.from_quat(q[:-1]).inv()).as_rotvec()
+    q = np.asarray(q, dtype=float)
+    d = quat_multiply(q[1:], quat_inverse(q[:-1]))
+    inc = quat_log(d / np.sqrt(np.einsum("...i,...i->...", d, d))[..., None])
     return np.degrees(np.linalg.norm(inc[2:] - 2 * inc[1:-1] + inc[:-2], axis=1))
 
 

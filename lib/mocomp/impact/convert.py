@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.motion import Motion
-from ..core.rotations import quat_inverse, quat_multiply
+from ..core.rotations import quat_inverse, quat_log, quat_multiply
 
 __all__ = ["to_wxyz", "to_xyzw", "pose_to_qpos", "qpos_to_pose", "motion_state", "frames_to_motion",
            "local_angular_velocity"]
@@ -53,13 +53,11 @@ def qpos_to_pose(qpos: np.ndarray, layout) -> tuple[np.ndarray, np.ndarray]:
 
 def local_angular_velocity(q0: np.ndarray, q1: np.ndarray, dt: float) -> np.ndarray:
     """``(..., 3)`` rad/s: the body-frame angular velocity taking ``q0`` to ``q1`` in ``dt`` s
-    (``log(q0^-1 q1) / dt``, the short way)."""
-    from scipy.spatial.transform import Rotation
-
+    (``log(q0^-1 q1) / dt``, the short way: core's :func:`~mocomp.core.rotations.quat_log` of the
+    normalised relative rotation)."""
     d = quat_multiply(quat_inverse(q0), q1)
-    shape = d.shape[:-1]
-    rv = Rotation.from_quat(d.reshape(-1, 4)).as_rotvec().reshape(shape + (3,))
-    return rv / dt
+    d = d / np.sqrt(np.einsum("...i,...i->...", d, d))[..., None]
+    return quat_log(d) / dt
 
 
 def motion_state(motion: Motion, t: float, layout, qpos: np.ndarray, qvel: np.ndarray, h: float | None = None) -> None:
