@@ -62,15 +62,17 @@ def test_back_flip_pair_no_deeper_than_its_input_and_slides_less(real_data_dir, 
     re-detection passes held the heels beside those toes and pitched the feet heel-up 2-6 cm: slide
     0.54 cm, but the audit's floor rose 0.0539 -> 0.0739 m and the landing read 5.59 cm below it
     (input 3.62). Those passes are no longer kept (ops.footplant.PENETRATION_SLACK): measured 3.59 cm,
-    floor 0.0539 m, slide 6.80 cm (the crouch's heels, unheld, slide as the input's do)."""
+    floor 0.0539 m, slide 6.80 cm (the crouch's heels, unheld, slide as the input's do). Now the body is
+    lifted out of the floor before and after the feet are held (concat ``ground``): slide 0.60 cm,
+    penetration 0.38 cm; the crouch's frames lifted, the floor the audit reads rises (~0.08 m)."""
     a, b, kw = _pair(real_data_dir, "deepmimic back flip x2")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         r = concatenate(a, b, **kw)
     rep, ref = audit(_read_back(r.motion, tmp_path / "o.bvh"), against=a), audit(a)
-    assert rep.penetration.depth.max() <= ref.penetration.depth.max() + 0.005
-    assert abs(rep.penetration.floor_y - ref.penetration.floor_y) < 0.005
-    assert foot_slide(rep) < 0.6 * foot_slide(ref)
+    assert rep.penetration.depth.max() <= 0.005 < ref.penetration.depth.max()
+    assert rep.penetration.floor_y - ref.penetration.floor_y < 0.04
+    assert foot_slide(rep) <= 0.01 < foot_slide(ref)
 
 
 def test_given_main_phase_of_a_resampled_B_counts_B_own_frames(real_data_dir):

@@ -120,6 +120,7 @@ class ConcatResult:
     output_window: tuple[int, int] | None = None
     frames_added: int = 0
     com_steps: tuple[float, float] = (0.0, 0.0)
+    ground: dict | None = None
 
     def next_main_phase(self) -> tuple[tuple[int, int], int]:
         """B's main phase in the output's frames, ``((start, stop), t_m)``, for the next joint of a
@@ -178,6 +179,8 @@ class ConcatResult:
         }
         if self.footplants is not None:
             d["footplants"] = self.footplants.to_dict()
+        if self.ground is not None:
+            d["ground_contact"] = dict(self.ground)
         return d
 
 
@@ -236,6 +239,79 @@ def _hold_feet(out: Motion, lab: np.ndarray, notes: list):
     return fp.motion, fp
 
 
+#: m: the body is lifted out of the floor (:func:`_grounded`) where its lowest point is deeper than this
+LIFT_TOL = 0.002
+#: m: issue 17's "feet slide at most 1 cm in support and never penetrate", as measured by the audit's
+#: functions on the result (the floor is the median of the lowest point over the first ground stage's
+#: planted frames, so a few millimetres below it is its own spread): a grounding meeting both is kept
+SLIDE_GOAL, DEPTH_GOAL = 0.01, 0.005
+#: s: the smoothing of the lift applied before the feet are held, when the lift after them alone
+#: misses the goals (:func:`mocomp.ops.ground_contact.lift_out_of_floor`, ``smooth``)
+PRE_LIFT_SECONDS = 0.05
+#: s: the smoothing of the lift after the feet are held
+POST_LIFT_SECONDS = 0.05
+_FEET = ("foot_l", "toe_l", "foot_r", "toe_r")
+
+
+def _measured_ground(m: Motion, contacts=None) -> tuple[float, float, object]:
+    """``(slide, depth, contacts)`` m: the audit's foot slide and floor penetration from its own
+    functions (:func:`mocomp.ops.footplant.detected_slide`, :func:`mocomp.ops.ground_contact.floor_depth`)."""
+    from ..ops.footplant import detected_slide
+    from ..ops.ground_contact import floor_depth
+
+    fd = floor_depth(m, contacts=contacts)
+    return detected_slide(fd.contacts, _FEET), fd.max_depth, fd.contacts
+
+
+def _grounded(held: Motion, fp) -> tuple[Motion, float, float, str]:
+    """``held`` (feet held on ``fp``'s plants) lifted out of the floor where its lowest body point is
+    deeper than :data:`LIFT_TOL` below the audit's floor (:func:`mocomp.ops.ground_contact.lift_out_of_floor`:
+    the root raised on those frames by the depth), then the feet held again horizontally on the plants
+    the detector finds on the lifted frames and ``fp``'s (``height="keep"``: no point moved down
+    again). Returns the motion, its measured slide and depth (m) and a note ("" when not lifted)."""
+    from ..ops.ground_contact import lift_out_of_floor
+
+    slide, depth, c = _measured_ground(held)
+    if depth <= LIFT_TOL:
+        return held, slide, depth, ""
+    lr = lift_out_of_floor(held, contacts=c, smooth=POST_LIFT_SECONDS)
+    m = lr.motion
+    lab = foot_plants(m, contacts=lr.contacts, require=False).labels | fp.plants.labels
+    m = enforce_footplants(m, foot_plants(m, labels=lab, contacts=lr.contacts, require=False), height="keep",
+                           audit=False).motion
+    s2, d2, _ = _measured_ground(m)
+    return m, s2, d2, (f"{lr.notes[0]}; the feet then held horizontally on the lifted frames' plants: measured foot "
+                       f"slide {100 * slide:.2f} -> {100 * s2:.2f} cm, depth below the floor {100 * depth:.2f} -> "
+                       f"{100 * d2:.2f} cm")
+
+
+def _hold_grounded(out: Motion, lab: np.ndarray, held: Motion, fp, notes: list) -> tuple[Motion, dict | None]:
+    """Issue 17's "feet slide at most 1 cm and never penetrate" (beyond the paper): ``held`` (``out``
+    with its feet held on ``lab``) grounded (:func:`_grounded`); when that misses
+    :data:`SLIDE_GOAL` / :data:`DEPTH_GOAL`, ``out`` is lifted first (smoothed over
+    :data:`PRE_LIFT_SECONDS`), its feet held on ``lab`` and grounded again, and the result measured
+    best kept (goals met first, then the smaller excess). Returns the motion and the measured values."""
+    from ..ops.ground_contact import lift_out_of_floor
+
+    if fp is None:
+        return held, None
+    m, s, d, note = _grounded(held, fp)
+    info = {"slide_m": s, "depth_m": d, "lifted": bool(note), "pre_lift": False}
+    if note and (s > SLIDE_GOAL or d > DEPTH_GOAL):
+        pre = lift_out_of_floor(out, smooth=PRE_LIFT_SECONDS)
+        h2, fp2 = _hold_feet(pre.motion, lab, [])
+        m2, s2, d2, note2 = _grounded(h2, fp2)
+        excess = lambda s_, d_: max(s_ - SLIDE_GOAL, 0.0) + max(d_ - DEPTH_GOAL, 0.0)
+        if excess(s2, d2) < excess(s, d):
+            note = (f"lifted before the feet were held ({pre.notes[0] if pre.notes else 'no lift'}; smoothed over "
+                    f"{PRE_LIFT_SECONDS:g} s), lifting after them alone measured slide {100 * s:.2f} cm, depth "
+                    f"{100 * d:.2f} cm; then " + (note2 or "no further lift"))
+            m, info = m2, {"slide_m": s2, "depth_m": d2, "lifted": True, "pre_lift": True}
+    if note:
+        notes.append(note)
+    return m, info
+
+
 @dataclass(frozen=True, eq=False)
 class BaselineResult:
     """The Motion-Graph baseline: the transition and the motion it makes."""
@@ -251,10 +327,10 @@ class BaselineResult:
 
 
 def motion_graph_concatenate(a: Motion, b: Motion, phases: tuple[Phases, Phases], window: int,
-                             plant: bool = True) -> BaselineResult:
+                             plant: bool = True, ground: bool = True) -> BaselineResult:
     """The baseline of issue 17: the Motion-Graph transition (:func:`.baseline.motion_graph_transition`,
     Kovar et al.'s point-cloud criterion) blended the same way as the method (eq. 8 over the
-    ``window`` frames, feet held), without time scaling."""
+    ``window`` frames, feet held and, with ``ground``, the body lifted out of the floor as ours)."""
     from .baseline import motion_graph_transition
 
     check_same_skeleton(a, b)
@@ -268,7 +344,9 @@ def motion_graph_concatenate(a: Motion, b: Motion, phases: tuple[Phases, Phases]
     if plant:
         la = foot_plants(a, require=False).labels
         lb = foot_plants(b, require=False).labels
-        out, fp = _hold_feet(out, _blend_labels(la, lb, T, tr.i + tr.window // 2, out.n_frames), notes)
+        lab = _blend_labels(la, lb, T, tr.i + tr.window // 2, out.n_frames)
+        held, fp = _hold_feet(out, lab, notes)
+        out = _hold_grounded(out, lab, held, fp, notes)[0] if ground else held
     return BaselineResult(out, tr, fp, tuple(notes))
 
 
@@ -510,7 +588,8 @@ def _concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bo
                 facing_at: str = "t_m",
                 max_scale: float = 4.0, ramp_frames: int | None = 0, com_smooth: bool = True,
                 blend_ease: str = "linear", min_spread: float = 0.5, on_facing: str = "reject",
-                hand_support: bool = True, window_search: bool = True, plant_both: bool | None = None) -> ConcatResult:
+                hand_support: bool = True, window_search: bool = True, plant_both: bool | None = None,
+                ground: bool = True) -> ConcatResult:
     """Concatenate ``b`` after ``a`` (see the module docstring).
 
     Parameters
@@ -560,6 +639,11 @@ def _concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bo
         punch the other way round, 0.44 vs 0.76); under the reverse rule A's / B's (on the Bandai
         one-two punch both-only gave 0.18 vs 0.52: a foot let go for a 3-frame window at 30 fps is
         pulled back to its plant).
+    ground: with ``plant``, the body lifted out of the floor where the result reaches more than
+        :data:`LIFT_TOL` below the audit's floor, the feet held again horizontally
+        (:func:`_hold_grounded`; beyond the paper: the inputs' own landings sink 1-11 cm below the
+        level they took off from -- DeepMimic flips, raw CMU toes -- and the footplants keep each plant
+        on its own level); the measured slide and depth in ``ConcatResult.ground``.
     hand_support: in the double-support truncation of the blendable periods, count frames with a hand
         planted and no foot as support (left out), not as flight (a cartwheel's inverted frames; the
         paper limits the periods to "double support when both feet are on the ground"); ``False``:
@@ -755,7 +839,7 @@ def _concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bo
     if com_smooth:
         sup = tuple(bool(lab[max(u - 2, 0):u + 3].any(axis=1).all()) for u in out_win)
         out, steps = com_continuity(out, body_a, out_win[0], out_win[1], supported=sup)
-    fp = None
+    fp = ground_info = None
     if plant:
         held, fp = _hold_feet(out, lab, notes)
         if lab_both is not None and (lab_both != lab).any():
@@ -771,12 +855,12 @@ def _concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bo
                 notes.append(f"feet held in the blended period only where planted in both A and B: lowest |L| "
                              f"between the main phases {lows[0]:.2f} -> {lows[1]:.2f} of the main level (COM "
                              f"velocity jump at the window {jumps[0]:.2f} -> {jumps[1]:.2f} m/s)")
-                held, fp = held2, fp2
+                held, fp, lab = held2, fp2, lab_both
             elif lows[1] > lows[0]:
                 notes.append(f"feet held as A's / B's plants: holding them only where planted in both would raise "
                              f"the lowest |L| between the main phases {lows[0]:.2f} -> {lows[1]:.2f} of the main "
                              f"level but the COM velocity jump at the window {jumps[0]:.2f} -> {jumps[1]:.2f} m/s")
-        out = held
+        out, ground_info = _hold_grounded(out, lab, held, fp, notes) if ground else (held, None)
     return ConcatResult(out, (p1, p2), choice, yaw, value, facing, facing_at, float(max_facing), (case, pa, pb), pnotes, tab, T, f_T, (f0, f1),
                         thr, max_F, min_T, tf, (t1, t2r), scale, out_win[1] - out_win[0] + 1, fp, time.perf_counter() - t0, tuple(notes),
-                        out_win, added, steps)
+                        out_win, added, steps, ground_info)
