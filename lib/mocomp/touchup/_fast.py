@@ -403,3 +403,96 @@ def running_products(inc: np.ndarray) -> np.ndarray:
     for i in range(1, acc.shape[0]):
         acc[i] = quat_multiply(inc[i - 1], acc[i - 1])
     return acc
+
+
+if COMPILED:
+    from ..ops._kernels import _two_bone_ik_rows
+
+    @numba.njit(cache=True, nogil=True)
+    def _lift_legs_nb(P, G, rot, pts, held, up, touching, ks, chains, hps, tol, w, margin, lifted):
+        """:func:`mocomp.touchup.iterate.lift_feet`'s per-leg loop (its numpy lines in order, frame by
+        frame): ``rot`` changed in place on the legs' lifted frames, ``lifted (L, T)`` set."""
+        T = P.shape[0]
+        L = chains.shape[0]
+        r = (w.shape[0] - 1) // 2
+        down = np.empty(T)
+        sm = np.empty(T)
+        line = np.empty(T + 2 * r)
+        dy = np.empty(T)
+        need = np.empty(T)
+        idx = np.empty(T, np.int64)
+        tgt = np.empty((T, 3))
+        end = np.empty((T, 4))
+        axis = np.zeros((T, 3))
+        out = np.empty((T, 3, 4))
+        miss = np.empty(T)
+        for i in range(T):
+            axis[i, 0] = 1.0
+        for li in range(L):
+            ka, kt = ks[li, 0], ks[li, 1]
+            a = chains[li, 2]
+            low = False
+            for t in range(T):
+                dh = max(held[t, ka], held[t, kt])
+                down[t] = min(dh, 0.0) if np.isfinite(dh) else 0.0
+                if down[t] < -tol:
+                    low = True
+            if low and r > 0:
+                for i in range(T + 2 * r):
+                    line[i] = down[min(max(i - r, 0), T - 1)]
+                _correlate_nearest(line, w, sm)
+                for t in range(T):
+                    down[t] = sm[t]
+            n = 0
+            for t in range(T):
+                dh = max(held[t, ka], held[t, kt])
+                du = max(up[t, ka], up[t, kt])
+                v = max(max(down[t], dh if dh > 0 else -np.inf), du)
+                if not np.isfinite(v):
+                    v = down[t]
+                nd = 0.0
+                if touching[t, ka] and touching[t, kt]:
+                    v = held[t, ka]
+                    nd = held[t, kt] - v
+                dy[t] = v
+                need[t] = nd
+                lifted[li, t] = abs(v) > tol or abs(nd) > tol
+                if not lifted[li, t]:
+                    continue
+                Ax, Ay, Az = pts[t, ka, 0], pts[t, ka, 1], pts[t, ka, 2]
+                vx, vy, vz = pts[t, kt, 0] - Ax, pts[t, kt, 1] - Ay, pts[t, kt, 2] - Az
+                h = np.sqrt(vx * vx + vz * vz)
+                nn = np.sqrt(vx * vx + vy * vy + vz * vz)
+                beta = np.arctan2(vy, h)
+                phi = np.arcsin(min(max((vy + nd) / max(nn, 1e-9), -1.0), 1.0)) - beta
+                hh = max(h, 1e-9)
+                qx, qy, qz, qw = qexp(-vz / hh * phi, 0.0 / hh * phi, vx / hh * phi)
+                end[n, 0], end[n, 1], end[n, 2], end[n, 3] = qmul(qx, qy, qz, qw, G[t, a, 0], G[t, a, 1], G[t, a, 2],
+                                                                  G[t, a, 3])
+                ex, ey, ez = qrot(qx, qy, qz, qw, Ax - P[t, a, 0], Ay - P[t, a, 1], Az - P[t, a, 2])
+                tgt[n, 0] = Ax - ex
+                tgt[n, 1] = (Ay + v) - ey
+                tgt[n, 2] = Az - ez
+                idx[n] = t
+                n += 1
+            if n == 0:
+                continue
+            _two_bone_ik_rows(P, G, rot, idx[:n], hps[li], chains[li, 0], chains[li, 1], a, tgt[:n], end[:n],
+                              axis[:n], 0.0, margin, out[:n], miss[:n])
+            for i in range(n):
+                t = idx[i]
+                for c in range(3):
+                    j = chains[li, c]
+                    for k in range(4):
+                        rot[t, j, k] = out[i, c, k]
+
+
+def lift_legs(P, G, rot, pts, held, up, touching, ks, chains, hps, tol, sigma, margin):
+    """Compiled per-leg loop of :func:`mocomp.touchup.iterate.lift_feet` (``rot`` changed in place);
+    returns the lifted frames ``(L, T)`` bool."""
+    lifted = np.zeros((len(chains), P.shape[0]), np.bool_)
+    _lift_legs_nb(P, G, rot, np.ascontiguousarray(pts, dtype=float), np.ascontiguousarray(held, dtype=float),
+                  np.ascontiguousarray(up, dtype=float), np.ascontiguousarray(touching, dtype=np.bool_),
+                  np.asarray(ks, np.int64), np.asarray(chains, np.int64), np.asarray(hps, np.int64), float(tol),
+                  gaussian_weights(sigma) if sigma and sigma > 0 else np.ones(1), float(margin), lifted)
+    return lifted

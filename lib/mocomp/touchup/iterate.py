@@ -19,6 +19,7 @@ from ..dynamics.momentum import momentum
 from ..dynamics.constants import G_STANDARD
 from ..ops import HierarchyStep, apply_hierarchy, ease, enforce_footplants
 from ..ops.footplant import default_blend_frames, foot_points, footplant_plan
+from . import _fast
 from ._fast import SegmentChains, fk
 from .flight import ballistic_targets, com_residual, flight_com_adjustment, flight_momentum_adjustment
 from .ground import MAX_ANGLE, ground_adjustment
@@ -174,6 +175,16 @@ def lift_feet(motion, plants, reference_points: np.ndarray, touching: np.ndarray
     up = np.where(free > 0, free, -np.inf)
     rot = None
     lifted = {}
+    if compiled and _fast.COMPILED:                # the loop below in one compiled call (_fast.lift_legs)
+        rot = np.array(motion.rotations)
+        ks = [[plants.effectors.index(e) for e in (f"foot_{leg.side}", f"toe_{leg.side}")] for leg in plants.legs]
+        up_legs = _fast.lift_legs(P, G, rot, pts, held, up, touching, ks, [leg.chain for leg in plants.legs],
+                                  [int(motion.skeleton.parents[leg.chain[0]]) for leg in plants.legs], tol,
+                                  HOLD_SMOOTH_S * motion.fps, REACH_MARGIN)
+        lifted = {leg.side: np.flatnonzero(u).tolist() for leg, u in zip(plants.legs, up_legs) if u.any()}
+        if not lifted:
+            return motion, lifted
+        return motion.replace_trusted(motion.root_positions, rot), lifted
     for leg in plants.legs:
         ks = [plants.effectors.index(e) for e in (f"foot_{leg.side}", f"toe_{leg.side}")]
         dh, du = held[:, ks].max(axis=1), up[:, ks].max(axis=1)    # (T,) m; -inf: nothing to hold
