@@ -44,9 +44,11 @@ class ZmpMeasure:
                 "polygon": self.polygon, "floor": self.floor}
 
 
-def zmp_outside(motion, body=None, *, polygon: str = "planted", floor: str = "audit") -> ZmpMeasure:
+def zmp_outside(motion, body=None, *, polygon: str = "planted", floor: str = "audit", thresholds=None) -> ZmpMeasure:
     """The ZMP's distance outside the support polygon of ``motion`` (module docstring); with the
-    defaults it is the audit's ``zmp.distance``."""
+    defaults it is the audit's ``zmp.distance``. ``thresholds``: the audit's
+    :class:`~mocomp.audit.thresholds.AuditThresholds` (default: the audit's own), e.g. another
+    ``zmp_smooth_sigma`` to see how much the measure owes to the smoothing before differentiation."""
     from ..audit import audit, default_body
     from ..audit.zmp import smoothed_segment_positions
     from ..dynamics.contacts import detect_contacts
@@ -59,7 +61,7 @@ def zmp_outside(motion, body=None, *, polygon: str = "planted", floor: str = "au
     if floor not in FLOORS:
         raise ValueError(f"floor must be one of {', '.join(FLOORS)}, got {floor!r}")
     body = default_body(motion) if body is None else body
-    rep = audit(motion, body)
+    rep = audit(motion, body) if thresholds is None else audit(motion, body, thresholds=thresholds)
     c = detect_contacts(motion)                     # the audit's detector, as the audit calls it
     pts, planted = c.contact_points()
     mask = planted if polygon == "planted" else np.asarray(c.touching, bool)
