@@ -30,7 +30,7 @@ import os
 
 import numpy as np
 
-__all__ = ["AVAILABLE", "DISABLED", "njit", "qmul", "qrot", "qangle", "qlog", "qexp", "qpow", "qmat", "slerp4", "qdelta", "centroid", "world_inertia", "spin", "fk_pose",
+__all__ = ["AVAILABLE", "DISABLED", "njit", "qmul", "qrot", "point_velocity", "qangle", "qlog", "qexp", "qpow", "qmat", "slerp4", "qdelta", "centroid", "world_inertia", "spin", "fk_pose",
            "forward_kinematics", "angular_velocity"]
 
 #: numba switched off by the environment (``MOCOMP_NO_NUMBA=1``): the numpy reference runs everywhere
@@ -182,6 +182,15 @@ def qdelta(Q, a, b, s):
     :func:`mocomp.core.kinematics.angular_velocity`)."""
     x, y, z, w = qmul(Q[b, s, 0], Q[b, s, 1], Q[b, s, 2], Q[b, s, 3], -Q[a, s, 0], -Q[a, s, 1], -Q[a, s, 2], Q[a, s, 3])
     return qlog(x, y, z, w)
+
+
+# ------------------------------------------------------------------ rigid-body velocities
+@njit(inline="always")
+def point_velocity(vx, vy, vz, wx, wy, wz, dx, dy, dz):
+    """``v + w x d``: the velocity of a point at offset ``d`` from an origin moving at ``v`` in a
+    frame turning at ``w`` (all world axes); the compiled twin of
+    :func:`mocomp.core.kinematics.point_velocities` (a child joint's origin, a segment's COM)."""
+    return vx + (wy * dz - wz * dy), vy + (wz * dx - wx * dz), vz + (wx * dy - wy * dx)
 
 
 # ------------------------------------------------------------------ segment sums

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core._compiled import AVAILABLE, centroid, njit, qmul, qrot, spin
+from ..core._compiled import AVAILABLE, centroid, njit, point_velocity, qmul, qrot, spin
 
 __all__ = ["AVAILABLE", "momentum_given_nb", "assemble_nb", "warmup"]
 
@@ -111,9 +111,8 @@ if AVAILABLE:
                 P[t, j, 2] = P[t, p, 2] + dz
                 # v_j = v_p + w_p x (P_j - P_p)   (before w_j: uses the parent's rate)
                 wpx, wpy, wpz = W[t, p, 0], W[t, p, 1], W[t, p, 2]
-                V[t, j, 0] = V[t, p, 0] + (wpy * dz - wpz * dy)
-                V[t, j, 1] = V[t, p, 1] + (wpz * dx - wpx * dz)
-                V[t, j, 2] = V[t, p, 2] + (wpx * dy - wpy * dx)
+                V[t, j, 0], V[t, j, 1], V[t, j, 2] = point_velocity(V[t, p, 0], V[t, p, 1], V[t, p, 2], wpx, wpy, wpz,
+                                                                    dx, dy, dz)
                 # w_j = w_p + G_j w_j^local
                 ex, ey, ez = qrot(gx, gy, gz, gw, joint_rates[t, j, 0], joint_rates[t, j, 1], joint_rates[t, j, 2])
                 W[t, j, 0] = wpx + ex
@@ -131,9 +130,8 @@ if AVAILABLE:
                 # v_i = v_j + w_j x (c_i - P_j)
                 wx, wy, wz = W[t, j, 0], W[t, j, 1], W[t, j, 2]
                 omega[t, s, 0], omega[t, s, 1], omega[t, s, 2] = wx, wy, wz
-                vel[t, s, 0] = V[t, j, 0] + (wy * dz - wz * dy)
-                vel[t, s, 1] = V[t, j, 1] + (wz * dx - wx * dz)
-                vel[t, s, 2] = V[t, j, 2] + (wx * dy - wy * dx)
+                vel[t, s, 0], vel[t, s, 1], vel[t, s, 2] = point_velocity(V[t, j, 0], V[t, j, 1], V[t, j, 2], wx, wy,
+                                                                          wz, dx, dy, dz)
             _sum_frame(t, masses, M, inertias, rot, pos, vel, omega, com, lin, ang)
 
 

@@ -34,7 +34,7 @@ import numpy as np
 
 from ..core._compiled import AVAILABLE, njit, qangle, qmul, qpow, qrot, slerp4
 
-__all__ = ["AVAILABLE", "slerp_rows_nb", "com_relative_nb", "seam_block_nb", "frame_distance_nb", "slerp_gather_nb",
+__all__ = ["AVAILABLE", "writable", "slerp_rows_nb", "com_relative_nb", "frame_distance_nb", "slerp_gather_nb",
            "landing_search_nb", "landing_seam_nb",
            "turn_roots_nb", "reposition_nb", "warmup"]
 
@@ -144,8 +144,8 @@ def _reposition(rp_seq, i0, al, tw, f0, f1, w_to, div, c0, vel, a_y, rot_out, jo
 def reposition_nb(rp_seq, i0, al, tw, f0, f1, w_to, div, traj, rot_out, com_eval):
     """Compiled root positions of the run-time stage (see ``_reposition``): ``(out (N, 3), finite)``."""
     out = np.empty((i0.shape[0], 3))
-    ok = _reposition(rp_seq, i0, al, tw, int(f0), int(f1), float(w_to), float(div), _writable(traj.c0),
-                     _writable(traj.velocity), float(traj.a_y), rot_out, com_eval._joints64, com_eval._parent_pos,
+    ok = _reposition(rp_seq, i0, al, tw, int(f0), int(f1), float(w_to), float(div), writable(traj.c0),
+                     writable(traj.velocity), float(traj.a_y), rot_out, com_eval._joints64, com_eval._parent_pos,
                      com_eval._u, out)
     return out, bool(ok)
 
@@ -250,7 +250,7 @@ def _turn_roots(rot, extra, axis):
 def landing_seam_nb(rot, a, la, rb, w, qr, br, axis, theta, src, ref) -> bool:
     """In-place landing-seam smoothing of the gathered sequence rotations ``rot`` (see
     :func:`mocomp.flips.multiflip.multiflip`); False (``rot`` untouched) for a degenerate swing arc."""
-    c = _writable
+    c = writable
 
     return bool(_landing_seam(rot, int(a), int(la), int(rb), int(w), c(qr), c(br), c(axis), c(theta),
                               c(src, np.int64), c(ref)))
@@ -258,10 +258,10 @@ def landing_seam_nb(rot, a, la, rb, w, qr, br, axis, theta, src, ref) -> bool:
 
 def turn_roots_nb(rot, extra, axis) -> np.ndarray:
     """In place ``rot[:, 0] = axis_quat(axis, extra) * rot[:, 0]`` (``axis`` normalised here)."""
-    return _turn_roots(rot, _writable(extra), _unit_axis(axis))
+    return _turn_roots(rot, writable(extra), _unit_axis(axis))
 
 
-def _writable(x, dtype=np.float64):
+def writable(x, dtype=np.float64):
     """``x`` itself when it already is a writable C-contiguous ``dtype`` array (the kernels only read
     it), else such a copy: one compiled signature per kernel (no read-only variants)."""
     if isinstance(x, np.ndarray) and x.dtype == dtype and x.flags.c_contiguous and x.flags.writeable:
@@ -388,12 +388,7 @@ def landing_search_nb(rotations: np.ndarray, theta: np.ndarray, m: int, period: 
 def frame_distance_nb(rot1: np.ndarray, rot2: np.ndarray, axis: np.ndarray, weights) -> tuple[np.ndarray, np.ndarray]:
     """Compiled :func:`mocomp.flips.similarity.frame_distance` for ``(N, J, 4)`` frame pairs without the
     velocity term: ``(D (N,), phi (N,))`` (same results to rounding, tested)."""
-    r1 = np.ascontiguousarray(rot1, dtype=np.float64)
-    r2 = np.ascontiguousarray(rot2, dtype=np.float64)
-    if not r1.flags.writeable:
-        r1 = r1.copy()
-    if not r2.flags.writeable:
-        r2 = r2.copy()
+    r1, r2 = writable(rot1), writable(rot2)
     nz = np.flatnonzero(weights.joints).astype(np.int64)
     wj = np.ascontiguousarray(weights.joints[nz], dtype=np.float64)
     a = np.asarray(axis, dtype=np.float64)
@@ -404,22 +399,8 @@ def frame_distance_nb(rot1: np.ndarray, rot2: np.ndarray, axis: np.ndarray, weig
     return D, phi
 
 
-def seam_block_nb(blk, wts, left, off_l, off_r, arc_l, arc_r, theta, axis, ref):
-    """In-place seam smoothing of a block of frames (see :mod:`mocomp.flips.multiflip`)."""
-    def c(x, dtype=np.float64):        # small writable copies: one compiled signature (no read-only variants)
-        return np.array(x, dtype=dtype, copy=True, order="C")
-
-    return _seam_block(blk, c(wts), c(left, np.bool_), c(off_l), c(off_r), c(arc_l), c(arc_r), c(theta), c(axis),
-                       c(ref))
-
-
 def slerp_rows_nb(q0: np.ndarray, q1: np.ndarray, a: np.ndarray, nlerp_below: float = 0.1) -> np.ndarray:
-    q0 = np.ascontiguousarray(q0, dtype=np.float64)
-    q1 = np.ascontiguousarray(q1, dtype=np.float64)
-    if not q0.flags.writeable:
-        q0 = q0.copy()
-    if not q1.flags.writeable:
-        q1 = q1.copy()
+    q0, q1 = writable(q0), writable(q1)
     return _slerp_rows(q0, q1, np.ascontiguousarray(a, dtype=np.float64), math.cos(nlerp_below),
                        np.empty_like(q0))
 
@@ -429,9 +410,7 @@ def slerp_gather_nb(rot: np.ndarray, i0: np.ndarray, a: np.ndarray, nlerp_below:
     """:func:`slerp_rows_nb` of ``rot[i0]`` and ``rot[i0 + 1]`` with weights ``a`` (the retiming
     interpolation), reading the rows in place: ``(out (N, J, 4), ok)``, ``ok`` telling that every
     output is a finite unit quaternion (to rounding: each row is normalised)."""
-    rot = np.ascontiguousarray(rot, dtype=np.float64)
-    if not rot.flags.writeable:
-        rot = rot.copy()
+    rot = writable(rot)
     i0 = np.ascontiguousarray(i0, dtype=np.int64)
     if i0.size and (i0.min() < 0 or i0.max() + 1 >= rot.shape[0]):
         raise IndexError(f"slerp rows {i0.min()}..{i0.max() + 1} outside 0..{rot.shape[0] - 1}")
@@ -441,9 +420,7 @@ def slerp_gather_nb(rot: np.ndarray, i0: np.ndarray, a: np.ndarray, nlerp_below:
 
 
 def com_relative_nb(q: np.ndarray, joints: np.ndarray, parent: np.ndarray, u: np.ndarray) -> np.ndarray:
-    q = np.ascontiguousarray(q, dtype=np.float64)
-    if not q.flags.writeable:
-        q = q.copy()
+    q = writable(q)
     return _com_relative(q, joints, parent, u, np.empty((q.shape[0], 3)))
 
 
@@ -461,8 +438,6 @@ def warmup() -> None:
     slerp_rows_nb(q, q, np.zeros(2))
     slerp_gather_nb(q, np.zeros(1, dtype=np.int64), np.zeros(1))
     com_relative_nb(q, np.arange(2, dtype=np.int64), np.zeros(2, dtype=np.int64), np.zeros((2, 3)))
-    seam_block_nb(q.copy(), np.zeros(2), np.array([True, False]), q[0], q[0], q[0, 0], q[0, 0], np.zeros(2),
-                  np.array([1.0, 0.0, 0.0]), q[0, 0])
     _frame_distance(q, q, np.array([1.0, 0.0, 0.0]), 1.0, np.arange(2, dtype=np.int64), np.ones(2), np.empty(2),
                     np.empty(2))
     landing_seam_nb(q.copy(), 0, 0, 2, 1, q[0], np.array([1.0, 0.0, 0.0]), np.array([1.0, 0.0, 0.0]), np.zeros(2),

@@ -39,7 +39,7 @@ from .retime import EASE_S, RetimePlan, TimeWarp, ease_limits, plan_retime, reso
 from .takeoff import TAKEOFF_CHOICES, smoothed_stance_note
 from .sequence import Sequence, build_sequence
 from ._kernels import AVAILABLE as KERNELS
-from ._kernels import landing_seam_nb, reposition_nb, slerp_gather_nb, turn_roots_nb
+from ._kernels import landing_seam_nb, reposition_nb, slerp_gather_nb, turn_roots_nb, writable
 from .smoothing import (SPEED_BOUNDS, _landing_speed_nb, compose_root, ramp, seam_speed, split_root, warp_time,
                         warped_positions)
 
@@ -523,7 +523,7 @@ def multiflip(prepared: PreparedFlip, flips: int | None = 2, *, k: float | None 
     if fl.size != f1 - f0:                                          # tau is non-decreasing: cannot happen
         raise AssertionError("retimed flight frames are not contiguous")
     if KERNELS:                                                     # the same operations, compiled
-        root_out, finite = reposition_nb(rp_seq, i0, al, _writable(tw, np.float64), f0, f1, W_to, kk * fps, traj,
+        root_out, finite = reposition_nb(rp_seq, i0, al, writable(tw, np.float64), f0, f1, W_to, kk * fps, traj,
                                          rot_out, P.com_eval)
     else:
         r0 = np.take(rp_seq, i0, axis=0)
@@ -721,7 +721,7 @@ def _seam_speeds(P: PreparedFlip, seq: Sequence, rot: np.ndarray, w: int, hi_u: 
             ax_unit, L_ang = _landing_speed_constants(P)
             speed[lo + 1:hi - 1] = _landing_speed_nb(
                 rot, lo, hi, E.parents, E.offsets, E.seg_joint, E.local_coms, E.masses, E.inertias, float(P.fps),
-                _writable(seq.frames, np.int64), _writable(seq.extra, np.float64), ax_unit,
+                writable(seq.frames, np.int64), writable(seq.extra, np.float64), ax_unit,
                 L_ang, int(a), int(w), lev_l, lev_r, mid, *SPEED_BOUNDS)
             return speed
         L_new = P.momentum_evaluator.angular(rot[lo:hi], P.fps)
@@ -734,14 +734,6 @@ def _seam_speeds(P: PreparedFlip, seq: Sequence, rot: np.ndarray, w: int, hi_u: 
             ref *= (np.where(left, mid / lev_l, mid / lev_r) ** ramp(np.abs(idx - a), w))[:, None]
         speed[idx] = seam_speed(L_new, ref)
     return speed
-
-
-def _writable(x: np.ndarray, dtype) -> np.ndarray:
-    """``x`` itself when it is already a writable C-contiguous array of ``dtype`` (what the
-    compiled kernels' one signature takes), else such a copy (``np.array(x, dtype)``)."""
-    if isinstance(x, np.ndarray) and x.dtype == dtype and x.flags.c_contiguous and x.flags.writeable:
-        return x
-    return np.array(x, dtype=dtype)
 
 
 def _landing_speed_constants(P: PreparedFlip) -> tuple[np.ndarray, np.ndarray]:

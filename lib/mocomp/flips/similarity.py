@@ -193,8 +193,8 @@ def frame_distance(rot1: np.ndarray, rot2: np.ndarray, axis: np.ndarray, weights
 def local_angular_velocities(rotations: np.ndarray, fps: float) -> np.ndarray:
     """``(T, J, 3)`` angular velocities (rad/s) of local rotations by central differences.
 
-    For each joint, ``omega(t) = Log(q(t+1) q(t-1)^-1) / (2 dt)`` (core's :func:`~mocomp.core.rotations.quat_log`; one-sided at
-    the ends): expressed in the parent's frame (world frame for the root), which
+    For each joint, ``omega(t) = Log(q(t+1) q(t-1)^-1) / (2 dt)`` (core's
+    :func:`~mocomp.core.rotations.quat_log`; one-sided at the ends): expressed in the parent's frame (world frame for the root), which
     is the frame eq. 5.13's velocity term compares in.
     """
     q = np.asarray(rotations, dtype=float)
