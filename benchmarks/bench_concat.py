@@ -29,6 +29,20 @@ side flip x2 24.8 -> 11.3 ms, spin kick + kick 21.4 -> 11.0, SIE punches 25.5 ->
 with itself gets one eq. 1 track and one plant detection -- synthetic back flip x2 43.3 -> 29.8 ms.
 Where the time goes now (synthetic back flip, two copies): the footplant enforcement ~40 % (its contact
 re-detection and IK), three contact detections, three eq. 1 tracks, the rest a few ms.
+
+Issue 17's later steps (window search, plants held where both motions plant, vertical COM continuity)
+took "feet held" 19.2 -> 26.8 ms. A/B in one process (code before those steps, f7550cd, this version;
+alternated, min of 12, 2026-12-02 18:57 UTC, load 1.6-2.4): same motion 22.9 -> 15.5 ms, two copies
+27.2 -> 17.9 ms, no feet held 8.0 -> 6.7 ms (the code before issue 17's later steps: 10.5 / 13.7 /
+5.9). Same outputs bit for bit except where the second footplant enforcement is no longer tried
+(below): (1) the window search's blend and eq. 9 re-timing are kept and reused for the chosen window
+(was blended twice); (2) eq. 9's re-timing maps both plant labellings at once (was a second re-timing
+for the labels alone); (3) |L| between the main phases on that range only; (4) the plants held only
+where both motions plant (a second enforce_footplants, ~8 ms) are tried only when A's / B's plants
+leave |L| below 30 % of the main level (SFU Wushu kicks 0.96 -> 0.91, cartwheels 1.05 -> 0.86: both
+well above). What the remaining ~4 ms over the code before those steps is: the grounding check
+(the audit's contact detection on the result, ~2.3 ms), the window search's and the plant choice's
+eq. 1 tracks on the range (~1 ms each).
 """
 from __future__ import annotations
 

@@ -402,18 +402,23 @@ def warp_positions(rate: np.ndarray, f0: int, fine: int = 32) -> np.ndarray:
     return f0 + np.interp(np.arange(n + 1), t, x)
 
 
-def _between_low(a, b, yaw, win, T, la, lb, f_T, body, kind, max_scale, t1, t2r, p1, p2) -> float:
+def _between_low(a, b, yaw, win, T, la, lb, f_T, body, kind, max_scale, t1, t2r, p1, p2, cache=None) -> float:
     """The lowest |L| between the main phases' reference frames, as a fraction of their mean level,
-    of eq. 8 over ``win`` then eq. 9 (feet not held): the window search's criterion."""
+    of eq. 8 over ``win`` then eq. 9 (feet not held): the window search's criterion. ``cache``: a
+    dict that keeps, per window, what the concatenation needs of this blend (the transform, eq. 8's
+    and eq. 9's results and both plant labellings), so the chosen window is not blended again."""
     f0, f1 = win
     pivot = reference_points(b[f0 - T], "feet")[0]
     target = reference_points(a[f0], "feet")[0]
-    b2 = GroundTransform(yaw, tuple(pivot.tolist()), tuple((target - pivot).tolist())).apply(b)
-    out = linear_blend(a, b2, f0, f1, T)
-    lab = _blend_labels(la, lb, T, f_T, out.n_frames)
-    added = 0
+    tf = GroundTransform(yaw, tuple(pivot.tolist()), tuple((target - pivot).tolist()))
+    out = linear_blend(a, tf.apply(b), f0, f1, T)
+    labs = (_blend_labels(la, lb, T, f_T, out.n_frames), _blend_labels(la, lb, T, f_T, out.n_frames, win))
+    added, ts = 0, None
     if f1 > f0:
-        out, _, _, added, _, _ = _time_scale(out, lab, f0, f1, body, kind, max_scale, (t1.L[f0], t2r.L[f1 - T]), 0)
+        ts = _time_scale(out, labs, f0, f1, body, kind, max_scale, (t1.L[f0], t2r.L[f1 - T]), 0)
+        out, added = ts[0], ts[3]
+    if cache is not None:
+        cache[win] = (tf, labs, ts)
     s, e = p1.t_m, p2.t_m + T + added
     lo, hi = max(s - _MARGIN, 0), min(e + 1 + _MARGIN, out.n_frames)
     L = momentum_track(out[lo:hi], body, kind=kind).magnitude
@@ -452,8 +457,9 @@ def _time_scale(out: Motion, lab: np.ndarray, f0: int, f1: int, body, kind: str,
     over ``ramp`` input frames before the window and back over ``ramp`` after it (smoothstep in
     the rate, :func:`warp_positions`), so the velocities stay continuous; ``ramp=0`` is the paper's.
 
-    Returns the motion, its plant labels, ``s``, the output frames the re-timing added, the output
-    frames of ``f_i0`` and ``f_if`` and a note."""
+    Returns the motion, its plant labels (``lab`` may be a tuple of label arrays: a tuple of them
+    re-timed), ``s``, the output frames the re-timing added, the output frames of ``f_i0`` and
+    ``f_if`` and a note."""
     from ..ops.easing import ease
 
     lo = max(f0 - _MARGIN, 0)                    # the blended period with a margin for the smoothing
@@ -478,7 +484,9 @@ def _time_scale(out: Motion, lab: np.ndarray, f0: int, f1: int, body, kind: str,
     res = out.replace(root_positions=np.concatenate([out.root_positions[:a], win.root_positions,
                                                      out.root_positions[b + 1:]]),
                       rotations=np.concatenate([out.rotations[:a], win.rotations, out.rotations[b + 1:]]))
-    lab2 = np.concatenate([lab[:a], lab[np.rint(x).astype(int)], lab[b + 1:]])
+    xi = np.rint(x).astype(int)
+    lab2 = tuple(np.concatenate([la_[:a], la_[xi], la_[b + 1:]]) for la_ in (lab if isinstance(lab, tuple) else (lab,)))
+    lab2 = lab2 if isinstance(lab, tuple) else lab2[0]
     u0 = a + int(np.searchsorted(x, f0 - 1e-9))
     u1 = a + int(np.searchsorted(x, f1 + 1e-9, side="right")) - 1
     return res, lab2, s, (len(x) - 1) - (b - a), (u0, u1), note
@@ -634,9 +642,12 @@ def _concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bo
         blend's edges: SIE punch 0.16, SFU Wushu kicks 0.27 of the main level). ``False``: the minimum.
     plant_both: in the blended period a foot is held only where it is planted in both A and B
         (:func:`_blend_labels`; ``False``: A's plants before ``f_T``, B's after, as before). ``None``
-        (default): under the forward rule both are held and the one keeping the lowest |L| between the
-        main phases higher is kept (noted; SIE punch 0.30 -> 0.57 of the main level; on the DeepMimic
-        punch the other way round, 0.44 vs 0.76); under the reverse rule A's / B's (on the Bandai
+        (default): under the forward rule, when A's / B's plants leave the lowest |L| between the main
+        phases below :data:`KEEP_FRACTION` of the main level, both are held and the one keeping it
+        higher is kept (noted; SIE punch 0.30 -> 0.57 of the main level; on the DeepMimic punch the
+        other way round, 0.44 vs 0.76); tried on every forward pair before, it raised pairs already
+        above the fraction (SFU Wushu kicks 0.91 -> 0.96, cartwheels 0.86 -> 1.05) for a second
+        footplant enforcement, +10 ms per concatenation; under the reverse rule A's / B's (on the Bandai
         one-two punch both-only gave 0.18 vs 0.52: a foot let go for a 3-frame window at 30 fps is
         pulled back to its plant).
     ground: with ``plant``, the body lifted out of the floor where the result reaches more than
@@ -784,6 +795,7 @@ def _concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bo
     d = ((t1.L[f] - t2r.L[f - T]) ** 2).sum(1)
     f0, f1 = _trace_window(d, lo, hi, f_T, thr)
     n_min = max(MIN_WINDOW, int(round(MIN_WINDOW_SECONDS * a.fps)))
+    blends = {}                        # the window search's blends, per window (reused for the chosen one)
     if f1 - f0 + 1 < n_min:
         # a shorter blend is close to a cut: widen it inside the periods, then inside both motions
         def widened(n):
@@ -799,14 +811,15 @@ def _concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bo
             # before the feet are held) keeps the lowest |L| between the main phases highest; only when the
             # minimum window falls below KEEP_FRACTION (else the paper's window, widened to the minimum)
             cand = {}
-            first = _between_low(a, b, yaw, (h0, h1), T, la, lb, f_T, body_a, kind, max_scale, t1, t2r, p1, p2)
+            first = _between_low(a, b, yaw, (h0, h1), T, la, lb, f_T, body_a, kind, max_scale, t1, t2r, p1, p2,
+                                 blends)
             for k in (WINDOW_SEARCH if first < KEEP_FRACTION else WINDOW_SEARCH[:1]):
                 (c0, c1), w = widened(max(n_min, int(round(k * n_min))))
                 if w == (h0, h1):
                     cand[w] = (first, (g0, g1))
                 elif w not in cand:
-                    cand[w] = (_between_low(a, b, yaw, w, T, la, lb, f_T, body_a, kind, max_scale, t1, t2r, p1, p2),
-                               (c0, c1))
+                    cand[w] = (_between_low(a, b, yaw, w, T, la, lb, f_T, body_a, kind, max_scale, t1, t2r, p1, p2,
+                                            blends), (c0, c1))
             best_w = max(cand, key=lambda w: (round(cand[w][0], 6), -(w[1] - w[0])))
             if best_w != (h0, h1):
                 msg = (f"; the forward rule's window length chosen by the lowest |L| between the main phases (eq. 8 + "
@@ -816,25 +829,34 @@ def _concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bo
         notes.append(f"blend window {f0}-{f1} ({f1 - f0 + 1} frame(s) within the threshold) widened to {h0}-{h1}"
                      + ("" if (h0, h1) == (g0, g1) else " (beyond the blendable periods)") + msg)
         f0, f1 = h0, h1
-    # translation: the feet centres coincide at f_i0
-    pivot = reference_points(b[f0 - T], "feet")[0]
-    target = reference_points(a[f0], "feet")[0]
-    tf = GroundTransform(yaw, tuple(pivot.tolist()), tuple((target - pivot).tolist()))
-    b2 = tf.apply(b)
-    out = linear_blend(a, b2, f0, f1, T, blend_ease)
     auto_both = plant_both is None and choice.rule == "forward" and plant
-    lab = _blend_labels(la, lb, T, f_T, out.n_frames, (f0, f1) if plant_both else None)
-    lab_both = _blend_labels(la, lb, T, f_T, out.n_frames, (f0, f1)) if auto_both else None
     scale, added, out_win = 1.0, 0, (f0, f1)
-    if time_scale and f1 > f0:
-        ramp = max(1, int(round(RAMP_SECONDS * a.fps))) if ramp_frames is None else int(ramp_frames)
-        out0 = out
-        out, lab, scale, added, out_win, note = _time_scale(out, lab, f0, f1, body_a, kind, max_scale,
-                                                            (t1.L[f0], t2r.L[f1 - T]), ramp)
-        if lab_both is not None:
-            lab_both = _time_scale(out0, lab_both, f0, f1, body_a, kind, max_scale, (t1.L[f0], t2r.L[f1 - T]), ramp)[1]
+    ramp = max(1, int(round(RAMP_SECONDS * a.fps))) if ramp_frames is None else int(ramp_frames)
+    hit = blends.get((f0, f1)) if (blend_ease == "linear" and ramp == 0 and time_scale and f1 > f0) else None
+    if hit is not None:
+        # the window search blended and re-timed this very window (eq. 8, eq. 9 with the paper's step)
+        tf, (lab_ab, lab_w), ts = hit
+        out, (lab_ab, lab_w), scale, added, out_win, note = ts
+        lab = lab_w if plant_both else lab_ab
+        lab_both = lab_w if auto_both else None
         if note:
             notes.append(note)
+    else:
+        # translation: the feet centres coincide at f_i0
+        pivot = reference_points(b[f0 - T], "feet")[0]
+        target = reference_points(a[f0], "feet")[0]
+        tf = GroundTransform(yaw, tuple(pivot.tolist()), tuple((target - pivot).tolist()))
+        b2 = tf.apply(b)
+        out = linear_blend(a, b2, f0, f1, T, blend_ease)
+        lab = _blend_labels(la, lb, T, f_T, out.n_frames, (f0, f1) if plant_both else None)
+        lab_both = _blend_labels(la, lb, T, f_T, out.n_frames, (f0, f1)) if auto_both else None
+        if time_scale and f1 > f0:
+            labs = (lab,) if lab_both is None else (lab, lab_both)
+            out, labs, scale, added, out_win, note = _time_scale(out, labs, f0, f1, body_a, kind, max_scale,
+                                                                 (t1.L[f0], t2r.L[f1 - T]), ramp)
+            lab, lab_both = labs[0], (labs[1] if lab_both is not None else None)
+            if note:
+                notes.append(note)
     steps = (0.0, 0.0)
     if com_smooth:
         sup = tuple(bool(lab[max(u - 2, 0):u + 3].any(axis=1).all()) for u in out_win)
@@ -844,22 +866,31 @@ def _concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bo
         held, fp = _hold_feet(out, lab, notes)
         if lab_both is not None and (lab_both != lab).any():
             # forward rule: the feet held as A's / B's plants, or in the blended period only where planted
-            # in both; the one keeping |L| between the main phases higher is kept (noted)
-            # (unless that adds a COM velocity jump at the window, the audit's measure, beyond JUMP_SLACK)
-            held2, fp2 = _hold_feet(out, lab_both, [])
+            # in both; the latter is tried only when the former leaves |L| between the main phases below
+            # KEEP_FRACTION (as the window search), and kept when it keeps |L| higher (noted), unless that
+            # adds a COM velocity jump at the window, the audit's measure, beyond JUMP_SLACK
             s0, s1 = p1.t_m, p2.t_m + T + added
-            lows = [float(momentum_track(m, body_a, kind=kind).magnitude[s0:s1 + 1].min()) / L_ref
-                    for m in (held, held2)]
-            jumps = [_window_com_jump(m, body_a, out_win) for m in (held, held2)]
-            if lows[1] > lows[0] and jumps[1] <= jumps[0] + JUMP_SLACK:
-                notes.append(f"feet held in the blended period only where planted in both A and B: lowest |L| "
-                             f"between the main phases {lows[0]:.2f} -> {lows[1]:.2f} of the main level (COM "
-                             f"velocity jump at the window {jumps[0]:.2f} -> {jumps[1]:.2f} m/s)")
-                held, fp, lab = held2, fp2, lab_both
-            elif lows[1] > lows[0]:
-                notes.append(f"feet held as A's / B's plants: holding them only where planted in both would raise "
-                             f"the lowest |L| between the main phases {lows[0]:.2f} -> {lows[1]:.2f} of the main "
-                             f"level but the COM velocity jump at the window {jumps[0]:.2f} -> {jumps[1]:.2f} m/s")
+            c0, c1 = max(s0 - _MARGIN, 0), min(s1 + 1 + _MARGIN, out.n_frames)      # the range with a margin
+
+            def low_of(m):
+                return float(momentum_track(m[c0:c1], body_a, kind=kind).magnitude[s0 - c0:s1 + 1 - c0].min()) / L_ref
+
+            low0 = low_of(held)
+            if low0 < KEEP_FRACTION:
+                held2, fp2 = _hold_feet(out, lab_both, [])
+                lows = [low0, low_of(held2)]
+                if lows[1] > lows[0]:
+                    jumps = [_window_com_jump(m, body_a, out_win) for m in (held, held2)]
+                    if jumps[1] <= jumps[0] + JUMP_SLACK:
+                        notes.append(f"feet held in the blended period only where planted in both A and B: lowest |L| "
+                                     f"between the main phases {lows[0]:.2f} -> {lows[1]:.2f} of the main level (COM "
+                                     f"velocity jump at the window {jumps[0]:.2f} -> {jumps[1]:.2f} m/s)")
+                        held, fp, lab = held2, fp2, lab_both
+                    else:
+                        notes.append(f"feet held as A's / B's plants: holding them only where planted in both would "
+                                     f"raise the lowest |L| between the main phases {lows[0]:.2f} -> {lows[1]:.2f} of the "
+                                     f"main level but the COM velocity jump at the window {jumps[0]:.2f} -> "
+                                     f"{jumps[1]:.2f} m/s")
         out, ground_info = _hold_grounded(out, lab, held, fp, notes) if ground else (held, None)
     return ConcatResult(out, (p1, p2), choice, yaw, value, facing, facing_at, float(max_facing), (case, pa, pb), pnotes, tab, T, f_T, (f0, f1),
                         thr, max_F, min_T, tf, (t1, t2r), scale, out_win[1] - out_win[0] + 1, fp, time.perf_counter() - t0, tuple(notes),

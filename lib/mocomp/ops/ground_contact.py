@@ -53,7 +53,10 @@ def floor_depth(motion: Motion, floor_y: float | None = None, contacts=None) -> 
     from ..audit.contacts import floor_level, lowest_points, phases_of
     from ..dynamics.contacts import detect_contacts
 
-    c = detect_contacts(motion) if contacts is None else contacts
+    from .plants import effectors_of
+
+    # the detector's default effectors (the audit's), their body-segment mapping cached per skeleton
+    c = detect_contacts(motion, effectors=effectors_of(motion.skeleton)) if contacts is None else contacts
     low, _, _ = lowest_points(motion)
     fy, _ = floor_level(low, c, phases_of(c, motion.n_frames), floor_y)
     return FloorDepth(float(fy), np.maximum(0.0, fy - low), low, c)
