@@ -136,18 +136,18 @@ def default_effectors(skeleton) -> dict[str, tuple[int, np.ndarray]]:
     e.g. ``LeftToeBase``), so that it stays on the floor while the heel rises; a
     hand end rides on the hand's carrier joint.
     """
-    from ..body.mapping import resolve_landmark, resolve_mapping
+    from ..body.mapping import resolve_mapping
 
     rm = resolve_mapping(skeleton)
     rest = skeleton.rest_positions()
-    lm = rm.convention.landmarks
     parents = skeleton.parents
     out = {}
-    for kind, seg_kind, landmark in (("foot", "foot", "AJC"), ("toe", "foot", "TTIP"), ("hand", "hand", "MET3")):
+    # the mapping has resolved them already: the foot segment runs AJC -> TTIP, the hand WJC -> MET3
+    for kind, seg_kind, ends in (("foot", "foot", rm.proximal), ("toe", "foot", rm.distal), ("hand", "hand", rm.distal)):
         for side in ("l", "r"):
             k = rm.segments.index(f"{seg_kind}_{side}")
             j = int(rm.carriers[k])
-            p = resolve_landmark(skeleton, lm[f"{landmark}_{side}"], lm, rest)
+            p = ends[k]
             if kind == "toe":
                 # j and its descendants (parents precede children: one pass over the parent array)
                 below = np.zeros(len(parents), dtype=bool)

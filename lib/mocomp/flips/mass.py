@@ -291,12 +291,8 @@ def flight_turns(motion, flights) -> np.ndarray:
     from ..core.rotations import quat_angle, quat_inverse, quat_multiply
 
     q = np.asarray(motion.rotations[:, 0])
-    out = []
-    for a, b in flights:
-        qq = q[int(a):int(b)]
-        ang = quat_angle(quat_multiply(qq[1:], quat_inverse(qq[:-1]))) if qq.shape[0] > 1 else np.zeros(0)
-        out.append(float(np.sum(ang)) / (2 * np.pi))
-    return np.asarray(out)
+    step = quat_angle(quat_multiply(q[1:], quat_inverse(q[:-1])))       # frame f -> f + 1, whole clip at once
+    return np.asarray([float(np.sum(step[int(a):max(int(b) - 1, int(a))])) / (2 * np.pi) for a, b in flights])
 
 
 def _rates(values) -> str:

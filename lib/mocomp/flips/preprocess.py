@@ -26,7 +26,7 @@ from .mass import FlightFit, MassEstimate, diagnose_gravity, estimate_masses, fi
 from .phases import FlightDetection, default_prior, detect_flights
 from .reposition import ComEvaluator
 from .similarity import SimilarityWeights, local_angular_velocities, similarity_weights
-from .smoothing import AngularMomentumEvaluator, loop_seams, root_reference, split_root
+from .smoothing import AngularMomentumEvaluator, loop_seams, split_root_about
 
 __all__ = ["PreparedFlip", "prepare", "prepare_cached", "clip_prior", "spline_resample", "flight_L_stats",
            "clip_timing"]
@@ -295,18 +295,19 @@ class PreparedFlip:
 
 
 def clip_timing(body: BodyModel, motion: Motion, flights, flight: tuple[int, int] | None = None,
-                min_frames: int = 6):
+                min_frames: int = 6, com_eval: ComEvaluator | None = None):
     """:func:`~mocomp.flips.mass.diagnose_timing` over every flight of a clip (``flights``, plus
     ``flight`` if it is not among them; flights under ``min_frames`` frames are skipped), the
-    COM computed with ``body``: one flip gives a wide interval, several flights of the clip
-    (hops before and after) narrow it."""
+    COM computed with ``body`` (by ``com_eval``, its :class:`~mocomp.flips.reposition.ComEvaluator`,
+    when the caller has one): one flip gives a wide interval, several flights of the clip (hops
+    before and after) narrow it."""
     from .mass import diagnose_timing, flight_turns
 
     fls = [(int(a), int(b)) for a, b in flights]
     if flight is not None and tuple(flight) not in fls:
         fls.append((int(flight[0]), int(flight[1])))
     fls = [f for f in fls if f[1] - f[0] >= min_frames] or fls
-    com = ComEvaluator(body)(motion.root_positions, motion.rotations)
+    com = (ComEvaluator(body) if com_eval is None else com_eval)(motion.root_positions, motion.rotations)
     fls = [f for f in sorted(fls) if f[1] - f[0] >= 4]
     fits = [fit_ballistic(com[a:b], motion.fps, a) for a, b in fls]
     return diagnose_timing(fits, motion.fps, motion.skeleton.height(), turns=flight_turns(motion, fls))
@@ -409,7 +410,8 @@ def prepare(source, *, body: BodyModel | None = None, total_mass: float = 70.0, 
             from ..dynamics import center_of_mass
 
             fit = fit_ballistic(center_of_mass(prior, motion)[fl[0]:fl[1]], motion.fps, fl[0])
-        timing = clip_timing(est, motion, det.intervals, fl)
+        com_eval = ComEvaluator(est)          # the fast exact COM of the body used, kept for the run time
+        timing = clip_timing(est, motion, det.intervals, fl, com_eval=com_eval)
         timings["mass"] = time.perf_counter() - t
         if attempt == 0 and fix_timing and timing.suggested is not None:
             notes.append(f"frame rate relabelled {motion.fps:g} -> {timing.suggested:g} Hz: {timing.text}")
@@ -435,10 +437,7 @@ def prepare(source, *, body: BodyModel | None = None, total_mass: float = 70.0, 
     timings["momentum"] = time.perf_counter() - t
     t = time.perf_counter()
     rot = make_continuous(np.asarray(motion.rotations), axis=0)
-    _, b_all = split_root(rot[:, 0], axis, unwrap=False)
-    b_mean = b_all[s:e].mean(axis=0)
-    root_ref = root_reference(b_mean, axis)
-    theta, bdir = split_root(rot[:, 0], axis, ref=root_ref)
+    theta, bdir, root_ref = split_root_about(rot[:, 0], axis, slice(s, e))
     weights = similarity_weights(motion.skeleton, weight_overrides, velocity_weight=velocity_weight)
     omegas = local_angular_velocities(rot, motion.fps) if velocity_weight > 0 else None
     loop = find_self_loop(rot, theta, fl, axis, weights, omegas, **(loop_options or {}))
@@ -446,7 +445,6 @@ def prepare(source, *, body: BodyModel | None = None, total_mass: float = 70.0, 
         notes.append(loop.note)
     timings["loop_search"] = time.perf_counter() - t
     t = time.perf_counter()
-    com_eval = ComEvaluator(est)
     from ._kernels import warmup
 
     warmup()                              # compiled run-time kernels loaded now, not on the first run

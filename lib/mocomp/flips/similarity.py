@@ -173,12 +173,14 @@ def frame_distance(rot1: np.ndarray, rot2: np.ndarray, axis: np.ndarray, weights
     if phi is None:
         phi = alignment_angle(rot1[..., 0, :], rot2[..., 0, :], axis)
     q_phi = axis_quat(axis, phi)
-    aligned = quat_multiply(q_phi, rot1[..., 0, :])
-    d_root = quat_angle(quat_multiply(rot2[..., 0, :], quat_inverse(aligned)))
     w = weights.joints
     nz = np.flatnonzero(w)
-    d_joint = quat_angle(quat_multiply(rot2[..., nz, :], quat_inverse(rot1[..., nz, :])))
-    D = weights.root * d_root + d_joint @ w[nz]
+    # the aligned root and the weighted joints side by side: one relative rotation, one angle each
+    idx = np.r_[0, nz]
+    one = rot1[..., idx, :]
+    one[..., 0, :] = quat_multiply(q_phi, one[..., 0, :])
+    d = quat_angle(quat_multiply(rot2[..., idx, :], quat_inverse(one)))
+    D = weights.root * d[..., 0] + d[..., 1:] @ w[nz]
     if weights.velocity_weight > 0:
         if omega1 is None or omega2 is None:
             raise ValueError("velocity_weight > 0 needs the angular velocities omega1 and omega2")

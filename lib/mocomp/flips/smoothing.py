@@ -80,7 +80,7 @@ from ..body.model import BodyModel
 from ..core._compiled import centroid, fk_pose, njit, qdelta, qrot, spin
 from ..core.rotations import axis_quat, quat_apply, quat_inverse, quat_multiply, shortest_arc, slerp, twist_angle
 
-__all__ = ["root_reference", "split_root", "compose_root", "shortest_arc", "ramp", "SeamSide", "seam_corrections",
+__all__ = ["root_reference", "split_root", "split_root_about", "compose_root", "shortest_arc", "ramp", "SeamSide", "seam_corrections",
            "apply_rotation_offsets", "apply_direction_offsets", "loop_seams",
            "AngularMomentumEvaluator", "seam_speed", "reference_levels", "warp_time", "warped_positions",
            "SPEED_BOUNDS"]
@@ -117,6 +117,22 @@ def split_root(q: np.ndarray, axis: np.ndarray, ref: np.ndarray | None = None,
         theta = np.unwrap(theta, period=2 * np.pi)
     b = quat_apply(quat_inverse(q), a)
     return theta, b
+
+
+def split_root_about(q: np.ndarray, axis: np.ndarray, frames: slice) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`split_root` of root orientations ``q (T, 4)`` about the unit ``axis`` relative to the
+    reference that conditions it for ``frames`` (typically the flight): ``(theta (T,), b (T, 3), ref (4,))``
+    with ``ref = root_reference(mean of b over frames, axis)`` and ``theta`` unwrapped (``b`` does not
+    depend on the reference, so it is computed once)."""
+    q = np.asarray(q, dtype=float)
+    a = np.asarray(axis, dtype=float)
+    a = a / np.linalg.norm(a)
+    b = quat_apply(quat_inverse(q), a)
+    ref = root_reference(b[frames].mean(axis=0), axis)
+    theta = twist_angle(quat_multiply(q, quat_inverse(ref)), a)
+    if theta.size > 1:
+        theta = np.unwrap(theta, period=2 * np.pi)
+    return theta, b, ref
 
 
 def compose_root(theta: np.ndarray, b: np.ndarray, axis: np.ndarray, ref: np.ndarray | None = None) -> np.ndarray:
@@ -170,16 +186,15 @@ def seam_corrections(left_ref: np.ndarray, right_ref: np.ndarray, b_left: np.nda
     (frames ``a + 1 .. a + 1 + window``); weights are 0 beyond the ramp.
     """
     mid = slerp(left_ref, right_ref, np.full(left_ref.shape[:-1], 0.5))
-    off_l = quat_multiply(quat_inverse(left_ref), mid)
-    off_r = quat_multiply(quat_inverse(right_ref), mid)
+    off_l, off_r = quat_multiply(quat_inverse(np.stack([left_ref, right_ref])), mid)     # both sides at once
     bl = b_left / np.linalg.norm(b_left)
     br = b_right / np.linalg.norm(b_right)
     bm = bl + br
     bm = bm / np.linalg.norm(bm) if np.linalg.norm(bm) > 1e-9 else bl
+    arc_l, arc_r = shortest_arc(np.stack([bl, br]), bm)
     left_d = np.arange(window, -1, -1) + (0 if pair_at_left else 1)   # frames a-w .. a
     right_d = np.arange(0, window + 1) + (1 if pair_at_left else 0)   # frames a+1 .. a+1+w
-    return (SeamSide(ramp(left_d, window), off_l, shortest_arc(bl, bm)),
-            SeamSide(ramp(right_d, window), off_r, shortest_arc(br, bm)))
+    return SeamSide(ramp(left_d, window), off_l, arc_l), SeamSide(ramp(right_d, window), off_r, arc_r)
 
 
 def _fraction(q: np.ndarray, w: np.ndarray) -> np.ndarray:
