@@ -138,3 +138,25 @@ def test_touchup_all_compiled_equals_all_numpy(monkeypatch):
             assert abs(h["mean_outside_m"] - r["mean_outside_m"]) < 1e-9, (name, h["step"], h["iteration"])
             assert h["frames_outside"] == r["frames_outside"]
         assert fast.clamped == ref.clamped and fast.capped == ref.capped and fast.lifted == ref.lifted
+
+
+@pytest.mark.parametrize("case", range(4))
+def test_compiled_plan_targets_equal_numpy(case, monkeypatch):
+    """:meth:`FootplantPlan.targets` compiled (mocomp.ops._footplant_kernel.plan_targets) against its numpy
+    steps on foot points moved by 1 cm noise (the resting-level medians, the toe runs shifted with their
+    heels, the toe tips set from the ankle points, the pitch bound and its fade all run on real clips)."""
+    cases = _cases()
+    if case >= len(cases):
+        pytest.skip("needs MOCOMP_DATA_DIR")
+    name, m, plants = cases[case]
+    plan = footplant_plan(foot_plants(m) if plants is None else plants, default_blend_frames(m.fps))
+    P, G = m.fk()
+    pts = fp.foot_points(P, G, plan.plants) + np.random.default_rng(case).normal(scale=0.01, size=(m.n_frames, 4, 3))
+    monkeypatch.setattr(dm, "USE_COMPILED", True)
+    a = plan.targets(pts)
+    monkeypatch.setattr(dm, "USE_COMPILED", False)
+    b = plan.targets(pts)
+    assert np.array_equal(np.isnan(a), np.isnan(b)) and np.isfinite(b).sum() > 100
+    assert np.nanmax(np.abs(a - b)) < 1e-12, name
+    # the targets are not the points themselves: the plan held something
+    assert np.nanmax(np.abs(b - pts)) > 1e-3

@@ -23,7 +23,7 @@ import numpy as np
 from ..core._compiled import njit, qexp, qlog, qmul, qrot
 from ._kernels import _arc, _two_bone_ik_rows
 
-__all__ = ["EASE_CODES", "hinges_and_clocks", "solve_legs", "foot_points_rows"]
+__all__ = ["EASE_CODES", "hinges_and_clocks", "solve_legs", "foot_points_rows", "plan_targets"]
 
 #: :func:`mocomp.ops.easing.ease` kinds by the code the kernel takes
 EASE_CODES = {"linear": 0, "smoothstep": 1, "smootherstep": 2, "cosine": 3}
@@ -421,3 +421,184 @@ def solve_legs(P, G, rot, pts, targets, labels, chains, parents, hinges, clocks,
                 np.asarray(one_leg, dtype=np.bool_), sw_mask, has_sw, sw_w, int(width), int(kind), float(tol),
                 float(margin), float(soft_reach), float(prior), delta, rv, miss, lift, solve)
     return delta, rv, miss, lift, solve
+
+
+# ------------------------------------------------------------------ the plan's targets (FootplantPlan.targets)
+@njit
+def _plan_targets(pts, levels, pt_rows, pt_off, run_first, run_cnt, run_off, run_group, run_level, pt_rest, n_groups,
+                  toe_k, toe_arr, toe_off, toe_nsh, gap, cons_k, cons_run, cons_sel, cons_rid, cons_off, cons_nr,
+                  pitch_k, pitch_both, pitch_sel, pitch_off, pitch_fsel, pitch_near, pitch_w, pitch_woff, pitch_has_fade,
+                  slack, out):
+    """:meth:`mocomp.ops.footplant.FootplantPlan.targets` for ``height="level"`` with
+    :data:`~mocomp.ops.footplant.PITCH_TO_ZERO` (its numpy steps in order, on the plan's runs flattened
+    into arrays by :meth:`~mocomp.ops.footplant.FootplantPlan.targets_inputs`): ``out (T, 4, 3)`` filled
+    (NaN where not planted)."""
+    T = pts.shape[0]
+    for t in range(T):
+        for k in range(4):
+            for c in range(3):
+                out[t, k, c] = np.nan
+    # plant_targets: per run the mean position, the height put on the run's resting level
+    n_runs = run_first.shape[0]
+    low = np.empty(n_runs)
+    lv = np.empty(n_runs)
+    for k in range(4):
+        for r in range(run_off[k], run_off[k + 1]):
+            a = run_first[r]
+            n = run_cnt[r]
+            sx = 0.0
+            sy = 0.0
+            sz = 0.0
+            lo = np.inf
+            for i in range(a, a + n):
+                t = pt_rows[i]
+                sx += pts[t, k, 0]
+                sy += pts[t, k, 1]
+                sz += pts[t, k, 2]
+                lo = min(lo, pts[t, k, 1])
+            low[r] = lo
+            lv[r] = run_level[r]
+            for i in range(a, a + n):
+                t = pt_rows[i]
+                out[t, k, 0] = sx / n
+                out[t, k, 1] = sy / n
+                out[t, k, 2] = sz / n
+    for g in range(n_groups):                    # runs on one support level share the median of their lows
+        cnt = 0
+        for r in range(n_runs):
+            if run_group[r] == g:
+                cnt += 1
+        vals = np.empty(cnt)
+        cnt = 0
+        for r in range(n_runs):
+            if run_group[r] == g:
+                vals[cnt] = low[r]
+                cnt += 1
+        s = np.sort(vals)
+        med = s[cnt // 2] if cnt % 2 else (s[cnt // 2 - 1] + s[cnt // 2]) / 2.0
+        for r in range(n_runs):
+            if run_group[r] == g:
+                lv[r] = med
+    for k in range(4):
+        for r in range(run_off[k], run_off[k + 1]):
+            a = run_first[r]
+            for i in range(a, a + run_cnt[r]):
+                t = pt_rows[i]
+                base = lv[r] if pt_rest[k] else levels[t, k]
+                out[t, k, 1] = pts[t, k, 1] - low[r] + base
+    # _toes_with_their_heels: a toe run shifted with its heel's run where the two shifts differ
+    for e in range(toe_k.shape[0]):
+        ka, kt = toe_k[e, 0], toe_k[e, 1]
+        o = toe_off[e]
+        n_tr = toe_off[e + 1, 0] - o[0]
+        n_st = toe_off[e + 1, 2] - o[2]
+        shift = np.full(toe_nsh[e], np.nan)
+        for i in range(n_tr):
+            src = toe_arr[1, o[0] + i]
+            shift[toe_arr[0, o[0] + i]] = out[src, ka, 1] - pts[src, ka, 1]
+        for b in range(n_st):
+            s0 = toe_arr[4, o[2] + b]                  # block start in the toe frames, its length
+            ln = toe_arr[5, o[2] + b]
+            t0 = toe_arr[3, o[1] + s0]
+            own = out[t0, kt, 1] - pts[t0, kt, 1]
+            for i in range(s0, s0 + ln):
+                t = toe_arr[3, o[1] + i]
+                s_t = shift[toe_arr[2, o[1] + i]]
+                if np.isfinite(s_t) and abs(own - s_t) > gap:
+                    out[t, kt, 1] = pts[t, kt, 1] + s_t
+    # consistent_toe_targets: the toe tip's horizontal target from the ankle point's along the mean foot direction
+    for e in range(cons_k.shape[0]):
+        ka, kt = cons_k[e, 0], cons_k[e, 1]
+        nr = cons_nr[e]
+        Ls = np.zeros(nr)
+        ux = np.zeros(nr)
+        uz = np.zeros(nr)
+        cnt = np.zeros(nr, np.int64)
+        first = np.zeros(nr, np.int64)
+        seen = np.zeros(nr, np.bool_)
+        for i in range(cons_off[e, 0], cons_off[e + 1, 0]):
+            t = cons_sel[i]
+            r = cons_rid[i]
+            dx = pts[t, kt, 0] - pts[t, ka, 0]
+            dz = pts[t, kt, 2] - pts[t, ka, 2]
+            Ls[r] += math.sqrt(dx * dx + dz * dz)
+            ux[r] += dx
+            uz[r] += dz
+            cnt[r] += 1
+            if not seen[r]:
+                seen[r] = True
+                first[r] = t
+        ok = np.zeros(nr, np.bool_)
+        nn = np.zeros(nr)
+        for r in range(nr):
+            if cnt[r] > 0:
+                Ls[r] /= cnt[r]
+                ux[r] /= cnt[r]
+                uz[r] /= cnt[r]
+            nn[r] = math.sqrt(ux[r] * ux[r] + uz[r] * uz[r])
+            ok[r] = cnt[r] > 0 and nn[r] >= 1e-9 and r > 0
+        ax = np.empty(nr)
+        az = np.empty(nr)
+        for r in range(nr):
+            if ok[r]:
+                ax[r] = out[first[r], ka, 0]
+                az[r] = out[first[r], ka, 2]
+        for t in range(T):
+            r = cons_run[cons_off[e, 1] + t]
+            if ok[r]:
+                scale = Ls[r] / nn[r]
+                out[t, kt, 0] = ax[r] + scale * ux[r]
+                out[t, kt, 2] = az[r] + scale * uz[r]
+    # bounded_foot_pitch: the foot's horizontal misfit kept within the slack, the rest made heel height
+    y0 = np.empty(T)
+    for e in range(pitch_k.shape[0]):
+        ka, kt = pitch_k[e, 0], pitch_k[e, 1]
+        a, b = pitch_off[e], pitch_off[e + 1]
+        n = b - a
+        res = np.empty(n)
+        L3 = np.empty(n)
+        h_t = np.empty(n)
+        dyv = np.empty(n)
+        for i in range(n):
+            t = pitch_sel[a + i]
+            L3[i] = math.sqrt((pts[t, kt, 0] - pts[t, ka, 0]) ** 2 + (pts[t, kt, 1] - pts[t, ka, 1]) ** 2
+                              + (pts[t, kt, 2] - pts[t, ka, 2]) ** 2)
+            dyv[i] = out[t, ka, 1] - out[t, kt, 1]
+            h_t[i] = math.sqrt((out[t, kt, 0] - out[t, ka, 0]) ** 2 + (out[t, kt, 2] - out[t, ka, 2]) ** 2)
+            res[i] = h_t[i] - math.sqrt(max(L3[i] * L3[i] - dyv[i] * dyv[i], 0.0))
+        for t in range(T):
+            y0[t] = out[t, ka, 1]
+        changed = False
+        for i in range(n):
+            rc = min(max(res[i], -slack), slack)          # PITCH_TO_ZERO: within the slack of zero
+            if rc == res[i]:
+                continue
+            changed = True
+            t = pitch_sel[a + i]
+            h_new = min(max(h_t[i] - rc, 0.0), L3[i])
+            sg = 1.0 if dyv[i] > 0 else (-1.0 if dyv[i] < 0 else 0.0)
+            out[t, ka, 1] = out[t, kt, 1] + sg * math.sqrt(max(L3[i] * L3[i] - h_new * h_new, 0.0))
+        if not changed or not pitch_has_fade[e]:
+            continue
+        anych = False
+        for t in range(T):
+            if pitch_both[e, t] and out[t, ka, 1] - y0[t] != 0.0:
+                anych = True
+        if not anych:
+            continue
+        for i in range(pitch_woff[e, 0], pitch_woff[e + 1, 0]):
+            t = pitch_fsel[i]
+            nr_ = pitch_near[i]
+            ch = out[nr_, ka, 1] - y0[nr_] if pitch_both[e, nr_] else 0.0
+            out[t, ka, 1] = y0[t] + pitch_w[i] * ch
+
+
+def plan_targets(pts, levels, k):
+    """Run :func:`_plan_targets` with the plan's arrays ``k`` (:meth:`FootplantPlan.targets_inputs`)."""
+    out = np.empty(pts.shape)
+    _plan_targets(pts, levels, k["pt_rows"], k["pt_off"], k["run_first"], k["run_cnt"], k["run_off"], k["run_group"],
+                  k["run_level"], k["pt_rest"], k["n_groups"], k["toe_k"], k["toe_arr"], k["toe_off"], k["toe_nsh"],
+                  k["gap"], k["cons_k"], k["cons_run"], k["cons_sel"], k["cons_rid"], k["cons_off"], k["cons_nr"],
+                  k["pitch_k"], k["pitch_both"], k["pitch_sel"], k["pitch_off"], k["pitch_fsel"], k["pitch_near"],
+                  k["pitch_w"], k["pitch_woff"], k["pitch_has_fade"], k["slack"], out)
+    return out

@@ -1059,13 +1059,99 @@ class FootplantPlan:
         self._kernel = k
         return k
 
+    def targets_inputs(self) -> dict:
+        """The plan's runs as flat arrays for the compiled :meth:`targets`
+        (:func:`mocomp.ops._footplant_kernel.plan_targets`; made on first use)."""
+        k = getattr(self, "_targets_k", None)
+        if k is not None:
+            return k
+        T = self.plants.n_frames
+        rows, pt_off, first, cnt, run_off, group, level, rest = [], [0], [], [], [0], [], [], []
+        n_groups = 0
+        for pl in self.points:
+            if pl is None:
+                pt_off.append(pt_off[-1])
+                run_off.append(run_off[-1])
+                rest.append(False)
+                continue
+            sel, f, c, _, rs = pl
+            first.extend((f + pt_off[-1]).tolist())
+            cnt.extend(c.tolist())
+            rows.extend(sel.tolist())
+            pt_off.append(pt_off[-1] + sel.size)
+            run_off.append(run_off[-1] + f.size)
+            g = np.full(f.size, -1)
+            if rs is not None:
+                for m in rs[1]:
+                    g[m] = n_groups
+                    n_groups += 1
+                level.extend(rs[0].tolist())
+            else:
+                level.extend([np.nan] * f.size)
+            group.extend(g.tolist())
+            rest.append(rs is not None)
+        # _toes_with_their_heels: rows (toe_run, src), (rt_f, f), (starts, lens), each pair with its own offsets
+        toe_k, toe_off, toe_nsh, parts = [], [[0, 0, 0]], [], [[], [], [], [], [], []]
+        for ka, kt, nsh, toe_run, src, rt_f, f, starts, lens in self.toes:
+            toe_k.append((ka, kt))
+            toe_nsh.append(nsh)
+            for i, a in enumerate((toe_run, src, rt_f, f, starts, lens)):
+                parts[i].extend(np.asarray(a).tolist())
+            toe_off.append([toe_off[-1][0] + len(toe_run), toe_off[-1][1] + len(f), toe_off[-1][2] + len(starts)])
+        width = max([1] + [len(x) for x in parts])
+        toe_arr = np.zeros((6, width), np.int64)
+        for i, x in enumerate(parts):
+            toe_arr[i, :len(x)] = x
+        cons_k, cons_run, cons_sel, cons_rid, cons_off, cons_nr = [], [], [], [], [[0, 0]], []
+        for ka, kt, run, sel, rid, nr, _, _, _ in self.consistent:
+            cons_k.append((ka, kt))
+            cons_run.extend(run.tolist())
+            cons_sel.extend(sel.tolist())
+            cons_rid.extend(rid.tolist())
+            cons_nr.append(nr)
+            cons_off.append([cons_off[-1][0] + sel.size, cons_off[-1][1] + T])
+        pitch_k, pitch_both, pitch_sel, pitch_off, fsel, near, w, woff, has_fade = [], [], [], [0], [], [], [], [[0, 0]], []
+        for ka, kt, both, sel, _, _, _, fw in self.pitch:
+            pitch_k.append((ka, kt))
+            pitch_both.append(both)
+            pitch_sel.extend(sel.tolist())
+            pitch_off.append(pitch_off[-1] + sel.size)
+            if fw is not None:
+                fs, nr_, ww = fw
+                fsel.extend(np.flatnonzero(fs).tolist())
+                near.extend(np.asarray(nr_).tolist())
+                w.extend(np.asarray(ww, float).tolist())
+            has_fade.append(fw is not None)
+            woff.append([len(fsel), 0])
+        i64 = lambda x, shape=None: np.array(x, dtype=np.int64).reshape(shape if shape else -1)   # noqa: E731
+        k = {"pt_rows": i64(rows), "pt_off": i64(pt_off), "run_first": i64(first), "run_cnt": i64(cnt),
+             "run_off": i64(run_off), "run_group": i64(group), "run_level": np.array(level, float),
+             "pt_rest": np.array(rest, np.bool_), "n_groups": n_groups,
+             "toe_k": i64(toe_k, (-1, 2)), "toe_arr": toe_arr, "toe_off": i64(toe_off, (-1, 3)),
+             "toe_nsh": i64(toe_nsh), "gap": float(self.toe_heel_gap),
+             "cons_k": i64(cons_k, (-1, 2)), "cons_run": i64(cons_run), "cons_sel": i64(cons_sel),
+             "cons_rid": i64(cons_rid), "cons_off": i64(cons_off, (-1, 2)), "cons_nr": i64(cons_nr),
+             "pitch_k": i64(pitch_k, (-1, 2)),
+             "pitch_both": np.array(pitch_both, np.bool_).reshape(-1, T), "pitch_sel": i64(pitch_sel),
+             "pitch_off": i64(pitch_off), "pitch_fsel": i64(fsel), "pitch_near": i64(near),
+             "pitch_w": np.array(w, float), "pitch_woff": i64(woff, (-1, 2)),
+             "pitch_has_fade": np.array(has_fade, np.bool_), "slack": float(PITCH_SLACK)}
+        self._targets_k = k
+        return k
+
     def targets(self, pts: np.ndarray) -> np.ndarray:
         """``(T, 4, 3)`` m: ``consistent_toe_targets(plant_targets(pts, plants, height), pts, plants)``,
         then :func:`bounded_foot_pitch` for ``height="level"`` (as :func:`_solve` sets them), with the
-        runs planned."""
+        runs planned. With numba (:func:`_compiled_hold`) the ``"level"`` targets run as one compiled call
+        (:func:`mocomp.ops._footplant_kernel.plan_targets`, equal to this numpy code to rounding)."""
         from .plants import _resting_levels, plant_targets
 
         plants = self.plants
+        if self.height == "level" and PITCH_SLACK is not None and PITCH_TO_ZERO and _compiled_hold():
+            from ._footplant_kernel import plan_targets
+
+            return plan_targets(np.ascontiguousarray(pts, dtype=np.float64),
+                                np.ascontiguousarray(plants.levels, dtype=np.float64), self.targets_inputs())
         if self.height != "level":
             out = plant_targets(pts, plants, self.height)
         else:
