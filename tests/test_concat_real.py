@@ -170,9 +170,10 @@ def test_forward_window_search_keeps_momentum_between_the_main_phases(real_data_
     two postures that differ, so |L| dips at the blend's edges (SIE punch 0.16 at output frame 118,
     the window 119-130; Wushu kicks 0.27 at 67, the window 67-78), not in the inputs' frames (A's own
     |L| between its peak and the window: >= 0.56 / 1.45 of the main level). The window length chosen
-    by the lowest |L| between the main phases (eq. 8 + eq. 9): SIE 107-142 (s 2.16), 0.29 measured;
-    Wushu 58-87 (s 1.83), 0.96. The SIE inputs' own |L| falls below 30 % in the periods the forward rule
-    blends: A to 0.12 at its main phase's end, B from 0.26 at its main phase's start."""
+    by the lowest |L| between the main phases (eq. 8 + eq. 9): SIE 107-142 (s 2.16), 0.29 measured with
+    the feet held (0.300 grounded), so the longer windows (3.5-4x the minimum) are tried too: 101-148
+    (s 1.98), 0.585; Wushu 58-87 (s 1.83), 0.91. The SIE inputs' own |L| falls below 30 % in the periods
+    the forward rule blends: A to 0.12 at its main phase's end, B from 0.26 at its main phase's start."""
     a = _load(real_data_dir, "kicks_punches/deepmimic_sie_humanoid3d_punch_forward00.txt")
     b = _load(real_data_dir, "kicks_punches/deepmimic_sie_humanoid3d_punch_forward02.txt")
     wa, wb = _wushu(real_data_dir)
@@ -184,9 +185,10 @@ def test_forward_window_search_keeps_momentum_between_the_main_phases(real_data_
         w0 = concatenate(wa, wb, on_facing="constrain", window_search=False, plant_both=False)
     assert r.rule.rule == "forward" and w.rule.rule == "forward"
     assert _between(r0) < 0.2 and _between(w0) < 0.3                    # 0.16, 0.27 before
-    assert _between(r) > 0.26 and _between(w) > 0.8                      # 0.29, 0.96 measured
+    assert _between(r) > 0.45 and _between(w) > 0.8                      # 0.585, 0.91 measured
     assert r.window[1] - r.window[0] > r0.window[1] - r0.window[0]
     assert any("window length chosen" in n for n in r.notes)
+    assert any("run again with windows up to 4x" in n for n in r.notes) and r.window == (101, 148)
     # the inputs' own |L| (fraction of the main level) over the periods the forward rule blends
     (t1, t2), (p1, p2) = r.tracks, r.phases
     assert t1.magnitude[p1.t_m:p1.main[1] + 1].min() < 0.15 * r.L_reference
