@@ -73,7 +73,7 @@ def test_uphill_rises_on_one_frame_where_the_toe_contact_flips(cases):
     """Uphill: the mean falls 91 %; one frame (52) rises 1.6 -> 10.1 cm, beyond its 1.0 cm noise.
     It is the measure's contact label: the detector calls the right toe off one frame earlier on
     the touched-up motion, whose toe there is 2 mm higher (lift_feet's smoothed hold), and the
-    polygon loses that corner. The ZMP itself is where it was."""
+    polygon loses that corner (the ZMP itself moved 2.7 cm)."""
     from mocomp.dynamics.contacts import detect_contacts
 
     e, r, a, b = cases["uphill"]
