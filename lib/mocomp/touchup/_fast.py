@@ -244,6 +244,58 @@ if COMPILED:
         return dist_out, near_out
 
 
+if COMPILED:
+    @numba.njit(cache=True, nogil=True)
+    def _zmp_state_nb(root, rot, idx, parents, offsets, seg, local_coms, w, t, masses, y0, g, min_force, cpts, mask,
+                      rel_eps):
+        """:func:`mocomp.touchup.zmp.zmp_state` in one call: :func:`_zmp_inputs_nb`, eq. 4 on each frame's
+        floor ``y0`` (:func:`mocomp.dynamics.zmp.zmp_of_point_masses` with the positions taken relative to
+        it, sums in segment order), the polygon distance and eq. 7's target (:func:`_polygon_nb`).
+        Returns ``(r, a, Z, distance, target)``."""
+        r, a = _zmp_inputs_nb(root, rot, idx, parents, offsets, seg, local_coms, w, t)
+        T = r.shape[0]
+        S = r.shape[1]
+        K = cpts.shape[1]
+        Z = np.empty((T, 3))
+        p2 = np.empty((T, 2))
+        for f in range(T):
+            den = 0.0
+            nx = 0.0
+            nx2 = 0.0
+            nz = 0.0
+            nz2 = 0.0
+            for s in range(S):
+                fy = a[f, s, 1] + g
+                ry = (r[f, s, 1] - y0[f]) - 0.0
+                den += masses[s] * fy
+                nx += masses[s] * fy * r[f, s, 0]
+                nx2 += masses[s] * a[f, s, 0] * ry
+                nz += masses[s] * fy * r[f, s, 2]
+                nz2 += masses[s] * a[f, s, 2] * ry
+            if den >= min_force:
+                Z[f, 0] = (nx - nx2) / den
+                Z[f, 1] = 0.0 + y0[f]
+                Z[f, 2] = (nz - nz2) / den
+            else:
+                Z[f, 0] = np.nan
+                Z[f, 1] = np.nan
+                Z[f, 2] = np.nan
+            p2[f, 0] = Z[f, 0]
+            p2[f, 1] = Z[f, 2]
+        c2 = np.empty((T, K, 2))
+        for f in range(T):
+            for k in range(K):
+                c2[f, k, 0] = cpts[f, k, 0]
+                c2[f, k, 1] = cpts[f, k, 2]
+        d, near = _polygon_nb(p2, c2, mask, rel_eps)
+        tgt = Z.copy()
+        for f in range(T):
+            if np.isfinite(d[f]) and d[f] > 0:
+                tgt[f, 0] = near[f, 0]
+                tgt[f, 2] = near[f, 1]
+        return r, a, Z, d, tgt
+
+
 def polygon_distance_and_target(zmp: np.ndarray, contact_points: np.ndarray, mask: np.ndarray):
     """``(distance (T,), target (T, 3))``: the ZMP's signed distance to the support polygon
     (:func:`mocomp.dynamics.zmp.support_polygon_distance`) and, where it is outside, its nearest
@@ -288,6 +340,9 @@ class SegmentChains:
         self.seg = remap[np.asarray(body.segment_joint)]
         self.local_coms = np.asarray(body.local_coms, float)
         self.body = body
+        self._idx64, self._seg64 = np.asarray(idx, np.int64), np.asarray(self.seg, np.int64)
+        self._masses = np.ascontiguousarray(body.masses, dtype=float)
+        self._weights = {}
 
     def positions_and_accelerations(self, motion, sigma: float | None) -> tuple[np.ndarray, np.ndarray]:
         """``(r, a)`` ``(T, S, 3)`` each: :meth:`positions` and their second central difference on
@@ -306,6 +361,21 @@ class SegmentChains:
                               self.parents,
                               self.offsets, np.asarray(self.seg, np.int64), self.local_coms, w,
                               np.ascontiguousarray(motion.times, dtype=float))
+
+    def zmp_state(self, motion, sigma: float | None, y0: np.ndarray, g: float, min_force: float,
+                  contact_points: np.ndarray, mask: np.ndarray):
+        """``(r, a, Z, distance, target)`` of :func:`mocomp.touchup.zmp.zmp_state` in one compiled call
+        (:func:`_zmp_state_nb`; only when :data:`COMPILED`): equal to the numpy steps to rounding."""
+        w = self._weights.get(sigma)
+        if w is None:
+            w = self._weights[sigma] = gaussian_weights(sigma) if sigma else np.ones(1)
+        return _zmp_state_nb(np.ascontiguousarray(motion.root_positions, dtype=float),
+                             np.ascontiguousarray(motion.rotations, dtype=float), self._idx64, self.parents,
+                             self.offsets, self._seg64, self.local_coms, w,
+                             np.ascontiguousarray(motion.times, dtype=float), self._masses,
+                             np.ascontiguousarray(y0, dtype=float), float(g), float(min_force),
+                             np.ascontiguousarray(contact_points, dtype=float), np.ascontiguousarray(mask, dtype=np.bool_),
+                             1e-10)
 
     def positions(self, motion, sigma: float | None) -> np.ndarray:
         """``(T, S, 3)`` m: the segment COMs of ``motion`` Gaussian-smoothed by ``sigma`` frames --

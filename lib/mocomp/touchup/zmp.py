@@ -18,6 +18,7 @@ import numpy as np
 from ..audit.thresholds import AuditThresholds
 from ..dynamics.constants import G_STANDARD
 from ..dynamics.zmp import nearest_on_polygon, zmp_of_point_masses
+from . import _fast
 from ._fast import SegmentChains, polygon_distance_and_target
 
 __all__ = ["ZmpState", "zmp_state", "project_to_polygon", "DEFAULT_SMOOTH_SIGMA", "floor_levels", "MIN_SUPPORT"]
@@ -93,8 +94,12 @@ def zmp_state(body, motion, contact_points: np.ndarray, contact_mask: np.ndarray
         raise ValueError("the ZMP needs accelerations: at least 3 frames")
     if chains is None:
         chains = SegmentChains(body, motion.skeleton)
-    r, a = chains.positions_and_accelerations(motion, smooth_sigma or None)
     y0 = np.broadcast_to(np.asarray(ground_y, float), (motion.n_frames,))
+    if _fast.COMPILED:                             # the steps below in one compiled call
+        r, a, Z, d, tgt = chains.zmp_state(motion, smooth_sigma or None, y0, g, MIN_SUPPORT * body.total_mass * g,
+                                           contact_points, contact_mask)
+        return ZmpState(r, a, Z, d, tgt, y0)
+    r, a = chains.positions_and_accelerations(motion, smooth_sigma or None)
     shift = np.zeros((motion.n_frames, 1, 3))
     shift[:, 0, 1] = y0
     Z, _, _ = zmp_of_point_masses(body.masses, r - shift, a, 0.0, g, MIN_SUPPORT * body.total_mass * g)
