@@ -209,3 +209,24 @@ def test_feet_held_where_planted_in_both_in_the_blended_period(real_data_dir):
         warnings.simplefilter("ignore", RuntimeWarning)
         lo = {pb: _between(concatenate(a, b, window_search=False, plant_both=pb)) for pb in (False, True)}
     assert lo[True] > lo[False] + 0.05
+
+
+def test_eq9_clamp_lowered_where_it_leaves_a_spike(real_data_dir):
+    """Two Bandai spinning kicks (30 Hz): eq. 9 as written gives s = 0.12; clamped to 0.25 (the
+    default limit) the 3-frame blend still turned at 2.1x the main level, above anything the inputs do
+    (their main-phase peak 1.44x). Where the clamped blend spikes above the inputs' peak the clamp is
+    lowered to 1/SPIKE_MAX_SCALE: s 0.12, |L| peak 1.14x, still shorter than the Motion Graph."""
+    from mocomp.concat import find_actions, motion_graph_concatenate
+
+    k = _load(real_data_dir, "kicks_punches/bandai1_kick_normal_001.bvh")
+    k1, k2 = (x.cut(k) for x in find_actions(k)[:2])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        r = concatenate(k1, k2)
+        mg = motion_graph_concatenate(k1, k2, r.phases, r.baseline_window)
+    assert r.scale == pytest.approx(0.12, abs=0.01)
+    assert any("above the inputs' main-phase peak" in n for n in r.notes)
+    pk = max(float(t.magnitude[p.main[0]:p.main[1]].max()) for t, p in zip(r.tracks, r.phases))
+    u0, u1 = r.output_window
+    assert momentum_track(r.motion).magnitude[u0:u1 + 1].max() < pk
+    assert r.motion.n_frames < mg.motion.n_frames

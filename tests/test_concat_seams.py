@@ -110,7 +110,7 @@ def test_deepmimic_kick_then_punch_rejection_names_measure_threshold_and_cause(r
     assert np.degrees(r.facing_difference) == pytest.approx(45.0, abs=0.01)
 
 
-def test_cartwheels_cut_whole_keep_their_turning_direction(real_data_dir):
+def test_cartwheels_cut_whole_keep_their_turning_direction(real_data_dir, monkeypatch):
     """The SFU take's cartwheels cut whole (from the quiet |L| before to the quiet after): the blend
     keeps the first cartwheel's turning direction (L along the main phases' mean direction stays
     positive between the two peaks). Cut at +-0.9 s around the inverted moment (stop 23), both
@@ -144,11 +144,20 @@ def test_cartwheels_cut_whole_keep_their_turning_direction(real_data_dir):
     assert momentum_track(r.motion).magnitude[u0:u1 + 1].max() < 1.1 * pk
     assert np.linalg.norm(L, axis=1).min() > 0.7 * r.L_reference
     assert "hand support" in r.period_notes[1]
+    import mocomp.concat.method as method
+
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
+        # without the hand support, eq. 9's clamp (0.25, raw 0.08) left that spike; the clamp lowered to
+        # 1/SPIKE_MAX_SCALE where the clamped blend spins faster than the inputs' peak removes it too
+        spiked = concatenate(c1, c3, hand_support=False, plant=False, window_search=False)
+        monkeypatch.setattr(method, "SPIKE_MAX_SCALE", 4.0)
         old = concatenate(c1, c3, hand_support=False, plant=False, window_search=False)
     u0, u1 = old.output_window
     assert momentum_track(old.motion).magnitude[u0:u1 + 1].max() > 1.8 * pk
+    v0, v1 = spiked.output_window
+    assert momentum_track(spiked.motion).magnitude[v0:v1 + 1].max() < 1.0 * pk
+    assert spiked.scale == pytest.approx(0.1) and any("above the inputs' main-phase peak" in n for n in spiked.notes)
 
 
 def test_deepmimic_body_kept_between_calls_is_the_character(real_data_dir):

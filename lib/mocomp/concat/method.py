@@ -193,6 +193,11 @@ class ConcatResult:
         return d
 
 
+def _peak(t1, t2, p1, p2) -> float:
+    """kg m^2/s, the larger main-phase peak |L| of the two inputs."""
+    return max(float(t.magnitude[p.main[0]:p.main[1]].max()) for t, p in ((t1, p1), (t2, p2)))
+
+
 def _main_level(tracks, phases) -> float:
     return float(np.mean([t.magnitude[p.main[0]:p.main[1]].mean() for t, p in zip(tracks, phases)]))
 
@@ -424,7 +429,7 @@ def _between_low(a, b, yaw, win, T, la, lb, f_T, body, kind, max_scale, t1, t2r,
     labs = (_blend_labels(la, lb, T, f_T, out.n_frames), _blend_labels(la, lb, T, f_T, out.n_frames, win))
     added, ts = 0, None
     if f1 > f0:
-        ts = _time_scale(out, labs, f0, f1, body, kind, max_scale, (t1.L[f0], t2r.L[f1 - T]), 0)
+        ts = _time_scale(out, labs, f0, f1, body, kind, max_scale, (t1.L[f0], t2r.L[f1 - T]), 0, _peak(t1, t2r, p1, p2))
         out, added = ts[0], ts[3]
     if cache is not None:
         cache[win] = (tf, labs, ts)
@@ -453,13 +458,18 @@ def _window_com_jump(m: Motion, body, win: tuple[int, int], margin: int = 6) -> 
 
 
 def _time_scale(out: Motion, lab: np.ndarray, f0: int, f1: int, body, kind: str, max_scale: float,
-                L_ends: tuple, ramp: int):
+                L_ends: tuple, ramp: int, L_peak: float | None = None):
     """Eq. 9: ``s = (||L(f_i0) + L(f_if)|| / 2) / (sum_{f_i0}^{f_if} ||L(f)|| / (f_if - f_i0))`` of the
     blended motion, and the blended period played at the rate ``s`` (slower when the blend made it
     fast), so its mean |L| matches its ends'. The ends are ``L1(f_i0)`` and ``L2(f_if - T)``
     (``L_ends``), what eq. 8 gives there (alpha = 1 and 0): the blended motion's own finite
     differences at the window's edges already carry part of the blend's speed-up. ``s`` is clamped
-    to ``[1 / max_scale, max_scale]`` (noted).
+    to ``[1 / max_scale, max_scale]`` (noted). When clamped at ``1 / max_scale`` and the re-timed
+    blended period still turns faster than ``L_peak`` (kg m^2/s, the inputs' main-phase peak |L|) at
+    some frame, the clamp is lowered to ``1 / SPIKE_MAX_SCALE`` (noted): the limit keeps a short blend
+    from being played many times slower, not a spike the inputs never make (Bandai spinning kicks:
+    eq. 9 as written 0.12, clamped 0.25 left |L| at 2.1x the main level, the inputs' own peak 1.44x;
+    at 0.12, 1.14x).
 
     The paper switches the rate from 1 to ``s`` at the window's edges, and every velocity with it (a
     COM velocity jump of ``(1 - s) |v|``); here (beyond the paper) the rate moves from 1 to ``s``
@@ -469,18 +479,41 @@ def _time_scale(out: Motion, lab: np.ndarray, f0: int, f1: int, body, kind: str,
     Returns the motion, its plant labels (``lab`` may be a tuple of label arrays: a tuple of them
     re-timed), ``s``, the output frames the re-timing added, the output frames of ``f_i0`` and
     ``f_if`` and a note."""
-    from ..ops.easing import ease
-
     lo = max(f0 - _MARGIN, 0)                    # the blended period with a margin for the smoothing
     L = momentum_track(out[lo:min(f1 + 1 + _MARGIN, out.n_frames)], body, kind=kind).L
     num = 0.5 * float(np.linalg.norm(L_ends[0] + L_ends[1]))
     den = float(np.linalg.norm(L[f0 - lo:f1 + 1 - lo], axis=1).sum()) / (f1 - f0)
     s = num / den if den > 0 else 1.0
     note = ""
+    s_raw = s
     if not 1.0 / max_scale <= s <= max_scale:
         c = float(np.clip(s, 1.0 / max_scale, max_scale))
         note = f"eq. 9 scale factor {s:.3g} clamped to {c:.3g}"
         s = c
+    res = _retime(out, lab, f0, f1, s, ramp)
+    if L_peak is not None and s_raw < s and SPIKE_MAX_SCALE > max_scale:
+        u0, u1 = res[3]
+        c0, c1 = max(u0 - _MARGIN, 0), min(u1 + 1 + _MARGIN, res[0].n_frames)
+        peak = float(momentum_track(res[0][c0:c1], body, kind=kind).magnitude[u0 - c0:u1 + 1 - c0].max())
+        if peak > L_peak:
+            s2 = max(s_raw, 1.0 / SPIKE_MAX_SCALE)
+            res = _retime(out, lab, f0, f1, s2, ramp)
+            note = (f"eq. 9 scale factor {s_raw:.3g}: clamped to {s:.3g}, the blended period's |L| peaked at "
+                    f"{peak:.3g} kg m^2/s, above the inputs' main-phase peak {L_peak:.3g}: {s2:.3g} used (limit "
+                    f"1/{SPIKE_MAX_SCALE:g})")
+            s = s2
+    return res[0], res[1], s, res[2], res[3], note
+
+
+#: eq. 9's slow-down limit when the one of ``max_scale`` leaves a |L| spike (see :func:`_time_scale`)
+SPIKE_MAX_SCALE = 10.0
+
+
+def _retime(out: Motion, lab, f0: int, f1: int, s: float, ramp: int):
+    """The blended period ``[f0, f1]`` of ``out`` played at the rate ``s`` (see :func:`_time_scale`):
+    the motion, the labels re-timed, the frames added and the output frames of ``f0``, ``f1``."""
+    from ..ops.easing import ease
+
     k0, k1 = min(ramp, f0), min(ramp, out.n_frames - 1 - f1)
     a, b = f0 - k0, f1 + k1
     rate = np.full(b - a + 1, s)
@@ -498,7 +531,7 @@ def _time_scale(out: Motion, lab: np.ndarray, f0: int, f1: int, body, kind: str,
     lab2 = lab2 if isinstance(lab, tuple) else lab2[0]
     u0 = a + int(np.searchsorted(x, f0 - 1e-9))
     u1 = a + int(np.searchsorted(x, f1 + 1e-9, side="right")) - 1
-    return res, lab2, s, (len(x) - 1) - (b - a), (u0, u1), note
+    return res, lab2, (len(x) - 1) - (b - a), (u0, u1)
 
 
 def com_continuity(out: Motion, body, u0: int, u1: int, w: int = 2,
@@ -872,7 +905,7 @@ def _concatenate(a: Motion, b: Motion, *, rule: str = "auto", borders_a=None, bo
         if time_scale and f1 > f0:
             labs = (lab,) if lab_both is None else (lab, lab_both)
             out, labs, scale, added, out_win, note = _time_scale(out, labs, f0, f1, body_a, kind, max_scale,
-                                                                 (t1.L[f0], t2r.L[f1 - T]), ramp)
+                                                                 (t1.L[f0], t2r.L[f1 - T]), ramp, L_peak)
             lab, lab_both = labs[0], (labs[1] if lab_both is not None else None)
             if note:
                 notes.append(note)
