@@ -7,8 +7,8 @@ from mocomp.audit import default_body
 from mocomp.dynamics.com import center_of_mass, segment_positions
 from mocomp.dynamics.constants import G_STANDARD
 from mocomp.ops.synthetic import synthetic_walk
-from mocomp.touchup.flight import (ballistic_targets, com_residual, flight_com_adjustment,
-                                   flight_momentum_adjustment)
+from mocomp.touchup.flight import (ballistic_targets, com_residual, continue_into_ground, flight_com_adjustment,
+                                   flight_momentum_adjustment, support_ramp)
 from mocomp.touchup.linksets import link_sets
 from mocomp.touchup.stages import stages
 
@@ -61,8 +61,9 @@ def test_com_by_rotating_s2_points_s2_com_at_its_goal(hop):
     mass = np.asarray(body.masses)
     M, M2 = mass.sum(), mass[in2].sum()
     c_m2 = lambda mm: np.einsum("s,tsk->tk", mass[in2], segment_positions(body, mm)[:, in2]) / M2  # noqa: E731
-    tgt = np.array(c0)
-    tgt[40:70] = ballistic_targets(c0, 40, 70, m.fps)
+    tgt = c0 + adj.correction                                  # the parabola, its ends moved by the push/landing ramps
+    np.testing.assert_allclose(np.diff(tgt[40:70], 2, axis=0) * m.fps ** 2, np.tile([0.0, -G_STANDARD, 0.0], (28, 1)),
+                               atol=1e-6)
     goal = (tgt * M - (c0 * M - c_m2(m) * M2)) / M2            # c_M1 unchanged
     p = m.fk()[0][:, m.skeleton.index("LowerBack")]
     u, v = c_m2(m2) - p, goal - p
@@ -142,3 +143,45 @@ def test_ballistic_completion_puts_the_com_on_the_parabola_and_leaves_ground_fra
     np.testing.assert_allclose(L1[a + 2:b - 2], L0[a + 2:b - 2], atol=1e-9)
     same, s0 = ballistic_completion(body, m2, [])
     assert same is m2 and s0 == 0.0
+
+
+def test_support_ramp_known_answer():
+    """Constant support: second differences 1 from rest, so delta_k = (k-1) k / 2 and the last
+    velocity is n - 1; no support in the middle: constant velocity there."""
+    d, v = support_ramp(np.ones(6))
+    np.testing.assert_allclose(d, [0, 0, 1, 3, 6, 10])
+    assert v == 4
+    d, v = support_ramp(np.array([1.0, 1.0, 0.0, 0.0, 1.0, 1.0]))
+    np.testing.assert_allclose(np.diff(d), [0, 1, 1, 1, 2])
+
+
+def test_continue_into_ground_joins_the_flight_smoothly_and_pushes_where_the_ground_pushes():
+    """A 30-frame flight whose COM drifts sideways: the continued correction starts at rest where
+    the neighbourhood begins, joins the flight with its velocity at take-off and landing (no velocity
+    jump), keeps the flight a g parabola, and its acceleration on the push is in proportion to the
+    vertical force (no acceleration on frames without support)."""
+    fps, T, (a, b), nb = 60.0, 140, (60, 90), 25
+    t = np.arange(T) / fps
+    com = np.column_stack([0.9 * t, 1.0 - 0.5 * G_STANDARD * np.clip(t - a / fps, 0, None) * np.clip((b - 1) / fps - t, 0, None),
+                           0.4 * np.sin(2.0 * t)])
+    corr = np.zeros((T, 3))
+    corr[a:b] = ballistic_targets(com, a, b, fps) - com[a:b]
+    support = np.ones(T)
+    support[a - 6:a] = 0.0                                     # the toes still touch, no force
+    support[a - 20:a - 12] = 2.0
+    out = continue_into_ground(corr, [(a, b)], support, nb)
+    np.testing.assert_array_equal(out[:a - nb], 0.0)
+    np.testing.assert_array_equal(out[b + nb:], 0.0)
+    c = com + out
+    np.testing.assert_allclose(np.diff(c[a:b], 2, axis=0) * fps ** 2, np.tile([0.0, -G_STANDARD, 0.0], (b - a - 2, 1)), atol=1e-9)
+    v = np.diff(out, axis=0)
+    # velocity of the correction: continuous into the flight (the frame before take-off has the flight's)
+    np.testing.assert_allclose(v[a - 1], v[a], atol=1e-12)
+    np.testing.assert_allclose(v[b - 1], v[b - 2], atol=1e-12)
+    acc = np.diff(out[a - nb:a + 1], 2, axis=0)                # second differences on the push
+    k = np.arange(a - nb + 1, a)
+    ok = support[k] > 0
+    ratio = acc[ok, 2] / support[k][ok]
+    np.testing.assert_allclose(ratio, ratio[0], rtol=1e-9)       # one constant per component
+    np.testing.assert_allclose(acc[~ok], 0.0, atol=1e-15)
+    assert abs(ratio[0]) > 0

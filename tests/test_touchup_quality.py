@@ -2,8 +2,8 @@
 read back: per-frame rise of the ZMP distance outside the contact polygon against the input's
 measurement noise (:func:`mocomp.touchup.examples.zmp_rise`), footplant slide, flight COM on the
 g = 9.81 parabola. What holds is asserted as it is; where the criterion is not met (the curved
-hop's push and landing frames, one uphill frame whose toe contact flips) the test pins where and how
-large the miss is, so that a change that moves or widens it fails."""
+hop's last push frames, one uphill frame whose toe contact flips) the test pins where and how large
+the miss is, so that a change that moves or widens it fails."""
 import numpy as np
 import pytest
 
@@ -88,12 +88,14 @@ def test_uphill_rises_on_one_frame_where_the_toe_contact_flips(cases):
         assert abs(cb.heights[f, k] - ca.heights[f, k]) < 0.005
 
 
-def test_curved_hop_misses_only_at_push_and_landing(cases):
+def test_curved_hop_misses_only_on_the_last_push_frames(cases):
     """Curved hop: the flight's COM is on the g = 9.81 parabola within 1 mm (read back: 0.00 mm) and
     no planted foot point slides more than the input's + 1 cm; the ZMP rises above the noise only
-    on push and landing frames (measured 23-27 and 68, frame 27 47 -> 108 cm at a quarter of the
-    weight: the take-off velocity the parabola asks for, made on the last push frames), never on
-    the quiet stance."""
+    on the last push frames (measured 23-26, 3.6-7.4 cm against 1-2.5 cm of noise: the 0.37 m/s
+    sideways take-off velocity the parabola asks for, made by the push), never on the quiet
+    stance nor the landing; the last push frame, at a quarter of the weight, 47 -> 72 cm within its
+    28 cm noise (108 cm when the flight's COM correction was eased into the push instead of in
+    proportion to the vertical force: flight.continue_into_ground)."""
     from mocomp.audit import default_body
     from mocomp.dynamics.com import center_of_mass
     from mocomp.ops.footplant import foot_points, plant_slides
@@ -107,11 +109,9 @@ def test_curved_hop_misses_only_at_push_and_landing(cases):
     s0, s1 = plant_slides(foot_points(*e.motion.fk(), pl), pl), plant_slides(foot_points(*b.fk(), pl), pl)
     assert np.nanmax(s1 - s0) < 0.01
     z = zmp_rise(a, b)
-    dist_to_flight = np.minimum(np.abs(z.above - fa), np.abs(z.above - (fb - 1)))
-    assert np.all(dist_to_flight <= 12), z.to_dict()
-    # the quiet stance (more than 12 frames, 0.1 s, from the flight) gains nothing beyond its noise
+    assert np.all((z.above >= fa - 12) & (z.above < fa)), z.to_dict()       # push frames only
+    assert np.nanmax((z.rise - z.noise)[z.above]) < 0.10 if z.above.size else True
     far = np.ones(b.n_frames, bool)
     far[max(fa - 12, 0):fb + 12] = False
-    x = (z.rise - z.noise)[far]
-    assert np.nanmax(x) < 0.005
-    assert np.nanmean(z.output) < 0.75 * np.nanmean(z.input)
+    assert np.nanmax((z.rise - z.noise)[far]) < 0.005
+    assert np.nanmean(z.output) < 0.6 * np.nanmean(z.input)

@@ -149,7 +149,9 @@ def test_walk_run_blend_feet_stay_above_the_floor(walks, real_data_dir):
 def test_curved_hop_zmp_falls_and_flight_is_ballistic(real_data_dir, tmp_path):
     """Sec. 4.5: a real hop (CMU 01_01, 120 Hz) path-edited onto an arc, the default schedule,
     measured on the BVH written and read back. The mean ZMP distance outside the contact region
-    falls (measured 12.10 -> 7.62 cm, 37 %; -2 % with the ground maps faded toward the flight),
+    falls (measured 11.70 -> 5.92 cm, 49 %; 37 % with the flight's COM correction eased into the
+    push and landing instead of in proportion to the vertical force; -2 % with the ground maps
+    faded toward the flight),
     below the unedited capture's own 10.5 cm; the flight's COM lies on the g = 9.81 parabola
     within 1 mm (measured 0.00 mm; 1.98 mm without the ballistic completion)."""
     from mocomp.audit import default_body
@@ -163,11 +165,11 @@ def test_curved_hop_zmp_falls_and_flight_is_ballistic(real_data_dir, tmp_path):
     before = zmp_outside(_written(e.motion, tmp_path, "in"), polygon="contact", floor="support")
     after = zmp_outside(out, polygon="contact", floor="support")
     capture = zmp_outside(_written(e.reference, tmp_path, "ref"), polygon="contact", floor="support")
-    assert after.mean_outside < 0.75 * before.mean_outside
+    assert after.mean_outside < 0.6 * before.mean_outside
     assert after.mean_outside < capture.mean_outside
     (f0,), (f1,) = r.before["flights"], r.after["flights"]
     assert f0["com_residual_m"] > 0.02 and f1["com_residual_m"] < 1e-3
-    # the flight steps even out |L| (measured 19.5 -> 13.4 % variation); adjusting the ground frames
+    # the flight steps even out |L| (measured 18.5 -> 13.6 % variation); adjusting the ground frames
     # next to the flight too gave the hop 50 % but the flips method's conserving back flip 17-29 %
     assert f1["L_variation"] < f0["L_variation"]
     com = center_of_mass(default_body(out), out)

@@ -6,18 +6,29 @@ displacement ``d = c(b-1) - c(a)``, the parabola through the block's end points 
 
     v0 = d / T - g T / 2,    c*(t) = c(t0) + v0 (t - t0) + g (t - t0)^2 / 2.
 
-Ground frames within ``neighbourhood`` of the flight continue the correction linearly with its
-velocity at the take-off (landing) frame, eased to zero away from it (Fig. 4): the push reaches the
-parabola's take-off velocity instead of the COM's velocity jumping between two frames.
+Ground frames within ``neighbourhood`` of the flight are adjusted with it (Fig. 4): the correction
+leaves the take-off frame with its velocity there (and reaches the landing frame with its
+velocity), so that the push makes the parabola's take-off velocity instead of the COM's velocity
+jumping between two frames. How that velocity change is spread over the push (landing) frames is
+ours (:func:`continue_into_ground`): the COM's extra acceleration is in proportion to the vertical
+ground force of each frame (:func:`support_fraction`). Eq. 4 divides the horizontal accelerations
+by that force, so an extra horizontal acceleration ``da`` moves the ZMP by ``h da / (a_y + g)``;
+in proportion to the force, the ZMP moves by about the same amount on every push frame, and the
+frames the foot only touches (no force: already in free fall) are left in free fall. The paper's
+blend to zero (an ease over the neighbourhood, then the flight maps' smoothing) put the velocity
+change on the last push frames, where the force falls to a quarter of the weight: on the CMU 01_01
+hop path-edited onto a 60 deg arc (the parabola asks 0.37 m/s more sideways at take-off and
+landing) frame 27's ZMP went 47 -> 108 cm outside, the mean 11.7 -> 7.4 cm; with the force-shaped
+ramps 47 -> 72 cm (within that frame's 28 cm noise, :func:`mocomp.touchup.examples.zmp_rise`) and
+11.7 -> 5.9 cm, the flips method's back flip unchanged (|L| variation 1.4 % as its input).
 
 With S1 empty the root is translated by ``c* - c``. Otherwise S2 is rotated about the joint
 bordering S1 and S2 (``p``) so that S2's COM ``c_M2`` comes as close as it can to its goal (eq. 10)::
 
     c*_M2 = (c*_M sum_i m_i - c_M1 sum_{S1} m_i) / sum_{S2} m_i,
 
-the smallest rotation turning ``c_M2 - p`` toward ``c*_M2 - p`` (its length cannot change).
-The ground frames within ``neighbourhood`` of a flight are adjusted as flight frames with weights
-that ease to zero away from it (Fig. 4).
+the smallest rotation turning ``c_M2 - p`` toward ``c*_M2 - p`` (its length cannot change),
+on the flight frames and on the ground frames its correction was continued into.
 """
 from __future__ import annotations
 
@@ -33,7 +44,7 @@ from ._fast import fk, running_products, turn_sets
 from .linksets import LinkSets
 
 __all__ = ["ballistic_targets", "FlightAdjustment", "flight_com_adjustment", "com_residual", "angular_momentum",
-           "flight_momentum_adjustment"]
+           "flight_momentum_adjustment", "support_fraction", "support_ramp", "continue_into_ground"]
 
 
 def ballistic_targets(com: np.ndarray, a: int, b: int, fps: float, g: float = G_STANDARD) -> np.ndarray:
@@ -54,8 +65,9 @@ def com_residual(com: np.ndarray, a: int, b: int, fps: float, g: float = G_STAND
 
 @dataclass(frozen=True, eq=False)
 class FlightAdjustment:
-    """``correction`` ``(T, 3)`` m wanted COM shift (weighted), ``weight`` ``(T,)``, the adjusted
-    ``root_positions`` and local ``rotations``."""
+    """``correction`` ``(T, 3)``: the wanted COM shift m (flight steps' COM part; the momentum part
+    holds its turn's rotation vector, rad), ``weight`` ``(T,)`` the Fig. 4 blend of the flight and its
+    neighbourhood (1 in flight, easing to 0), the adjusted ``root_positions`` and local ``rotations``."""
 
     correction: np.ndarray
     weight: np.ndarray
@@ -81,6 +93,82 @@ def _weights(T: int, flights, nb: int) -> tuple[np.ndarray, np.ndarray]:
     return w, owner
 
 
+def support_fraction(com: np.ndarray, fps: float, g: float = G_STANDARD, smooth_sigma: float | None = None) -> np.ndarray:
+    """``(T,)``: the vertical ground force over the weight, ``(y''_c + g) / g`` of the COM ``com``
+    ``(T, 3)`` smoothed by ``smooth_sigma`` frames (default: the ZMP's,
+    :data:`mocomp.touchup.zmp.DEFAULT_SMOOTH_SIGMA`), clipped at 0 (a frame in free fall or
+    pulled down has none)."""
+    from ..dynamics.derivatives import gaussian_smooth, second_difference
+    from .zmp import DEFAULT_SMOOTH_SIGMA
+
+    sigma = DEFAULT_SMOOTH_SIGMA if smooth_sigma is None else smooth_sigma
+    y = np.asarray(com, float)[:, 1]
+    if y.shape[0] < 3:
+        return np.ones(y.shape[0])
+    y = gaussian_smooth(y, sigma) if sigma else y
+    a = second_difference(y, np.arange(y.shape[0]) / float(fps))
+    return np.clip((a + g) / g, 0.0, None)
+
+
+def support_ramp(support: np.ndarray) -> tuple[np.ndarray, float]:
+    """``(shape (n + 1,), end velocity)``: the displacement ``delta_0 .. delta_n`` of a ramp that
+    starts at rest (``delta_0 = delta_1 = 0``) with second differences ``support_k`` on
+    ``k = 1 .. n-1`` (``support`` ``(n + 1,)`` >= 0), and its last per-frame velocity
+    ``delta_n - delta_{n-1}``. Scaled by ``v / velocity`` it reaches the velocity ``v`` with an
+    acceleration in proportion to the vertical ground force of each frame (module docstring)."""
+    s = np.asarray(support, float)
+    n = s.shape[0] - 1
+    d = np.zeros(n + 1)
+    if n >= 2:
+        d[2:] = np.cumsum(np.cumsum(s[1:n]))
+    return d, float(d[n] - d[n - 1]) if n >= 1 else 0.0
+
+
+def continue_into_ground(corr: np.ndarray, flights, support: np.ndarray, neighbourhood: int) -> np.ndarray:
+    """``(T, 3)``: a COM correction ``corr`` (the parabola less the COM on the ``flights``' frames,
+    zero elsewhere) continued into the ground frames within ``neighbourhood`` frames of each flight
+    of 3 frames or more (no farther than the previous / next flight), Fig. 4.
+
+    Before the take-off the ramp starts at rest ``n0`` frames away and reaches the correction's
+    velocity at the take-off frame with an acceleration in proportion to ``support`` ``(T,)``
+    (:func:`support_fraction`, :func:`support_ramp`); the landing side mirrors it. The ramp does
+    not return to the flight's end value: it ends at an offset ``D0`` (``D1`` at the landing) that
+    the whole flight takes as well, linearly from ``D0`` to ``D1`` -- a linear term added to a g
+    parabola is a g parabola, through the moved end points. The offsets change the flight's end
+    velocities by ``(D1 - D0) / (b - 1 - a)`` per frame, which the ramps then reach: ``D0, D1``
+    solve the two linear conditions together. Requiring the ramp to come back to the flight's end
+    value (offset 0) needs an acceleration one way and then the other, about six times the
+    velocity change over the push; measured on the CMU 01_01 hop on an arc: mean ZMP outside 7.4
+    -> 8.6 cm that way, 6.1 cm with the offsets."""
+    corr = np.asarray(corr, dtype=float)
+    out = np.array(corr)
+    T = out.shape[0]
+    nb = int(neighbourhood)
+    for k, (a, b) in enumerate(flights):
+        if b - a < 3:
+            continue
+        prev_b = flights[k - 1][1] if k > 0 else 0
+        next_a = flights[k + 1][0] if k + 1 < len(flights) else T
+        n0, n1 = min(nb, a - prev_b), min(nb, next_a - b)
+        d0, B0 = support_ramp(support[a - n0:a + 1]) if n0 >= 3 else (None, 0.0)
+        d1, B1 = support_ramp(support[b - 1:b + n1][::-1]) if n1 >= 3 else (None, 0.0)
+        l0 = d0[-1] / B0 if B0 > 1e-12 else 0.0           # end offset per unit end velocity
+        l1 = d1[-1] / B1 if B1 > 1e-12 else 0.0
+        v0, v1 = corr[a + 1] - corr[a], corr[b - 1] - corr[b - 2]
+        N = float(b - 1 - a)
+        # D0 = l0 (v0 + (D1 - D0) / N),  D1 = -l1 (v1 + (D1 - D0) / N)    (per component)
+        A = np.array([[1.0 + l0 / N, -l0 / N], [-l1 / N, 1.0 + l1 / N]])
+        D0, D1 = np.linalg.solve(A, np.vstack([l0 * v0, -l1 * v1]))
+        dv = (D1 - D0) / N
+        u = (np.arange(a, b) - a) / N
+        out[a:b] += (1.0 - u)[:, None] * D0 + u[:, None] * D1
+        if B0 > 1e-12:
+            out[a - n0:a] += d0[:-1, None] * ((v0 + dv) / B0)[None]
+        if B1 > 1e-12:
+            out[b:b + n1] += d1[::-1][1:, None] * (-(v1 + dv) / B1)[None]
+    return out
+
+
 def flight_com_adjustment(body, motion, sets: LinkSets, flights, com: np.ndarray, *, neighbourhood: int,
                           g: float = G_STANDARD) -> FlightAdjustment:
     """Sec. 3.4.2 on the ``flights`` (half-open frame runs) of ``motion``; ``com`` ``(T, 3)`` its COM."""
@@ -89,26 +177,13 @@ def flight_com_adjustment(body, motion, sets: LinkSets, flights, com: np.ndarray
     corr = np.zeros((T, 3))
     for a, b in flights:
         corr[a:b] = ballistic_targets(com, a, b, motion.fps, g) - com[a:b]
-    w, owner = _weights(T, flights, neighbourhood)
-    # neighbourhood frames: the correction continued from the nearest end of the flight with its
-    # velocity there, eased (Fig. 4). The correction is zero at the end points (the parabola goes
-    # through them) but its slope is not: holding it at zero outside made the COM's velocity jump
-    # at take-off and landing, and the ZMP of the push and impact frames with it (CMU 01_01 hop on
-    # an arc: planned mean ZMP outside 11.1 -> 9.4 cm, 7.7 cm continued; COM 4.2 vs 1.8 mm off
-    # the parabola after the schedule)
-    for f in np.flatnonzero((w > 0) & (w < 1)):
-        a, b = flights[owner[f]]
-        if b - a >= 3:
-            # continue the correction with its velocity at the take-off / landing frame, so the COM
-            # reaches the parabola's take-off velocity through the push (and leaves the landing with
-            # its arrival velocity) instead of jumping to it between two frames
-            if f < a:
-                corr[f] = corr[a] + (corr[a + 1] - corr[a]) * (f - a)
-            else:
-                corr[f] = corr[b - 1] + (corr[b - 1] - corr[b - 2]) * (f - b + 1)
-        else:
-            corr[f] = corr[a] if f < a else corr[b - 1]
-    corr *= w[:, None]
+    w, _ = _weights(T, flights, neighbourhood)
+    # neighbourhood frames (Fig. 4): the correction is zero at the flight's end points (the parabola
+    # goes through them) but its slope is not; held at zero outside, the COM's velocity jumped at
+    # take-off and landing, and the ZMP of the push and impact frames with it. Continued with its
+    # velocity and faded, in proportion to the vertical ground force (module docstring)
+    if neighbourhood > 0:
+        corr = continue_into_ground(corr, flights, support_fraction(com, motion.fps, g), neighbourhood)
     root = int(np.flatnonzero(sets.parents < 0)[0])
     if not sets.s1.any():
         return FlightAdjustment(corr, w, motion.root_positions + corr, np.array(motion.rotations))
