@@ -892,7 +892,8 @@ def enforce_footplants(motion: Motion, plants: FootPlants | None = None, *, cont
     unreachable, lifted, max_miss = {}, {}, 0.0
     changed = np.zeros(motion.n_frames, bool)
     for side, (_, _, miss, lift, solved, _) in state.items():
-        unreachable[side] = label_intervals(miss > UNREACHABLE_TOL)
+        far = miss > UNREACHABLE_TOL
+        unreachable[side] = label_intervals(far) if far.any() else []
         if lift.max() > UNREACHABLE_TOL:
             lifted[side] = (label_intervals(lift > UNREACHABLE_TOL), float(lift.max()))
         max_miss = max(max_miss, float(miss.max()))

@@ -124,9 +124,11 @@ def resting_levels(plants, reference_points: np.ndarray) -> np.ndarray:
     """``(4,)`` m: each foot point's resting level for :func:`lift_feet` -- the median of its
     plants' levels, its lowest height in ``reference_points`` ``(T, 4, 3)`` when never planted."""
     lv = np.asarray(plants.levels, float)
-    has = np.isfinite(lv).any(axis=0)                               # a point never planted: its lowest height
-    rest = np.nanmin(reference_points[..., 1], axis=0)
-    rest[has] = np.nanmedian(lv[:, has], axis=0)
+    rest = np.nanmin(reference_points[..., 1], axis=0)              # a point never planted: its lowest height
+    for k in range(lv.shape[1]):                                    # np.nanmedian per column, without its overhead
+        v = lv[:, k][np.isfinite(lv[:, k])]
+        if v.size:
+            rest[k] = np.median(v)
     return rest
 
 
