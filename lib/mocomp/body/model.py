@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import collections
+import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -162,10 +163,11 @@ class BodyModel:
         """
         key = _table_key(skeleton, total_mass, table, shape, mapping, densities, props)
         if key is not None and cls is BodyModel:
-            hit = _TABLE_BODIES.get(key)
-            if hit is not None and hit[0] is skeleton:
-                _TABLE_BODIES.move_to_end(key)
-                return hit[1]
+            with _TABLE_LOCK:
+                hit = _TABLE_BODIES.get(key)
+                if hit is not None and hit[0] is skeleton:
+                    _TABLE_BODIES.move_to_end(key)
+                    return hit[1]
         from .builder import build_from_table
 
         body = build_from_table(cls, skeleton, total_mass, table, shape, mapping, densities, props)
@@ -173,9 +175,10 @@ class BodyModel:
             for a in (body.geometry.lengths, body.geometry.densities, body.geometry.ratios, body.geometry.axes,
                       body.geometry.gyration):
                 a.setflags(write=False)
-            _TABLE_BODIES[key] = (skeleton, body)
-            while len(_TABLE_BODIES) > _TABLE_BODIES_MAX:
-                _TABLE_BODIES.popitem(last=False)
+            with _TABLE_LOCK:
+                _TABLE_BODIES[key] = (skeleton, body)
+                while len(_TABLE_BODIES) > _TABLE_BODIES_MAX:
+                    _TABLE_BODIES.popitem(last=False)
         return body
 
     # ---------------------------------------------------------------- helpers
@@ -225,6 +228,7 @@ class BodyModel:
 #: so a recycled ``id`` never returns another skeleton's body; the 32 most recent are kept.
 _TABLE_BODIES: "collections.OrderedDict" = collections.OrderedDict()
 _TABLE_BODIES_MAX = 32
+_TABLE_LOCK = threading.Lock()          # the reproduce runner calls from threads
 
 
 def _table_key(skeleton, total_mass, table, shape, mapping, densities, props):
