@@ -43,6 +43,14 @@ leave |L| below 30 % of the main level (SFU Wushu kicks 0.96 -> 0.91, cartwheels
 well above). What the remaining ~4 ms over the code before those steps is: the grounding check
 (the audit's contact detection on the result, ~2.3 ms), the window search's and the plant choice's
 eq. 1 tracks on the range (~1 ms each).
+
+The grounding (feet <= 1 cm slide, no floor penetration, ``concatenate(ground=True)``) costs nothing
+more here (the synthetic flips do not sink: the check alone), but on the real pairs that sink it does
+(2026-12-02 19:06 UTC, load ~2, min of 5, with / without): DeepMimic back flip x2 52.7 / 17.8 ms,
+CMU 88_01 x2 66.4 / 21.2, CMU 90_08 x2 32.3 / 20.6, SFU cartwheels 35.6 / 19.8, SIE punches 88.2 / 61.9
+(two runs: the longer windows). Most of it is ops.enforce_footplants' own extra passes (their contact
+detections and floor checks), run twice where the lift is needed before the feet are held too
+(DeepMimic side and back flips, CMU 88_01).
 """
 from __future__ import annotations
 
