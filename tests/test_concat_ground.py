@@ -96,3 +96,48 @@ def test_flip_pairs_slide_and_penetration_read_back(real_data_dir, tmp_path, rel
     lo = momentum_track(out).magnitude[r.phases[0].t_m:r.phases[1].t_m + r.frame_shift + 1].min()
     lo0 = momentum_track(raw.motion).magnitude[r.phases[0].t_m:r.phases[1].t_m + r.frame_shift + 1].min()
     assert lo == pytest.approx(lo0, rel=0.05)
+
+
+def test_keep_floor_leaves_the_floor_where_it_was():
+    # the take-off stance (the floor's own stage) sunk 2 cm on a few of its frames: spread over that stage
+    # the smoothed lift raises the median the floor is; keep_floor lifts that stage frame by frame
+    m = datasets.load("backflip")
+    sunk = _sunk(m, np.arange(40, 60), 0.02)
+    f0 = floor_depth(sunk).floor_y
+    kept = lift_out_of_floor(sunk, smooth=0.1, keep_floor=True)
+    spread = lift_out_of_floor(sunk, smooth=0.1)
+    assert kept.floor_y == pytest.approx(f0, abs=1e-4) and kept.depth_after <= 1e-4
+    # spread, the floor rises (1.4 -> 2.6 cm) and chases the lift: 0.58 cm left after the two passes
+    assert spread.floor_y > f0 + 1e-3 and 1e-4 < spread.depth_after < 0.5 * spread.depth_before
+
+
+def _wushu(d):
+    from mocomp.concat import find_actions
+
+    w = datasets.load(str(d / "kicks_punches/sfu_0017_WushuKicks001.bvh"))
+    acts = find_actions(w)
+    rk = next(x for x in acts if x.effector == "toe_r")
+    lk = next(x for x in acts if x.effector == "toe_l")
+    return rk.cut(w), lk.cut(w)
+
+
+@pytest.mark.parametrize("pair", ["sie punches", "wushu constrained", "sfu cartwheels"])
+def test_other_pairs_slide_and_penetration_read_back(real_data_dir, tmp_path, pair):
+    # measured: slide 0.60 / 0.46 / 0.25 cm, penetration 0.42 / 0.41 / 0.14 cm (inputs 0.91 / 1.92 / 2.25 cm)
+    kw = {}
+    if pair == "sie punches":
+        a = datasets.load(str(real_data_dir / "kicks_punches/deepmimic_sie_humanoid3d_punch_forward00.txt"))
+        b = datasets.load(str(real_data_dir / "kicks_punches/deepmimic_sie_humanoid3d_punch_forward02.txt"))
+    elif pair == "wushu constrained":
+        (a, b), kw = _wushu(real_data_dir), {"on_facing": "constrain"}
+    else:
+        cw = datasets.load(str(real_data_dir / "cartwheels/sfu_0007_Cartwheel001.bvh"))
+        f = lambda s: int(round(s * cw.fps))                                   # noqa: E731
+        a, b = cw[f(2.2):f(4.85)], cw[f(10.9):f(13.8)]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        r = concatenate(a, b, **kw)
+    rep = audit(_read_back(r.motion, tmp_path, "ours"), against=a)
+    assert foot_slide(rep) <= 0.01
+    assert rep.measure("max_penetration_m") <= 0.005
+    assert not [f for f in rep.violations if f.check == "floor_penetration"]
