@@ -149,7 +149,7 @@ def test_walk_run_blend_feet_stay_above_the_floor(walks, real_data_dir):
 def test_curved_hop_zmp_falls_and_flight_is_ballistic(real_data_dir, tmp_path):
     """Sec. 4.5: a real hop (CMU 01_01, 120 Hz) path-edited onto an arc, the default schedule,
     measured on the BVH written and read back. The mean ZMP distance outside the contact region
-    falls (measured 11.70 -> 5.92 cm, 49 %; 37 % with the flight's COM correction eased into the
+    falls (measured 11.70 -> 5.96 cm, 49 %; 37 % with the flight's COM correction eased into the
     push and landing instead of in proportion to the vertical force; -2 % with the ground maps
     faded toward the flight),
     below the unedited capture's own 10.5 cm; the flight's COM lies on the g = 9.81 parabola
