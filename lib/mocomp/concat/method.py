@@ -26,7 +26,11 @@
 8. eq. 9: the blended period re-timed by the factor ``s`` so its mean |L| matches its ends' (on by
    default; ``time_scale=False`` leaves it out); the horizontal COM velocity steps this leaves at
    the window's edges removed by a smooth root displacement (:func:`com_continuity`, beyond the
-   paper; the angular momentum is unchanged).
+   paper; the angular momentum is unchanged);
+9. beyond the paper, issue 17's "feet slide at most 1 cm and never penetrate": the result grounded
+   (:func:`_hold_grounded`): the body lifted out of the floor where it sinks below the audit's floor
+   (:func:`mocomp.ops.ground_contact.lift_out_of_floor`) and the feet held again horizontally; the
+   measured slide and depth in ``ConcatResult.ground``.
 
 Without time scaling the output plays A up to ``f_i0``, the blend, then B from ``f_if - T + 1``:
 ``T + len(B)`` frames, frame ``f`` of the output being frame ``f`` of A and frame ``f - T`` of B;
