@@ -24,7 +24,7 @@ if COMPILED:
     import numba
 
     from ..core._compiled import forward_kinematics as fk_nb
-    from ..core._compiled import qexp, qmul, qrot
+    from ..core._compiled import qexp, qlog, qmul, qrot
 
 __all__ = ["COMPILED", "fk", "SegmentChains", "turn_sets", "gaussian_weights", "polygon_distance_and_target",
            "running_products"]
@@ -566,3 +566,60 @@ def lift_legs(P, G, rot, pts, held, up, touching, ks, chains, hps, tol, sigma, m
                   np.asarray(ks, np.int64), np.asarray(chains, np.int64), np.asarray(hps, np.int64), float(tol),
                   gaussian_weights(sigma) if sigma and sigma > 0 else np.ones(1), float(margin), lifted)
     return lifted
+
+
+if COMPILED:
+    @numba.njit(cache=True, nogil=True)
+    def _apply_hold_nb(cur, held, dref, w, use_w, half2, out):
+        """``out``: ``cur`` displaced by ``(log(cur^-1 held) - dref) w`` (the map of ``cur`` to ``held``
+        with joints turned by no more than the negligible angle left out, as
+        :meth:`mocomp.ops.DisplacementMap.between`; then :func:`mocomp.ops.apply_displacement`), on
+        the joints either map turns."""
+        T, J = cur.shape[0], cur.shape[1]
+        turned = np.zeros(J, np.bool_)
+        for t in range(T):
+            for j in range(J):
+                if turned[j] or (cur[t, j, 0] == held[t, j, 0] and cur[t, j, 1] == held[t, j, 1]
+                                 and cur[t, j, 2] == held[t, j, 2] and cur[t, j, 3] == held[t, j, 3]):
+                    continue
+                x, y, z, _ = qmul(-cur[t, j, 0], -cur[t, j, 1], -cur[t, j, 2], cur[t, j, 3],
+                                  held[t, j, 0], held[t, j, 1], held[t, j, 2], held[t, j, 3])
+                if x * x + y * y + z * z > half2:
+                    turned[j] = True
+        ref = np.zeros(J, np.bool_)
+        for t in range(T):
+            for j in range(J):
+                if dref[t, j, 0] != 0.0 or dref[t, j, 1] != 0.0 or dref[t, j, 2] != 0.0:
+                    ref[j] = True
+        for j in range(J):
+            if not (turned[j] or ref[j]):
+                continue
+            for t in range(T):
+                v0, v1, v2 = 0.0, 0.0, 0.0
+                if turned[j]:
+                    x, y, z, ww = qmul(-cur[t, j, 0], -cur[t, j, 1], -cur[t, j, 2], cur[t, j, 3],
+                                       held[t, j, 0], held[t, j, 1], held[t, j, 2], held[t, j, 3])
+                    v0, v1, v2 = qlog(x, y, z, ww)
+                v0 = v0 - dref[t, j, 0]
+                v1 = v1 - dref[t, j, 1]
+                v2 = v2 - dref[t, j, 2]
+                if use_w:
+                    v0 *= w[t]
+                    v1 *= w[t]
+                    v2 *= w[t]
+                ex, ey, ez, ew = qexp(v0, v1, v2)
+                out[t, j, 0], out[t, j, 1], out[t, j, 2], out[t, j, 3] = qmul(cur[t, j, 0], cur[t, j, 1], cur[t, j, 2],
+                                                                              cur[t, j, 3], ex, ey, ez, ew)
+
+
+def apply_hold(cur_rot, held_rot, dref_rot, weight, negligible: float) -> np.ndarray:
+    """``(T, J, 4)``: the local rotations of touch-up's footplant step (:func:`mocomp.touchup.touchup`'s
+    ``post``: the hold's map less the input's, weighted per frame by ``weight`` (``None``: 1), added)
+    in one compiled call; equal to the maps' numpy/compiled steps to rounding."""
+    cur = np.ascontiguousarray(cur_rot, dtype=float)
+    out = cur.copy()
+    half = np.sin(0.5 * negligible)
+    _apply_hold_nb(cur, np.ascontiguousarray(held_rot, dtype=float), np.ascontiguousarray(dref_rot, dtype=float),
+                   np.ones(1) if weight is None else np.ascontiguousarray(weight, dtype=float), weight is not None,
+                   half * half, out)
+    return out

@@ -285,6 +285,7 @@ def touchup(motion, body=None, schedule=None, *, contacts=None, iterations: int 
 
     from ..audit import default_body
     from ..ops import DisplacementMap, apply_displacement
+    from ..ops.displacement import NEGLIGIBLE_RAD, _compiled
 
     t0 = time.perf_counter()
     if not (np.isfinite(neighbourhood_s) and neighbourhood_s >= 0):
@@ -387,13 +388,22 @@ def touchup(motion, body=None, schedule=None, *, contacts=None, iterations: int 
             # Steps that leave the legs alone (S1 holding the lower body) move no foot: no IK.
             if "d_ref" not in cache:
                 cache["d_ref"] = hold(motion)
-            d_cur, d_ref = hold(cur), cache["d_ref"]
-            # differences of two finite maps, new arrays: wrapped without the constructor's copies and checks
-            hold_map = DisplacementMap._trusted(d_cur.root - d_ref.root, d_cur.rotations - d_ref.rotations)
+            d_ref = cache["d_ref"]
             # the plants' fade-out must not reach into a flight (its COM is on the parabola): the map
             # weighted directly (the map from ``cur`` to ``cur`` held is this map again, to rounding,
             # for turns below pi; the leg corrections are a few degrees)
-            cur = apply_displacement(cur, hold_map.weighted(1.0 - in_air) if flights else hold_map)
+            if _fast.COMPILED and _compiled():
+                # the same steps in one compiled call (the hold leaves the root where it is: no root map)
+                fk(cur)
+                held = enforce_footplants(cur, audit=False, passes=1, plan=fplan).motion
+                cur = cur.replace_trusted(cur.root_positions - d_ref.root * (1.0 - in_air[:, None] if flights else 1.0),
+                                          _fast.apply_hold(cur.rotations, held.rotations, d_ref.rotations,
+                                                           1.0 - in_air if flights else None, NEGLIGIBLE_RAD))
+            else:
+                d_cur = hold(cur)
+                # differences of two finite maps, new arrays: wrapped without the constructor's copies and checks
+                hold_map = DisplacementMap._trusted(d_cur.root - d_ref.root, d_cur.rotations - d_ref.rotations)
+                cur = apply_displacement(cur, hold_map.weighted(1.0 - in_air) if flights else hold_map)
             cur, up = lift_feet(cur, st.plants, st.contact_points, st.touching, rest=rest, airborne=airborne)
             for side, fr in up.items():
                 lifted.setdefault(side, set()).update(fr)
