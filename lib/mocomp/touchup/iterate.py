@@ -261,8 +261,9 @@ def _flight_records(body, motion, flights, g: float) -> list:
     if not flights:
         return []
     fk(motion)
-    com = center_of_mass(body, motion)
-    L = np.linalg.norm(momentum(body, motion).angular, axis=1)
+    mom = momentum(body, motion)                   # its COM too (the same sum as center_of_mass, to rounding)
+    com = mom.com
+    L = np.linalg.norm(mom.angular, axis=1)
     return [{"frames": [a, b], "com_residual_m": com_residual(com, a, b, motion.fps, g),
              "L_variation": _variation(L[a + 1:b - 1] if b - a >= 5 else L[a:b])}
             for a, b in flights]
