@@ -947,8 +947,8 @@ class FootplantPlan:
             if sel.size == 0:
                 self.points.append(None)
                 continue
-            first = np.flatnonzero(np.r_[True, np.diff(sel) > 1])
-            cnt = np.diff(np.r_[first, sel.size])
+            first = np.flatnonzero(_r(True, np.diff(sel) > 1))
+            cnt = np.diff(_r(first, sel.size))
             rid = np.repeat(np.arange(first.size), cnt)
             rest = None
             if height == "level" and ROBUST_LEVEL and plants.source.get(plants.effectors[k]) == "detector":
@@ -965,24 +965,24 @@ class FootplantPlan:
                 la, lt = lab[:, ka], lab[:, kt]
                 if not (la & lt).any():
                     continue
-                ra = np.cumsum(np.r_[la[0], la[1:] & ~la[:-1]]) * la
-                rt = np.cumsum(np.r_[lt[0], lt[1:] & ~lt[:-1]]) * lt
+                ra = np.cumsum(_r(la[0], la[1:] & ~la[:-1])) * la
+                rt = np.cumsum(_r(lt[0], lt[1:] & ~lt[:-1])) * lt
                 sh = np.flatnonzero(la & lt)
                 pairs, first, cnt = np.unique(rt[sh] * (int(ra.max()) + 1) + ra[sh], return_index=True,
                                               return_counts=True)
                 toe_run = pairs // (int(ra.max()) + 1)
                 order = np.lexsort((first, -cnt, toe_run))
-                keep = order[np.r_[True, toe_run[order][1:] != toe_run[order][:-1]]]
+                keep = order[_r(True, toe_run[order][1:] != toe_run[order][:-1])]
                 f = np.flatnonzero(lt)
-                starts = np.r_[0, np.flatnonzero(np.diff(f) > 1) + 1]
+                starts = _r(0, np.flatnonzero(np.diff(f) > 1) + 1)
                 self.toes.append((ka, kt, int(rt.max()) + 1, toe_run[keep], sh[first[keep]], rt[f], f, starts,
-                                  np.diff(np.r_[starts, f.size])))
+                                  np.diff(_r(starts, f.size))))
         # consistent_toe_targets: per leg, the shared frames and the toe runs they belong to
         self.consistent = []
         for li in range(len(plants.legs)):
             ka, kt = 2 * li, 2 * li + 1
             la, lt = lab[:, ka], lab[:, kt]
-            run = np.cumsum(np.r_[lt[0], lt[1:] & ~lt[:-1]]) * lt
+            run = np.cumsum(_r(lt[0], lt[1:] & ~lt[:-1])) * lt
             sel = np.flatnonzero(lt & la)
             if sel.size == 0:
                 continue
@@ -1003,8 +1003,8 @@ class FootplantPlan:
             if not both.any():
                 continue
             sel = np.flatnonzero(both)
-            first = np.flatnonzero(np.r_[True, np.diff(sel) > 1])
-            cnt = np.diff(np.r_[first, sel.size])
+            first = np.flatnonzero(_r(True, np.diff(sel) > 1))
+            cnt = np.diff(_r(first, sel.size))
             rid = np.repeat(np.arange(first.size), cnt)
             fw = _height_fade_weights(both, lab[:, ka], fade) if fade > 0 else None
             self.pitch.append((ka, kt, both, sel, first, cnt, rid, fw))
@@ -1202,6 +1202,12 @@ class FootplantPlan:
         return out
 
 
+def _r(*parts) -> np.ndarray:
+    """``np.r_[parts]`` for 1-D arrays and scalars (the same array; without ``np.r_``'s ~8 us per call:
+    the plan is built once per touch-up, with ~25 of them)."""
+    return np.concatenate([np.atleast_1d(p) for p in parts])
+
+
 def _median(x: np.ndarray) -> float:
     """``np.median`` of a 1-D array without NaNs (the middle value, or the mean of the two middle ones:
     the same number), without its per-call overhead."""
@@ -1214,7 +1220,7 @@ def _height_fade_weights(both: np.ndarray, planted: np.ndarray, fade: int):
     """The label-only part of :func:`_fade_height_change`: ``(frames, nearest shared frame, weight)``."""
     T = both.size
     t = np.arange(T)
-    run = np.cumsum(np.r_[planted[0], planted[1:] & ~planted[:-1]]) * planted   # run id per frame (0: none)
+    run = np.cumsum(_r(planted[0], planted[1:] & ~planted[:-1])) * planted   # run id per frame (0: none)
     prev = np.maximum.accumulate(np.where(both, t, -1))                     # last shared frame at or before
     nxt = np.minimum.accumulate(np.where(both, t, T)[::-1])[::-1]            # first shared frame at or after
     ok_p = (prev >= 0) & (run[np.maximum(prev, 0)] == run)
