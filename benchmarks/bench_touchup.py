@@ -56,6 +56,30 @@ the foot corrections ~15 %; eq. 4 (``zmp_state``, 13 calls) ~12 %, eq. 6-7 ~8 %,
 stages (contact detection, once) ~6 %, the maps ~8 %. Each is tens of small numpy calls on 100 rows
 per iteration; the 10 ms goal needs the hold's solve (targets, ramps, foot turns) compiled as one
 kernel, as the ZMP state is.
+
+Then (18:47-19:20; A/B alternated by process, ``before`` = the tree at f7550cd, CPU median of 7 at load
+1.2-1.7; the timed call is ``touchup(motion, body, schedule)`` -- stages, footplant plan, every
+iteration with its ZMP/flight records and map magnitudes, the ballistic completion; not the JSON
+report, the read-back audit or the plot, which the CLI makes after it): the footplant hold's first
+pass compiled as one numba kernel (:mod:`mocomp.ops._footplant_kernel`: the plan's targets, the foot
+turns and translations with their clocked fades, the toe/heel branches, the soft reach and the leg
+IK; hinges and fade clocks in a second call), the hold's map (its correction less the input's,
+weighted off the flights) applied in one call (``touchup._fast.apply_hold``), ``lift_feet``'s loop
+compiled (``_fast.lift_legs``), the ZMP state (segment COMs, eq. 4, polygon distance and eq. 7's
+target) in one call (``_fast._zmp_state_nb``), ``foot_points`` compiled, the plan built without
+``np.r_``: walk -> jog 98 frames 22.4-22.5 -> 10.5-11.1 ms, curved walk 111 frames 22.6-22.9 ->
+11.4 ms, uphill 166 frames 27.6 -> 15.0-15.2 ms, curved hop 91 frames 33.5-35.0 -> 18.6-19.3 ms
+(``main`` there also has the other touch-up helper's flight change); synthetic walk 1,001 frames
+80-87 -> 56-60 ms, 10,001 frames 0.72-0.79 -> 0.57-0.59 s (per frame 1.0x the 1,000-frame clip's).
+Every compiled path equals the numpy one within 1e-9 (``tests/test_touchup_speed*.py``; the touch-up
+notebook's rows equal with and without ``MOCOMP_NO_NUMBA`` to 1e-9). Where a 98-frame walk -> jog
+run goes now (~10.5 ms): eq. 6-7 (``ground.ground_adjustment``, 12 calls) ~2.2 ms, the ZMP state
+(13 calls; its kernel's Gaussian, FK and differences ~95 us each) ~1.6 ms, stages (contact detection,
+once) ~1.4 ms, the holds ~1.3 ms (6 calls, ~0.5 ms of it the kernels), the maps' smoothing ~0.8 ms,
+``lift_feet`` ~0.5 ms, the plan ~0.3 ms, the rest ~2.5 ms of Python glue (~15 small calls per
+iteration); the curved hop adds eq. 9 (``flight.flight_momentum_adjustment``, ~3.6 ms for 3 calls)
+and the flights' momentum records (~1.3 ms for 5). The 10,001-frame run: the ZMP kernel ~30 %
+(the Gaussian over the chains' joints), FK ~12 %, the maps' array copies ~10 %.
 """
 from __future__ import annotations
 
