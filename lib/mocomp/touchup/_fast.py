@@ -23,6 +23,7 @@ COMPILED = _core_compiled.AVAILABLE                     # the project's one numb
 if COMPILED:
     import numba
 
+    from ..core._compiled import fk_pose
     from ..core._compiled import forward_kinematics as fk_nb
     from ..core._compiled import qexp, qlog, qmul, qrot
 
@@ -52,12 +53,16 @@ if COMPILED:
         order of scipy's ``correlate1d`` for symmetric weights: ``x_i w_0 + sum_{j=r..1} (x_{i-j} +
         x_{i+j}) w_j``."""
         r = (w.shape[0] - 1) // 2
-        for i in range(out.shape[0]):
-            c = i + r
-            acc = pad[c] * w[r]
-            for j in range(r, 0, -1):
-                acc += (pad[c - j] + pad[c + j]) * w[r + j]
-            out[i] = acc
+        n = out.shape[0]
+        # tap by tap over the whole line (the inner loop runs over contiguous samples: vectorised), each
+        # sample's sum still in scipy's order, so the same numbers as one sample at a time
+        w0 = w[r]
+        for i in range(n):
+            out[i] = pad[i + r] * w0
+        for j in range(r, 0, -1):
+            wj = w[r + j]
+            for i in range(n):
+                out[i] += (pad[i + r - j] + pad[i + r + j]) * wj
 
     @numba.njit(cache=True, nogil=True)
     def _fill_pad(pad, r, T):
@@ -87,15 +92,27 @@ if COMPILED:
     @numba.njit(cache=True, nogil=True)
     def _zmp_inputs_nb(root, rot, idx, parents, offsets, seg, local_coms, w, t):
         """Segment COMs ``(T, S, 3)`` of the Gaussian-smoothed chains ``idx`` of ``rot`` (``w``: the
-        weights; one weight: no smoothing) and their second central difference on the times ``t``."""
+        weights; one weight: no smoothing) and their second central difference on the times ``t``
+        (:func:`_zmp_inputs_ws` with a workspace of its own)."""
+        T = rot.shape[0]
+        J = idx.shape[0]
+        r = (w.shape[0] - 1) // 2
+        return _zmp_inputs_ws(root, rot, idx, parents, offsets, seg, local_coms, w, t, np.empty((T, J, 4)),
+                              np.empty((4, T + 2 * r)), np.empty((4, T)), np.empty((T, seg.shape[0], 3)))
+
+    @numba.njit(cache=True, nogil=True)
+    def _zmp_inputs_ws(root, rot, idx, parents, offsets, seg, local_coms, w, t, q, lines, outs, v):
+        """:func:`_zmp_inputs_nb` on the caller's scratch arrays (``q (T, J, 4)``, ``lines (4, T + 2r)``,
+        ``outs (4, T)``, ``v (T, S, 3)``; on 10,000 frames allocating and first touching them anew on
+        every call, ~20 MB, was half the time). Per joint: the hemisphere-continuous components, each
+        filtered (scipy's order, ``mode="nearest"``), renormalised."""
         T = rot.shape[0]
         J = idx.shape[0]
         smooth = w.shape[0] > 1
         r = (w.shape[0] - 1) // 2
-        q = np.empty((T, J, 4))
         line = np.empty(T + 2 * r)
         out = np.empty(T)
-        for j in range(J):                       # hemisphere-continuous, then filtered, per joint
+        for j in range(J):
             jj = idx[j]
             sign = 1.0
             for f in range(T):
@@ -105,20 +122,19 @@ if COMPILED:
                     if d < 0.0:
                         sign = -sign
                 for k in range(4):
-                    q[f, j, k] = rot[f, jj, k] * sign
+                    if smooth:
+                        lines[k, r + f] = rot[f, jj, k] * sign
+                    else:
+                        q[f, j, k] = rot[f, jj, k] * sign
             if smooth:
                 for k in range(4):
-                    for f in range(T):
-                        line[r + f] = q[f, j, k]
-                    _fill_pad(line, r, T)
-                    _correlate_nearest(line, w, out)
-                    for f in range(T):
-                        q[f, j, k] = out[f]
+                    _fill_pad(lines[k], r, T)
+                    _correlate_nearest(lines[k], w, outs[k])
                 for f in range(T):
-                    n = np.sqrt(q[f, j, 0] * q[f, j, 0] + q[f, j, 1] * q[f, j, 1] + q[f, j, 2] * q[f, j, 2]
-                                + q[f, j, 3] * q[f, j, 3])
+                    n = np.sqrt(outs[0, f] * outs[0, f] + outs[1, f] * outs[1, f] + outs[2, f] * outs[2, f]
+                                + outs[3, f] * outs[3, f])
                     for k in range(4):
-                        q[f, j, k] /= n
+                        q[f, j, k] = outs[k, f] / n
         rp = np.empty((T, 3))
         for k in range(3):
             if smooth:
@@ -131,18 +147,21 @@ if COMPILED:
             else:
                 for f in range(T):
                     rp[f, k] = root[f, k]
-        P, G = fk_nb(parents, offsets, rp, q)
+        # the chains' FK frame by frame into one pose's scratch (core's fk_pose, as its forward_kinematics
+        # does per frame: the same numbers), the segment COMs read off it: no (T, J) arrays to allocate
         S = seg.shape[0]
         r = np.empty((T, S, 3))
+        Gp = np.empty((J, 4))
+        Pp = np.empty((J, 3))
         for f in range(T):
+            fk_pose(parents, offsets, q, f, rp[f, 0], rp[f, 1], rp[f, 2], Gp, Pp)
             for s in range(S):
                 j = seg[s]
-                dx, dy, dz = qrot(G[f, j, 0], G[f, j, 1], G[f, j, 2], G[f, j, 3],
+                dx, dy, dz = qrot(Gp[j, 0], Gp[j, 1], Gp[j, 2], Gp[j, 3],
                                   local_coms[s, 0], local_coms[s, 1], local_coms[s, 2])
-                r[f, s, 0] = P[f, j, 0] + dx
-                r[f, s, 1] = P[f, j, 1] + dy
-                r[f, s, 2] = P[f, j, 2] + dz
-        v = np.empty_like(r)
+                r[f, s, 0] = Pp[j, 0] + dx
+                r[f, s, 1] = Pp[j, 1] + dy
+                r[f, s, 2] = Pp[j, 2] + dz
         a = np.empty_like(r)
         _central(r, t, v)
         _central(v, t, a)
@@ -247,12 +266,12 @@ if COMPILED:
 if COMPILED:
     @numba.njit(cache=True, nogil=True)
     def _zmp_state_nb(root, rot, idx, parents, offsets, seg, local_coms, w, t, masses, y0, g, min_force, cpts, mask,
-                      rel_eps):
+                      rel_eps, q, lines, outs, v):
         """:func:`mocomp.touchup.zmp.zmp_state` in one call: :func:`_zmp_inputs_nb`, eq. 4 on each frame's
         floor ``y0`` (:func:`mocomp.dynamics.zmp.zmp_of_point_masses` with the positions taken relative to
         it, sums in segment order), the polygon distance and eq. 7's target (:func:`_polygon_nb`).
         Returns ``(r, a, Z, distance, target)``."""
-        r, a = _zmp_inputs_nb(root, rot, idx, parents, offsets, seg, local_coms, w, t)
+        r, a = _zmp_inputs_ws(root, rot, idx, parents, offsets, seg, local_coms, w, t, q, lines, outs, v)
         T = r.shape[0]
         S = r.shape[1]
         K = cpts.shape[1]
@@ -342,7 +361,7 @@ class SegmentChains:
         self.body = body
         self._idx64, self._seg64 = np.asarray(idx, np.int64), np.asarray(self.seg, np.int64)
         self._masses = np.ascontiguousarray(body.masses, dtype=float)
-        self._weights = {}
+        self._weights, self._ws = {}, {}
 
     def positions_and_accelerations(self, motion, sigma: float | None) -> tuple[np.ndarray, np.ndarray]:
         """``(r, a)`` ``(T, S, 3)`` each: :meth:`positions` and their second central difference on
@@ -375,7 +394,18 @@ class SegmentChains:
                              np.ascontiguousarray(motion.times, dtype=float), self._masses,
                              np.ascontiguousarray(y0, dtype=float), float(g), float(min_force),
                              np.ascontiguousarray(contact_points, dtype=float), np.ascontiguousarray(mask, dtype=np.bool_),
-                             1e-10)
+                             1e-10, *self._workspace(motion.n_frames, w.shape[0]))
+
+    def _workspace(self, T: int, taps: int):
+        """The compiled ZMP state's scratch arrays for ``T`` frames and a ``taps``-sample Gaussian, kept
+        between calls (a touch-up run asks for the same sizes 13-25 times)."""
+        key = (T, taps)
+        ws = self._ws.get(key)
+        if ws is None:
+            r = (taps - 1) // 2
+            ws = self._ws[key] = (np.empty((T, self.idx.size, 4)), np.empty((4, T + 2 * r)), np.empty((4, T)),
+                                  np.empty((T, len(self.seg), 3)))
+        return ws
 
     def positions(self, motion, sigma: float | None) -> np.ndarray:
         """``(T, S, 3)`` m: the segment COMs of ``motion`` Gaussian-smoothed by ``sigma`` frames --
