@@ -53,6 +53,7 @@ from scipy.ndimage import gaussian_filter1d
 from ..core.motion import Motion
 from ..core.rotations import quat_apply, quat_exp, quat_inverse, quat_log, quat_multiply
 from ..dynamics.contacts import label_intervals
+from . import displacement as _displacement
 from .easing import RampPlan, ease, fade_clock
 from .ik import REACH_MARGIN, _norm, hinge_axis, two_bone_ik
 from .plants import FootPlants, foot_plants, plant_targets
@@ -591,9 +592,7 @@ def _solve(motion: Motion, P, G, pts, plants: FootPlants, blend: int, height: st
 def _compiled_hold() -> bool:
     """Whether the hold's compiled kernels run (:func:`mocomp.ops.displacement._compiled`: numba present,
     ``MOCOMP_NO_NUMBA`` unset, ``displacement.USE_COMPILED`` not ``False``)."""
-    from .displacement import _compiled
-
-    return _compiled()
+    return _displacement._compiled()
 
 
 def _solve_compiled(motion: Motion, P, G, pts, plan: "FootplantPlan", targets, tol, reach_margin, hinges, clocks):

@@ -587,12 +587,33 @@ if COMPILED:
                         rot[t, j, k] = out[i, c, k]
 
 
-def lift_legs(P, G, rot, pts, held, up, touching, ks, chains, hps, tol, sigma, margin):
-    """Compiled per-leg loop of :func:`mocomp.touchup.iterate.lift_feet` (``rot`` changed in place);
-    returns the lifted frames ``(L, T)`` bool."""
-    lifted = np.zeros((len(chains), P.shape[0]), np.bool_)
-    _lift_legs_nb(P, G, rot, np.ascontiguousarray(pts, dtype=float), np.ascontiguousarray(held, dtype=float),
-                  np.ascontiguousarray(up, dtype=float), np.ascontiguousarray(touching, dtype=np.bool_),
+if COMPILED:
+    @numba.njit(cache=True, nogil=True)
+    def _held_up_nb(pts, ref, rest, airborne, touching, held, up):
+        """:func:`mocomp.touchup.iterate.lift_feet`'s ``held`` and ``up`` ``(T, K)``: a touching point's
+        height still to go to its input height (``-inf`` elsewhere); a point's height below its floor (its
+        resting level or input height, the lower; the input height in flight), ``-inf`` where none."""
+        for t in range(pts.shape[0]):
+            for k in range(pts.shape[1]):
+                ry = ref[t, k, 1]
+                fl = ry if airborne[t] else min(rest[k], ry)
+                free = fl - pts[t, k, 1]
+                held[t, k] = ry - pts[t, k, 1] if touching[t, k] else -np.inf
+                up[t, k] = free if free > 0 else -np.inf
+
+
+def lift_legs(P, G, rot, pts, reference_points, rest, airborne, touching, ks, chains, hps, tol, sigma, margin):
+    """Compiled :func:`mocomp.touchup.iterate.lift_feet` from its ``held``/``up`` heights on
+    (``rot`` changed in place); returns the lifted frames ``(L, T)`` bool."""
+    T = P.shape[0]
+    held, up = np.empty(pts.shape[:2]), np.empty(pts.shape[:2])
+    _held_up_nb(np.ascontiguousarray(pts, dtype=float), np.ascontiguousarray(reference_points, dtype=float),
+                np.ascontiguousarray(rest, dtype=float),
+                np.zeros(T, np.bool_) if airborne is None else np.ascontiguousarray(airborne, dtype=np.bool_),
+                np.ascontiguousarray(touching, dtype=np.bool_), held, up)
+    lifted = np.zeros((len(chains), T), np.bool_)
+    _lift_legs_nb(P, G, rot, np.ascontiguousarray(pts, dtype=float), held, up,
+                  np.ascontiguousarray(touching, dtype=np.bool_),
                   np.asarray(ks, np.int64), np.asarray(chains, np.int64), np.asarray(hps, np.int64), float(tol),
                   gaussian_weights(sigma) if sigma and sigma > 0 else np.ones(1), float(margin), lifted)
     return lifted

@@ -161,6 +161,17 @@ def lift_feet(motion, plants, reference_points: np.ndarray, touching: np.ndarray
     pts = foot_points(P, G, plants)
     rest = resting_levels(plants, reference_points) if rest is None else rest
     touching = np.asarray(touching, bool)
+    if compiled and _fast.COMPILED:                # the lines below in one compiled call (_fast.lift_legs)
+        rot = np.array(motion.rotations)
+        ks = [[plants.effectors.index(e) for e in (f"foot_{leg.side}", f"toe_{leg.side}")] for leg in plants.legs]
+        up_legs = _fast.lift_legs(P, G, rot, pts, reference_points, rest, airborne, touching, ks,
+                                  [leg.chain for leg in plants.legs],
+                                  [int(motion.skeleton.parents[leg.chain[0]]) for leg in plants.legs], tol,
+                                  HOLD_SMOOTH_S * motion.fps, REACH_MARGIN)
+        lifted = {leg.side: np.flatnonzero(u).tolist() for leg, u in zip(plants.legs, up_legs) if u.any()}
+        if not lifted:
+            return motion, lifted
+        return motion.replace_trusted(motion.root_positions, rot), lifted
     floor = np.minimum(rest[None], reference_points[..., 1])
     if airborne is not None:
         # in flight no foot point comes lower than it was: a lean carried through the flight
@@ -177,16 +188,6 @@ def lift_feet(motion, plants, reference_points: np.ndarray, touching: np.ndarray
     up = np.where(free > 0, free, -np.inf)
     rot = None
     lifted = {}
-    if compiled and _fast.COMPILED:                # the loop below in one compiled call (_fast.lift_legs)
-        rot = np.array(motion.rotations)
-        ks = [[plants.effectors.index(e) for e in (f"foot_{leg.side}", f"toe_{leg.side}")] for leg in plants.legs]
-        up_legs = _fast.lift_legs(P, G, rot, pts, held, up, touching, ks, [leg.chain for leg in plants.legs],
-                                  [int(motion.skeleton.parents[leg.chain[0]]) for leg in plants.legs], tol,
-                                  HOLD_SMOOTH_S * motion.fps, REACH_MARGIN)
-        lifted = {leg.side: np.flatnonzero(u).tolist() for leg, u in zip(plants.legs, up_legs) if u.any()}
-        if not lifted:
-            return motion, lifted
-        return motion.replace_trusted(motion.root_positions, rot), lifted
     for leg in plants.legs:
         ks = [plants.effectors.index(e) for e in (f"foot_{leg.side}", f"toe_{leg.side}")]
         dh, du = held[:, ks].max(axis=1), up[:, ks].max(axis=1)    # (T,) m; -inf: nothing to hold
