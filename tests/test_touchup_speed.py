@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from _touchup_compare import assert_same_touchup
+from _touchup_compare import quat_close as _quat_close
 
 from mocomp.audit import default_body
 from mocomp.audit.zmp import smoothed_segment_positions
@@ -15,11 +17,6 @@ from mocomp.touchup.ground import rotation_centres
 from mocomp.touchup.linksets import local_from_global, rotate_sets
 
 pytestmark = pytest.mark.skipif(not _fast.COMPILED, reason="numba switched off: nothing compiled to compare")
-
-
-def _quat_close(a, b):
-    """Largest component difference of two quaternion arrays, sign-blind."""
-    return float(np.minimum(np.abs(a - b).max(axis=-1), np.abs(a + b).max(axis=-1)).max())
 
 
 @pytest.fixture(scope="module")
@@ -80,15 +77,7 @@ def test_touchup_compiled_equals_numpy_on_the_paper_examples(monkeypatch):
         monkeypatch.setattr(_fast, "COMPILED", False)
         ref = touchup(m, body, e.schedule)
         monkeypatch.setattr(_fast, "COMPILED", True)
-        assert np.abs(fast.motion.root_positions - ref.motion.root_positions).max() < 1e-9, name
-        assert _quat_close(fast.motion.rotations, ref.motion.rotations) < 1e-9, name
-        # touch-up did something on these edited inputs
-        assert _quat_close(fast.motion.rotations, m.rotations) > 1e-3, name
-        assert len(fast.history) == len(ref.history) > 0
-        for h, r in zip(fast.history, ref.history):
-            assert abs(h["mean_outside_m"] - r["mean_outside_m"]) < 1e-9, (name, h["step"], h["iteration"])
-            assert h["frames_outside"] == r["frames_outside"]
-        assert fast.clamped == ref.clamped and fast.capped == ref.capped and fast.lifted == ref.lifted
+        assert_same_touchup(fast, ref, m, name)
         np.testing.assert_allclose(fast.distance_after, ref.distance_after, atol=1e-9, rtol=0)
 
 
